@@ -1,0 +1,265 @@
+//! The inextensible bead chain of seed Section 5.3: K beads in R^3, K - 1 segment constraints.
+
+use crate::constraint::{
+    Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing,
+};
+use crate::error::{ManifoldError, check_positive};
+use crate::gram::TridiagonalGram;
+use crate::mass::Mass;
+
+/// g_i(x) = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2), i = 0..K-1 (seed Section 5.3). Bead j occupies
+/// coordinates 3j..3j+3. Its Gram matrix is tridiagonal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeadChain {
+    beads: usize,
+    segment: f64,
+    inv_ds2: f64,
+}
+
+#[inline(always)]
+fn segment(x: &[f64], i: usize) -> [f64; 3] {
+    let a = &x[3 * i..3 * i + 6];
+    [a[3] - a[0], a[4] - a[1], a[5] - a[2]]
+}
+
+#[inline(always)]
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl BeadChain {
+    /// A chain of `beads` >= 2 beads with segment length `segment` > 0.
+    pub fn new(beads: usize, segment: f64) -> Result<Self, ManifoldError> {
+        if beads < 2 {
+            return Err(ManifoldError::InvalidParameter {
+                name: "beads",
+                value: beads as f64,
+                reason: "a chain needs at least 2 beads",
+            });
+        }
+        check_positive("segment", segment)?;
+        Ok(Self {
+            beads,
+            segment,
+            inv_ds2: 1.0 / (segment * segment),
+        })
+    }
+
+    /// Number of beads K.
+    pub fn beads(&self) -> usize {
+        self.beads
+    }
+
+    /// Segment length ds.
+    pub fn segment(&self) -> f64 {
+        self.segment
+    }
+
+    /// Positions of a straight chain starting at the origin along the unit vector of `direction`.
+    pub fn straight(&self, direction: [f64; 3]) -> Result<Vec<f64>, ManifoldError> {
+        let len = dot3(direction, direction).sqrt();
+        check_positive("|direction|", len)?;
+        let u = direction.map(|c| c / len * self.segment);
+        Ok((0..self.beads)
+            .flat_map(|j| u.map(|c| c * j as f64))
+            .collect())
+    }
+
+    /// Positions of a planar zigzag in the x-y plane: segment i makes the angle
+    /// +/- `half_angle` with the x axis, alternating.
+    pub fn zigzag(&self, half_angle: f64) -> Vec<f64> {
+        let mut x = vec![0.0; 3 * self.beads];
+        for i in 0..self.beads - 1 {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            x[3 * i + 3] = x[3 * i] + self.segment * half_angle.cos();
+            x[3 * i + 4] = x[3 * i + 1] + sign * self.segment * half_angle.sin();
+        }
+        x
+    }
+
+    /// The direct O(K) assembly for a diagonal mass; `w(k)` is (M^-1)_{kk}.
+    #[inline(always)]
+    fn cross_gram_diagonal(
+        &self,
+        x1: &[f64],
+        x2: &[f64],
+        w: impl Fn(usize) -> f64,
+        out: &mut TridiagonalGram,
+    ) {
+        let s = self.inv_ds2 * self.inv_ds2;
+        let m = self.beads - 1;
+        let weighted = |a: [f64; 3], bead: usize, b: [f64; 3]| {
+            a[0] * w(3 * bead) * b[0] + a[1] * w(3 * bead + 1) * b[1] + a[2] * w(3 * bead + 2) * b[2]
+        };
+        let mut e_next = segment(x1, 0);
+        let mut f_next = segment(x2, 0);
+        for i in 0..m {
+            let (e, f) = (e_next, f_next);
+            out.diag[i] = (weighted(e, i, f) + weighted(e, i + 1, f)) * s;
+            if i + 1 < m {
+                e_next = segment(x1, i + 1);
+                f_next = segment(x2, i + 1);
+                out.upper[i] = -weighted(e, i + 1, f_next) * s;
+                out.lower[i] = -weighted(e_next, i + 1, f) * s;
+            }
+        }
+    }
+}
+
+impl Constraint for BeadChain {
+    type Gram = TridiagonalGram;
+    fn dim(&self) -> usize {
+        3 * self.beads
+    }
+    fn n_constraints(&self) -> usize {
+        self.beads - 1
+    }
+    fn value(&self, x: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            let d = segment(x, i);
+            *o = 0.5 - 0.5 * dot3(d, d) * self.inv_ds2;
+        }
+    }
+    /// (Dg(x) u)_i = -d_i.(u_{i+1} - u_i) / ds^2 with d_i = x_{i+1} - x_i.
+    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = -dot3(segment(x, i), segment(u, i)) * self.inv_ds2;
+        }
+    }
+    /// (grad g(x) z)_j = (z_j d_j - z_{j-1} d_{j-1}) / ds^2.
+    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
+        let m = self.beads - 1;
+        let mut previous = [0.0; 3];
+        for j in 0..self.beads {
+            let current = if j < m {
+                segment(x, j).map(|c| c * z[j] * self.inv_ds2)
+            } else {
+                [0.0; 3]
+            };
+            for c in 0..3 {
+                out[3 * j + c] = current[c] - previous[c];
+            }
+            previous = current;
+        }
+    }
+    fn new_gram(&self) -> TridiagonalGram {
+        TridiagonalGram::zeros(self.beads - 1)
+    }
+    /// Closed form for diagonal masses (3 weighted dot products per segment), probing otherwise.
+    fn cross_gram<M: Mass>(
+        &self,
+        x1: &[f64],
+        x2: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        out: &mut TridiagonalGram,
+    ) {
+        if mass.inverse_diagonal_entry(0).is_some() {
+            self.cross_gram_diagonal(
+                x1,
+                x2,
+                |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0),
+                out,
+            );
+        } else {
+            assemble_tridiagonal_by_probing(self, x1, x2, mass, scratch, out);
+        }
+    }
+}
+
+impl Curvature for BeadChain {
+    /// D^2 g_i(x)(u, w) = -(u_{i+1} - u_i).(w_{i+1} - w_i) / ds^2.
+    fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = -dot3(segment(u, i), segment(w, i)) * self.inv_ds2;
+        }
+    }
+}
+
+impl TheoryBound for BeadChain {
+    /// With eigenvalues of M in [m_lo, m_hi]: |M^-1 grad g| <= 2/(m_lo ds), |G_M| <= 4/(m_lo ds^2)
+    /// (Gershgorin), |G_M^-1| <= m_hi ds^2 / (2 - 2 cos(pi/K)) (G_M dominates the straight chain's
+    /// tridiag(-1, 2, -1)/(m_hi ds^2)), |D^2 g| <= 2 sqrt(2)/ds^2, D^3 g = 0.
+    fn c_g<M: Mass>(&self, mass: &M) -> Option<f64> {
+        let (lo, hi) = mass.eigenvalue_bounds();
+        let ds = self.segment;
+        let lambda_min_laplacian = 2.0 - 2.0 * (std::f64::consts::PI / self.beads as f64).cos();
+        Some(
+            [
+                2.0 / (lo * ds),
+                4.0 / (lo * ds * ds),
+                hi * ds * ds / lambda_min_laplacian,
+                2.0 * std::f64::consts::SQRT_2 / (ds * ds),
+            ]
+            .into_iter()
+            .fold(1.0, f64::max),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::scratch_len;
+    use crate::gram::GramMatrix;
+    use crate::mass::{DenseMass, DiagonalMass};
+
+    fn wiggly(chain: &BeadChain) -> Vec<f64> {
+        let mut x = chain.zigzag(0.4);
+        for (k, xi) in x.iter_mut().enumerate() {
+            *xi += 0.01 * ((k as f64) * 1.7).sin();
+        }
+        x
+    }
+
+    #[test]
+    fn closed_form_gram_matches_probing_and_dense_mass() {
+        let chain = BeadChain::new(7, 0.3).unwrap();
+        let x1 = wiggly(&chain);
+        let x2 = chain.zigzag(0.2);
+        let masses: Vec<f64> = (0..7).map(|j| 1.0 + 0.25 * j as f64).collect();
+        let diag = DiagonalMass::per_particle(&masses, 3).unwrap();
+        let n = chain.dim();
+        let dense_entries: Vec<f64> = (0..n * n)
+            .map(|k| if k / n == k % n { diag.diagonal()[k / n] } else { 0.0 })
+            .collect();
+        let dense = DenseMass::new(n, dense_entries).unwrap();
+        let mut scratch = vec![0.0; scratch_len(n, 6)];
+        let mut closed = chain.new_gram();
+        let mut probed = chain.new_gram();
+        chain.cross_gram(&x1, &x2, &diag, &mut scratch, &mut closed);
+        chain.cross_gram(&x1, &x2, &dense, &mut scratch, &mut probed);
+        for i in 0..6 {
+            for j in 0..6 {
+                let (a, b) = (closed.entry(i, j), probed.entry(i, j));
+                assert!((a - b).abs() < 1e-12 * (1.0 + a.abs()), "({i},{j}) {a} {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn jacobian_transpose_is_adjoint() {
+        let chain = BeadChain::new(5, 0.5).unwrap();
+        let x = wiggly(&chain);
+        let u: Vec<f64> = (0..15).map(|k| (k as f64 * 0.37).cos()).collect();
+        let z: Vec<f64> = (0..4).map(|k| 1.0 + k as f64).collect();
+        let mut du = vec![0.0; 4];
+        let mut gz = vec![0.0; 15];
+        chain.jacobian_mul(&x, &u, &mut du);
+        chain.jacobian_transpose_mul(&x, &z, &mut gz);
+        let lhs: f64 = du.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let rhs: f64 = gz.iter().zip(&u).map(|(a, b)| a * b).sum();
+        assert!((lhs - rhs).abs() < 1e-12, "{lhs} {rhs}");
+    }
+
+    #[test]
+    fn straight_chain_is_on_manifold() {
+        let chain = BeadChain::new(10, 0.1).unwrap();
+        let x = chain.straight([1.0, 2.0, 2.0]).unwrap();
+        let mut g = vec![0.0; 9];
+        chain.value(&x, &mut g);
+        assert!(g.iter().all(|v| v.abs() < 1e-14), "{g:?}");
+        chain.value(&chain.zigzag(0.3), &mut g);
+        assert!(g.iter().all(|v| v.abs() < 1e-14), "{g:?}");
+    }
+}

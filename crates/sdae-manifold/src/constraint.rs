@@ -1,0 +1,118 @@
+//! Capability traits of a holonomic constraint g: R^n -> R^m (seed eq. 1.1, Section 2.1).
+//!
+//! Code asks in its bounds only for what it uses: the stepper needs [`Constraint`] (g and Dg),
+//! the inherent-SDE solvers also need [`Curvature`] (D^2 g), theory defaults need [`TheoryBound`].
+
+use crate::gram::{DenseGram, GramMatrix, TridiagonalGram};
+use crate::mass::Mass;
+
+/// g and its Jacobian Dg, applied to vectors, and the structured Gram-type matrices.
+pub trait Constraint {
+    /// Storage of Dg(x1) M^-1 grad g(x2): fixes the structure the linear solvers exploit.
+    type Gram: GramMatrix;
+    /// Dimension n of the configuration space.
+    fn dim(&self) -> usize;
+    /// Number m of constraints.
+    fn n_constraints(&self) -> usize;
+    /// out = g(x), length m.
+    fn value(&self, x: &[f64], out: &mut [f64]);
+    /// out = Dg(x) u, length m.
+    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]);
+    /// out = grad g(x) z = Dg(x)^T z, length n (overwritten).
+    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]);
+    /// A zero matrix of the right order and structure.
+    fn new_gram(&self) -> Self::Gram;
+    /// out = Dg(x1) M^-1 grad g(x2). `scratch` has length >= [`scratch_len`]`(n, m)` and may be
+    /// used by constraints without a closed form (seed Section 2.1: G_M(x) for x1 = x2 = x).
+    fn cross_gram<M: Mass>(
+        &self,
+        x1: &[f64],
+        x2: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        out: &mut Self::Gram,
+    );
+}
+
+/// Second derivative D^2 g(x)(u, w), asked only by solvers of the inherent SDE (seed eq. 2.3, 2.4).
+pub trait Curvature: Constraint {
+    /// out = D^2 g(x)(u, w), length m.
+    fn second_derivative(&self, x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]);
+}
+
+/// The constant C_g of seed eq. 2.2, where it is known or can be bounded.
+pub trait TheoryBound: Constraint {
+    /// An upper bound on C_g for this constraint with this mass matrix (limit epsilon -> 0 of
+    /// eq. 2.2, always >= 1), or `None` if no bound is known.
+    fn c_g<M: Mass>(&self, mass: &M) -> Option<f64>;
+}
+
+/// Length of the scratch buffer that [`Constraint::cross_gram`] may use.
+pub const fn scratch_len(n: usize, m: usize) -> usize {
+    2 * (n + m)
+}
+
+/// Assembles Dg(x1) M^-1 grad g(x2) column by column from the Jacobian products: m products,
+/// O(m n) work. The fallback for constraints without a closed form.
+pub fn assemble_dense_by_columns<C: Constraint + ?Sized, M: Mass>(
+    constraint: &C,
+    x1: &[f64],
+    x2: &[f64],
+    mass: &M,
+    scratch: &mut [f64],
+    out: &mut DenseGram,
+) {
+    let n = constraint.dim();
+    let m = constraint.n_constraints();
+    let (column_n, rest) = scratch.split_at_mut(n);
+    let (unit, rest) = rest.split_at_mut(m);
+    let column_m = &mut rest[..m];
+    unit.fill(0.0);
+    for j in 0..m {
+        unit[j] = 1.0;
+        constraint.jacobian_transpose_mul(x2, unit, column_n);
+        mass.apply_inverse(column_n);
+        constraint.jacobian_mul(x1, column_n, column_m);
+        for (i, value) in column_m.iter().enumerate() {
+            out.set(i, j, *value);
+        }
+        unit[j] = 0.0;
+    }
+}
+
+/// Assembles a tridiagonal Dg(x1) M^-1 grad g(x2) with three probe vectors (columns j = c mod 3
+/// summed): O(n) work whatever m. Valid whenever the product is known to be tridiagonal.
+pub fn assemble_tridiagonal_by_probing<C: Constraint + ?Sized, M: Mass>(
+    constraint: &C,
+    x1: &[f64],
+    x2: &[f64],
+    mass: &M,
+    scratch: &mut [f64],
+    out: &mut TridiagonalGram,
+) {
+    let n = constraint.dim();
+    let m = constraint.n_constraints();
+    let (probe_n, rest) = scratch.split_at_mut(n);
+    let (probe_m, rest) = rest.split_at_mut(m);
+    let image = &mut rest[..m];
+    for colour in 0..3 {
+        for (j, p) in probe_m.iter_mut().enumerate() {
+            *p = if j % 3 == colour { 1.0 } else { 0.0 };
+        }
+        constraint.jacobian_transpose_mul(x2, probe_m, probe_n);
+        mass.apply_inverse(probe_n);
+        constraint.jacobian_mul(x1, probe_n, image);
+        for (i, value) in image.iter().enumerate() {
+            // Row i of the image holds A[i][j] for the one j in {i-1, i, i+1} with j = colour mod 3.
+            for j in i.saturating_sub(1)..(i + 2).min(m) {
+                if j % 3 == colour {
+                    match j.cmp(&i) {
+                        std::cmp::Ordering::Less => out.lower[j] = *value,
+                        std::cmp::Ordering::Equal => out.diag[i] = *value,
+                        std::cmp::Ordering::Greater => out.upper[i] = *value,
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,42 @@
+//! Constraint manifolds M = {x : g(x) = 0} for constrained stochastic mechanical systems
+//! (seed eq. 1.1, Section 2.1).
+//!
+//! - [`Constraint`]: g, Dg applied to vectors, and the matrices Dg(x1) M^-1 grad g(x2) in the
+//!   storage ([`ScalarGram`], [`TridiagonalGram`], [`DenseGram`]) that fits the constraint;
+//!   [`Curvature`] adds D^2 g, [`TheoryBound`] the constant C_g of eq. 2.2.
+//! - [`Mass`]: [`IdentityMass`] (free), [`DiagonalMass`], [`DenseMass`] (checked SPD).
+//! - Built-in manifolds: [`Sphere`] (the pendulum of Section 5.1) and [`BeadChain`] (the
+//!   inextensible fiber of Section 5.3); [`ClosureConstraint`] for anything else.
+//! - [`check_state`]: is (r, v) on the tangent bundle?
+//!
+//! ```
+//! use sdae_manifold::{BeadChain, Constraint, IdentityMass, TheoryBound, check_state};
+//! let chain = BeadChain::new(4, 0.5)?;
+//! let r = chain.straight([0.0, 0.0, 1.0])?;
+//! let v = vec![0.0; chain.dim()];
+//! check_state(&chain, &r, &v, 1e-12)?;
+//! let c_g = chain.c_g(&IdentityMass).unwrap();
+//! assert!(c_g >= 1.0);
+//! # Ok::<(), sdae_manifold::ManifoldError>(())
+//! ```
+
+mod chain;
+mod closure;
+mod constraint;
+mod error;
+mod gram;
+mod mass;
+mod sphere;
+mod state;
+
+pub use chain::BeadChain;
+pub use closure::{ClosureConstraint, NoCurvature};
+pub use constraint::{
+    Constraint, Curvature, TheoryBound, assemble_dense_by_columns,
+    assemble_tridiagonal_by_probing, scratch_len,
+};
+pub use error::{ManifoldError, check_finite, check_len, check_positive};
+pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
+pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
+pub use sphere::Sphere;
+pub use state::{DEFAULT_STATE_TOLERANCE, StateResiduals, check_state, state_residuals};

@@ -1,0 +1,135 @@
+//! The sphere of radius rho in R^d (a circle for d = 2): the pendulum of seed Section 5.1.
+
+use crate::constraint::{Constraint, Curvature, TheoryBound};
+use crate::error::{ManifoldError, check_positive};
+use crate::gram::ScalarGram;
+use crate::mass::Mass;
+
+/// g(x) = (1 - |x|^2 / rho^2) / 2, one constraint (seed Section 5.1 with rho = 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    dim: usize,
+    radius: f64,
+    inv_r2: f64,
+}
+
+impl Sphere {
+    /// The sphere of radius `radius` centred at the origin of R^`dim`, dim >= 2.
+    pub fn new(dim: usize, radius: f64) -> Result<Self, ManifoldError> {
+        if dim < 2 {
+            return Err(ManifoldError::InvalidParameter {
+                name: "dim",
+                value: dim as f64,
+                reason: "a sphere needs dimension >= 2",
+            });
+        }
+        check_positive("radius", radius)?;
+        Ok(Self {
+            dim,
+            radius,
+            inv_r2: 1.0 / (radius * radius),
+        })
+    }
+
+    /// The unit circle in R^2, the seed's planar pendulum.
+    pub fn unit_circle() -> Self {
+        Self {
+            dim: 2,
+            radius: 1.0,
+            inv_r2: 1.0,
+        }
+    }
+
+    /// The radius rho.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+}
+
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl Constraint for Sphere {
+    type Gram = ScalarGram;
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn n_constraints(&self) -> usize {
+        1
+    }
+    #[inline]
+    fn value(&self, x: &[f64], out: &mut [f64]) {
+        out[0] = 0.5 * (1.0 - dot(x, x) * self.inv_r2);
+    }
+    /// Dg(x) u = -x.u / rho^2.
+    #[inline]
+    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+        out[0] = -dot(x, u) * self.inv_r2;
+    }
+    /// grad g(x) z = -x z / rho^2.
+    #[inline]
+    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
+        let s = -z[0] * self.inv_r2;
+        for (o, xi) in out.iter_mut().zip(x) {
+            *o = s * xi;
+        }
+    }
+    fn new_gram(&self) -> ScalarGram {
+        ScalarGram(0.0)
+    }
+    /// Dg(x1) M^-1 grad g(x2) = x1^T M^-1 x2 / rho^4.
+    #[inline]
+    fn cross_gram<M: Mass>(
+        &self,
+        x1: &[f64],
+        x2: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        out: &mut ScalarGram,
+    ) {
+        out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
+    }
+}
+
+impl Curvature for Sphere {
+    /// D^2 g(x)(u, w) = -u.w / rho^2.
+    fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
+        out[0] = -dot(u, w) * self.inv_r2;
+    }
+}
+
+impl TheoryBound for Sphere {
+    /// With eigenvalues of M in [m_lo, m_hi]: |M^-1 grad g| <= 1/(m_lo rho), |G_M| <= 1/(m_lo rho^2),
+    /// |G_M^-1| <= m_hi rho^2, |D^2 g| = 1/rho^2, D^3 g = 0 (limit epsilon -> 0 of eq. 2.2).
+    fn c_g<M: Mass>(&self, mass: &M) -> Option<f64> {
+        let (lo, hi) = mass.eigenvalue_bounds();
+        let r = self.radius;
+        Some(
+            [1.0, 1.0 / (lo * r), 1.0 / (lo * r * r), hi * r * r, 1.0 / (r * r)]
+                .into_iter()
+                .fold(1.0, f64::max),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mass::{DiagonalMass, IdentityMass};
+
+    #[test]
+    fn unit_circle_has_c_g_one() {
+        assert_eq!(Sphere::unit_circle().c_g(&IdentityMass), Some(1.0));
+        let heavy = DiagonalMass::new(vec![2.0, 2.0]).unwrap();
+        assert_eq!(Sphere::new(2, 1.0).unwrap().c_g(&heavy), Some(2.0));
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        assert!(Sphere::new(1, 1.0).is_err());
+        assert!(Sphere::new(3, 0.0).is_err());
+        assert!(Sphere::new(3, f64::NAN).is_err());
+    }
+}

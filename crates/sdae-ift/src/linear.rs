@@ -1,0 +1,411 @@
+//! Linear solves by structure: scalar, tridiagonal in O(m), dense (hand-written LU for small
+//! orders, faer above [`DENSE_FAER_THRESHOLD`]). Factor once, solve as often as needed.
+
+use faer::linalg::solvers::Solve as _;
+use sdae_manifold::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
+
+use crate::error::LinearError;
+
+/// Above this order, dense systems are factored by faer; below it by the hand-written LU,
+/// which does not allocate.
+pub const DENSE_FAER_THRESHOLD: usize = 32;
+
+/// Relative size below which a pivot counts as zero.
+const PIVOT_TOLERANCE: f64 = 1e-14;
+
+/// A matrix storage that can be factored for repeated solves.
+pub trait Factorize: GramMatrix {
+    /// The factorization; created once per workspace and refilled in place.
+    type Factor: Solve + Clone + std::fmt::Debug;
+    /// An empty factorization of the right size.
+    fn new_factor(&self) -> Self::Factor;
+    /// Factors `self` into `factor`.
+    fn factor_into(&self, factor: &mut Self::Factor) -> Result<(), LinearError>;
+}
+
+/// Solving with a factored matrix.
+pub trait Solve {
+    /// b <- A^-1 b.
+    fn solve_in_place(&self, b: &mut [f64]);
+}
+
+fn check_finite(values: &[f64]) -> Result<(), LinearError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(LinearError::NonFinite { index }),
+    }
+}
+
+/// The inverse of a 1 x 1 matrix.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ScalarFactor(f64);
+
+impl Solve for ScalarFactor {
+    #[inline]
+    fn solve_in_place(&self, b: &mut [f64]) {
+        b[0] *= self.0;
+    }
+}
+
+impl Factorize for ScalarGram {
+    type Factor = ScalarFactor;
+    fn new_factor(&self) -> ScalarFactor {
+        ScalarFactor(0.0)
+    }
+    #[inline]
+    fn factor_into(&self, factor: &mut ScalarFactor) -> Result<(), LinearError> {
+        if !self.0.is_finite() {
+            return Err(LinearError::NonFinite { index: 0 });
+        }
+        if self.0 == 0.0 {
+            return Err(LinearError::Singular {
+                index: 0,
+                pivot: 0.0,
+            });
+        }
+        factor.0 = 1.0 / self.0;
+        Ok(())
+    }
+}
+
+/// LU factors of a tridiagonal matrix: Thomas' algorithm (no pivoting) when every pivot is
+/// safely away from zero, otherwise LU with partial pivoting (LAPACK's gttrf), both O(m).
+#[derive(Debug, Clone)]
+pub struct TridiagonalFactor {
+    pivoted: bool,
+    /// Multipliers l_i.
+    lower: Vec<f64>,
+    /// Pivots (Thomas: their inverses).
+    diag: Vec<f64>,
+    /// First super-diagonal of U (Thomas: u_i / pivot_i).
+    upper: Vec<f64>,
+    /// Second super-diagonal of U (pivoted only).
+    upper2: Vec<f64>,
+    /// Whether rows i and i+1 were swapped (pivoted only).
+    swapped: Vec<bool>,
+}
+
+impl TridiagonalFactor {
+    fn with_order(m: usize) -> Self {
+        let off = m.saturating_sub(1);
+        Self {
+            pivoted: false,
+            lower: vec![0.0; off],
+            diag: vec![0.0; m],
+            upper: vec![0.0; off],
+            upper2: vec![0.0; m.saturating_sub(2)],
+            swapped: vec![false; off],
+        }
+    }
+
+    /// Whether the last factorization needed row interchanges.
+    pub fn is_pivoted(&self) -> bool {
+        self.pivoted
+    }
+
+    /// Thomas' algorithm; `false` if a pivot is negligible relative to its row.
+    fn factor_thomas(&mut self, a: &TridiagonalGram) -> bool {
+        let m = a.diag.len();
+        let mut previous_upper = 0.0;
+        for i in 0..m {
+            let l = if i > 0 { a.lower[i - 1] } else { 0.0 };
+            let u = if i + 1 < m { a.upper[i] } else { 0.0 };
+            let pivot = a.diag[i] - l * previous_upper;
+            let scale = l.abs() + a.diag[i].abs() + u.abs();
+            if pivot.abs() <= 1e-8 * scale || pivot == 0.0 {
+                return false;
+            }
+            let inv = 1.0 / pivot;
+            self.diag[i] = inv;
+            if i > 0 {
+                self.lower[i - 1] = l;
+            }
+            if i + 1 < m {
+                previous_upper = u * inv;
+                self.upper[i] = previous_upper;
+            }
+        }
+        true
+    }
+
+    /// LU with partial pivoting (the algorithm of LAPACK dgttrf).
+    fn factor_pivoted(&mut self, a: &TridiagonalGram) -> Result<(), LinearError> {
+        let m = a.diag.len();
+        self.lower.copy_from_slice(&a.lower);
+        self.diag.copy_from_slice(&a.diag);
+        self.upper.copy_from_slice(&a.upper);
+        self.upper2.fill(0.0);
+        self.swapped.fill(false);
+        let scale = a.diag.iter().chain(&a.lower).chain(&a.upper).fold(0.0_f64, |s, v| s.max(v.abs()));
+        for i in 0..m.saturating_sub(1) {
+            if self.diag[i].abs() >= self.lower[i].abs() {
+                if self.diag[i] != 0.0 {
+                    let fact = self.lower[i] / self.diag[i];
+                    self.lower[i] = fact;
+                    self.diag[i + 1] -= fact * self.upper[i];
+                }
+            } else {
+                let fact = self.diag[i] / self.lower[i];
+                self.diag[i] = self.lower[i];
+                self.lower[i] = fact;
+                let temp = self.upper[i];
+                self.upper[i] = self.diag[i + 1];
+                self.diag[i + 1] = temp - fact * self.diag[i + 1];
+                if i + 2 < m {
+                    self.upper2[i] = self.upper[i + 1];
+                    self.upper[i + 1] = -fact * self.upper[i + 1];
+                }
+                self.swapped[i] = true;
+            }
+        }
+        match self.diag.iter().position(|d| d.abs() <= PIVOT_TOLERANCE * scale) {
+            Some(index) => Err(LinearError::Singular {
+                index,
+                pivot: self.diag[index],
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Solve for TridiagonalFactor {
+    fn solve_in_place(&self, b: &mut [f64]) {
+        let m = self.diag.len();
+        if !self.pivoted {
+            b[0] *= self.diag[0];
+            for i in 1..m {
+                b[i] = (b[i] - self.lower[i - 1] * b[i - 1]) * self.diag[i];
+            }
+            for i in (0..m.saturating_sub(1)).rev() {
+                b[i] -= self.upper[i] * b[i + 1];
+            }
+            return;
+        }
+        for i in 0..m - 1 {
+            if self.swapped[i] {
+                let temp = b[i] - self.lower[i] * b[i + 1];
+                b[i] = b[i + 1];
+                b[i + 1] = temp;
+            } else {
+                b[i + 1] -= self.lower[i] * b[i];
+            }
+        }
+        b[m - 1] /= self.diag[m - 1];
+        if m > 1 {
+            b[m - 2] = (b[m - 2] - self.upper[m - 2] * b[m - 1]) / self.diag[m - 2];
+        }
+        for i in (0..m.saturating_sub(2)).rev() {
+            b[i] = (b[i] - self.upper[i] * b[i + 1] - self.upper2[i] * b[i + 2]) / self.diag[i];
+        }
+    }
+}
+
+impl Factorize for TridiagonalGram {
+    type Factor = TridiagonalFactor;
+    fn new_factor(&self) -> TridiagonalFactor {
+        TridiagonalFactor::with_order(self.diag.len())
+    }
+    fn factor_into(&self, factor: &mut TridiagonalFactor) -> Result<(), LinearError> {
+        check_finite(&self.diag)?;
+        check_finite(&self.lower)?;
+        check_finite(&self.upper)?;
+        factor.pivoted = !factor.factor_thomas(self);
+        if factor.pivoted {
+            factor.factor_pivoted(self)?;
+        }
+        Ok(())
+    }
+}
+
+/// LU factors of a dense matrix with partial pivoting.
+#[derive(Debug, Clone)]
+pub enum DenseFactor {
+    /// Hand-written, in preallocated storage (row-major LU and row permutation).
+    Small {
+        /// Order m.
+        order: usize,
+        /// Row-major packed L (unit, below the diagonal) and U.
+        lu: Vec<f64>,
+        /// Row permutation.
+        perm: Vec<usize>,
+    },
+    /// faer's partial-pivoting LU, for orders above [`DENSE_FAER_THRESHOLD`].
+    Faer(Box<faer::linalg::solvers::PartialPivLu<f64>>),
+    /// Not factored yet.
+    Empty,
+}
+
+impl Solve for DenseFactor {
+    fn solve_in_place(&self, b: &mut [f64]) {
+        match self {
+            DenseFactor::Small { order, lu, perm } => {
+                let m = *order;
+                // Apply the permutation as a sequence of swaps (recorded in elimination order).
+                for (k, &p) in perm.iter().enumerate() {
+                    b.swap(k, p);
+                }
+                for i in 0..m {
+                    let s: f64 = (0..i).map(|j| lu[i * m + j] * b[j]).sum();
+                    b[i] -= s;
+                }
+                for i in (0..m).rev() {
+                    let s: f64 = (i + 1..m).map(|j| lu[i * m + j] * b[j]).sum();
+                    b[i] = (b[i] - s) / lu[i * m + i];
+                }
+            }
+            DenseFactor::Faer(lu) => {
+                let m = b.len();
+                lu.solve_in_place(faer::MatMut::from_column_major_slice_mut(b, m, 1));
+            }
+            DenseFactor::Empty => {
+                b.fill(f64::NAN);
+            }
+        }
+    }
+}
+
+impl Factorize for DenseGram {
+    type Factor = DenseFactor;
+    fn new_factor(&self) -> DenseFactor {
+        let m = self.order();
+        if m <= DENSE_FAER_THRESHOLD {
+            DenseFactor::Small {
+                order: m,
+                lu: vec![0.0; m * m],
+                perm: vec![0; m],
+            }
+        } else {
+            DenseFactor::Empty
+        }
+    }
+    fn factor_into(&self, factor: &mut DenseFactor) -> Result<(), LinearError> {
+        let m = self.order();
+        let a = self.as_slice();
+        if let Some(k) = a.iter().position(|v| !v.is_finite()) {
+            return Err(LinearError::NonFinite { index: k / m });
+        }
+        let scale = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+        if m > DENSE_FAER_THRESHOLD {
+            let mat = faer::Mat::<f64>::from_fn(m, m, |i, j| a[i * m + j]);
+            let lu = mat.partial_piv_lu();
+            let u = lu.U();
+            if let Some(index) = (0..m).find(|&i| u[(i, i)].abs() <= PIVOT_TOLERANCE * scale) {
+                return Err(LinearError::Singular {
+                    index,
+                    pivot: u[(index, index)],
+                });
+            }
+            *factor = DenseFactor::Faer(Box::new(lu));
+            return Ok(());
+        }
+        let DenseFactor::Small { lu, perm, .. } = factor else {
+            *factor = self.new_factor();
+            return self.factor_into(factor);
+        };
+        lu.copy_from_slice(a);
+        for k in 0..m {
+            let p = (k..m)
+                .max_by(|&i, &j| lu[i * m + k].abs().total_cmp(&lu[j * m + k].abs()))
+                .unwrap_or(k);
+            perm[k] = p;
+            if p != k {
+                for j in 0..m {
+                    lu.swap(k * m + j, p * m + j);
+                }
+            }
+            let pivot = lu[k * m + k];
+            if pivot.abs() <= PIVOT_TOLERANCE * scale || pivot == 0.0 {
+                return Err(LinearError::Singular { index: k, pivot });
+            }
+            for i in k + 1..m {
+                let f = lu[i * m + k] / pivot;
+                lu[i * m + k] = f;
+                for j in k + 1..m {
+                    lu[i * m + j] -= f * lu[k * m + j];
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn residual<A: GramMatrix>(a: &A, x: &[f64], b: &[f64]) -> f64 {
+        let mut ax = vec![0.0; b.len()];
+        a.mul_vec(x, &mut ax);
+        ax.iter().zip(b).fold(0.0, |s, (p, q)| f64::max(s, (p - q).abs()))
+    }
+
+    fn solve<A: Factorize>(a: &A, b: &[f64]) -> Vec<f64> {
+        let mut f = a.new_factor();
+        a.factor_into(&mut f).unwrap();
+        let mut x = b.to_vec();
+        f.solve_in_place(&mut x);
+        x
+    }
+
+    #[test]
+    fn tridiagonal_thomas_and_pivoted_paths_solve() {
+        let m = 9;
+        let mut a = TridiagonalGram::zeros(m);
+        for i in 0..m {
+            a.diag[i] = 2.0 + 0.1 * i as f64;
+        }
+        for i in 0..m - 1 {
+            a.lower[i] = -1.0;
+            a.upper[i] = -0.9;
+        }
+        let b: Vec<f64> = (0..m).map(|i| (i as f64).sin()).collect();
+        let x = solve(&a, &b);
+        assert!(residual(&a, &x, &b) < 1e-14);
+        // A zero diagonal forces the pivoted path.
+        a.diag.iter_mut().for_each(|d| *d = 0.0);
+        a.lower.iter_mut().for_each(|l| *l = 1.0);
+        a.upper.iter_mut().for_each(|u| *u = -1.0);
+        a.diag[m - 1] = 1.0;
+        let mut f = a.new_factor();
+        a.factor_into(&mut f).unwrap();
+        assert!(f.is_pivoted());
+        let x = solve(&a, &b);
+        assert!(residual(&a, &x, &b) < 1e-13, "{}", residual(&a, &x, &b));
+    }
+
+    #[test]
+    fn singular_tridiagonal_is_reported() {
+        // [[1,1,0],[1,1,1],[0,1,1]] has det -1 and a zero Thomas pivot: pivoting solves it.
+        let mut a = TridiagonalGram::zeros(3);
+        a.diag.copy_from_slice(&[1.0, 1.0, 1.0]);
+        a.lower.copy_from_slice(&[1.0, 1.0]);
+        a.upper.copy_from_slice(&[1.0, 1.0]);
+        let b = [1.0, 2.0, 3.0];
+        let x = solve(&a, &b);
+        assert!(residual(&a, &x, &b) < 1e-15);
+        // Rows 0 and 1 equal: singular.
+        a.lower.copy_from_slice(&[1.0, 0.0]);
+        a.upper.copy_from_slice(&[1.0, 0.0]);
+        let mut f = a.new_factor();
+        assert!(matches!(a.factor_into(&mut f), Err(LinearError::Singular { .. })));
+    }
+
+    #[test]
+    fn dense_small_and_faer_paths_solve() {
+        for m in [3, 40] {
+            let mut a = DenseGram::zeros(m);
+            for i in 0..m {
+                for j in 0..m {
+                    a.set(i, j, ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i == j { 0.5 } else { 0.0 });
+                }
+            }
+            let b: Vec<f64> = (0..m).map(|i| 1.0 + i as f64).collect();
+            let x = solve(&a, &b);
+            let scale = x.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
+            assert!(residual(&a, &x, &b) < 1e-11 * scale, "m={m}: {}", residual(&a, &x, &b));
+        }
+        let a = DenseGram::zeros(2);
+        let mut f = a.new_factor();
+        assert!(matches!(a.factor_into(&mut f), Err(LinearError::Singular { index: 0, .. })));
+    }
+}

@@ -1,0 +1,23 @@
+//! The problem interface: a map R: R^m -> R^m whose root near 0 is wanted.
+
+use crate::linear::Factorize;
+
+/// A nonlinear system R(gamma) = 0 with its Jacobian in a structured storage.
+///
+/// For the scheme (seed eq. 3.1, upper part) R(gamma) = g(y + M^-1 grad g(r) gamma) with
+/// y = r + eta v h, and the homotopy of eq. 3.10 is F(tau, gamma) = R(gamma) + (tau - 1) R(0).
+pub trait BallProblem {
+    /// Storage of the Jacobian D R(gamma).
+    type Matrix: Factorize;
+    /// The dimension m.
+    fn dim(&self) -> usize;
+    /// A zero Jacobian of the right structure.
+    fn new_matrix(&self) -> Self::Matrix;
+    /// residual = R(gamma), and, when asked, jacobian = D R(gamma).
+    fn evaluate(
+        &mut self,
+        gamma: &[f64],
+        residual: &mut [f64],
+        jacobian: Option<&mut Self::Matrix>,
+    );
+}

@@ -1,0 +1,420 @@
+//! Newton's method in a ball with a certificate of uniqueness, and the homotopy continuation of
+//! seed eq. 3.10 (the constructive form of the globalized implicit function theorem, Appendix B)
+//! as fallback.
+
+use crate::error::IftError;
+use crate::linear::{Factorize, Solve};
+use crate::problem::BallProblem;
+
+/// How the root was found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// Plain Newton from the start value.
+    Newton,
+    /// Homotopy continuation in tau from (0, 0) to (1, gamma*), after Newton failed.
+    Homotopy,
+}
+
+/// Settings of [`BallSolver`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverSettings {
+    /// Converged when max_i |R_i(gamma)| <= tolerance.
+    pub tolerance: f64,
+    /// Newton iterations before giving up (and falling back to the homotopy).
+    pub max_iterations: usize,
+    /// Whether to try the homotopy when Newton fails.
+    pub homotopy: bool,
+    /// Largest number of accepted plus rejected continuation steps.
+    pub max_homotopy_steps: usize,
+    /// Smallest continuation step in tau before declaring a fold.
+    pub min_tau_step: f64,
+    /// A root with |gamma| > factor x |first Newton step| is rejected as implausible
+    /// (the theorem's contraction q <= 1/2 gives |gamma| <= 2 |step|); `f64::INFINITY` disables.
+    pub plausibility_factor: f64,
+    /// Power-iteration steps for the contraction estimate; 0 skips it.
+    pub contraction_probes: usize,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-14,
+            max_iterations: 25,
+            homotopy: true,
+            max_homotopy_steps: 400,
+            min_tau_step: 1e-7,
+            plausibility_factor: 4.0,
+            contraction_probes: 1,
+        }
+    }
+}
+
+/// The evidence that the root found is the one the theorem speaks of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Certificate {
+    /// Newton steps (the homotopy's corrector steps included).
+    pub iterations: usize,
+    /// Accepted continuation steps (0 when Newton succeeded).
+    pub homotopy_steps: usize,
+    /// How the root was found.
+    pub method: Method,
+    /// max_i |R_i(gamma*)|.
+    pub residual: f64,
+    /// |gamma*| (Euclidean).
+    pub norm: f64,
+    /// The ball's radius.
+    pub radius: f64,
+    /// |first Newton step from 0| (Euclidean).
+    pub first_step: f64,
+    /// Estimate of |J(0)^-1 J(gamma*) - I|, the contraction factor of the simplified Newton map
+    /// between 0 and gamma* (Thm 3.4, Step 3: < 1/2 inside the theorem's ball); NaN if not computed.
+    pub contraction: f64,
+}
+
+/// Buffers of the solver, created once and reused (no allocation per solve on the Newton path).
+#[derive(Debug, Clone)]
+pub struct BallSolver<A: Factorize> {
+    settings: SolverSettings,
+    gamma: Vec<f64>,
+    residual: Vec<f64>,
+    residual_at_zero: Vec<f64>,
+    step: Vec<f64>,
+    probe: Vec<f64>,
+    matrix: A,
+    factor: A::Factor,
+    factor_at_zero: A::Factor,
+    /// Whether `factor` (rather than `factor_at_zero`) holds the Jacobian at the root.
+    root_in_factor: bool,
+    history: Vec<f64>,
+}
+
+fn norm2(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+fn norm_max(x: &[f64]) -> f64 {
+    x.iter().fold(0.0, |s, v| f64::max(s, v.abs()))
+}
+
+#[derive(Clone, Copy)]
+enum Corrector {
+    Converged(usize),
+    Failed(usize),
+}
+
+impl<A: Factorize> BallSolver<A> {
+    /// Buffers for problems whose Jacobian has the order and structure of `template`.
+    pub fn new(template: A, settings: SolverSettings) -> Self {
+        let m = template.order();
+        Self {
+            settings,
+            gamma: vec![0.0; m],
+            residual: vec![0.0; m],
+            residual_at_zero: vec![0.0; m],
+            step: vec![0.0; m],
+            probe: vec![0.0; m],
+            factor: template.new_factor(),
+            factor_at_zero: template.new_factor(),
+            matrix: template,
+            root_in_factor: false,
+            history: Vec::with_capacity(settings.max_iterations + 1),
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+
+    /// The root of the last successful solve.
+    pub fn root(&self) -> &[f64] {
+        &self.gamma
+    }
+
+    /// The factored Jacobian at the root of the last successful solve (seed design: the lambda
+    /// system of eq. 3.1 has this matrix, so it is factored once and used twice).
+    pub fn root_factor(&self) -> &A::Factor {
+        if self.root_in_factor {
+            &self.factor
+        } else {
+            &self.factor_at_zero
+        }
+    }
+
+    /// Finds the root of `problem` in the ball |gamma| < `radius`, starting Newton from 0.
+    pub fn solve<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        radius: f64,
+    ) -> Result<Certificate, IftError> {
+        self.gamma.fill(0.0);
+        self.solve_from_current(problem, radius)
+    }
+
+    /// Like [`BallSolver::solve`] but starts Newton from `start` (the homotopy fallback still
+    /// starts from 0).
+    pub fn solve_from<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        radius: f64,
+        start: &[f64],
+    ) -> Result<Certificate, IftError> {
+        self.gamma.copy_from_slice(start);
+        self.solve_from_current(problem, radius)
+    }
+
+    fn solve_from_current<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        radius: f64,
+    ) -> Result<Certificate, IftError> {
+        // R(0), J(0) and the first Newton step from 0: the scale of the right root.
+        let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
+        self.probe.fill(0.0);
+        problem.evaluate(&self.probe, &mut self.residual_at_zero, Some(&mut self.matrix));
+        if self.residual_at_zero.iter().any(|v| !v.is_finite()) {
+            return Err(IftError::NonFinite {
+                what: "residual",
+                iteration: 0,
+            });
+        }
+        self.matrix
+            .factor_into(&mut self.factor_at_zero)
+            .map_err(|source| IftError::Singular {
+                iteration: 0,
+                source,
+            })?;
+        self.step.copy_from_slice(&self.residual_at_zero);
+        self.factor_at_zero.solve_in_place(&mut self.step);
+        let first_step = norm2(&self.step);
+
+        self.history.clear();
+        let newton = self.newton(problem, 1.0, self.settings.max_iterations, 0.0, start_is_zero);
+        let newton_outcome = match newton {
+            Corrector::Converged(k) => self.accept(radius, first_step, k, 0, Method::Newton),
+            Corrector::Failed(k) => Err(self.no_convergence(k)),
+        };
+        let newton_error = match newton_outcome {
+            Ok(certificate) => return Ok(certificate),
+            Err(e) if !self.settings.homotopy => return Err(e),
+            Err(e) => e,
+        };
+        let newton_iterations = self.history.len();
+        match self.homotopy(problem) {
+            Ok((steps, iterations)) => self.accept(
+                radius,
+                first_step,
+                newton_iterations + iterations,
+                steps,
+                Method::Homotopy,
+            ),
+            // Newton found a root that was rejected: that root is the finding to report.
+            Err(_) if matches!(newton, Corrector::Converged(_)) => Err(newton_error),
+            Err(homotopy_error) => Err(homotopy_error),
+        }
+    }
+
+    /// Checks the root in `self.gamma` against the ball and the first Newton step, and builds
+    /// its certificate.
+    fn accept(
+        &mut self,
+        radius: f64,
+        first_step: f64,
+        iterations: usize,
+        homotopy_steps: usize,
+        method: Method,
+    ) -> Result<Certificate, IftError> {
+        let norm = norm2(&self.gamma);
+        if !(norm < radius) {
+            return Err(IftError::OutsideBall { norm, radius });
+        }
+        let bound = self.settings.plausibility_factor * first_step;
+        if norm > bound && norm > 64.0 * f64::EPSILON {
+            return Err(IftError::Implausible {
+                norm,
+                bound,
+                factor: self.settings.plausibility_factor,
+            });
+        }
+        let residual = self.history.last().copied().unwrap_or(0.0);
+        let contraction = self.contraction_estimate();
+        Ok(Certificate {
+            iterations,
+            homotopy_steps,
+            method,
+            residual,
+            norm,
+            radius,
+            first_step,
+            contraction,
+        })
+    }
+
+    fn no_convergence(&self, iterations: usize) -> IftError {
+        if let Some(&last) = self.history.last() {
+            if !last.is_finite() {
+                return IftError::NonFinite {
+                    what: "residual",
+                    iteration: iterations,
+                };
+            }
+        }
+        IftError::NoConvergence {
+            iterations,
+            history: self.history.clone(),
+            tolerance: self.settings.tolerance,
+        }
+    }
+
+    /// Newton on F(tau, gamma) = R(gamma) + (tau - 1) R(0) from `self.gamma`, at most
+    /// `max_iterations` steps to `tolerance` (0 means the solver's tolerance). At tau = 1 this is
+    /// plain Newton on R. With `at_zero`, gamma = 0 and the first iteration reuses R(0) and the
+    /// factored J(0). On success the factored Jacobian at the root is in `root_factor`.
+    fn newton<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        tau: f64,
+        max_iterations: usize,
+        tolerance: f64,
+        at_zero: bool,
+    ) -> Corrector {
+        let tolerance = if tolerance > 0.0 { tolerance } else { self.settings.tolerance };
+        let mut previous_step = f64::INFINITY;
+        for k in 0..=max_iterations {
+            let reuse_zero = at_zero && k == 0;
+            if reuse_zero {
+                self.residual.copy_from_slice(&self.residual_at_zero);
+            } else {
+                problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
+                if tau != 1.0 {
+                    for (r, r0) in self.residual.iter_mut().zip(&self.residual_at_zero) {
+                        *r += (tau - 1.0) * r0;
+                    }
+                }
+            }
+            let r = norm_max(&self.residual);
+            self.history.push(r);
+            if !r.is_finite() {
+                return Corrector::Failed(k);
+            }
+            if !reuse_zero && self.matrix.factor_into(&mut self.factor).is_err() {
+                return Corrector::Failed(k);
+            }
+            self.root_in_factor = !reuse_zero;
+            if r <= tolerance {
+                return Corrector::Converged(k);
+            }
+            if k == max_iterations {
+                return Corrector::Failed(k);
+            }
+            self.step.copy_from_slice(&self.residual);
+            if reuse_zero {
+                self.factor_at_zero.solve_in_place(&mut self.step);
+            } else {
+                self.factor.solve_in_place(&mut self.step);
+            }
+            let step = norm2(&self.step);
+            // Below roundoff: accept if the residual is within a few hundred ulps of the target.
+            if step <= 4.0 * f64::EPSILON * (1.0 + norm2(&self.gamma)) && r <= 256.0 * tolerance {
+                return Corrector::Converged(k);
+            }
+            // A corrector that stops contracting will not converge: fail fast.
+            if tau != 1.0 && step > 0.5 * previous_step {
+                return Corrector::Failed(k);
+            }
+            previous_step = step;
+            for (g, s) in self.gamma.iter_mut().zip(&self.step) {
+                *g -= s;
+            }
+        }
+        Corrector::Failed(max_iterations)
+    }
+
+    /// Follows F(tau, gamma(tau)) = 0 from (0, 0) to tau = 1 (Euler predictor along
+    /// d gamma/d tau = -J^-1 R(0), Newton corrector, step halving on failure).
+    /// Returns (accepted steps, corrector iterations).
+    fn homotopy<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+    ) -> Result<(usize, usize), IftError> {
+        let mut tau = 0.0;
+        let mut dtau: f64 = 0.125;
+        let mut accepted = 0;
+        let mut iterations = 0;
+        let mut saved = self.gamma.clone();
+        saved.fill(0.0);
+        self.gamma.fill(0.0);
+        // The tangent at (0, 0) uses J(0), already factored.
+        let mut tangent = self.residual_at_zero.clone();
+        self.factor_at_zero.solve_in_place(&mut tangent);
+        for _ in 0..self.settings.max_homotopy_steps {
+            let next = (tau + dtau).min(1.0);
+            for ((g, s), t) in self.gamma.iter_mut().zip(&saved).zip(&tangent) {
+                *g = s - (next - tau) * t;
+            }
+            let final_step = next == 1.0;
+            let (max_it, tol) = if final_step {
+                (self.settings.max_iterations, 0.0)
+            } else {
+                (8, 1e-9)
+            };
+            match self.newton(problem, next, max_it, tol, false) {
+                Corrector::Converged(k) => {
+                    iterations += k;
+                    accepted += 1;
+                    if final_step {
+                        return Ok((accepted, iterations));
+                    }
+                    tau = next;
+                    saved.copy_from_slice(&self.gamma);
+                    // New tangent from the Jacobian at the corrected point (factored by newton).
+                    tangent.copy_from_slice(&self.residual_at_zero);
+                    self.factor.solve_in_place(&mut tangent);
+                    dtau = (2.0 * dtau).min(0.5);
+                }
+                Corrector::Failed(k) => {
+                    iterations += k;
+                    self.gamma.copy_from_slice(&saved);
+                    dtau *= 0.5;
+                    if dtau < self.settings.min_tau_step {
+                        return Err(IftError::NoRoot {
+                            tau,
+                            norm: norm2(&saved),
+                        });
+                    }
+                }
+            }
+        }
+        Err(self.no_convergence(iterations))
+    }
+
+    /// Power iteration on A = J(0)^-1 J(gamma*) - I, started along gamma*.
+    fn contraction_estimate(&mut self) -> f64 {
+        if self.settings.contraction_probes == 0 {
+            return f64::NAN;
+        }
+        let norm = norm2(&self.gamma);
+        if norm == 0.0 {
+            return 0.0;
+        }
+        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
+            *p = g / norm;
+        }
+        let mut estimate = 0.0;
+        for _ in 0..self.settings.contraction_probes {
+            self.matrix.mul_vec(&self.probe, &mut self.step);
+            self.factor_at_zero.solve_in_place(&mut self.step);
+            for (s, p) in self.step.iter_mut().zip(&self.probe) {
+                *s -= p;
+            }
+            estimate = norm2(&self.step);
+            if estimate == 0.0 {
+                break;
+            }
+            for (p, s) in self.probe.iter_mut().zip(&self.step) {
+                *p = s / estimate;
+            }
+        }
+        estimate
+    }
+}

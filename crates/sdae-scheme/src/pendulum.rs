@@ -1,0 +1,89 @@
+//! The stochastic pendulum of seed Section 5.1, planar (d = 2) or spherical (d = 3):
+//! dv = (-c_g e_d - gamma v) dt + sigma dw - r dmu / rho^2, |r| = rho, unit mass.
+
+use sdae_manifold::{IdentityMass, Sphere};
+
+use crate::error::SchemeError;
+use crate::system::{AdditiveNoise, Drift, MechanicalSystem};
+
+/// Gravity along -e_d and linear friction: a(r, v) = -c_g e_d - gamma v.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PendulumDrift {
+    /// Gravity constant c_g >= 0.
+    pub gravity: f64,
+    /// Friction coefficient gamma >= 0.
+    pub friction: f64,
+}
+
+impl Drift for PendulumDrift {
+    #[inline]
+    fn drift(&self, _r: &[f64], v: &[f64], out: &mut [f64]) {
+        for (o, vi) in out.iter_mut().zip(v) {
+            *o = -self.friction * vi;
+        }
+        if let Some(last) = out.last_mut() {
+            *last -= self.gravity;
+        }
+    }
+}
+
+/// The seed's stochastic pendulum as a system.
+pub type Pendulum = MechanicalSystem<Sphere, IdentityMass, PendulumDrift, AdditiveNoise>;
+
+/// Parameters of [`pendulum`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PendulumParams {
+    /// Space dimension d: 2 (planar) or 3 (spherical).
+    pub dim: usize,
+    /// Length rho.
+    pub length: f64,
+    /// Gravity c_g.
+    pub gravity: f64,
+    /// Noise amplitude sigma (B = sigma I).
+    pub noise: f64,
+    /// Friction gamma.
+    pub friction: f64,
+}
+
+impl Default for PendulumParams {
+    /// The seed's planar unit pendulum with c_g = 1 and unit noise, no friction.
+    fn default() -> Self {
+        Self {
+            dim: 2,
+            length: 1.0,
+            gravity: 1.0,
+            noise: 1.0,
+            friction: 0.0,
+        }
+    }
+}
+
+/// Builds the pendulum; fails on d not in {2, 3}, non-positive length, negative or non-finite
+/// gravity, noise or friction.
+pub fn pendulum(params: PendulumParams) -> Result<Pendulum, SchemeError> {
+    if !(params.dim == 2 || params.dim == 3) {
+        return Err(SchemeError::InvalidSetting {
+            name: "dim",
+            value: params.dim as f64,
+            reason: "a pendulum is planar (2) or spherical (3)",
+        });
+    }
+    for (name, value) in [("gravity", params.gravity), ("friction", params.friction)] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(SchemeError::InvalidSetting {
+                name,
+                value,
+                reason: "must be finite and >= 0",
+            });
+        }
+    }
+    MechanicalSystem::new(
+        Sphere::new(params.dim, params.length)?,
+        IdentityMass,
+        PendulumDrift {
+            gravity: params.gravity,
+            friction: params.friction,
+        },
+        AdditiveNoise::new(params.noise, params.dim)?,
+    )
+}

@@ -1,0 +1,295 @@
+//! One step of the half-explicit drift-truncated Euler scheme (seed eq. 3.1, 3.2).
+
+use sdae_ift::{BallProblem, BallSolver, Certificate, Factorize, Method, Solve};
+use sdae_manifold::{Constraint, Mass, scratch_len};
+
+use crate::config::StepperConfig;
+use crate::error::{SchemeError, StepFailure};
+use crate::system::System;
+
+/// What one step did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// The truncation factor eta_k of eq. 3.2 (1 for the untruncated scheme).
+    pub eta: f64,
+    /// The kappa solver's certificate.
+    pub certificate: Certificate,
+    /// max |g(r_{k+1})|.
+    pub position_residual: f64,
+    /// max |Dg(r_{k+1}) v_{k+1}|, NaN when not monitored.
+    pub velocity_residual: f64,
+}
+
+impl StepReport {
+    /// Whether the homotopy fallback was needed.
+    pub fn used_homotopy(&self) -> bool {
+        self.certificate.method == Method::Homotopy
+    }
+}
+
+/// The kappa system R(gamma) = g(y + M^-1 grad g(r) gamma), y = r + eta v h, with Jacobian
+/// Dg(x) M^-1 grad g(r) at x = y + M^-1 grad g(r) gamma (seed eq. 3.1 upper part, eq. 3.10).
+struct KappaProblem<'a, C, M> {
+    constraint: &'a C,
+    mass: &'a M,
+    r: &'a [f64],
+    y: &'a [f64],
+    x: &'a mut [f64],
+    scratch: &'a mut [f64],
+}
+
+impl<C: Constraint, M: Mass> KappaProblem<'_, C, M> {
+    /// x = y + M^-1 grad g(r) gamma.
+    #[inline]
+    fn position(&mut self, gamma: &[f64]) {
+        position(self.constraint, self.mass, self.r, self.y, gamma, self.x);
+    }
+}
+
+/// x = y + M^-1 grad g(r) gamma.
+#[inline]
+fn position<C: Constraint, M: Mass>(
+    constraint: &C,
+    mass: &M,
+    r: &[f64],
+    y: &[f64],
+    gamma: &[f64],
+    x: &mut [f64],
+) {
+    constraint.jacobian_transpose_mul(r, gamma, x);
+    mass.apply_inverse(x);
+    for (xi, yi) in x.iter_mut().zip(y) {
+        *xi += yi;
+    }
+}
+
+impl<C, M> BallProblem for KappaProblem<'_, C, M>
+where
+    C: Constraint,
+    C::Gram: Factorize,
+    M: Mass,
+{
+    type Matrix = C::Gram;
+    fn dim(&self) -> usize {
+        self.constraint.n_constraints()
+    }
+    fn new_matrix(&self) -> C::Gram {
+        self.constraint.new_gram()
+    }
+    #[inline]
+    fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
+        self.position(gamma);
+        self.constraint.value(self.x, residual);
+        if let Some(j) = jacobian {
+            self.constraint
+                .cross_gram(self.x, self.r, self.mass, self.scratch, j);
+        }
+    }
+}
+
+/// The stepper: a system, the scheme's constants and all buffers of one path.
+#[derive(Debug, Clone)]
+pub struct Stepper<S: System>
+where
+    <S::Constraint as Constraint>::Gram: Factorize,
+{
+    system: S,
+    config: StepperConfig,
+    solver: BallSolver<<S::Constraint as Constraint>::Gram>,
+    drift: Vec<f64>,
+    y: Vec<f64>,
+    x: Vec<f64>,
+    force: Vec<f64>,
+    lambda: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
+fn norm2_squared(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum()
+}
+
+impl<S: System> Stepper<S>
+where
+    <S::Constraint as Constraint>::Gram: Factorize,
+{
+    /// A stepper for `system` with the given constants. Checks that the parts fit.
+    pub fn new(system: S, config: StepperConfig) -> Result<Self, SchemeError> {
+        let c = system.constraint();
+        let (n, m) = (c.dim(), c.n_constraints());
+        if m == 0 || m >= n {
+            return Err(SchemeError::DimensionMismatch {
+                what: "number of constraints m (need 1 <= m < n)",
+                expected: n.saturating_sub(1),
+                found: m,
+            });
+        }
+        system.mass().check_order(n)?;
+        config.validate()?;
+        let solver = BallSolver::new(c.new_gram(), config.solver);
+        Ok(Self {
+            solver,
+            drift: vec![0.0; n],
+            y: vec![0.0; n],
+            x: vec![0.0; n],
+            force: vec![0.0; n],
+            lambda: vec![0.0; m],
+            scratch: vec![0.0; scratch_len(n, m)],
+            system,
+            config,
+        })
+    }
+
+    /// The system.
+    pub fn system(&self) -> &S {
+        &self.system
+    }
+
+    /// The constants.
+    pub fn config(&self) -> &StepperConfig {
+        &self.config
+    }
+
+    /// kappa_{k+1} of the last successful step.
+    pub fn kappa(&self) -> &[f64] {
+        self.solver.root()
+    }
+
+    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.3).
+    pub fn lambda(&self) -> &[f64] {
+        &self.lambda
+    }
+
+    /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
+    pub fn eta(&self, v_norm: f64, a_norm: f64, h: f64) -> f64 {
+        match self.config.c_eta {
+            None => 1.0,
+            Some(c_eta) => {
+                let size = v_norm.max(v_norm * v_norm).max(a_norm) * h;
+                if size > c_eta { c_eta / size } else { 1.0 }
+            }
+        }
+    }
+
+    /// Checks the lengths of a step's inputs and the step size.
+    fn check_input(&self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> Result<(), StepFailure> {
+        let n = self.system.constraint().dim();
+        let l = self.system.noise_dim();
+        let mismatch = |what, expected, found| {
+            StepFailure::Input(SchemeError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            })
+        };
+        if r.len() != n {
+            return Err(mismatch("position r", n, r.len()));
+        }
+        if v.len() != n {
+            return Err(mismatch("velocity v", n, v.len()));
+        }
+        if dw.len() != l {
+            return Err(mismatch("Brownian increment dw", l, dw.len()));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(StepFailure::Input(SchemeError::InvalidSetting {
+                name: "h",
+                value: h,
+                reason: "step size must be finite and > 0",
+            }));
+        }
+        Ok(())
+    }
+
+    /// Advances (r, v) by one step of size h with Brownian increment dw (seed eq. 3.1):
+    ///
+    /// r' = r + eta v h + M^-1 grad g(r) kappa,                    g(r') = 0
+    /// v' = v + M^-1 [eta a(r, v) h + B(r, v) dw + grad g(r) lambda], Dg(r') v' = 0
+    ///
+    /// On failure (r, v) are left unchanged.
+    pub fn step(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepReport, StepFailure> {
+        self.check_input(r, v, h, dw)?;
+        let system = &self.system;
+        let constraint = system.constraint();
+        let mass = system.mass();
+
+        system.drift(r, v, &mut self.drift);
+        let a_norm2 = norm2_squared(&self.drift);
+        if !a_norm2.is_finite() {
+            let index = self.drift.iter().position(|x| !x.is_finite()).unwrap_or(0);
+            return Err(StepFailure::NonFiniteDrift { index });
+        }
+        let v_norm2 = norm2_squared(v);
+        if !v_norm2.is_finite() {
+            return Err(StepFailure::NonFiniteVelocity { norm2: v_norm2 });
+        }
+        let eta = self.eta(v_norm2.sqrt(), a_norm2.sqrt(), h);
+        let eta_h = eta * h;
+        for ((yi, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
+            *yi = ri + eta_h * vi;
+        }
+
+        let certificate = {
+            let mut problem = KappaProblem {
+                constraint,
+                mass,
+                r,
+                y: &self.y,
+                x: &mut self.x,
+                scratch: &mut self.scratch,
+            };
+            self.solver.solve(&mut problem, self.config.c_kappa)?
+        };
+        // r' from the accepted root (the last evaluation may have been elsewhere).
+        position(constraint, mass, r, &self.y, self.solver.root(), &mut self.x);
+
+        // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
+        // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
+        for (f, a) in self.force.iter_mut().zip(&self.drift) {
+            *f = eta_h * a;
+        }
+        system.add_noise(r, v, dw, &mut self.force);
+        mass.apply_inverse(&mut self.force);
+        for (f, vi) in self.force.iter_mut().zip(v.iter()) {
+            *f += vi;
+        }
+        constraint.jacobian_mul(&self.x, &self.force, &mut self.lambda);
+        for l in self.lambda.iter_mut() {
+            *l = -*l;
+        }
+        self.solver.root_factor().solve_in_place(&mut self.lambda);
+        // v' = v~ + M^-1 grad g(r) lambda (drift buffer reused as scratch).
+        constraint.jacobian_transpose_mul(r, &self.lambda, &mut self.drift);
+        mass.apply_inverse(&mut self.drift);
+        for (f, d) in self.force.iter_mut().zip(&self.drift) {
+            *f += d;
+        }
+        let new_v_norm2 = norm2_squared(&self.force);
+        if !new_v_norm2.is_finite() {
+            return Err(StepFailure::NonFiniteVelocity {
+                norm2: new_v_norm2,
+            });
+        }
+        r.copy_from_slice(&self.x);
+        v.copy_from_slice(&self.force);
+        let velocity_residual = if self.config.monitor_velocity_constraint {
+            constraint.jacobian_mul(r, v, &mut self.drift[..self.lambda.len()]);
+            self.drift[..self.lambda.len()]
+                .iter()
+                .fold(0.0, |s: f64, x| s.max(x.abs()))
+        } else {
+            f64::NAN
+        };
+        Ok(StepReport {
+            eta,
+            position_residual: certificate.residual,
+            certificate,
+            velocity_residual,
+        })
+    }
+}

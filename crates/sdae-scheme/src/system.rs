@@ -1,0 +1,178 @@
+//! The system of seed eq. 1.1: M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu, g(r) = 0.
+
+use sdae_manifold::{Constraint, Mass};
+
+use crate::error::SchemeError;
+
+/// Everything the stepper needs to know about a constrained stochastic mechanical system.
+pub trait System {
+    /// The constraint g.
+    type Constraint: Constraint;
+    /// The mass matrix M.
+    type Mass: Mass;
+    /// The constraint g.
+    fn constraint(&self) -> &Self::Constraint;
+    /// The mass matrix M.
+    fn mass(&self) -> &Self::Mass;
+    /// out = a(r, v).
+    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
+    /// The dimension l of the Brownian motion (0: deterministic, no random numbers drawn).
+    fn noise_dim(&self) -> usize;
+    /// out += B(r, v) dw.
+    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
+}
+
+/// The drift a(r, v).
+pub trait Drift {
+    /// out = a(r, v).
+    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
+}
+
+impl<F: Fn(&[f64], &[f64], &mut [f64])> Drift for F {
+    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
+        self(r, v, out)
+    }
+}
+
+/// No drift: a = 0.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ZeroDrift;
+
+impl Drift for ZeroDrift {
+    #[inline]
+    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+    }
+}
+
+/// The noise B(r, v) applied to increments dw.
+pub trait Noise {
+    /// The dimension l of the Brownian motion.
+    fn dim(&self) -> usize;
+    /// out += B(r, v) dw.
+    fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
+}
+
+/// B = 0, l = 0: no random numbers are drawn.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoNoise;
+
+impl Noise for NoNoise {
+    fn dim(&self) -> usize {
+        0
+    }
+    #[inline(always)]
+    fn add(&self, _r: &[f64], _v: &[f64], _dw: &[f64], _out: &mut [f64]) {}
+}
+
+/// Additive noise B = sigma I_n (l = n).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdditiveNoise {
+    sigma: f64,
+    dim: usize,
+}
+
+impl AdditiveNoise {
+    /// B = sigma I_dim; sigma must be finite and >= 0.
+    pub fn new(sigma: f64, dim: usize) -> Result<Self, SchemeError> {
+        if !(sigma.is_finite() && sigma >= 0.0) {
+            return Err(SchemeError::InvalidSetting {
+                name: "sigma",
+                value: sigma,
+                reason: "noise amplitude must be finite and >= 0",
+            });
+        }
+        Ok(Self { sigma, dim })
+    }
+    /// The amplitude sigma.
+    pub fn sigma(&self) -> f64 {
+        self.sigma
+    }
+}
+
+impl Noise for AdditiveNoise {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    #[inline]
+    fn add(&self, _r: &[f64], _v: &[f64], dw: &[f64], out: &mut [f64]) {
+        for (o, w) in out.iter_mut().zip(dw) {
+            *o += self.sigma * w;
+        }
+    }
+}
+
+/// Noise from a closure `f(r, v, dw, out)` that adds B(r, v) dw to out, with l = `dim`.
+#[derive(Clone)]
+pub struct ClosureNoise<F> {
+    dim: usize,
+    f: F,
+}
+
+impl<F: Fn(&[f64], &[f64], &[f64], &mut [f64])> ClosureNoise<F> {
+    /// Noise of dimension `dim` given by `f`.
+    pub fn new(dim: usize, f: F) -> Self {
+        Self { dim, f }
+    }
+}
+
+impl<F: Fn(&[f64], &[f64], &[f64], &mut [f64])> Noise for ClosureNoise<F> {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
+        (self.f)(r, v, dw, out)
+    }
+}
+
+/// A system assembled from its parts.
+#[derive(Debug, Clone)]
+pub struct MechanicalSystem<C, M, A, B> {
+    constraint: C,
+    mass: M,
+    drift: A,
+    noise: B,
+}
+
+impl<C: Constraint, M: Mass, A: Drift, B: Noise> MechanicalSystem<C, M, A, B> {
+    /// Checks that the mass matrix has order n.
+    pub fn new(constraint: C, mass: M, drift: A, noise: B) -> Result<Self, SchemeError> {
+        mass.check_order(constraint.dim())?;
+        Ok(Self {
+            constraint,
+            mass,
+            drift,
+            noise,
+        })
+    }
+    /// The drift.
+    pub fn drift_part(&self) -> &A {
+        &self.drift
+    }
+    /// The noise.
+    pub fn noise_part(&self) -> &B {
+        &self.noise
+    }
+}
+
+impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, M, A, B> {
+    type Constraint = C;
+    type Mass = M;
+    fn constraint(&self) -> &C {
+        &self.constraint
+    }
+    fn mass(&self) -> &M {
+        &self.mass
+    }
+    #[inline]
+    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
+        self.drift.drift(r, v, out)
+    }
+    fn noise_dim(&self) -> usize {
+        self.noise.dim()
+    }
+    #[inline]
+    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
+        self.noise.add(r, v, dw, out)
+    }
+}

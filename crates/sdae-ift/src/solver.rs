@@ -20,6 +20,9 @@ pub enum Method {
 pub struct SolverSettings {
     /// Converged when max_i |R_i(gamma)| <= tolerance.
     pub tolerance: f64,
+    /// Accept a residual up to this size once it stops decreasing (the roundoff floor of g,
+    /// about eps |x| / length scale, can exceed `tolerance` for long chains).
+    pub stagnation_tolerance: f64,
     /// Newton iterations before giving up (and falling back to the homotopy).
     pub max_iterations: usize,
     /// Whether to try the homotopy when Newton fails.
@@ -39,6 +42,7 @@ impl Default for SolverSettings {
     fn default() -> Self {
         Self {
             tolerance: 1e-14,
+            stagnation_tolerance: 1e-10,
             max_iterations: 25,
             homotopy: true,
             max_homotopy_steps: 400,
@@ -280,6 +284,7 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Corrector {
         let tolerance = if tolerance > 0.0 { tolerance } else { self.settings.tolerance };
         let mut previous_step = f64::INFINITY;
+        let mut previous_residual = f64::INFINITY;
         for k in 0..=max_iterations {
             let reuse_zero = at_zero && k == 0;
             if reuse_zero {
@@ -307,6 +312,12 @@ impl<A: Factorize> BallSolver<A> {
             if k == max_iterations {
                 return Corrector::Failed(k);
             }
+            // At the roundoff floor (the residual no longer halves, as it would while Newton
+            // converges) accept within the stagnation tolerance.
+            if k > 0 && r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance {
+                return Corrector::Converged(k);
+            }
+            previous_residual = r;
             self.step.copy_from_slice(&self.residual);
             if reuse_zero {
                 self.factor_at_zero.solve_in_place(&mut self.step);
@@ -314,10 +325,6 @@ impl<A: Factorize> BallSolver<A> {
                 self.factor.solve_in_place(&mut self.step);
             }
             let step = norm2(&self.step);
-            // Below roundoff: accept if the residual is within a few hundred ulps of the target.
-            if step <= 4.0 * f64::EPSILON * (1.0 + norm2(&self.gamma)) && r <= 256.0 * tolerance {
-                return Corrector::Converged(k);
-            }
             // A corrector that stops contracting will not converge: fail fast.
             if tau != 1.0 && step > 0.5 * previous_step {
                 return Corrector::Failed(k);

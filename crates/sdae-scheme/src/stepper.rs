@@ -218,15 +218,15 @@ where
         let constraint = system.constraint();
         let mass = system.mass();
 
+        let v_norm2 = norm2_squared(v);
+        if !v_norm2.is_finite() {
+            return Err(StepFailure::NonFiniteVelocity { norm2: v_norm2 });
+        }
         system.drift(r, v, &mut self.drift);
         let a_norm2 = norm2_squared(&self.drift);
         if !a_norm2.is_finite() {
             let index = self.drift.iter().position(|x| !x.is_finite()).unwrap_or(0);
             return Err(StepFailure::NonFiniteDrift { index });
-        }
-        let v_norm2 = norm2_squared(v);
-        if !v_norm2.is_finite() {
-            return Err(StepFailure::NonFiniteVelocity { norm2: v_norm2 });
         }
         let eta = self.eta(v_norm2.sqrt(), a_norm2.sqrt(), h);
         let eta_h = eta * h;

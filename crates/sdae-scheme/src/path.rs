@@ -1,5 +1,5 @@
 //! The path driver: N fixed steps h = T/N from (r_0, v_0), mu_k = sum_{j<=k} lambda_j
-//! (seed eq. 1.3), observers at chosen steps, and per-path diagnostics.
+//! (seed eq. 1.4), observers at chosen steps, and per-path diagnostics.
 
 use sdae_ift::{Factorize, Method};
 use sdae_manifold::{Constraint, check_state};

@@ -154,7 +154,7 @@ where
         self.solver.root()
     }
 
-    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.3).
+    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.4).
     pub fn lambda(&self) -> &[f64] {
         &self.lambda
     }

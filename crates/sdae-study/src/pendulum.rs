@@ -1,0 +1,387 @@
+//! Strong errors of the scheme on the stochastic pendulum against a fine-step reference.
+
+use std::time::Instant;
+
+use sdae_scheme::{
+    Coarsened, GaussianIncrements, IncrementSource, PathDiagnostics, PendulumParams,
+    RecordedIncrements, Recorder, Stepper, StepperConfig, TimeGrid, pendulum, run_path,
+};
+use serde::Serialize;
+
+/// What to run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PendulumStudy {
+    /// Number of Monte Carlo paths.
+    pub paths: usize,
+    /// Levels use N = 2^k steps for k in `coarsest..=finest`.
+    pub coarsest: u32,
+    /// See `coarsest`.
+    pub finest: u32,
+    /// The reference uses 2^`reference` steps on the same Brownian path.
+    pub reference: u32,
+    /// Final time T.
+    pub t_end: f64,
+    /// Truncation constant C_eta (the theory value for the unit pendulum is 1/4).
+    pub c_eta: f64,
+    /// Seed of the path streams.
+    pub seed: u64,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+impl PendulumStudy {
+    /// Checks the settings; the message names the bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.paths < 2 {
+            return Err(format!("--paths must be >= 2, got {}", self.paths));
+        }
+        if self.coarsest > self.finest {
+            return Err(format!(
+                "--levels {}..{} is empty",
+                self.coarsest, self.finest
+            ));
+        }
+        if self.finest >= self.reference || self.reference > 24 {
+            return Err(format!(
+                "--ref-level must be above the finest level {} and at most 24, got {}",
+                self.finest, self.reference
+            ));
+        }
+        if !(self.t_end.is_finite() && self.t_end > 0.0) {
+            return Err(format!("--T must be finite and > 0, got {}", self.t_end));
+        }
+        if !(self.c_eta.is_finite() && self.c_eta > 0.0) {
+            return Err(format!(
+                "--c-eta must be finite and > 0, got {}",
+                self.c_eta
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Default for PendulumStudy {
+    fn default() -> Self {
+        Self {
+            paths: 10_000,
+            coarsest: 3,
+            finest: 10,
+            reference: 16,
+            t_end: 1.0,
+            c_eta: 0.25,
+            seed: 2026,
+            threads: 2,
+        }
+    }
+}
+
+/// Results of one level (one step size).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LevelReport {
+    /// N.
+    pub n_steps: usize,
+    /// h = T / N.
+    pub h: f64,
+    /// Root mean square of |r_N - r_ref(T)| over the paths that finished.
+    pub error_r: f64,
+    /// Root mean square of |v_N - v_ref(T)|.
+    pub error_v: f64,
+    /// Root mean square of |mu_N - mu_ref(T)|.
+    pub error_mu: f64,
+    /// Standard errors of the mean squared errors, propagated to the RMS values (delta method).
+    pub stderr_r: f64,
+    /// See `stderr_r`.
+    pub stderr_v: f64,
+    /// See `stderr_r`.
+    pub stderr_mu: f64,
+    /// Mean wall-clock seconds per path at this level.
+    pub seconds_per_path: f64,
+    /// Share of steps with eta < 1.
+    pub truncated_fraction: f64,
+    /// Mean Newton iterations per step.
+    pub newton_iterations_per_step: f64,
+    /// Steps that needed the homotopy fallback.
+    pub homotopy_steps: usize,
+    /// Paths that failed (not counted in the errors).
+    pub failures: usize,
+    /// Largest |g(r_k)| seen.
+    pub max_position_residual: f64,
+}
+
+/// The whole study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StudyReport {
+    /// Scene name.
+    pub scene: &'static str,
+    /// Settings.
+    pub settings: PendulumStudy,
+    /// Levels from coarse to fine.
+    pub levels: Vec<LevelReport>,
+    /// Least-squares slope of log(error) against log(h) over all levels, for r, v, mu.
+    pub observed_order: [f64; 3],
+    /// Reference paths that failed (their paths are left out entirely).
+    pub reference_failures: usize,
+}
+
+/// Per-path, per-level outcome.
+#[derive(Debug, Clone, Default)]
+struct PathLevel {
+    squared: Option<[f64; 3]>,
+    seconds: f64,
+    diagnostics: PathDiagnostics,
+}
+
+fn scene() -> PendulumParams {
+    PendulumParams {
+        gravity: 1.0,
+        noise: 1.0,
+        ..PendulumParams::default()
+    }
+}
+
+fn distance2(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+/// Sums groups of `factor` consecutive fine increments (rows of length 2) into coarse ones.
+fn coarsen(fine: &[f64], factor: usize) -> Vec<f64> {
+    let mut source = Coarsened::new(RecordedIncrements::new(fine, 2), factor);
+    let mut coarse = vec![0.0; fine.len() / factor];
+    for dw in coarse.chunks_exact_mut(2) {
+        source.next_increment(0.0, dw);
+    }
+    coarse
+}
+
+/// Runs one path with the given increments (one row of 2 per step); returns (r, v, mu) at T,
+/// the wall-clock seconds of the path (increments prepared beforehand) and its diagnostics.
+fn run_level(
+    study: &PendulumStudy,
+    increments: &[f64],
+) -> (Option<[Vec<f64>; 3]>, f64, PathDiagnostics) {
+    let steps = increments.len() / 2;
+    let system = pendulum(scene()).expect("the built-in scene is valid");
+    let config = StepperConfig::for_system(&system)
+        .and_then(|c| c.with_c_eta(study.c_eta))
+        .expect("validated by PendulumStudy::validate");
+    let mut stepper = Stepper::new(system, config).expect("the built-in scene is valid");
+    let grid = TimeGrid::new(study.t_end, steps).expect("validated by PendulumStudy::validate");
+    let mut source = RecordedIncrements::new(increments, 2);
+    let mut recorder = Recorder::every(steps).with_mu();
+    let (mut r, mut v) = (vec![0.0, -1.0], vec![1.0, 0.0]);
+    let start = Instant::now();
+    let outcome = run_path(&mut stepper, &mut r, &mut v, grid, &mut source, &mut recorder);
+    let seconds = start.elapsed().as_secs_f64();
+    match outcome {
+        Ok(d) => {
+            let mu = recorder.multiplier(recorder.len() - 1).to_vec();
+            (Some([r, v, mu]), seconds, d)
+        }
+        Err(failure) => (None, seconds, failure.diagnostics),
+    }
+}
+
+/// One Monte Carlo path: the reference and every level on the same Brownian path.
+fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
+    let fine_steps = 1usize << study.reference;
+    let h_fine = study.t_end / fine_steps as f64;
+    let mut increments = vec![0.0; 2 * fine_steps];
+    let mut noise = GaussianIncrements::for_path(study.seed, index as u64, 2);
+    for dw in increments.chunks_exact_mut(2) {
+        noise.next_increment(h_fine, dw);
+    }
+    let (reference, _, _) = run_level(study, &increments);
+    let Some(reference) = reference else {
+        return (false, Vec::new());
+    };
+    let levels = (study.coarsest..=study.finest)
+        .map(|k| {
+            let coarse = coarsen(&increments, fine_steps >> k);
+            let (state, seconds, diagnostics) = run_level(study, &coarse);
+            PathLevel {
+                squared: state.map(|s| [0, 1, 2].map(|i| distance2(&s[i], &reference[i]))),
+                seconds,
+                diagnostics,
+            }
+        })
+        .collect();
+    (true, levels)
+}
+
+/// Slope of the least-squares line through (log h, log e).
+fn slope(points: &[(f64, f64)]) -> f64 {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(h, e)| *h > 0.0 && *e > 0.0)
+        .map(|(h, e)| (h.ln(), e.ln()))
+        .collect();
+    let n = pts.len() as f64;
+    if pts.len() < 2 {
+        return f64::NAN;
+    }
+    let (mx, my) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+    sxy / sxx
+}
+
+/// Runs the study; `progress` is called with the number of finished paths.
+pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> StudyReport {
+    let threads = study.threads.max(1);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    // Path i goes to thread i % threads; results are put back in path order.
+    let mut results: Vec<(usize, (bool, Vec<PathLevel>))> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|t| {
+                let (done, progress) = (&done, &progress);
+                scope.spawn(move || {
+                    (t..study.paths)
+                        .step_by(threads)
+                        .map(|i| {
+                            let out = (i, one_path(&study, i));
+                            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                            out
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("a study worker panicked"))
+            .collect()
+    });
+    results.sort_by_key(|(i, _)| *i);
+    let reference_failures = results.iter().filter(|(_, (ok, _))| !ok).count();
+    let good: Vec<&Vec<PathLevel>> = results
+        .iter()
+        .filter(|(_, (ok, _))| *ok)
+        .map(|(_, (_, l))| l)
+        .collect();
+    let levels: Vec<LevelReport> = (study.coarsest..=study.finest)
+        .enumerate()
+        .map(|(j, k)| level_report(&study, 1usize << k, good.iter().map(|p| &p[j])))
+        .collect();
+    let observed_order = [0, 1, 2].map(|c| {
+        let pts: Vec<(f64, f64)> = levels
+            .iter()
+            .map(|l| (l.h, [l.error_r, l.error_v, l.error_mu][c]))
+            .collect();
+        slope(&pts)
+    });
+    StudyReport {
+        scene: "pendulum",
+        settings: study,
+        levels,
+        observed_order,
+        reference_failures,
+    }
+}
+
+fn level_report<'a>(
+    study: &PendulumStudy,
+    steps: usize,
+    paths: impl Iterator<Item = &'a PathLevel>,
+) -> LevelReport {
+    let mut squared: [Vec<f64>; 3] = Default::default();
+    let (mut seconds, mut count, mut failures) = (0.0, 0usize, 0usize);
+    let mut total = PathDiagnostics::default();
+    let mut truncated = 0usize;
+    let mut iterations = 0usize;
+    for p in paths {
+        count += 1;
+        seconds += p.seconds;
+        truncated += p.diagnostics.truncated_steps;
+        iterations += p.diagnostics.newton_iterations;
+        total.steps += p.diagnostics.steps;
+        total.homotopy_steps += p.diagnostics.homotopy_steps;
+        total.max_position_residual = total
+            .max_position_residual
+            .max(p.diagnostics.max_position_residual);
+        match p.squared {
+            Some(e) => (0..3).for_each(|c| squared[c].push(e[c])),
+            None => failures += 1,
+        }
+    }
+    // RMS error e = sqrt(mean(d^2)); se(e) = se(mean d^2) / (2 e).
+    let rms = |x: &[f64]| {
+        let n = x.len() as f64;
+        let mean = x.iter().sum::<f64>() / n;
+        let var = x.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / (n - 1.0).max(1.0);
+        let e = mean.sqrt();
+        (e, (var / n).sqrt() / (2.0 * e))
+    };
+    let [(er, sr), (ev, sv), (em, sm)] = [0, 1, 2].map(|c| rms(&squared[c]));
+    let steps_total = total.steps.max(1) as f64;
+    LevelReport {
+        n_steps: steps,
+        h: study.t_end / steps as f64,
+        error_r: er,
+        error_v: ev,
+        error_mu: em,
+        stderr_r: sr,
+        stderr_v: sv,
+        stderr_mu: sm,
+        seconds_per_path: seconds / count.max(1) as f64,
+        truncated_fraction: truncated as f64 / steps_total,
+        newton_iterations_per_step: iterations as f64 / steps_total,
+        homotopy_steps: total.homotopy_steps,
+        failures,
+        max_position_residual: total.max_position_residual,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slope_recovers_a_known_order() {
+        let pts: Vec<(f64, f64)> = (0..6)
+            .map(|k| {
+                let h = 0.5f64.powi(k);
+                (h, 3.0 * h.powf(0.75))
+            })
+            .collect();
+        assert!((slope(&pts) - 0.75).abs() < 1e-12);
+    }
+
+    #[test]
+    fn results_do_not_depend_on_the_thread_count() {
+        let study = PendulumStudy {
+            paths: 6,
+            coarsest: 2,
+            finest: 4,
+            reference: 8,
+            ..PendulumStudy::default()
+        };
+        let one = pendulum_study(
+            PendulumStudy {
+                threads: 1,
+                ..study
+            },
+            |_| {},
+        );
+        let two = pendulum_study(
+            PendulumStudy {
+                threads: 2,
+                ..study
+            },
+            |_| {},
+        );
+        for (a, b) in one.levels.iter().zip(&two.levels) {
+            assert_eq!(
+                (a.error_r, a.error_v, a.error_mu),
+                (b.error_r, b.error_v, b.error_mu)
+            );
+        }
+        assert!(
+            one.levels
+                .iter()
+                .all(|l| l.error_r > 0.0 && l.failures == 0)
+        );
+    }
+}

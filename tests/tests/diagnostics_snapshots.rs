@@ -35,7 +35,15 @@ fn pendulum_run_diagnostics() {
     let (mut r, mut v) = (vec![0.0, -1.0], vec![2.0, 0.0]);
     let grid = TimeGrid::new(10.0, 200).unwrap();
     let mut noise = GaussianIncrements::for_path(2026, 0, 2);
-    let d = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap();
+    let d = run_path(
+        &mut stepper,
+        &mut r,
+        &mut v,
+        grid,
+        &mut noise,
+        &mut NoObserver,
+    )
+    .unwrap();
     insta::assert_snapshot!("pendulum_theory_constants_h_0.05", summary(&d));
 }
 
@@ -49,6 +57,14 @@ fn chain_run_diagnostics() {
     let mut v = vec![0.0; 60];
     let grid = TimeGrid::new(1.0, 500).unwrap();
     let mut noise = GaussianIncrements::for_path(2026, 1, 60);
-    let d = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap();
+    let d = run_path(
+        &mut stepper,
+        &mut r,
+        &mut v,
+        grid,
+        &mut noise,
+        &mut NoObserver,
+    )
+    .unwrap();
     insta::assert_snapshot!("chain20_c_eta_1_h_0.002", summary(&d));
 }

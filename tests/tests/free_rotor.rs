@@ -78,9 +78,24 @@ fn free_rotor_matches_its_gaussian_law() {
         );
     };
     check("E omega", mo, omega0, (exact_vo / n).sqrt());
-    check("E theta", mt, theta0 + omega0 * t_end, (exact_vt / n).sqrt());
-    check("Var omega", vo, exact_vo, exact_vo * (2.0 / (n - 1.0)).sqrt());
-    check("Var theta", vt, exact_vt, exact_vt * (2.0 / (n - 1.0)).sqrt());
+    check(
+        "E theta",
+        mt,
+        theta0 + omega0 * t_end,
+        (exact_vt / n).sqrt(),
+    );
+    check(
+        "Var omega",
+        vo,
+        exact_vo,
+        exact_vo * (2.0 / (n - 1.0)).sqrt(),
+    );
+    check(
+        "Var theta",
+        vt,
+        exact_vt,
+        exact_vt * (2.0 / (n - 1.0)).sqrt(),
+    );
     check(
         "Cov",
         cov,

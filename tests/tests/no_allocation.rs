@@ -5,7 +5,9 @@ mod common;
 use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};
 use std::cell::Cell;
 
-use sdae_scheme::{GaussianIncrements, IncrementSource, PendulumParams, Stepper, StepperConfig, pendulum};
+use sdae_scheme::{
+    GaussianIncrements, IncrementSource, PendulumParams, Stepper, StepperConfig, pendulum,
+};
 
 struct Counting;
 
@@ -43,8 +45,11 @@ fn steps_do_not_allocate() {
 
     let chain_system = common::chain_system(50, 1.0);
     let chain = *sdae_scheme::System::constraint(&chain_system);
-    let mut chain_stepper =
-        Stepper::new(chain_system, StepperConfig::new(1.0, f64::INFINITY).unwrap()).unwrap();
+    let mut chain_stepper = Stepper::new(
+        chain_system,
+        StepperConfig::new(1.0, f64::INFINITY).unwrap(),
+    )
+    .unwrap();
     let (mut cr, mut cv) = (chain.zigzag(0.5), vec![0.0; 150]);
     let mut chain_noise = GaussianIncrements::for_path(1, 1, 150);
     let mut cdw = vec![0.0; 150];

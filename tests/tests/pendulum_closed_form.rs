@@ -29,7 +29,10 @@ fn one_step_matches_the_closed_form() {
         ];
         let r0 = [theta.cos(), theta.sin()];
         let v0 = [-omega * theta.sin(), omega * theta.cos()];
-        let a = [-params.friction * v0[0], -params.gravity - params.friction * v0[1]];
+        let a = [
+            -params.friction * v0[0],
+            -params.gravity - params.friction * v0[1],
+        ];
 
         let v_norm = omega.abs();
         let a_norm = a[0].hypot(a[1]);
@@ -54,13 +57,26 @@ fn one_step_matches_the_closed_form() {
         }
         let tol = 1e-13;
         assert!((report.eta - eta).abs() <= tol, "trial {trial}: eta");
-        assert!((stepper.kappa()[0] - kappa).abs() <= tol, "trial {trial}: kappa {} vs {kappa}", stepper.kappa()[0]);
-        assert!((stepper.lambda()[0] - lambda).abs() <= tol * (1.0 + lambda.abs()), "trial {trial}: lambda");
+        assert!(
+            (stepper.kappa()[0] - kappa).abs() <= tol,
+            "trial {trial}: kappa {} vs {kappa}",
+            stepper.kappa()[0]
+        );
+        assert!(
+            (stepper.lambda()[0] - lambda).abs() <= tol * (1.0 + lambda.abs()),
+            "trial {trial}: lambda"
+        );
         for i in 0..2 {
             assert!((r[i] - r1[i]).abs() <= tol, "trial {trial}: r[{i}]");
-            assert!((v[i] - v1[i]).abs() <= tol * (1.0 + v_norm), "trial {trial}: v[{i}]");
+            assert!(
+                (v[i] - v1[i]).abs() <= tol * (1.0 + v_norm),
+                "trial {trial}: v[{i}]"
+            );
         }
     }
     // Both branches of eq. 3.2 were exercised.
-    assert!(truncated_steps > 100 && truncated_steps < 1900, "{truncated_steps}");
+    assert!(
+        truncated_steps > 100 && truncated_steps < 1900,
+        "{truncated_steps}"
+    );
 }

@@ -66,7 +66,10 @@ fn the_first_root_is_outside_the_theory_ball_when_c_eta_is_too_large() {
     let (mut r, mut v) = ([0.5, s3], [8.0 * s3, -4.0]);
     match stepper.step(&mut r, &mut v, 0.1, &[0.0, 0.0]) {
         Err(StepFailure::Kappa(IftError::OutsideBall { norm, radius })) => {
-            assert!((norm - 0.4).abs() < 1e-12 && radius == 0.125, "{norm} {radius}");
+            assert!(
+                (norm - 0.4).abs() < 1e-12 && radius == 0.125,
+                "{norm} {radius}"
+            );
         }
         other => panic!("expected OutsideBall, got {other:?}"),
     }
@@ -96,14 +99,38 @@ fn chain_stepper(
 fn homotopy_succeeds_where_newton_from_zero_fails() {
     // A five-bead chain taking a step near the solvability limit (found by a seeded search).
     let r0 = [
-        0.0, 0.0, 0.0, 0.7635956558620309, 0.6456947222555214, 0.0, 1.5271913117240619, 0.0, 0.0,
-        2.290786967586093, 0.6456947222555214, 0.0, 3.0543826234481237, 0.0, 0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.7635956558620309,
+        0.6456947222555214,
+        0.0,
+        1.5271913117240619,
+        0.0,
+        0.0,
+        2.290786967586093,
+        0.6456947222555214,
+        0.0,
+        3.0543826234481237,
+        0.0,
+        0.0,
     ];
     let v0 = [
-        0.1653592238991839, -0.023179967213963704, -0.1544647106975079, 0.2303799621423684,
-        -0.10007319795000491, 0.16422062323793596, 0.22124433207869743, -0.11087695271171896,
-        0.34628575143777596, 0.14911410306198397, -0.025576070367353876, 0.6357629857630684,
-        -0.3009876448199568, -0.5578643600686688, -0.2477540664208704,
+        0.1653592238991839,
+        -0.023179967213963704,
+        -0.1544647106975079,
+        0.2303799621423684,
+        -0.10007319795000491,
+        0.16422062323793596,
+        0.22124433207869743,
+        -0.11087695271171896,
+        0.34628575143777596,
+        0.14911410306198397,
+        -0.025576070367353876,
+        0.6357629857630684,
+        -0.3009876448199568,
+        -0.5578643600686688,
+        -0.2477540664208704,
     ];
     let h = 1.0438768039316786;
     let (mut r, mut v) = (r0, v0);
@@ -136,11 +163,14 @@ fn far_roots_from_large_steps_exist_and_are_rejected() {
         let beads = 3 + trial % 3;
         let chain = BeadChain::new(beads, 1.0).unwrap();
         let mut r = chain.zigzag(rng.random::<f64>() * 1.5);
-        let mut v: Vec<f64> = (0..3 * beads).map(|_| rng.random::<f64>() * 2.0 - 1.0).collect();
+        let mut v: Vec<f64> = (0..3 * beads)
+            .map(|_| rng.random::<f64>() * 2.0 - 1.0)
+            .collect();
         project_state(&chain, &IdentityMass, &mut r, &mut v).unwrap();
         let h = 0.2 + rng.random::<f64>();
         let (mut r1, mut v1) = (r.clone(), v.clone());
-        let Ok(report) = chain_stepper(beads, false, f64::INFINITY).step(&mut r1, &mut v1, h, &[]) else {
+        let Ok(report) = chain_stepper(beads, false, f64::INFINITY).step(&mut r1, &mut v1, h, &[])
+        else {
             continue;
         };
         let c = report.certificate;
@@ -160,6 +190,9 @@ fn far_roots_from_large_steps_exist_and_are_rejected() {
             accepted += 1;
         }
     }
-    assert!(far >= 3 && rejected == far, "far {far}, rejected {rejected}");
+    assert!(
+        far >= 3 && rejected == far,
+        "far {far}, rejected {rejected}"
+    );
     assert!(accepted > 1000, "{accepted}");
 }

@@ -4,8 +4,7 @@
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use sdae_manifold::{
-    ClosureConstraint, Constraint, DenseMass, DiagonalMass, IdentityMass, Mass, Sphere,
-    check_state,
+    ClosureConstraint, Constraint, DenseMass, DiagonalMass, IdentityMass, Mass, Sphere, check_state,
 };
 use sdae_scheme::{
     AdditiveNoise, MechanicalSystem, PendulumParams, Stepper, StepperConfig, pendulum,
@@ -38,9 +37,13 @@ where
     C::Gram: sdae_ift::Factorize,
     M: Mass,
 {
-    let system =
-        MechanicalSystem::new(constraint, mass, gravity, AdditiveNoise::new(0.5, 2).unwrap())
-            .unwrap();
+    let system = MechanicalSystem::new(
+        constraint,
+        mass,
+        gravity,
+        AdditiveNoise::new(0.5, 2).unwrap(),
+    )
+    .unwrap();
     let mut stepper = Stepper::new(system, StepperConfig::new(1.0, 0.5).unwrap()).unwrap();
     let (mut r, mut v) = (vec![0.6, -0.8], vec![0.8, 0.6]);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);

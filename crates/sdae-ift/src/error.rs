@@ -60,7 +60,9 @@ pub enum IftError {
     },
     /// The homotopy path from gamma = 0 at tau = 0 ends at a fold before tau = 1: no root is
     /// connected to gamma = 0 (seed Fig. 1b).
-    #[error("no root: the homotopy path stops at a fold at tau = {tau:.6} < 1 (|gamma| = {norm:e})")]
+    #[error(
+        "no root: the homotopy path stops at a fold at tau = {tau:.6} < 1 (|gamma| = {norm:e})"
+    )]
     NoRoot {
         /// Last tau reached on the path.
         tau: f64,

@@ -136,7 +136,12 @@ impl TridiagonalFactor {
         self.upper.copy_from_slice(&a.upper);
         self.upper2.fill(0.0);
         self.swapped.fill(false);
-        let scale = a.diag.iter().chain(&a.lower).chain(&a.upper).fold(0.0_f64, |s, v| s.max(v.abs()));
+        let scale = a
+            .diag
+            .iter()
+            .chain(&a.lower)
+            .chain(&a.upper)
+            .fold(0.0_f64, |s, v| s.max(v.abs()));
         for i in 0..m.saturating_sub(1) {
             if self.diag[i].abs() >= self.lower[i].abs() {
                 if self.diag[i] != 0.0 {
@@ -153,12 +158,16 @@ impl TridiagonalFactor {
                 self.diag[i + 1] = temp - fact * self.diag[i + 1];
                 if i + 2 < m {
                     self.upper2[i] = self.upper[i + 1];
-                    self.upper[i + 1] = -fact * self.upper[i + 1];
+                    self.upper[i + 1] *= -fact;
                 }
                 self.swapped[i] = true;
             }
         }
-        match self.diag.iter().position(|d| d.abs() <= PIVOT_TOLERANCE * scale) {
+        match self
+            .diag
+            .iter()
+            .position(|d| d.abs() <= PIVOT_TOLERANCE * scale)
+        {
             Some(index) => Err(LinearError::Singular {
                 index,
                 pivot: self.diag[index],
@@ -336,7 +345,9 @@ mod tests {
     fn residual<A: GramMatrix>(a: &A, x: &[f64], b: &[f64]) -> f64 {
         let mut ax = vec![0.0; b.len()];
         a.mul_vec(x, &mut ax);
-        ax.iter().zip(b).fold(0.0, |s, (p, q)| f64::max(s, (p - q).abs()))
+        ax.iter()
+            .zip(b)
+            .fold(0.0, |s, (p, q)| f64::max(s, (p - q).abs()))
     }
 
     fn solve<A: Factorize>(a: &A, b: &[f64]) -> Vec<f64> {
@@ -387,7 +398,10 @@ mod tests {
         a.lower.copy_from_slice(&[1.0, 0.0]);
         a.upper.copy_from_slice(&[1.0, 0.0]);
         let mut f = a.new_factor();
-        assert!(matches!(a.factor_into(&mut f), Err(LinearError::Singular { .. })));
+        assert!(matches!(
+            a.factor_into(&mut f),
+            Err(LinearError::Singular { .. })
+        ));
     }
 
     #[test]
@@ -396,16 +410,27 @@ mod tests {
             let mut a = DenseGram::zeros(m);
             for i in 0..m {
                 for j in 0..m {
-                    a.set(i, j, ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i == j { 0.5 } else { 0.0 });
+                    a.set(
+                        i,
+                        j,
+                        ((i * 7 + j * 3) % 11) as f64 - 5.0 + if i == j { 0.5 } else { 0.0 },
+                    );
                 }
             }
             let b: Vec<f64> = (0..m).map(|i| 1.0 + i as f64).collect();
             let x = solve(&a, &b);
             let scale = x.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
-            assert!(residual(&a, &x, &b) < 1e-11 * scale, "m={m}: {}", residual(&a, &x, &b));
+            assert!(
+                residual(&a, &x, &b) < 1e-11 * scale,
+                "m={m}: {}",
+                residual(&a, &x, &b)
+            );
         }
         let a = DenseGram::zeros(2);
         let mut f = a.new_factor();
-        assert!(matches!(a.factor_into(&mut f), Err(LinearError::Singular { index: 0, .. })));
+        assert!(matches!(
+            a.factor_into(&mut f),
+            Err(LinearError::Singular { index: 0, .. })
+        ));
     }
 }

@@ -175,7 +175,11 @@ impl<A: Factorize> BallSolver<A> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
         self.probe.fill(0.0);
-        problem.evaluate(&self.probe, &mut self.residual_at_zero, Some(&mut self.matrix));
+        problem.evaluate(
+            &self.probe,
+            &mut self.residual_at_zero,
+            Some(&mut self.matrix),
+        );
         if self.residual_at_zero.iter().any(|v| !v.is_finite()) {
             return Err(IftError::NonFinite {
                 what: "residual",
@@ -193,7 +197,13 @@ impl<A: Factorize> BallSolver<A> {
         let first_step = norm2(&self.step);
 
         self.history.clear();
-        let newton = self.newton(problem, 1.0, self.settings.max_iterations, 0.0, start_is_zero);
+        let newton = self.newton(
+            problem,
+            1.0,
+            self.settings.max_iterations,
+            0.0,
+            start_is_zero,
+        );
         let newton_outcome = match newton {
             Corrector::Converged(k) => self.accept(radius, first_step, k, 0, Method::Newton),
             Corrector::Failed(k) => Err(self.no_convergence(k)),
@@ -229,7 +239,8 @@ impl<A: Factorize> BallSolver<A> {
         method: Method,
     ) -> Result<Certificate, IftError> {
         let norm = norm2(&self.gamma);
-        if !(norm < radius) {
+        // NaN norms fail this test too.
+        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
             return Err(IftError::OutsideBall { norm, radius });
         }
         let bound = self.settings.plausibility_factor * first_step;
@@ -282,7 +293,11 @@ impl<A: Factorize> BallSolver<A> {
         tolerance: f64,
         at_zero: bool,
     ) -> Corrector {
-        let tolerance = if tolerance > 0.0 { tolerance } else { self.settings.tolerance };
+        let tolerance = if tolerance > 0.0 {
+            tolerance
+        } else {
+            self.settings.tolerance
+        };
         let mut previous_step = f64::INFINITY;
         let mut previous_residual = f64::INFINITY;
         for k in 0..=max_iterations {

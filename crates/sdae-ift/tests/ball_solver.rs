@@ -47,7 +47,11 @@ fn newton_finds_the_small_root_with_a_contraction_certificate() {
         let bound = SolverSettings::default().tolerance / (1.0 - exact) + 4.0 * f64::EPSILON;
         assert!((solver.root()[0] - exact).abs() <= bound, "s={s}");
         assert_eq!(cert.method, Method::Newton);
-        assert!(cert.contraction < 0.5, "s={s}: contraction {}", cert.contraction);
+        assert!(
+            cert.contraction < 0.5,
+            "s={s}: contraction {}",
+            cert.contraction
+        );
         // For a scalar problem the estimate is exact: |J(0)^-1 J(k) - 1| = kappa.
         assert!((cert.contraction - exact).abs() < 1e-12);
         assert!(cert.residual <= 1e-14 && cert.iterations <= 6, "{cert:?}");

@@ -1,8 +1,6 @@
 //! The inextensible bead chain of seed Section 5.3: K beads in R^3, K - 1 segment constraints.
 
-use crate::constraint::{
-    Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing,
-};
+use crate::constraint::{Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing};
 use crate::error::{ManifoldError, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::mass::Mass;
@@ -89,7 +87,9 @@ impl BeadChain {
         let s = self.inv_ds2 * self.inv_ds2;
         let m = self.beads - 1;
         let weighted = |a: [f64; 3], bead: usize, b: [f64; 3]| {
-            a[0] * w(3 * bead) * b[0] + a[1] * w(3 * bead + 1) * b[1] + a[2] * w(3 * bead + 2) * b[2]
+            a[0] * w(3 * bead) * b[0]
+                + a[1] * w(3 * bead + 1) * b[1]
+                + a[2] * w(3 * bead + 2) * b[2]
         };
         let mut e_next = segment(x1, 0);
         let mut f_next = segment(x2, 0);
@@ -221,7 +221,13 @@ mod tests {
         let diag = DiagonalMass::per_particle(&masses, 3).unwrap();
         let n = chain.dim();
         let dense_entries: Vec<f64> = (0..n * n)
-            .map(|k| if k / n == k % n { diag.diagonal()[k / n] } else { 0.0 })
+            .map(|k| {
+                if k / n == k % n {
+                    diag.diagonal()[k / n]
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let dense = DenseMass::new(n, dense_entries).unwrap();
         let mut scratch = vec![0.0; scratch_len(n, 6)];

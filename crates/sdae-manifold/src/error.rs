@@ -50,7 +50,9 @@ pub enum ManifoldError {
         detail: String,
     },
     /// A position is not on the constraint manifold.
-    #[error("position is off the manifold: max |g(r)| = {residual:e} at constraint {index} exceeds tolerance {tolerance:e}")]
+    #[error(
+        "position is off the manifold: max |g(r)| = {residual:e} at constraint {index} exceeds tolerance {tolerance:e}"
+    )]
     OffManifold {
         /// Largest |g_i(r)|.
         residual: f64,
@@ -60,7 +62,9 @@ pub enum ManifoldError {
         tolerance: f64,
     },
     /// A velocity is not tangent to the manifold.
-    #[error("velocity is not tangent: max |Dg(r) v| = {residual:e} at constraint {index} exceeds tolerance {tolerance:e}")]
+    #[error(
+        "velocity is not tangent: max |Dg(r) v| = {residual:e} at constraint {index} exceeds tolerance {tolerance:e}"
+    )]
     OffTangent {
         /// Largest |(Dg(r) v)_i|.
         residual: f64,

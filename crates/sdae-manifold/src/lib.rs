@@ -32,8 +32,8 @@ mod state;
 pub use chain::BeadChain;
 pub use closure::{ClosureConstraint, NoCurvature};
 pub use constraint::{
-    Constraint, Curvature, TheoryBound, assemble_dense_by_columns,
-    assemble_tridiagonal_by_probing, scratch_len,
+    Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
+    scratch_len,
 };
 pub use error::{ManifoldError, check_finite, check_len, check_positive};
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};

@@ -207,11 +207,11 @@ impl DenseMass {
                 if j <= i { l[(i, j)] } else { 0.0 }
             })
             .collect();
-        let eig = a
-            .self_adjoint_eigenvalues(faer::Side::Lower)
-            .map_err(|e| ManifoldError::NotPositiveDefinite {
+        let eig = a.self_adjoint_eigenvalues(faer::Side::Lower).map_err(|e| {
+            ManifoldError::NotPositiveDefinite {
                 detail: format!("eigenvalue computation failed ({e:?})"),
-            })?;
+            }
+        })?;
         let lo = eig.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = eig.iter().copied().fold(0.0, f64::max);
         check_positive("smallest eigenvalue of the mass matrix", lo).map_err(|_| {
@@ -279,13 +279,29 @@ mod tests {
     #[test]
     fn non_spd_and_asymmetric_are_rejected() {
         let e = DenseMass::new(2, vec![1.0, 2.0, 2.0, 1.0]).unwrap_err();
-        assert!(matches!(e, ManifoldError::NotPositiveDefinite { .. }), "{e}");
+        assert!(
+            matches!(e, ManifoldError::NotPositiveDefinite { .. }),
+            "{e}"
+        );
         let e = DenseMass::new(2, vec![1.0, 0.5, 0.0, 1.0]).unwrap_err();
-        assert!(matches!(e, ManifoldError::NotSymmetric { row: 1, col: 0, .. }), "{e}");
+        assert!(
+            matches!(e, ManifoldError::NotSymmetric { row: 1, col: 0, .. }),
+            "{e}"
+        );
         let e = DiagonalMass::new(vec![1.0, -1.0]).unwrap_err();
-        assert!(matches!(e, ManifoldError::NotPositiveDefinite { .. }), "{e}");
+        assert!(
+            matches!(e, ManifoldError::NotPositiveDefinite { .. }),
+            "{e}"
+        );
         let e = DenseMass::new(2, vec![1.0; 3]).unwrap_err();
-        assert!(matches!(e, ManifoldError::DimensionMismatch { expected: 4, found: 3, .. }));
+        assert!(matches!(
+            e,
+            ManifoldError::DimensionMismatch {
+                expected: 4,
+                found: 3,
+                ..
+            }
+        ));
     }
 
     #[test]

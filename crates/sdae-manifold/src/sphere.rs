@@ -107,9 +107,15 @@ impl TheoryBound for Sphere {
         let (lo, hi) = mass.eigenvalue_bounds();
         let r = self.radius;
         Some(
-            [1.0, 1.0 / (lo * r), 1.0 / (lo * r * r), hi * r * r, 1.0 / (r * r)]
-                .into_iter()
-                .fold(1.0, f64::max),
+            [
+                1.0,
+                1.0 / (lo * r),
+                1.0 / (lo * r * r),
+                hi * r * r,
+                1.0 / (r * r),
+            ]
+            .into_iter()
+            .fold(1.0, f64::max),
         )
     }
 }

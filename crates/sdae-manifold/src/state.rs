@@ -16,10 +16,10 @@ pub struct StateResiduals {
 pub const DEFAULT_STATE_TOLERANCE: f64 = 1e-10;
 
 fn max_abs(values: &[f64]) -> (usize, f64) {
-    values
-        .iter()
-        .enumerate()
-        .fold((0, 0.0), |(bi, bv), (i, v)| if v.abs() > bv { (i, v.abs()) } else { (bi, bv) })
+    values.iter().enumerate().fold(
+        (0, 0.0),
+        |(bi, bv), (i, v)| if v.abs() > bv { (i, v.abs()) } else { (bi, bv) },
+    )
 }
 
 /// Measures max |g(r)| and max |Dg(r) v| after checking lengths and finiteness.

@@ -106,7 +106,7 @@ impl StepperConfig {
     pub fn with_solver(mut self, solver: SolverSettings) -> Result<Self, SchemeError> {
         positive("solver tolerance", solver.tolerance)?;
         positive("solver min_tau_step", solver.min_tau_step)?;
-        if !(solver.stagnation_tolerance >= solver.tolerance) {
+        if solver.stagnation_tolerance.is_nan() || solver.stagnation_tolerance < solver.tolerance {
             return Err(SchemeError::InvalidSetting {
                 name: "solver stagnation_tolerance",
                 value: solver.stagnation_tolerance,

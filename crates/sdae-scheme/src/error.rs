@@ -31,7 +31,9 @@ pub enum SchemeError {
         found: usize,
     },
     /// The theory constants need C_g, which this constraint does not know.
-    #[error("no bound on C_g (seed eq. 2.2) is known for this constraint: set C_eta and C_kappa explicitly")]
+    #[error(
+        "no bound on C_g (seed eq. 2.2) is known for this constraint: set C_eta and C_kappa explicitly"
+    )]
     NoTheoryBound,
 }
 

@@ -131,11 +131,7 @@ impl IncrementSource for RecordedIncrements<'_> {
         self.dim
     }
     fn remaining(&self) -> Option<usize> {
-        if self.dim == 0 {
-            None
-        } else {
-            Some((self.data.len() - self.position) / self.dim)
-        }
+        (self.data.len() - self.position).checked_div(self.dim)
     }
     /// Copies the next stored increment; past the end of the buffer it yields NaN, which the
     /// path driver prevents by checking [`IncrementSource::remaining`] up front.

@@ -28,7 +28,8 @@ where
         self.constraint.new_gram()
     }
     fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
-        self.constraint.jacobian_transpose_mul(self.r, gamma, self.x);
+        self.constraint
+            .jacobian_transpose_mul(self.r, gamma, self.x);
         self.mass.apply_inverse(self.x);
         for (xi, ri) in self.x.iter_mut().zip(self.r) {
             *xi += ri;

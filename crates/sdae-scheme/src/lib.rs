@@ -47,8 +47,8 @@ pub use increments::{
 };
 pub use initial::project_state;
 pub use path::{
-    INITIAL_STATE_TOLERANCE, ITERATION_BINS, Interpolation, NoObserver, Observer,
-    PathDiagnostics, PathFailure, Recorder, TimeGrid, run_path,
+    INITIAL_STATE_TOLERANCE, ITERATION_BINS, Interpolation, NoObserver, Observer, PathDiagnostics,
+    PathFailure, Recorder, TimeGrid, run_path,
 };
 pub use pendulum::{Pendulum, PendulumDrift, PendulumParams, pendulum};
 pub use stepper::{StepReport, Stepper};

@@ -297,12 +297,16 @@ pub struct PathFailure {
     /// The failing step.
     pub error: StepError,
     /// Diagnostics of the steps that succeeded.
-    pub diagnostics: PathDiagnostics,
+    pub diagnostics: Box<PathDiagnostics>,
 }
 
 impl std::fmt::Display for PathFailure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} (after {} good steps)", self.error, self.diagnostics.steps)
+        write!(
+            f,
+            "{} (after {} good steps)",
+            self.error, self.diagnostics.steps
+        )
     }
 }
 
@@ -336,13 +340,17 @@ where
             time: grid.time(step),
             failure,
         },
-        diagnostics: diagnostics.clone(),
+        diagnostics: Box::new(diagnostics.clone()),
     };
     let mut diagnostics = PathDiagnostics::default();
     let constraint = stepper.system().constraint();
     let (m, l) = (constraint.n_constraints(), stepper.system().noise_dim());
     if let Err(e) = check_state(constraint, r, v, INITIAL_STATE_TOLERANCE) {
-        return Err(fail(0, crate::error::StepFailure::Input(e.into()), &diagnostics));
+        return Err(fail(
+            0,
+            crate::error::StepFailure::Input(e.into()),
+            &diagnostics,
+        ));
     }
     if increments.dim() != l {
         let e = SchemeError::DimensionMismatch {
@@ -364,7 +372,11 @@ where
     }
     let h = grid.h();
     let mut dw = vec![0.0; l];
-    let mut mu = if observer.wants_mu() { vec![0.0; m] } else { Vec::new() };
+    let mut mu = if observer.wants_mu() {
+        vec![0.0; m]
+    } else {
+        Vec::new()
+    };
     observer.observe(0, 0.0, r, v, &mu);
     for k in 0..grid.steps() {
         increments.next_increment(h, &mut dw);

@@ -246,7 +246,14 @@ where
             self.solver.solve(&mut problem, self.config.c_kappa)?
         };
         // r' from the accepted root (the last evaluation may have been elsewhere).
-        position(constraint, mass, r, &self.y, self.solver.root(), &mut self.x);
+        position(
+            constraint,
+            mass,
+            r,
+            &self.y,
+            self.solver.root(),
+            &mut self.x,
+        );
 
         // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
         // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
@@ -271,9 +278,7 @@ where
         }
         let new_v_norm2 = norm2_squared(&self.force);
         if !new_v_norm2.is_finite() {
-            return Err(StepFailure::NonFiniteVelocity {
-                norm2: new_v_norm2,
-            });
+            return Err(StepFailure::NonFiniteVelocity { norm2: new_v_norm2 });
         }
         r.copy_from_slice(&self.x);
         v.copy_from_slice(&self.force);

@@ -170,14 +170,21 @@ fn run_level(
     let mut recorder = Recorder::every(steps).with_mu();
     let (mut r, mut v) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let start = Instant::now();
-    let outcome = run_path(&mut stepper, &mut r, &mut v, grid, &mut source, &mut recorder);
+    let outcome = run_path(
+        &mut stepper,
+        &mut r,
+        &mut v,
+        grid,
+        &mut source,
+        &mut recorder,
+    );
     let seconds = start.elapsed().as_secs_f64();
     match outcome {
         Ok(d) => {
             let mu = recorder.multiplier(recorder.len() - 1).to_vec();
             (Some([r, v, mu]), seconds, d)
         }
-        Err(failure) => (None, seconds, failure.diagnostics),
+        Err(failure) => (None, seconds, *failure.diagnostics),
     }
 }
 

@@ -1,1 +1,95 @@
-fn main(){}
+//! Developer tasks: `cargo xtask <task> [options]` (the alias is in `.cargo/config.toml`).
+//!
+//! - `bench`: speed benchmarks of the stepper and a summary in `target/bench/summary.json`.
+
+mod bench;
+
+use std::fmt;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+const USAGE: &str = "\
+usage: cargo xtask <task> [options]
+
+tasks:
+  bench [--quick] [-- <criterion options>]
+        run `cargo bench -p sdae-scheme --bench step` and write target/bench/summary.json
+        (--quick: short warm-up and measurement times)
+  help  print this message";
+
+/// Why a task stopped.
+#[derive(Debug)]
+pub enum TaskError {
+    /// The command line was wrong (exit code 2).
+    Usage(String),
+    /// The task ran and failed (exit code 1).
+    Failed(String),
+}
+
+impl fmt::Display for TaskError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TaskError::Usage(message) | TaskError::Failed(message) => f.write_str(message),
+        }
+    }
+}
+
+impl std::error::Error for TaskError {}
+
+/// The workspace root: the parent of this crate's directory.
+pub fn workspace_root() -> Result<PathBuf, TaskError> {
+    let manifest_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir.parent().map(PathBuf::from).ok_or_else(|| {
+        TaskError::Failed(format!(
+            "cannot find the workspace root: {} has no parent directory",
+            manifest_dir.display()
+        ))
+    })
+}
+
+/// Cargo's target directory: `$CARGO_TARGET_DIR` (relative to the current directory, as cargo
+/// reads it) or `<workspace root>/target`.
+pub fn target_dir() -> Result<PathBuf, TaskError> {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(dir) if !dir.is_empty() => {
+            let dir = PathBuf::from(dir);
+            if dir.is_absolute() {
+                Ok(dir)
+            } else {
+                std::env::current_dir()
+                    .map(|cwd| cwd.join(dir))
+                    .map_err(|e| {
+                        TaskError::Failed(format!("cannot read the current directory: {e}"))
+                    })
+            }
+        }
+        _ => Ok(workspace_root()?.join("target")),
+    }
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some((task, rest)) = args.split_first() else {
+        eprintln!("{USAGE}");
+        return ExitCode::from(2);
+    };
+    let result = match task.as_str() {
+        "bench" => bench::run(rest),
+        "help" | "-h" | "--help" => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        other => Err(TaskError::Usage(format!("unknown task `{other}`"))),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(TaskError::Usage(message)) => {
+            eprintln!("error: {message}\n\n{USAGE}");
+            ExitCode::from(2)
+        }
+        Err(TaskError::Failed(message)) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}

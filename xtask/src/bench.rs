@@ -1,0 +1,258 @@
+//! `cargo xtask bench`: runs the criterion benchmarks of `sdae-scheme` (benches/step.rs) and
+//! summarizes them in `target/bench/summary.json`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::SystemTime;
+
+use serde_json::{Map, Value, json};
+
+use crate::{TaskError, target_dir, workspace_root};
+
+/// Bead counts of the `chain_step` group (as in crates/sdae-scheme/benches/step.rs).
+const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
+
+/// Criterion options of `--quick`.
+const QUICK_OPTIONS: [&str; 4] = ["--warm-up-time", "0.5", "--measurement-time", "1"];
+
+/// What `cargo xtask bench` was asked to do.
+#[derive(Debug, Default)]
+struct Options {
+    quick: bool,
+    criterion: Vec<String>,
+}
+
+fn parse(args: &[String]) -> Result<Options, TaskError> {
+    let mut options = Options::default();
+    let mut iter = args.iter();
+    while let Some(arg) = iter.next() {
+        match arg.as_str() {
+            "--quick" => options.quick = true,
+            "--" => {
+                options.criterion.extend(iter.by_ref().cloned());
+            }
+            other => {
+                return Err(TaskError::Usage(format!(
+                    "unknown option `{other}` for `bench` (criterion options go after `--`)"
+                )));
+            }
+        }
+    }
+    Ok(options)
+}
+
+/// Runs the benchmarks, then writes and prints the summary.
+pub fn run(args: &[String]) -> Result<(), TaskError> {
+    let options = parse(args)?;
+    let root = workspace_root()?;
+    let target = target_dir()?;
+    let criterion_home = match std::env::var_os("CRITERION_HOME") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => target.join("criterion"),
+    };
+
+    let mut criterion_args: Vec<String> = Vec::new();
+    if options.quick {
+        criterion_args.extend(QUICK_OPTIONS.iter().map(|s| s.to_string()));
+    }
+    criterion_args.extend(options.criterion.iter().cloned());
+
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut command = Command::new(&cargo);
+    command
+        .current_dir(&root)
+        .args(["bench", "-p", "sdae-scheme", "--bench", "step"])
+        .env("CARGO_TARGET_DIR", &target)
+        .env("CRITERION_HOME", &criterion_home);
+    if !criterion_args.is_empty() {
+        command.arg("--").args(&criterion_args);
+    }
+    eprintln!(
+        "running: {} bench -p sdae-scheme --bench step{}",
+        Path::new(&cargo).display(),
+        if criterion_args.is_empty() {
+            String::new()
+        } else {
+            format!(" -- {}", criterion_args.join(" "))
+        }
+    );
+    // Results older than this were not written by this run.
+    let started = SystemTime::now();
+    let status = command.status().map_err(|e| {
+        TaskError::Failed(format!(
+            "cannot start `{}`: {e}",
+            Path::new(&cargo).display()
+        ))
+    })?;
+    if !status.success() {
+        return Err(TaskError::Failed(format!(
+            "`cargo bench -p sdae-scheme --bench step` failed ({status})"
+        )));
+    }
+
+    let pendulum = read_mean_ns(&criterion_home, "pendulum_step", None, started)?;
+    let mut per_step = Vec::new();
+    for beads in CHAIN_SIZES {
+        let ns = read_mean_ns(
+            &criterion_home,
+            "chain_step",
+            Some(&beads.to_string()),
+            started,
+        )?;
+        per_step.push((beads, ns));
+    }
+
+    let mut per_bead = Map::new();
+    let mut chain_step = Map::new();
+    for &(beads, ns) in &per_step {
+        per_bead.insert(beads.to_string(), json!(ns / beads as f64));
+        chain_step.insert(beads.to_string(), json!(ns));
+    }
+    let summary = json!({
+        "pendulum_step_ns": pendulum,
+        "chain_step_ns_per_bead": per_bead,
+        "chain_step_ns": chain_step,
+        "quick": options.quick,
+        "criterion_args": criterion_args,
+        "machine": machine(),
+    });
+
+    let out_dir = target.join("bench");
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| TaskError::Failed(format!("cannot create {}: {e}", out_dir.display())))?;
+    let out = out_dir.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary)
+        .map_err(|e| TaskError::Failed(format!("cannot serialize the summary: {e}")))?;
+    std::fs::write(&out, text + "\n")
+        .map_err(|e| TaskError::Failed(format!("cannot write {}: {e}", out.display())))?;
+
+    println!();
+    println!(
+        "{:<20} {:>14} {:>16}",
+        "benchmark", "ns/step", "ns/bead/step"
+    );
+    println!("{:<20} {:>14.1} {:>16}", "pendulum_step", pendulum, "");
+    for &(beads, ns) in &per_step {
+        let name = format!("chain_step/{beads}");
+        println!("{name:<20} {ns:>14.1} {:>16.2}", ns / beads as f64);
+    }
+    println!("\nsummary written to {}", out.display());
+    Ok(())
+}
+
+/// The mean time in ns of benchmark `group[/id]` from criterion's
+/// `<criterion home>/<group>[/<id>]/new/estimates.json`, which must be newer than `started`.
+fn read_mean_ns(
+    criterion_home: &Path,
+    group: &str,
+    id: Option<&str>,
+    started: SystemTime,
+) -> Result<f64, TaskError> {
+    let mut path = criterion_home.join(group);
+    if let Some(id) = id {
+        path.push(id);
+    }
+    path.push("new");
+    path.push("estimates.json");
+    let name = match id {
+        Some(id) => format!("{group}/{id}"),
+        None => group.to_string(),
+    };
+    let fail = |what: String| {
+        TaskError::Failed(format!("benchmark `{name}`: {what} ({})", path.display()))
+    };
+    let modified = std::fs::metadata(&path)
+        .and_then(|m| m.modified())
+        .map_err(|e| fail(format!("cannot read criterion's estimates: {e}")))?;
+    if modified < started {
+        return Err(fail(
+            "criterion's estimates are older than this run (was the benchmark filtered out?)"
+                .into(),
+        ));
+    }
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| fail(format!("cannot read criterion's estimates: {e}")))?;
+    let value: Value = serde_json::from_str(&text)
+        .map_err(|e| fail(format!("criterion's estimates are not valid JSON: {e}")))?;
+    let mean = value
+        .get("mean")
+        .and_then(|m| m.get("point_estimate"))
+        .and_then(Value::as_f64)
+        .ok_or_else(|| fail("no number at mean.point_estimate".into()))?;
+    if !(mean.is_finite() && mean > 0.0) {
+        return Err(fail(format!("mean {mean} ns is not a positive number")));
+    }
+    Ok(mean)
+}
+
+/// Cores, CPU model and compiler of this machine.
+fn machine() -> Value {
+    let cpus = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines()
+                .find(|line| line.starts_with("model name"))
+                .and_then(|line| line.split_once(':'))
+                .map(|(_, model)| model.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into());
+    let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let rustc_version = Command::new(rustc)
+        .arg("--version")
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into());
+    json!({ "cpus": cpus, "model": model, "rustc": rustc_version })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(list: &[&str]) -> Vec<String> {
+        list.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn parses_quick_and_passthrough() {
+        let options = parse(&args(&["--quick", "--", "--sample-size", "10"])).unwrap();
+        assert!(options.quick);
+        assert_eq!(options.criterion, args(&["--sample-size", "10"]));
+    }
+
+    #[test]
+    fn rejects_unknown_options() {
+        assert!(matches!(
+            parse(&args(&["--fast"])),
+            Err(TaskError::Usage(_))
+        ));
+    }
+
+    #[test]
+    fn missing_estimates_are_an_error() {
+        let dir = std::env::temp_dir().join("xtask-bench-test-missing");
+        let error = read_mean_ns(&dir, "nothing", Some("1"), SystemTime::UNIX_EPOCH).unwrap_err();
+        assert!(error.to_string().contains("nothing/1"), "{error}");
+    }
+
+    #[test]
+    fn reads_the_mean_and_rejects_bad_json() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-test-{}", std::process::id()));
+        let new = dir.join("g").join("7").join("new");
+        std::fs::create_dir_all(&new).unwrap();
+        let file = new.join("estimates.json");
+        std::fs::write(&file, r#"{"mean": {"point_estimate": 12.5}}"#).unwrap();
+        let mean = read_mean_ns(&dir, "g", Some("7"), SystemTime::UNIX_EPOCH).unwrap();
+        assert_eq!(mean, 12.5);
+        std::fs::write(&file, r#"{"mean": {}}"#).unwrap();
+        assert!(read_mean_ns(&dir, "g", Some("7"), SystemTime::UNIX_EPOCH).is_err());
+        std::fs::write(&file, "not json").unwrap();
+        assert!(read_mean_ns(&dir, "g", Some("7"), SystemTime::UNIX_EPOCH).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,8 +1,10 @@
 //! Developer tasks: `cargo xtask <task> [options]` (the alias is in `.cargo/config.toml`).
 //!
+//! - `study`: the convergence study (the project's main job), results in `target/study/`.
 //! - `bench`: speed benchmarks of the stepper and a summary in `target/bench/summary.json`.
 
 mod bench;
+mod study;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -12,6 +14,10 @@ const USAGE: &str = "\
 usage: cargo xtask <task> [options]
 
 tasks:
+  study [options]
+        the convergence study of the stochastic pendulum, built in release mode; writes
+        target/study/pendulum.json and .csv (`cargo xtask study --help` lists the options,
+        --quick runs in seconds)
   bench [--quick] [-- <criterion options>]
         run `cargo bench -p sdae-scheme --bench step` and write target/bench/summary.json
         (--quick: short warm-up and measurement times)
@@ -74,6 +80,7 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     };
     let result = match task.as_str() {
+        "study" => study::run(rest),
         "bench" => bench::run(rest),
         "help" | "-h" | "--help" => {
             println!("{USAGE}");

@@ -73,7 +73,7 @@ impl Factorize for ScalarGram {
 #[derive(Debug, Clone)]
 pub struct TridiagonalFactor {
     pivoted: bool,
-    /// Multipliers l_i.
+    /// Multipliers (Thomas: l_i / pivot_{i+1}).
     lower: Vec<f64>,
     /// Pivots (Thomas: their inverses).
     diag: Vec<f64>,
@@ -118,7 +118,8 @@ impl TridiagonalFactor {
             let inv = 1.0 / pivot;
             self.diag[i] = inv;
             if i > 0 {
-                self.lower[i - 1] = l;
+                // Scaled so that the forward solve has one multiply-subtract on its critical path.
+                self.lower[i - 1] = l * inv;
             }
             if i + 1 < m {
                 previous_upper = u * inv;
@@ -183,7 +184,7 @@ impl Solve for TridiagonalFactor {
         if !self.pivoted {
             b[0] *= self.diag[0];
             for i in 1..m {
-                b[i] = (b[i] - self.lower[i - 1] * b[i - 1]) * self.diag[i];
+                b[i] = b[i] * self.diag[i] - self.lower[i - 1] * b[i - 1];
             }
             for i in (0..m.saturating_sub(1)).rev() {
                 b[i] -= self.upper[i] * b[i + 1];

@@ -20,4 +20,9 @@ pub trait BallProblem {
         residual: &mut [f64],
         jacobian: Option<&mut Self::Matrix>,
     );
+    /// The size of max |R(gamma)| that rounding alone produces near the root; the solver does
+    /// not ask for a smaller residual. 0 if unknown.
+    fn residual_floor(&self) -> f64 {
+        0.0
+    }
 }

@@ -5,6 +5,7 @@
 use crate::error::IftError;
 use crate::linear::{Factorize, Solve};
 use crate::problem::BallProblem;
+use sdae_manifold::vector::{max_abs as norm_max, norm2};
 
 /// How the root was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -89,15 +90,9 @@ pub struct BallSolver<A: Factorize> {
     factor_at_zero: A::Factor,
     /// Whether `factor` (rather than `factor_at_zero`) holds the Jacobian at the root.
     root_in_factor: bool,
+    /// The tolerance of the current solve: the settings' or the problem's residual floor.
+    tolerance: f64,
     history: Vec<f64>,
-}
-
-fn norm2(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
-}
-
-fn norm_max(x: &[f64]) -> f64 {
-    x.iter().fold(0.0, |s, v| f64::max(s, v.abs()))
 }
 
 #[derive(Clone, Copy)]
@@ -121,6 +116,7 @@ impl<A: Factorize> BallSolver<A> {
             factor_at_zero: template.new_factor(),
             matrix: template,
             root_in_factor: false,
+            tolerance: settings.tolerance,
             history: Vec::with_capacity(settings.max_iterations + 1),
         }
     }
@@ -146,6 +142,7 @@ impl<A: Factorize> BallSolver<A> {
     }
 
     /// Finds the root of `problem` in the ball |gamma| < `radius`, starting Newton from 0.
+    /// On success the problem's last evaluation was at the root.
     pub fn solve<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,
@@ -195,15 +192,26 @@ impl<A: Factorize> BallSolver<A> {
         self.step.copy_from_slice(&self.residual_at_zero);
         self.factor_at_zero.solve_in_place(&mut self.step);
         let first_step = norm2(&self.step);
+        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
 
         self.history.clear();
-        let newton = self.newton(
-            problem,
-            1.0,
-            self.settings.max_iterations,
-            0.0,
-            start_is_zero,
-        );
+        let newton = if start_is_zero {
+            // Iteration 0 is gamma = 0 with R(0), J(0) and its Newton step already at hand.
+            let r0 = norm_max(&self.residual_at_zero);
+            self.history.push(r0);
+            self.root_in_factor = false;
+            if r0 <= self.tolerance {
+                Corrector::Converged(0)
+            } else {
+                for (g, s) in self.gamma.iter_mut().zip(&self.step) {
+                    *g -= s;
+                }
+                self.newton(problem, 1.0, self.settings.max_iterations, 0.0, 1, r0)
+            }
+        } else {
+            let max = self.settings.max_iterations;
+            self.newton(problem, 1.0, max, 0.0, 0, f64::INFINITY)
+        };
         let newton_outcome = match newton {
             Corrector::Converged(k) => self.accept(radius, first_step, k, 0, Method::Newton),
             Corrector::Failed(k) => Err(self.no_convergence(k)),
@@ -281,35 +289,30 @@ impl<A: Factorize> BallSolver<A> {
         }
     }
 
-    /// Newton on F(tau, gamma) = R(gamma) + (tau - 1) R(0) from `self.gamma`, at most
-    /// `max_iterations` steps to `tolerance` (0 means the solver's tolerance). At tau = 1 this is
-    /// plain Newton on R. With `at_zero`, gamma = 0 and the first iteration reuses R(0) and the
-    /// factored J(0). On success the factored Jacobian at the root is in `root_factor`.
+    /// Newton on F(tau, gamma) = R(gamma) + (tau - 1) R(0) from `self.gamma`, iterations
+    /// `first..=max_iterations` to `tolerance` (0 means the solver's effective tolerance). At
+    /// tau = 1 this is plain Newton on R. On success the factored Jacobian at the root is in
+    /// `root_factor` and the problem's last evaluation was at the root.
     fn newton<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,
         tau: f64,
         max_iterations: usize,
         tolerance: f64,
-        at_zero: bool,
+        first: usize,
+        mut previous_residual: f64,
     ) -> Corrector {
         let tolerance = if tolerance > 0.0 {
             tolerance
         } else {
-            self.settings.tolerance
+            self.tolerance
         };
         let mut previous_step = f64::INFINITY;
-        let mut previous_residual = f64::INFINITY;
-        for k in 0..=max_iterations {
-            let reuse_zero = at_zero && k == 0;
-            if reuse_zero {
-                self.residual.copy_from_slice(&self.residual_at_zero);
-            } else {
-                problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
-                if tau != 1.0 {
-                    for (r, r0) in self.residual.iter_mut().zip(&self.residual_at_zero) {
-                        *r += (tau - 1.0) * r0;
-                    }
+        for k in first..=max_iterations {
+            problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
+            if tau != 1.0 {
+                for (r, r0) in self.residual.iter_mut().zip(&self.residual_at_zero) {
+                    *r += (tau - 1.0) * r0;
                 }
             }
             let r = norm_max(&self.residual);
@@ -317,10 +320,10 @@ impl<A: Factorize> BallSolver<A> {
             if !r.is_finite() {
                 return Corrector::Failed(k);
             }
-            if !reuse_zero && self.matrix.factor_into(&mut self.factor).is_err() {
+            if self.matrix.factor_into(&mut self.factor).is_err() {
                 return Corrector::Failed(k);
             }
-            self.root_in_factor = !reuse_zero;
+            self.root_in_factor = true;
             if r <= tolerance {
                 return Corrector::Converged(k);
             }
@@ -334,11 +337,7 @@ impl<A: Factorize> BallSolver<A> {
             }
             previous_residual = r;
             self.step.copy_from_slice(&self.residual);
-            if reuse_zero {
-                self.factor_at_zero.solve_in_place(&mut self.step);
-            } else {
-                self.factor.solve_in_place(&mut self.step);
-            }
+            self.factor.solve_in_place(&mut self.step);
             let step = norm2(&self.step);
             // A corrector that stops contracting will not converge: fail fast.
             if tau != 1.0 && step > 0.5 * previous_step {
@@ -380,7 +379,7 @@ impl<A: Factorize> BallSolver<A> {
             } else {
                 (8, 1e-9)
             };
-            match self.newton(problem, next, max_it, tol, false) {
+            match self.newton(problem, next, max_it, tol, 0, f64::INFINITY) {
                 Corrector::Converged(k) => {
                     iterations += k;
                     accepted += 1;

@@ -1,6 +1,8 @@
 //! The inextensible bead chain of seed Section 5.3: K beads in R^3, K - 1 segment constraints.
 
-use crate::constraint::{Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing};
+use crate::constraint::{
+    Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing, displace_in_passes,
+};
 use crate::error::{ManifoldError, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::mass::Mass;
@@ -75,13 +77,28 @@ impl BeadChain {
         x
     }
 
-    /// The direct O(K) assembly for a diagonal mass; `w(k)` is (M^-1)_{kk}.
+    /// Calls `f(j, (grad g(x) z)_j)` for every bead j, where (grad g(x) z)_j =
+    /// (z_j d_j - z_{j-1} d_{j-1}) / ds^2 (terms with j-1 < 0 or j > K-2 are absent).
+    #[inline(always)]
+    fn for_each_bead_force(&self, x: &[f64], z: &[f64], mut f: impl FnMut(usize, [f64; 3])) {
+        let mut previous = [0.0; 3];
+        for (i, zi) in z.iter().enumerate().take(self.beads - 1) {
+            let current = segment(x, i).map(|c| c * zi * self.inv_ds2);
+            f(i, [0, 1, 2].map(|c| current[c] - previous[c]));
+            previous = current;
+        }
+        f(self.beads - 1, previous.map(|c| -c));
+    }
+
+    /// The direct O(K) assembly of Dg(x1) M^-1 grad g(x2) for a diagonal mass (`w(k)` is
+    /// (M^-1)_{kk}), and g(x1) in the same pass when `value` is given.
     #[inline(always)]
     fn cross_gram_diagonal(
         &self,
         x1: &[f64],
         x2: &[f64],
         w: impl Fn(usize) -> f64,
+        mut value: Option<&mut [f64]>,
         out: &mut TridiagonalGram,
     ) {
         let s = self.inv_ds2 * self.inv_ds2;
@@ -95,6 +112,9 @@ impl BeadChain {
         let mut f_next = segment(x2, 0);
         for i in 0..m {
             let (e, f) = (e_next, f_next);
+            if let Some(g) = value.as_deref_mut() {
+                g[i] = 0.5 - 0.5 * dot3(e, e) * self.inv_ds2;
+            }
             out.diag[i] = (weighted(e, i, f) + weighted(e, i + 1, f)) * s;
             if i + 1 < m {
                 e_next = segment(x1, i + 1);
@@ -128,19 +148,9 @@ impl Constraint for BeadChain {
     }
     /// (grad g(x) z)_j = (z_j d_j - z_{j-1} d_{j-1}) / ds^2.
     fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
-        let m = self.beads - 1;
-        let mut previous = [0.0; 3];
-        for j in 0..self.beads {
-            let current = if j < m {
-                segment(x, j).map(|c| c * z[j] * self.inv_ds2)
-            } else {
-                [0.0; 3]
-            };
-            for c in 0..3 {
-                out[3 * j + c] = current[c] - previous[c];
-            }
-            previous = current;
-        }
+        self.for_each_bead_force(x, z, |j, force| {
+            out[3 * j..3 * j + 3].copy_from_slice(&force)
+        });
     }
     fn new_gram(&self) -> TridiagonalGram {
         TridiagonalGram::zeros(self.beads - 1)
@@ -159,11 +169,55 @@ impl Constraint for BeadChain {
                 x1,
                 x2,
                 |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0),
+                None,
                 out,
             );
         } else {
             assemble_tridiagonal_by_probing(self, x1, x2, mass, scratch, out);
         }
+    }
+
+    /// One pass for diagonal masses: out_j = y_j + w_j (z_j d_j - z_{j-1} d_{j-1}) / ds^2.
+    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
+        if mass.inverse_diagonal_entry(0).is_none() {
+            return displace_in_passes(self, r, z, mass, y, out);
+        }
+        self.for_each_bead_force(r, z, |j, force| {
+            for (c, f) in force.iter().enumerate() {
+                let k = 3 * j + c;
+                out[k] = y[k] + mass.inverse_diagonal_entry(k).unwrap_or(0.0) * f;
+            }
+        });
+    }
+
+    /// One pass for diagonal masses: g_i(x) and the three diagonals share the segments of x.
+    fn value_and_cross_gram<M: Mass>(
+        &self,
+        x: &[f64],
+        r: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        value: &mut [f64],
+        gram: &mut TridiagonalGram,
+    ) {
+        if mass.inverse_diagonal_entry(0).is_none() {
+            self.value(x, value);
+            self.cross_gram(x, r, mass, scratch, gram);
+            return;
+        }
+        self.cross_gram_diagonal(
+            x,
+            r,
+            |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0),
+            Some(value),
+            gram,
+        );
+    }
+
+    /// Rounding of g_i = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2): the differences carry an error of a
+    /// few ulps of |x|, relative to ds.
+    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
+        4.0 * f64::EPSILON * max_abs_x / self.segment
     }
 }
 

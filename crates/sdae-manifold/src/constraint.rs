@@ -32,6 +32,37 @@ pub trait Constraint {
         scratch: &mut [f64],
         out: &mut Self::Gram,
     );
+
+    /// out = y + M^-1 grad g(r) z: the position of the kappa system (seed eq. 3.1, upper part)
+    /// and the velocity update of the lambda system (lower part). Overridden by constraints
+    /// that can do it in one pass.
+    #[inline]
+    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
+        displace_in_passes(self, r, z, mass, y, out);
+    }
+
+    /// value = g(x) and gram = Dg(x) M^-1 grad g(r): one Newton evaluation of the kappa system.
+    /// Overridden by constraints that share work between the two.
+    #[inline]
+    fn value_and_cross_gram<M: Mass>(
+        &self,
+        x: &[f64],
+        r: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        value: &mut [f64],
+        gram: &mut Self::Gram,
+    ) {
+        self.value(x, value);
+        self.cross_gram(x, r, mass, scratch, gram);
+    }
+
+    /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
+    /// (the floor below which Newton cannot push the residual); 0 if unknown.
+    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
+        let _ = max_abs_x;
+        0.0
+    }
 }
 
 /// Second derivative D^2 g(x)(u, w), asked only by solvers of the inherent SDE (seed eq. 2.3, 2.4).
@@ -45,6 +76,23 @@ pub trait TheoryBound: Constraint {
     /// An upper bound on C_g for this constraint with this mass matrix (limit epsilon -> 0 of
     /// eq. 2.2, always >= 1), or `None` if no bound is known.
     fn c_g<M: Mass>(&self, mass: &M) -> Option<f64>;
+}
+
+/// out = y + M^-1 grad g(r) z in three passes: the product, the mass solve, the sum.
+#[inline]
+pub fn displace_in_passes<C: Constraint + ?Sized, M: Mass>(
+    constraint: &C,
+    r: &[f64],
+    z: &[f64],
+    mass: &M,
+    y: &[f64],
+    out: &mut [f64],
+) {
+    constraint.jacobian_transpose_mul(r, z, out);
+    mass.apply_inverse(out);
+    for (o, yi) in out.iter_mut().zip(y) {
+        *o += yi;
+    }
 }
 
 /// Length of the scratch buffer that [`Constraint::cross_gram`] may use.

@@ -28,6 +28,7 @@ mod gram;
 mod mass;
 mod sphere;
 mod state;
+pub mod vector;
 
 pub use chain::BeadChain;
 pub use closure::{ClosureConstraint, NoCurvature};

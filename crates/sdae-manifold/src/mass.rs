@@ -68,7 +68,7 @@ impl Mass for IdentityMass {
     }
     #[inline(always)]
     fn inverse_inner(&self, a: &[f64], b: &[f64], _scratch: &mut [f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
+        crate::vector::dot(a, b)
     }
 }
 

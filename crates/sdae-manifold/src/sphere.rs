@@ -4,6 +4,7 @@ use crate::constraint::{Constraint, Curvature, TheoryBound};
 use crate::error::{ManifoldError, check_positive};
 use crate::gram::ScalarGram;
 use crate::mass::Mass;
+use crate::vector::dot;
 
 /// g(x) = (1 - |x|^2 / rho^2) / 2, one constraint (seed Section 5.1 with rho = 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,11 +47,6 @@ impl Sphere {
     }
 }
 
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 impl Constraint for Sphere {
     type Gram = ScalarGram;
     fn dim(&self) -> usize {
@@ -90,6 +86,16 @@ impl Constraint for Sphere {
         out: &mut ScalarGram,
     ) {
         out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
+    }
+    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
+        self.roundoff(max_abs_x)
+    }
+}
+
+impl Sphere {
+    /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
+    fn roundoff(&self, max_abs_x: f64) -> f64 {
+        4.0 * f64::EPSILON * (self.dim as f64) * max_abs_x * max_abs_x * self.inv_r2
     }
 }
 

@@ -1,6 +1,7 @@
 //! One step of the half-explicit drift-truncated Euler scheme (seed eq. 3.1, 3.2).
 
 use sdae_ift::{BallProblem, BallSolver, Certificate, Factorize, Method, Solve};
+use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, Mass, scratch_len};
 
 use crate::config::StepperConfig;
@@ -29,6 +30,7 @@ impl StepReport {
 
 /// The kappa system R(gamma) = g(y + M^-1 grad g(r) gamma), y = r + eta v h, with Jacobian
 /// Dg(x) M^-1 grad g(r) at x = y + M^-1 grad g(r) gamma (seed eq. 3.1 upper part, eq. 3.10).
+/// After a successful solve, `x` holds r' (the solver's last evaluation is at the root).
 struct KappaProblem<'a, C, M> {
     constraint: &'a C,
     mass: &'a M,
@@ -36,31 +38,7 @@ struct KappaProblem<'a, C, M> {
     y: &'a [f64],
     x: &'a mut [f64],
     scratch: &'a mut [f64],
-}
-
-impl<C: Constraint, M: Mass> KappaProblem<'_, C, M> {
-    /// x = y + M^-1 grad g(r) gamma.
-    #[inline]
-    fn position(&mut self, gamma: &[f64]) {
-        position(self.constraint, self.mass, self.r, self.y, gamma, self.x);
-    }
-}
-
-/// x = y + M^-1 grad g(r) gamma.
-#[inline]
-fn position<C: Constraint, M: Mass>(
-    constraint: &C,
-    mass: &M,
-    r: &[f64],
-    y: &[f64],
-    gamma: &[f64],
-    x: &mut [f64],
-) {
-    constraint.jacobian_transpose_mul(r, gamma, x);
-    mass.apply_inverse(x);
-    for (xi, yi) in x.iter_mut().zip(y) {
-        *xi += yi;
-    }
+    floor: f64,
 }
 
 impl<C, M> BallProblem for KappaProblem<'_, C, M>
@@ -78,12 +56,19 @@ where
     }
     #[inline]
     fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
-        self.position(gamma);
-        self.constraint.value(self.x, residual);
-        if let Some(j) = jacobian {
-            self.constraint
-                .cross_gram(self.x, self.r, self.mass, self.scratch, j);
+        let c = self.constraint;
+        if gamma.iter().all(|&g| g == 0.0) {
+            self.x.copy_from_slice(self.y);
+        } else {
+            c.displace(self.r, gamma, self.mass, self.y, self.x);
         }
+        match jacobian {
+            Some(j) => c.value_and_cross_gram(self.x, self.r, self.mass, self.scratch, residual, j),
+            None => c.value(self.x, residual),
+        }
+    }
+    fn residual_floor(&self) -> f64 {
+        self.floor
     }
 }
 
@@ -101,11 +86,9 @@ where
     x: Vec<f64>,
     force: Vec<f64>,
     lambda: Vec<f64>,
+    /// Dg(r') v' when monitored.
+    tangency: Vec<f64>,
     scratch: Vec<f64>,
-}
-
-fn norm2_squared(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum()
 }
 
 impl<S: System> Stepper<S>
@@ -133,6 +116,7 @@ where
             x: vec![0.0; n],
             force: vec![0.0; n],
             lambda: vec![0.0; m],
+            tangency: vec![0.0; m],
             scratch: vec![0.0; scratch_len(n, m)],
             system,
             config,
@@ -230,8 +214,10 @@ where
         }
         let eta = self.eta(v_norm2.sqrt(), a_norm2.sqrt(), h);
         let eta_h = eta * h;
+        let mut max_abs_y: f64 = 0.0;
         for ((yi, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
             *yi = ri + eta_h * vi;
+            max_abs_y = max_abs_y.max(yi.abs());
         }
 
         let certificate = {
@@ -242,18 +228,10 @@ where
                 y: &self.y,
                 x: &mut self.x,
                 scratch: &mut self.scratch,
+                floor: constraint.value_roundoff(max_abs_y),
             };
             self.solver.solve(&mut problem, self.config.c_kappa)?
         };
-        // r' from the accepted root (the last evaluation may have been elsewhere).
-        position(
-            constraint,
-            mass,
-            r,
-            &self.y,
-            self.solver.root(),
-            &mut self.x,
-        );
 
         // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
         // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
@@ -270,23 +248,17 @@ where
             *l = -*l;
         }
         self.solver.root_factor().solve_in_place(&mut self.lambda);
-        // v' = v~ + M^-1 grad g(r) lambda (drift buffer reused as scratch).
-        constraint.jacobian_transpose_mul(r, &self.lambda, &mut self.drift);
-        mass.apply_inverse(&mut self.drift);
-        for (f, d) in self.force.iter_mut().zip(&self.drift) {
-            *f += d;
-        }
-        let new_v_norm2 = norm2_squared(&self.force);
+        // v' = v~ + M^-1 grad g(r) lambda, into the drift buffer (a is no longer needed).
+        constraint.displace(r, &self.lambda, mass, &self.force, &mut self.drift);
+        let new_v_norm2 = norm2_squared(&self.drift);
         if !new_v_norm2.is_finite() {
             return Err(StepFailure::NonFiniteVelocity { norm2: new_v_norm2 });
         }
         r.copy_from_slice(&self.x);
-        v.copy_from_slice(&self.force);
+        v.copy_from_slice(&self.drift);
         let velocity_residual = if self.config.monitor_velocity_constraint {
-            constraint.jacobian_mul(r, v, &mut self.drift[..self.lambda.len()]);
-            self.drift[..self.lambda.len()]
-                .iter()
-                .fold(0.0, |s: f64, x| s.max(x.abs()))
+            constraint.jacobian_mul(r, v, &mut self.tangency);
+            max_abs(&self.tangency)
         } else {
             f64::NAN
         };

@@ -13,7 +13,7 @@ pendulum (seed Section 5.1), against a fine-step reference on the same Brownian 
 Options:
   --paths N        Monte Carlo paths (default 10000)
   --levels A..B    step counts N = 2^A .. 2^B (default 3..10)
-  --ref-level R    reference with 2^R steps (default 16)
+  --ref-level R    reference with 2^R steps (default 15)
   --T T            final time (default 1)
   --c-eta C        truncation constant C_eta (default 0.25, the theory value)
   --seed S         seed of the path streams (default 2026)

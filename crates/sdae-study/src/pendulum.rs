@@ -66,7 +66,7 @@ impl Default for PendulumStudy {
             paths: 10_000,
             coarsest: 3,
             finest: 10,
-            reference: 16,
+            reference: 15,
             t_end: 1.0,
             c_eta: 0.25,
             seed: 2026,

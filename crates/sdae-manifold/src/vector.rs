@@ -1,0 +1,93 @@
+//! Reductions over slices with four independent accumulators, so that the compiler can
+//! vectorize them (a single running float sum is a chain of dependent additions).
+
+const LANES: usize = 4;
+
+/// a . b over the common length.
+#[inline]
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; LANES];
+    let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in ca.zip(cb) {
+        for k in 0..LANES {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// |x|^2.
+#[inline]
+pub fn norm2_squared(x: &[f64]) -> f64 {
+    dot(x, x)
+}
+
+/// |x| (Euclidean).
+#[inline]
+pub fn norm2(x: &[f64]) -> f64 {
+    dot(x, x).sqrt()
+}
+
+/// max_i |x_i|; NaN if an entry is NaN, infinite if an entry is infinite.
+#[inline]
+pub fn max_abs(x: &[f64]) -> f64 {
+    let mut acc = [0.0_f64; LANES];
+    let mut sum = [0.0_f64; LANES];
+    let chunks = x.chunks_exact(LANES);
+    let mut tail_max = 0.0_f64;
+    let mut tail_sum = 0.0;
+    for v in chunks.remainder() {
+        tail_max = tail_max.max(v.abs());
+        tail_sum += v;
+    }
+    for c in chunks {
+        for k in 0..LANES {
+            acc[k] = acc[k].max(c[k].abs());
+            sum[k] += c[k];
+        }
+    }
+    // f64::max drops NaN; the plain sum keeps it (and any infinity).
+    let total = (sum[0] + sum[1]) + (sum[2] + sum[3]) + tail_sum;
+    if total.is_nan() {
+        return f64::NAN;
+    }
+    let m = acc.iter().fold(tail_max, |s, v| s.max(*v));
+    if total.is_infinite() && m.is_finite() {
+        f64::INFINITY
+    } else {
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reductions_match_plain_loops() {
+        for n in [0, 1, 2, 3, 4, 5, 7, 8, 13, 100] {
+            let x: Vec<f64> = (0..n).map(|k| ((k * 7 % 11) as f64 - 5.0) * 0.3).collect();
+            let y: Vec<f64> = (0..n).map(|k| (k as f64 * 0.7).cos()).collect();
+            let plain: f64 = x.iter().zip(&y).map(|(a, b)| a * b).sum();
+            assert!((dot(&x, &y) - plain).abs() < 1e-13, "n={n}");
+            let m = x.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+            assert_eq!(max_abs(&x), m, "n={n}");
+        }
+    }
+
+    #[test]
+    fn max_abs_reports_non_finite_entries() {
+        assert!(max_abs(&[1.0, f64::NAN, 2.0]).is_nan());
+        assert!(max_abs(&[1.0, 2.0, 3.0, 4.0, 5.0, f64::NAN]).is_nan());
+        assert_eq!(max_abs(&[1.0, f64::INFINITY, 2.0, 0.0, 1.0]), f64::INFINITY);
+        assert_eq!(max_abs(&[-3.0, 2.0]), 3.0);
+    }
+}

@@ -104,27 +104,50 @@ impl TridiagonalFactor {
     }
 
     /// Thomas' algorithm; `false` if a pivot is negligible relative to its row.
+    ///
+    /// The pivots p_i = d_i - l_{i-1} u_{i-1} / p_{i-1} are computed as ratios s_i / s_{i-1} of
+    /// the leading principal minors, s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2}: the recurrence
+    /// then has a multiply and a subtract on its critical path instead of a division, and the
+    /// divisions overlap. The minors are rescaled by exact powers of two to stay in range.
     fn factor_thomas(&mut self, a: &TridiagonalGram) -> bool {
+        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
+        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
-        let mut previous_upper = 0.0;
+        let (mut s_prev2, mut s_prev) = (0.0, 1.0);
         for i in 0..m {
+            let coupling = if i > 0 {
+                a.lower[i - 1] * a.upper[i - 1]
+            } else {
+                0.0
+            };
+            let mut s_i = a.diag[i] * s_prev - coupling * s_prev2;
+            let magnitude = s_i.abs();
+            if !(SMALL..=BIG).contains(&magnitude) {
+                let scale = if magnitude > BIG { SMALL } else { BIG };
+                if magnitude == 0.0 || !magnitude.is_finite() {
+                    return false;
+                }
+                s_i *= scale;
+                s_prev *= scale;
+            }
+            // 1 / p_i = s_{i-1} / s_i.
+            let inv = s_prev / s_i;
             let l = if i > 0 { a.lower[i - 1] } else { 0.0 };
             let u = if i + 1 < m { a.upper[i] } else { 0.0 };
-            let pivot = a.diag[i] - l * previous_upper;
             let scale = l.abs() + a.diag[i].abs() + u.abs();
-            if pivot.abs() <= 1e-8 * scale || pivot == 0.0 {
+            if !(inv.abs() * 1e-8 * scale < 1.0) {
                 return false;
             }
-            let inv = 1.0 / pivot;
             self.diag[i] = inv;
             if i > 0 {
                 // Scaled so that the forward solve has one multiply-subtract on its critical path.
                 self.lower[i - 1] = l * inv;
             }
             if i + 1 < m {
-                previous_upper = u * inv;
-                self.upper[i] = previous_upper;
+                self.upper[i] = u * inv;
             }
+            s_prev2 = s_prev;
+            s_prev = s_i;
         }
         true
     }

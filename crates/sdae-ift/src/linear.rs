@@ -135,7 +135,8 @@ impl TridiagonalFactor {
             let l = if i > 0 { a.lower[i - 1] } else { 0.0 };
             let u = if i + 1 < m { a.upper[i] } else { 0.0 };
             let scale = l.abs() + a.diag[i].abs() + u.abs();
-            if !(inv.abs() * 1e-8 * scale < 1.0) {
+            // Rejects |p_i| <= 1e-8 x row scale, and a NaN inverse.
+            if inv.is_nan() || inv.abs() * 1e-8 * scale >= 1.0 {
                 return false;
             }
             self.diag[i] = inv;

@@ -3,7 +3,7 @@
 use crate::constraint::{
     Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing, displace_in_passes,
 };
-use crate::error::{ManifoldError, check_positive};
+use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::mass::Mass;
 
@@ -30,13 +30,7 @@ fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
 impl BeadChain {
     /// A chain of `beads` >= 2 beads with segment length `segment` > 0.
     pub fn new(beads: usize, segment: f64) -> Result<Self, ManifoldError> {
-        if beads < 2 {
-            return Err(ManifoldError::InvalidParameter {
-                name: "beads",
-                value: beads as f64,
-                reason: "a chain needs at least 2 beads",
-            });
-        }
+        check_at_least("beads", beads, 2, "a chain needs at least 2 beads")?;
         check_positive("segment", segment)?;
         Ok(Self {
             beads,

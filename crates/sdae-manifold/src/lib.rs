@@ -36,7 +36,7 @@ pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
     scratch_len,
 };
-pub use error::{ManifoldError, check_finite, check_len, check_positive};
+pub use error::{ManifoldError, check_at_least, check_finite, check_len, check_positive};
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use sphere::Sphere;

@@ -1,7 +1,7 @@
 //! The sphere of radius rho in R^d (a circle for d = 2): the pendulum of seed Section 5.1.
 
 use crate::constraint::{Constraint, Curvature, TheoryBound};
-use crate::error::{ManifoldError, check_positive};
+use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::ScalarGram;
 use crate::mass::Mass;
 use crate::vector::dot;
@@ -17,13 +17,7 @@ pub struct Sphere {
 impl Sphere {
     /// The sphere of radius `radius` centred at the origin of R^`dim`, dim >= 2.
     pub fn new(dim: usize, radius: f64) -> Result<Self, ManifoldError> {
-        if dim < 2 {
-            return Err(ManifoldError::InvalidParameter {
-                name: "dim",
-                value: dim as f64,
-                reason: "a sphere needs dimension >= 2",
-            });
-        }
+        check_at_least("dim", dim, 2, "a sphere needs dimension >= 2")?;
         check_positive("radius", radius)?;
         Ok(Self {
             dim,

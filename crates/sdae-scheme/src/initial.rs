@@ -1,46 +1,10 @@
 //! Projecting an initial state onto the tangent bundle, on explicit request.
 
-use sdae_ift::{BallProblem, BallSolver, Factorize, IftError, Solve, SolverSettings};
+use sdae_ift::{BallSolver, Factorize, IftError, Solve, SolverSettings};
 use sdae_manifold::{Constraint, Mass, scratch_len};
 
 use crate::error::SchemeError;
-
-/// Solves g(r + M^-1 grad g(r) gamma) = 0 (the kappa system with y = r).
-struct Projection<'a, C, M> {
-    constraint: &'a C,
-    mass: &'a M,
-    r: &'a [f64],
-    x: &'a mut [f64],
-    scratch: &'a mut [f64],
-}
-
-impl<C, M> BallProblem for Projection<'_, C, M>
-where
-    C: Constraint,
-    C::Gram: Factorize,
-    M: Mass,
-{
-    type Matrix = C::Gram;
-    fn dim(&self) -> usize {
-        self.constraint.n_constraints()
-    }
-    fn new_matrix(&self) -> C::Gram {
-        self.constraint.new_gram()
-    }
-    fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
-        self.constraint
-            .jacobian_transpose_mul(self.r, gamma, self.x);
-        self.mass.apply_inverse(self.x);
-        for (xi, ri) in self.x.iter_mut().zip(self.r) {
-            *xi += ri;
-        }
-        self.constraint.value(self.x, residual);
-        if let Some(j) = jacobian {
-            self.constraint
-                .cross_gram(self.x, self.r, self.mass, self.scratch, j);
-        }
-    }
-}
+use crate::stepper::KappaProblem;
 
 /// Moves r onto the manifold along M^-1 grad g(r) and then v onto the tangent space at the new r
 /// (v <- v - M^-1 grad g(r) G_M(r)^-1 Dg(r) v, the M-orthogonal projection). For states that are
@@ -73,14 +37,18 @@ where
             _ => "projection onto the manifold did not converge",
         },
     };
+    // The kappa system with y = r: g(r + M^-1 grad g(r) gamma) = 0.
+    let y = r.to_vec();
     solver
         .solve(
-            &mut Projection {
+            &mut KappaProblem {
                 constraint,
                 mass,
                 r,
+                y: &y,
                 x: &mut x,
                 scratch: &mut scratch,
+                floor: 0.0,
             },
             f64::INFINITY,
         )

@@ -31,14 +31,15 @@ impl StepReport {
 /// The kappa system R(gamma) = g(y + M^-1 grad g(r) gamma), y = r + eta v h, with Jacobian
 /// Dg(x) M^-1 grad g(r) at x = y + M^-1 grad g(r) gamma (seed eq. 3.1 upper part, eq. 3.10).
 /// After a successful solve, `x` holds r' (the solver's last evaluation is at the root).
-struct KappaProblem<'a, C, M> {
-    constraint: &'a C,
-    mass: &'a M,
-    r: &'a [f64],
-    y: &'a [f64],
-    x: &'a mut [f64],
-    scratch: &'a mut [f64],
-    floor: f64,
+pub(crate) struct KappaProblem<'a, C, M> {
+    pub(crate) constraint: &'a C,
+    pub(crate) mass: &'a M,
+    pub(crate) r: &'a [f64],
+    pub(crate) y: &'a [f64],
+    pub(crate) x: &'a mut [f64],
+    pub(crate) scratch: &'a mut [f64],
+    /// The residual floor of g near y (`Constraint::value_roundoff`).
+    pub(crate) floor: f64,
 }
 
 impl<C, M> BallProblem for KappaProblem<'_, C, M>

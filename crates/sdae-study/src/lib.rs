@@ -6,5 +6,6 @@
 //! Path i draws from its own stream, so the numbers do not depend on the thread count.
 
 mod pendulum;
+pub mod stats;
 
 pub use pendulum::{LevelReport, PendulumStudy, StudyReport, pendulum_study};

@@ -4,6 +4,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use sdae_study::stats::OrderFit;
 use sdae_study::{PendulumStudy, StudyReport, pendulum_study};
 
 const USAGE: &str = "\
@@ -17,6 +18,7 @@ Options:
   --T T            final time (default 1)
   --c-eta C        truncation constant C_eta (default 0.25, the theory value)
   --seed S         seed of the path streams (default 2026)
+  --p P            errors are L^p norms over paths (default 2)
   --threads K      worker threads (default: available cores)
   --out DIR        output folder (default target/study)
   --quick          a small run for CI: 200 paths, levels 3..7, reference 11
@@ -51,6 +53,7 @@ fn parse_args() -> Result<Option<(PendulumStudy, PathBuf)>, String> {
             "--T" => study.t_end = parse(&flag, args.next())?,
             "--c-eta" => study.c_eta = parse(&flag, args.next())?,
             "--seed" => study.seed = parse(&flag, args.next())?,
+            "--p" => study.p = parse(&flag, args.next())?,
             "--threads" => study.threads = parse(&flag, args.next())?,
             "--out" => out = PathBuf::from(parse::<String>(&flag, args.next())?),
             "--levels" => {
@@ -70,19 +73,20 @@ fn parse_args() -> Result<Option<(PendulumStudy, PathBuf)>, String> {
 
 fn csv(report: &StudyReport) -> String {
     let mut s = String::from(
-        "n_steps,h,error_r,stderr_r,error_v,stderr_v,error_mu,stderr_mu,seconds_per_path,truncated_fraction,newton_iterations_per_step,homotopy_steps,failures\n",
+        "n_steps,h,error_r,error_r_low,error_r_high,error_v,error_v_low,error_v_high,error_mu,error_mu_low,error_mu_high,seconds_per_path,truncated_fraction,newton_iterations_per_step,homotopy_steps,failures\n",
     );
     for l in &report.levels {
+        let e = &l.error;
+        let cells: Vec<String> = [e.r, e.v, e.mu]
+            .iter()
+            .flat_map(|i| [i.estimate, i.ci_low, i.ci_high])
+            .map(|x| format!("{x:e}"))
+            .collect();
         s += &format!(
-            "{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{}\n",
+            "{},{},{},{:e},{},{},{},{}\n",
             l.n_steps,
             l.h,
-            l.error_r,
-            l.stderr_r,
-            l.error_v,
-            l.stderr_v,
-            l.error_mu,
-            l.stderr_mu,
+            cells.join(","),
             l.seconds_per_path,
             l.truncated_fraction,
             l.newton_iterations_per_step,
@@ -91,6 +95,22 @@ fn csv(report: &StudyReport) -> String {
         );
     }
     s
+}
+
+fn describe(name: &str, fit: &OrderFit) -> String {
+    let o = &fit.order;
+    let flagged = if fit.pre_asymptotic.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " ({} coarse level(s) pre-asymptotic, not fitted)",
+            fit.pre_asymptotic.len()
+        )
+    };
+    format!(
+        "{name} {:.2} [{:.2}, {:.2}]{flagged}",
+        o.estimate, o.ci_low, o.ci_high
+    )
 }
 
 fn write_outputs(report: &StudyReport, out: &PathBuf) -> std::io::Result<()> {
@@ -139,17 +159,20 @@ fn main() -> ExitCode {
             "{:>7} {:>10.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>6.1}% {:>7.2} {:>5}",
             l.n_steps,
             l.h,
-            l.error_r,
-            l.error_v,
-            l.error_mu,
+            l.error.r.estimate,
+            l.error.v.estimate,
+            l.error.mu.estimate,
             l.seconds_per_path,
             100.0 * l.truncated_fraction,
             l.newton_iterations_per_step,
             l.failures
         );
     }
-    let [pr, pv, pm] = report.observed_order;
-    println!("observed order (least squares over all levels): r {pr:.2}, v {pv:.2}, mu {pm:.2}");
+    let o = &report.observed_order;
+    println!("observed order with 95% interval (least squares in log-log):");
+    for (name, fit) in [("  r ", &o.r), ("  v ", &o.v), ("  mu", &o.mu)] {
+        println!("{}", describe(name, fit));
+    }
     if report.reference_failures > 0 {
         println!(
             "reference failures (paths left out): {}",

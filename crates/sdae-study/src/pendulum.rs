@@ -8,6 +8,8 @@ use sdae_scheme::{
 };
 use serde::Serialize;
 
+use crate::stats::{Interval, OrderFit, fit_order, lp_error};
+
 /// What to run.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PendulumStudy {
@@ -25,6 +27,8 @@ pub struct PendulumStudy {
     pub c_eta: f64,
     /// Seed of the path streams.
     pub seed: u64,
+    /// The errors are L^p norms over paths.
+    pub p: f64,
     /// Worker threads.
     pub threads: usize,
 }
@@ -50,6 +54,9 @@ impl PendulumStudy {
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
             return Err(format!("--T must be finite and > 0, got {}", self.t_end));
         }
+        if !(self.p.is_finite() && self.p >= 1.0) {
+            return Err(format!("--p must be finite and >= 1, got {}", self.p));
+        }
         if !(self.c_eta.is_finite() && self.c_eta > 0.0) {
             return Err(format!(
                 "--c-eta must be finite and > 0, got {}",
@@ -70,6 +77,7 @@ impl Default for PendulumStudy {
             t_end: 1.0,
             c_eta: 0.25,
             seed: 2026,
+            p: 2.0,
             threads: 2,
         }
     }
@@ -82,18 +90,9 @@ pub struct LevelReport {
     pub n_steps: usize,
     /// h = T / N.
     pub h: f64,
-    /// Root mean square of |r_N - r_ref(T)| over the paths that finished.
-    pub error_r: f64,
-    /// Root mean square of |v_N - v_ref(T)|.
-    pub error_v: f64,
-    /// Root mean square of |mu_N - mu_ref(T)|.
-    pub error_mu: f64,
-    /// Standard errors of the mean squared errors, propagated to the RMS values (delta method).
-    pub stderr_r: f64,
-    /// See `stderr_r`.
-    pub stderr_v: f64,
-    /// See `stderr_r`.
-    pub stderr_mu: f64,
+    /// L^p norms over the finished paths of |r_N - r_ref(T)|, |v_N - v_ref(T)|, |mu_N - mu_ref(T)|,
+    /// with 95% confidence intervals.
+    pub error: Errors,
     /// Mean wall-clock seconds per path at this level.
     pub seconds_per_path: f64,
     /// Share of steps with eta < 1.
@@ -108,6 +107,28 @@ pub struct LevelReport {
     pub max_position_residual: f64,
 }
 
+/// Errors of r, v and mu.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Errors {
+    /// Position.
+    pub r: Interval,
+    /// Velocity.
+    pub v: Interval,
+    /// Multiplier.
+    pub mu: Interval,
+}
+
+/// Fitted orders of r, v and mu.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Orders {
+    /// Position.
+    pub r: OrderFit,
+    /// Velocity.
+    pub v: OrderFit,
+    /// Multiplier.
+    pub mu: OrderFit,
+}
+
 /// The whole study.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StudyReport {
@@ -117,8 +138,9 @@ pub struct StudyReport {
     pub settings: PendulumStudy,
     /// Levels from coarse to fine.
     pub levels: Vec<LevelReport>,
-    /// Least-squares slope of log(error) against log(h) over all levels, for r, v, mu.
-    pub observed_order: [f64; 3],
+    /// Least-squares slope of log(error) against log(h) with 95% intervals; coarse levels whose
+    /// local slope departs from the finer ones by more than 0.15 are flagged, not fitted.
+    pub observed_order: Orders,
     /// Reference paths that failed (their paths are left out entirely).
     pub reference_failures: usize,
 }
@@ -126,7 +148,8 @@ pub struct StudyReport {
 /// Per-path, per-level outcome.
 #[derive(Debug, Clone, Default)]
 struct PathLevel {
-    squared: Option<[f64; 3]>,
+    /// |r_N - r_ref|, |v_N - v_ref|, |mu_N - mu_ref| at T; `None` if the path failed.
+    distances: Option<[f64; 3]>,
     seconds: f64,
     diagnostics: PathDiagnostics,
 }
@@ -139,8 +162,12 @@ fn scene() -> PendulumParams {
     }
 }
 
-fn distance2(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Sums groups of `factor` consecutive fine increments (rows of length 2) into coarse ones.
@@ -206,7 +233,7 @@ fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
             let coarse = coarsen(&increments, fine_steps >> k);
             let (state, seconds, diagnostics) = run_level(study, &coarse);
             PathLevel {
-                squared: state.map(|s| [0, 1, 2].map(|i| distance2(&s[i], &reference[i]))),
+                distances: state.map(|s| [0, 1, 2].map(|i| distance(&s[i], &reference[i]))),
                 seconds,
                 diagnostics,
             }
@@ -215,25 +242,8 @@ fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
     (true, levels)
 }
 
-/// Slope of the least-squares line through (log h, log e).
-fn slope(points: &[(f64, f64)]) -> f64 {
-    let pts: Vec<(f64, f64)> = points
-        .iter()
-        .filter(|(h, e)| *h > 0.0 && *e > 0.0)
-        .map(|(h, e)| (h.ln(), e.ln()))
-        .collect();
-    let n = pts.len() as f64;
-    if pts.len() < 2 {
-        return f64::NAN;
-    }
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / n,
-        pts.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
-    sxy / sxx
-}
+/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' by more.
+const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.15;
 
 /// Runs the study; `progress` is called with the number of finished paths.
 pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> StudyReport {
@@ -272,13 +282,15 @@ pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> 
         .enumerate()
         .map(|(j, k)| level_report(&study, 1usize << k, good.iter().map(|p| &p[j])))
         .collect();
-    let observed_order = [0, 1, 2].map(|c| {
-        let pts: Vec<(f64, f64)> = levels
-            .iter()
-            .map(|l| (l.h, [l.error_r, l.error_v, l.error_mu][c]))
-            .collect();
-        slope(&pts)
-    });
+    let fit = |pick: fn(&Errors) -> f64| {
+        let points: Vec<(f64, f64)> = levels.iter().map(|l| (l.h, pick(&l.error))).collect();
+        fit_order(&points, PRE_ASYMPTOTIC_TOLERANCE)
+    };
+    let observed_order = Orders {
+        r: fit(|e| e.r.estimate),
+        v: fit(|e| e.v.estimate),
+        mu: fit(|e| e.mu.estimate),
+    };
     StudyReport {
         scene: "pendulum",
         settings: study,
@@ -293,7 +305,7 @@ fn level_report<'a>(
     steps: usize,
     paths: impl Iterator<Item = &'a PathLevel>,
 ) -> LevelReport {
-    let mut squared: [Vec<f64>; 3] = Default::default();
+    let mut distances: [Vec<f64>; 3] = Default::default();
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, 0usize);
     let mut total = PathDiagnostics::default();
     let mut truncated = 0usize;
@@ -308,30 +320,20 @@ fn level_report<'a>(
         total.max_position_residual = total
             .max_position_residual
             .max(p.diagnostics.max_position_residual);
-        match p.squared {
-            Some(e) => (0..3).for_each(|c| squared[c].push(e[c])),
+        match p.distances {
+            Some(e) => (0..3).for_each(|c| distances[c].push(e[c])),
             None => failures += 1,
         }
     }
-    // RMS error e = sqrt(mean(d^2)); se(e) = se(mean d^2) / (2 e).
-    let rms = |x: &[f64]| {
-        let n = x.len() as f64;
-        let mean = x.iter().sum::<f64>() / n;
-        let var = x.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / (n - 1.0).max(1.0);
-        let e = mean.sqrt();
-        (e, (var / n).sqrt() / (2.0 * e))
-    };
-    let [(er, sr), (ev, sv), (em, sm)] = [0, 1, 2].map(|c| rms(&squared[c]));
     let steps_total = total.steps.max(1) as f64;
     LevelReport {
         n_steps: steps,
         h: study.t_end / steps as f64,
-        error_r: er,
-        error_v: ev,
-        error_mu: em,
-        stderr_r: sr,
-        stderr_v: sv,
-        stderr_mu: sm,
+        error: Errors {
+            r: lp_error(&distances[0], study.p),
+            v: lp_error(&distances[1], study.p),
+            mu: lp_error(&distances[2], study.p),
+        },
         seconds_per_path: seconds / count.max(1) as f64,
         truncated_fraction: truncated as f64 / steps_total,
         newton_iterations_per_step: iterations as f64 / steps_total,
@@ -344,17 +346,6 @@ fn level_report<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn slope_recovers_a_known_order() {
-        let pts: Vec<(f64, f64)> = (0..6)
-            .map(|k| {
-                let h = 0.5f64.powi(k);
-                (h, 3.0 * h.powf(0.75))
-            })
-            .collect();
-        assert!((slope(&pts) - 0.75).abs() < 1e-12);
-    }
 
     #[test]
     fn results_do_not_depend_on_the_thread_count() {
@@ -380,15 +371,12 @@ mod tests {
             |_| {},
         );
         for (a, b) in one.levels.iter().zip(&two.levels) {
-            assert_eq!(
-                (a.error_r, a.error_v, a.error_mu),
-                (b.error_r, b.error_v, b.error_mu)
-            );
+            assert_eq!(a.error, b.error);
         }
         assert!(
             one.levels
                 .iter()
-                .all(|l| l.error_r > 0.0 && l.failures == 0)
+                .all(|l| l.error.r.estimate > 0.0 && l.failures == 0)
         );
     }
 }

@@ -24,7 +24,7 @@ pub struct Interval {
 /// Returns NaN fields for fewer than 2 values.
 pub fn lp_error(errors: &[f64], p: f64) -> Interval {
     let n = errors.len();
-    if n < 2 || !(p >= 1.0) {
+    if n < 2 || p.is_nan() || p < 1.0 {
         return Interval {
             estimate: f64::NAN,
             ci_low: f64::NAN,

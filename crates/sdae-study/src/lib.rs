@@ -6,6 +6,7 @@
 //! Path i draws from its own stream, so the numbers do not depend on the thread count.
 
 mod pendulum;
+pub mod plots;
 pub mod stats;
 
-pub use pendulum::{LevelReport, PendulumStudy, StudyReport, pendulum_study};
+pub use pendulum::{Errors, LevelReport, Orders, PendulumStudy, StudyReport, pendulum_study};

@@ -117,7 +117,8 @@ fn write_outputs(report: &StudyReport, out: &PathBuf) -> std::io::Result<()> {
     std::fs::create_dir_all(out)?;
     let json = serde_json::to_string_pretty(report).map_err(std::io::Error::other)?;
     std::fs::write(out.join("pendulum.json"), json + "\n")?;
-    std::fs::write(out.join("pendulum.csv"), csv(report))
+    std::fs::write(out.join("pendulum.csv"), csv(report))?;
+    sdae_study::plots::write_plots(report, out, "pendulum").map_err(std::io::Error::other)
 }
 
 fn main() -> ExitCode {
@@ -182,7 +183,7 @@ fn main() -> ExitCode {
     match write_outputs(&report, &out) {
         Ok(()) => {
             println!(
-                "wrote {0}/pendulum.json and {0}/pendulum.csv",
+                "wrote {0}/pendulum.json, .csv, _error_vs_h.svg and _error_vs_time.svg",
                 out.display()
             );
             ExitCode::SUCCESS

@@ -57,9 +57,9 @@ fn interpolation_between_recorded_steps() {
             &mut mi,
         )
         .unwrap();
-    for i in 0..2 {
-        let expected = 0.75 * recorder.velocity(3)[i] + 0.25 * recorder.velocity(4)[i];
-        assert!((vi[i] - expected).abs() < 1e-15);
+    let (v3, v4) = (recorder.velocity(3), recorder.velocity(4));
+    for ((got, a), b) in vi.iter().zip(v3).zip(v4) {
+        assert!((got - (0.75 * a + 0.25 * b)).abs() < 1e-15);
     }
     let expected_mu = 0.75 * recorder.multiplier(3)[0] + 0.25 * recorder.multiplier(4)[0];
     assert!((mi[0] - expected_mu).abs() < 1e-15);

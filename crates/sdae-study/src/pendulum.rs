@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use sdae_scheme::{
-    Coarsened, GaussianIncrements, IncrementSource, PathDiagnostics, PendulumParams,
+    Coarsened, GaussianIncrements, IncrementSource, Observer, PathDiagnostics, PendulumParams,
     RecordedIncrements, Recorder, Stepper, StepperConfig, TimeGrid, pendulum, run_path,
 };
 use serde::Serialize;
@@ -90,8 +90,8 @@ pub struct LevelReport {
     pub n_steps: usize,
     /// h = T / N.
     pub h: f64,
-    /// L^p norms over the finished paths of |r_N - r_ref(T)|, |v_N - v_ref(T)|, |mu_N - mu_ref(T)|,
-    /// with 95% confidence intervals.
+    /// L^p norms over the finished paths of sup_k |r_k - r_ref(t_k)|, sup_k |v_k - v_ref(t_k)|,
+    /// sup_k |mu_k - mu_ref(t_k)| (k over this level's grid), with 95% confidence intervals.
     pub error: Errors,
     /// Mean wall-clock seconds per path at this level.
     pub seconds_per_path: f64,
@@ -148,7 +148,8 @@ pub struct StudyReport {
 /// Per-path, per-level outcome.
 #[derive(Debug, Clone, Default)]
 struct PathLevel {
-    /// |r_N - r_ref|, |v_N - v_ref|, |mu_N - mu_ref| at T; `None` if the path failed.
+    /// sup over the coarse grid of |r - r_ref|, |v - v_ref|, |mu - mu_ref|; `None` if the path
+    /// failed.
     distances: Option<[f64; 3]>,
     seconds: f64,
     diagnostics: PathDiagnostics,
@@ -180,12 +181,14 @@ fn coarsen(fine: &[f64], factor: usize) -> Vec<f64> {
     coarse
 }
 
-/// Runs one path with the given increments (one row of 2 per step); returns (r, v, mu) at T,
-/// the wall-clock seconds of the path (increments prepared beforehand) and its diagnostics.
-fn run_level(
+/// Runs one path with the given increments (one row of 2 per step), reporting to `observer`;
+/// returns whether it finished, the wall-clock seconds of the path (increments prepared
+/// beforehand) and its diagnostics.
+fn run_level<O: Observer>(
     study: &PendulumStudy,
     increments: &[f64],
-) -> (Option<[Vec<f64>; 3]>, f64, PathDiagnostics) {
+    observer: &mut O,
+) -> (bool, f64, PathDiagnostics) {
     let steps = increments.len() / 2;
     let system = pendulum(scene()).expect("the built-in scene is valid");
     let config = StepperConfig::for_system(&system)
@@ -194,24 +197,38 @@ fn run_level(
     let mut stepper = Stepper::new(system, config).expect("the built-in scene is valid");
     let grid = TimeGrid::new(study.t_end, steps).expect("validated by PendulumStudy::validate");
     let mut source = RecordedIncrements::new(increments, 2);
-    let mut recorder = Recorder::every(steps).with_mu();
     let (mut r, mut v) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let start = Instant::now();
-    let outcome = run_path(
-        &mut stepper,
-        &mut r,
-        &mut v,
-        grid,
-        &mut source,
-        &mut recorder,
-    );
+    let outcome = run_path(&mut stepper, &mut r, &mut v, grid, &mut source, observer);
     let seconds = start.elapsed().as_secs_f64();
     match outcome {
-        Ok(d) => {
-            let mu = recorder.multiplier(recorder.len() - 1).to_vec();
-            (Some([r, v, mu]), seconds, d)
+        Ok(d) => (true, seconds, d),
+        Err(failure) => (false, seconds, *failure.diagnostics),
+    }
+}
+
+/// sup over the coarse grid of |r_k - r_ref(t_k)|, |v_k - v_ref(t_k)|, |mu_k - mu_ref(t_k)|,
+/// computed while the coarse path runs: coarse step k is reference record k * stride.
+struct SupDistance<'a> {
+    reference: &'a Recorder,
+    stride: usize,
+    max: [f64; 3],
+}
+
+impl Observer for SupDistance<'_> {
+    fn wants_mu(&self) -> bool {
+        true
+    }
+    fn observe(&mut self, k: usize, _t: f64, r: &[f64], v: &[f64], mu: &[f64]) {
+        let j = k * self.stride;
+        let d = [
+            distance(r, self.reference.position(j)),
+            distance(v, self.reference.velocity(j)),
+            distance(mu, self.reference.multiplier(j)),
+        ];
+        for (m, x) in self.max.iter_mut().zip(d) {
+            *m = m.max(x);
         }
-        Err(failure) => (None, seconds, *failure.diagnostics),
     }
 }
 
@@ -224,16 +241,23 @@ fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
     for dw in increments.chunks_exact_mut(2) {
         noise.next_increment(h_fine, dw);
     }
-    let (reference, _, _) = run_level(study, &increments);
-    let Some(reference) = reference else {
+    // The reference is recorded on the finest level's grid, which contains every coarser one.
+    let mut reference = Recorder::every(fine_steps >> study.finest).with_mu();
+    let (ok, _, _) = run_level(study, &increments, &mut reference);
+    if !ok {
         return (false, Vec::new());
-    };
+    }
     let levels = (study.coarsest..=study.finest)
         .map(|k| {
             let coarse = coarsen(&increments, fine_steps >> k);
-            let (state, seconds, diagnostics) = run_level(study, &coarse);
+            let mut sup = SupDistance {
+                reference: &reference,
+                stride: 1 << (study.finest - k),
+                max: [0.0; 3],
+            };
+            let (ok, seconds, diagnostics) = run_level(study, &coarse, &mut sup);
             PathLevel {
-                distances: state.map(|s| [0, 1, 2].map(|i| distance(&s[i], &reference[i]))),
+                distances: ok.then_some(sup.max),
                 seconds,
                 diagnostics,
             }

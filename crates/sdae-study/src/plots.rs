@@ -77,7 +77,10 @@ fn draw(
         .x_labels(8)
         .y_labels(8)
         .x_desc(x_label)
-        .y_desc(format!("L^{} error at T", report.settings.p))
+        .y_desc(format!(
+            "L^{} norm of the sup error over the grid",
+            report.settings.p
+        ))
         .x_label_formatter(&|v| format!("{v:.0e}"))
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .draw()

@@ -1,9 +1,9 @@
 //! `sdae-study`: the convergence study of the stochastic pendulum (run by `cargo xtask study`).
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::stats::OrderFit;
 use sdae_study::{PendulumStudy, StudyReport, pendulum_study};
 
@@ -143,14 +143,13 @@ fn main() -> ExitCode {
         study.c_eta,
         study.threads
     );
-    let total = study.paths;
-    let report = pendulum_study(study, |done| {
-        if done % (total / 50).max(1) == 0 || done == total {
-            eprint!("\r  {done}/{total} paths");
-            let _ = std::io::stderr().flush();
-        }
-    });
-    eprintln!();
+    // Drawn on stderr when it is a terminal; hidden otherwise (CI logs stay clean).
+    let bar = ProgressBar::new(study.paths as u64).with_style(
+        ProgressStyle::with_template("  {bar:40} {pos}/{len} paths, {elapsed} elapsed, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let report = pendulum_study(study, |done| bar.set_position(done as u64));
+    bar.finish_and_clear();
     println!(
         "{:>7} {:>10} {:>11} {:>11} {:>11} {:>11} {:>7} {:>7} {:>5}",
         "N", "h", "err r", "err v", "err mu", "s/path", "eta<1", "newton", "fail"

@@ -113,11 +113,59 @@ fn describe(name: &str, fit: &OrderFit) -> String {
     )
 }
 
+/// A Markdown summary: settings, the table with intervals, the fitted orders and the plots.
+fn markdown(report: &StudyReport) -> String {
+    let st = &report.settings;
+    let mut s = format!(
+        "# {} study\n\n{} paths, N = 2^{}..2^{}, reference 2^{} steps on the same Brownian paths, T = {}, C_eta = {}, seed {}, errors: L^{} over paths of the sup over the grid.\n\n",
+        report.scene,
+        st.paths,
+        st.coarsest,
+        st.finest,
+        st.reference,
+        st.t_end,
+        st.c_eta,
+        st.seed,
+        st.p
+    );
+    s += "| N | h | error r [95% CI] | error v [95% CI] | error mu [95% CI] | us/path | eta < 1 | Newton it./step | homotopy | failures |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    let cell = |i: &sdae_study::stats::Interval| {
+        format!("{:.3e} [{:.2e}, {:.2e}]", i.estimate, i.ci_low, i.ci_high)
+    };
+    for l in &report.levels {
+        s += &format!(
+            "| {} | {:.3e} | {} | {} | {} | {:.1} | {:.1}% | {:.2} | {} | {} |\n",
+            l.n_steps,
+            l.h,
+            cell(&l.error.r),
+            cell(&l.error.v),
+            cell(&l.error.mu),
+            l.seconds_per_path * 1e6,
+            100.0 * l.truncated_fraction,
+            l.newton_iterations_per_step,
+            l.homotopy_steps,
+            l.failures
+        );
+    }
+    let o = &report.observed_order;
+    s += "\nObserved orders (95% intervals):\n\n";
+    for (name, fit) in [("r", &o.r), ("v", &o.v), ("mu", &o.mu)] {
+        s += &format!("- {}\n", describe(name, fit));
+    }
+    s += &format!(
+        "\nReference failures: {}\n\n![error against h]({scene}_error_vs_h.svg)\n![error against run time]({scene}_error_vs_time.svg)\n",
+        report.reference_failures,
+        scene = report.scene
+    );
+    s
+}
+
 fn write_outputs(report: &StudyReport, out: &PathBuf) -> std::io::Result<()> {
     std::fs::create_dir_all(out)?;
     let json = serde_json::to_string_pretty(report).map_err(std::io::Error::other)?;
     std::fs::write(out.join("pendulum.json"), json + "\n")?;
     std::fs::write(out.join("pendulum.csv"), csv(report))?;
+    std::fs::write(out.join("pendulum.md"), markdown(report))?;
     sdae_study::plots::write_plots(report, out, "pendulum").map_err(std::io::Error::other)
 }
 
@@ -182,7 +230,7 @@ fn main() -> ExitCode {
     match write_outputs(&report, &out) {
         Ok(()) => {
             println!(
-                "wrote {0}/pendulum.json, .csv, _error_vs_h.svg and _error_vs_time.svg",
+                "wrote {0}/pendulum.json, .csv, .md, _error_vs_h.svg and _error_vs_time.svg",
                 out.display()
             );
             ExitCode::SUCCESS

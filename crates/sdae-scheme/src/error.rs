@@ -55,9 +55,6 @@ pub enum StepFailure {
         /// Squared norm of the offending velocity.
         norm2: f64,
     },
-    /// The lambda system (seed eq. 3.1, lower part) could not be solved.
-    #[error("lambda system is not solvable: {0}")]
-    Lambda(sdae_ift::LinearError),
     /// A step input has the wrong size or value.
     #[error("invalid step input: {0}")]
     Input(SchemeError),

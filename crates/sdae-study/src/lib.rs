@@ -10,4 +10,7 @@ mod pendulum;
 pub mod plots;
 pub mod stats;
 
-pub use pendulum::{Errors, LevelReport, Orders, PendulumStudy, StudyReport, pendulum_study};
+pub use pendulum::{
+    Errors, LevelOutcome, LevelReport, Orders, PathRecord, PendulumStudy, Shard, StudyReport,
+    build_report, merge_shards, pendulum_study, run_paths,
+};

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::stats::OrderFit;
-use sdae_study::{PendulumStudy, StudyReport, pendulum_study};
+use sdae_study::{PendulumStudy, Shard, StudyReport, build_report, merge_shards, run_paths};
 
 const USAGE: &str = "\
 sdae-study: strong errors of the half-explicit drift-truncated Euler scheme on the stochastic
@@ -22,7 +22,12 @@ Options:
   --threads K      worker threads (default: available cores)
   --out DIR        output folder (default target/study)
   --quick          a small run for CI: 200 paths, levels 3..7, reference 11
+  --shard I/N      run only paths i with i % N == I and write DIR/shard-I-of-N.json
   --help           this text
+
+sdae-study merge DIR... [--out DIR]
+  merges the shard files found in the folders into exactly the report an unsharded run
+  gives (timings aside); any batch system can run the shards
 ";
 
 fn parse<T: std::str::FromStr>(flag: &str, value: Option<String>) -> Result<T, String> {
@@ -32,16 +37,51 @@ fn parse<T: std::str::FromStr>(flag: &str, value: Option<String>) -> Result<T, S
         .map_err(|_| format!("{flag}: cannot read '{value}'"))
 }
 
-fn parse_args() -> Result<Option<(PendulumStudy, PathBuf)>, String> {
+/// What the command line asks for.
+enum Command {
+    Help,
+    /// Run the study (or one shard of it) and write to `out`.
+    Run {
+        study: PendulumStudy,
+        out: PathBuf,
+        shard: Option<(usize, usize)>,
+    },
+    /// Merge the shard files found in `dirs` into one report in `out`.
+    Merge {
+        dirs: Vec<PathBuf>,
+        out: PathBuf,
+    },
+}
+
+fn parse_shard(value: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("--shard: expected i/n with 0 <= i < n, got '{value}'");
+    let (i, n) = value.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (i.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
+    if i < n { Ok((i, n)) } else { Err(bad()) }
+}
+
+fn parse_args() -> Result<Command, String> {
     let mut study = PendulumStudy {
         threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
         ..PendulumStudy::default()
     };
     let mut out = PathBuf::from("target/study");
-    let mut args = std::env::args().skip(1);
+    let mut shard = None;
+    let mut merge: Option<Vec<PathBuf>> = None;
+    let mut args = std::env::args().skip(1).peekable();
+    if args.peek().map(String::as_str) == Some("merge") {
+        args.next();
+        merge = Some(Vec::new());
+    }
     while let Some(flag) = args.next() {
         match flag.as_str() {
-            "--help" | "-h" => return Ok(None),
+            "--help" | "-h" => return Ok(Command::Help),
+            "--out" => out = PathBuf::from(parse::<String>(&flag, args.next())?),
+            dir if merge.is_some() && !dir.starts_with("--") => {
+                if let Some(dirs) = merge.as_mut() {
+                    dirs.push(PathBuf::from(dir));
+                }
+            }
             "--quick" => {
                 study.paths = 200;
                 study.coarsest = 3;
@@ -55,7 +95,7 @@ fn parse_args() -> Result<Option<(PendulumStudy, PathBuf)>, String> {
             "--seed" => study.seed = parse(&flag, args.next())?,
             "--p" => study.p = parse(&flag, args.next())?,
             "--threads" => study.threads = parse(&flag, args.next())?,
-            "--out" => out = PathBuf::from(parse::<String>(&flag, args.next())?),
+            "--shard" => shard = Some(parse_shard(&parse::<String>(&flag, args.next())?)?),
             "--levels" => {
                 let value: String = parse(&flag, args.next())?;
                 let (a, b) = value
@@ -67,8 +107,35 @@ fn parse_args() -> Result<Option<(PendulumStudy, PathBuf)>, String> {
             other => return Err(format!("unknown option '{other}'")),
         }
     }
+    if let Some(dirs) = merge {
+        if dirs.is_empty() {
+            return Err("merge needs at least one folder of shard files".into());
+        }
+        return Ok(Command::Merge { dirs, out });
+    }
     study.validate()?;
-    Ok(Some((study, out)))
+    Ok(Command::Run { study, out, shard })
+}
+
+/// Reads every `shard-*.json` in the folders.
+fn read_shards(dirs: &[PathBuf]) -> Result<Vec<Shard>, String> {
+    let mut shards = Vec::new();
+    for dir in dirs {
+        let entries =
+            std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name.starts_with("shard-") && name.ends_with(".json") {
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                let shard: Shard = serde_json::from_str(&text)
+                    .map_err(|e| format!("{} is not a shard file: {e}", path.display()))?;
+                shards.push(shard);
+            }
+        }
+    }
+    Ok(shards)
 }
 
 fn csv(report: &StudyReport) -> String {
@@ -169,35 +236,7 @@ fn write_outputs(report: &StudyReport, out: &PathBuf) -> std::io::Result<()> {
     sdae_study::plots::write_plots(report, out, "pendulum").map_err(std::io::Error::other)
 }
 
-fn main() -> ExitCode {
-    let (study, out) = match parse_args() {
-        Ok(Some(parsed)) => parsed,
-        Ok(None) => {
-            print!("{USAGE}");
-            return ExitCode::SUCCESS;
-        }
-        Err(message) => {
-            eprintln!("sdae-study: {message}\n\n{USAGE}");
-            return ExitCode::from(2);
-        }
-    };
-    eprintln!(
-        "pendulum study: {} paths, N = 2^{}..2^{}, reference 2^{}, T = {}, C_eta = {}, {} threads",
-        study.paths,
-        study.coarsest,
-        study.finest,
-        study.reference,
-        study.t_end,
-        study.c_eta,
-        study.threads
-    );
-    // Drawn on stderr when it is a terminal; hidden otherwise (CI logs stay clean).
-    let bar = ProgressBar::new(study.paths as u64).with_style(
-        ProgressStyle::with_template("  {bar:40} {pos}/{len} paths, {elapsed} elapsed, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let report = pendulum_study(study, |done| bar.set_position(done as u64));
-    bar.finish_and_clear();
+fn print_report(report: &StudyReport) {
     println!(
         "{:>7} {:>10} {:>11} {:>11} {:>11} {:>11} {:>7} {:>7} {:>5}",
         "N", "h", "err r", "err v", "err mu", "s/path", "eta<1", "newton", "fail"
@@ -227,7 +266,11 @@ fn main() -> ExitCode {
             report.reference_failures
         );
     }
-    match write_outputs(&report, &out) {
+}
+
+fn finish(report: &StudyReport, out: &PathBuf) -> ExitCode {
+    print_report(report);
+    match write_outputs(report, out) {
         Ok(()) => {
             println!(
                 "wrote {0}/pendulum.json, .csv, .md, _error_vs_h.svg and _error_vs_time.svg",
@@ -237,6 +280,74 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             eprintln!("sdae-study: cannot write results to {}: {e}", out.display());
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let (study, out, shard) = match parse_args() {
+        Ok(Command::Run { study, out, shard }) => (study, out, shard),
+        Ok(Command::Help) => {
+            print!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        Ok(Command::Merge { dirs, out }) => {
+            return match read_shards(&dirs).and_then(merge_shards) {
+                Ok(report) => finish(&report, &out),
+                Err(message) => {
+                    eprintln!("sdae-study merge: {message}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
+        Err(message) => {
+            eprintln!("sdae-study: {message}\n\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let (index, count) = shard.unwrap_or((0, 1));
+    eprintln!(
+        "pendulum study: {} paths (shard {index}/{count}), N = 2^{}..2^{}, reference 2^{}, T = {}, C_eta = {}, {} threads",
+        study.paths,
+        study.coarsest,
+        study.finest,
+        study.reference,
+        study.t_end,
+        study.c_eta,
+        study.threads
+    );
+    // Drawn on stderr when it is a terminal; hidden otherwise (CI logs stay clean).
+    let mine = (index..study.paths).step_by(count).count();
+    let bar = ProgressBar::new(mine as u64).with_style(
+        ProgressStyle::with_template("  {bar:40} {pos}/{len} paths, {elapsed} elapsed, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let records = run_paths(&study, index, count, |done| bar.set_position(done as u64));
+    bar.finish_and_clear();
+    if shard.is_none() {
+        return finish(&build_report(&study, records), &out);
+    }
+    let file = out.join(format!("shard-{index}-of-{count}.json"));
+    let shard = Shard {
+        settings: study,
+        index,
+        count,
+        records,
+    };
+    let written = std::fs::create_dir_all(&out)
+        .and_then(|()| serde_json::to_string(&shard).map_err(std::io::Error::other))
+        .and_then(|json| std::fs::write(&file, json));
+    match written {
+        Ok(()) => {
+            println!(
+                "wrote {} ({mine} paths); merge all shards with `cargo xtask study merge DIR...`",
+                file.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("sdae-study: cannot write {}: {e}", file.display());
             ExitCode::FAILURE
         }
     }

@@ -6,12 +6,12 @@ use sdae_scheme::{
     Coarsened, GaussianIncrements, IncrementSource, Observer, PathDiagnostics, PendulumParams,
     RecordedIncrements, Recorder, Stepper, StepperConfig, TimeGrid, pendulum, run_path,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::stats::{Interval, OrderFit, fit_order, lp_error};
 
 /// What to run.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PendulumStudy {
     /// Number of Monte Carlo paths.
     pub paths: usize,
@@ -145,14 +145,48 @@ pub struct StudyReport {
     pub reference_failures: usize,
 }
 
-/// Per-path, per-level outcome.
-#[derive(Debug, Clone, Default)]
-struct PathLevel {
+/// What one level of one path produced: the study's per-path data (what a shard stores).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct LevelOutcome {
     /// sup over the coarse grid of |r - r_ref|, |v - v_ref|, |mu - mu_ref|; `None` if the path
     /// failed.
-    distances: Option<[f64; 3]>,
-    seconds: f64,
-    diagnostics: PathDiagnostics,
+    pub distances: Option<[f64; 3]>,
+    /// Wall-clock seconds of the path.
+    pub seconds: f64,
+    /// Steps done.
+    pub steps: usize,
+    /// Steps with eta < 1.
+    pub truncated_steps: usize,
+    /// Newton iterations.
+    pub newton_iterations: usize,
+    /// Steps that needed the homotopy.
+    pub homotopy_steps: usize,
+    /// Largest |g(r_k)|.
+    pub max_position_residual: f64,
+}
+
+/// One Monte Carlo path: whether its reference finished, and each level's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PathRecord {
+    /// Path index i (its random stream is `path_rng(seed, i)`).
+    pub index: usize,
+    /// Whether the reference solution finished (otherwise the path is left out).
+    pub reference_ok: bool,
+    /// Outcomes from the coarsest to the finest level.
+    pub levels: Vec<LevelOutcome>,
+}
+
+/// The paths of one shard `index` of `count` (paths i with i % count == index).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Shard {
+    /// The study's settings.
+    pub settings: PendulumStudy,
+    /// This shard's index.
+    pub index: usize,
+    /// The number of shards.
+    pub count: usize,
+    /// Its paths.
+    pub records: Vec<PathRecord>,
 }
 
 fn scene() -> PendulumParams {
@@ -233,7 +267,7 @@ impl Observer for SupDistance<'_> {
 }
 
 /// One Monte Carlo path: the reference and every level on the same Brownian path.
-fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
+fn one_path(study: &PendulumStudy, index: usize) -> PathRecord {
     let fine_steps = 1usize << study.reference;
     let h_fine = study.t_end / fine_steps as f64;
     let mut increments = vec![0.0; 2 * fine_steps];
@@ -245,7 +279,11 @@ fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
     let mut reference = Recorder::every(fine_steps >> study.finest).with_mu();
     let (ok, _, _) = run_level(study, &increments, &mut reference);
     if !ok {
-        return (false, Vec::new());
+        return PathRecord {
+            index,
+            reference_ok: false,
+            levels: Vec::new(),
+        };
     }
     let levels = (study.coarsest..=study.finest)
         .map(|k| {
@@ -255,36 +293,54 @@ fn one_path(study: &PendulumStudy, index: usize) -> (bool, Vec<PathLevel>) {
                 stride: 1 << (study.finest - k),
                 max: [0.0; 3],
             };
-            let (ok, seconds, diagnostics) = run_level(study, &coarse, &mut sup);
-            PathLevel {
+            let (ok, seconds, d) = run_level(study, &coarse, &mut sup);
+            LevelOutcome {
                 distances: ok.then_some(sup.max),
                 seconds,
-                diagnostics,
+                steps: d.steps,
+                truncated_steps: d.truncated_steps,
+                newton_iterations: d.newton_iterations,
+                homotopy_steps: d.homotopy_steps,
+                max_position_residual: d.max_position_residual,
             }
         })
         .collect();
-    (true, levels)
+    PathRecord {
+        index,
+        reference_ok: true,
+        levels,
+    }
 }
 
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' by more.
 const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.15;
 
-/// Runs the study; `progress` is called with the number of finished paths.
-pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> StudyReport {
+/// Runs the paths i < `study.paths` with i % `count` == `index` on `study.threads` threads;
+/// `progress` is called with the number of finished paths. Path i draws from its own stream, so
+/// the records do not depend on the thread count or the sharding.
+pub fn run_paths(
+    study: &PendulumStudy,
+    index: usize,
+    count: usize,
+    progress: impl Fn(usize) + Sync,
+) -> Vec<PathRecord> {
+    let mine: Vec<usize> = (0..study.paths)
+        .filter(|i| i % count.max(1) == index)
+        .collect();
     let threads = study.threads.max(1);
     let done = std::sync::atomic::AtomicUsize::new(0);
-    // Path i goes to thread i % threads; results are put back in path order.
-    let mut results: Vec<(usize, (bool, Vec<PathLevel>))> = std::thread::scope(|scope| {
+    let mut records: Vec<PathRecord> = std::thread::scope(|scope| {
         let workers: Vec<_> = (0..threads)
             .map(|t| {
-                let (done, progress) = (&done, &progress);
+                let (done, progress, mine) = (&done, &progress, &mine);
                 scope.spawn(move || {
-                    (t..study.paths)
+                    mine.iter()
+                        .skip(t)
                         .step_by(threads)
-                        .map(|i| {
-                            let out = (i, one_path(&study, i));
+                        .map(|&i| {
+                            let record = one_path(study, i);
                             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
-                            out
+                            record
                         })
                         .collect::<Vec<_>>()
                 })
@@ -295,16 +351,18 @@ pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> 
             .flat_map(|w| w.join().expect("a study worker panicked"))
             .collect()
     });
-    results.sort_by_key(|(i, _)| *i);
-    let reference_failures = results.iter().filter(|(_, (ok, _))| !ok).count();
-    let good: Vec<&Vec<PathLevel>> = results
-        .iter()
-        .filter(|(_, (ok, _))| *ok)
-        .map(|(_, (_, l))| l)
-        .collect();
+    records.sort_by_key(|r| r.index);
+    records
+}
+
+/// The report from the records of all paths (in any order).
+pub fn build_report(study: &PendulumStudy, mut records: Vec<PathRecord>) -> StudyReport {
+    records.sort_by_key(|r| r.index);
+    let reference_failures = records.iter().filter(|r| !r.reference_ok).count();
+    let good: Vec<&PathRecord> = records.iter().filter(|r| r.reference_ok).collect();
     let levels: Vec<LevelReport> = (study.coarsest..=study.finest)
         .enumerate()
-        .map(|(j, k)| level_report(&study, 1usize << k, good.iter().map(|p| &p[j])))
+        .map(|(j, k)| level_report(study, 1usize << k, good.iter().map(|p| &p.levels[j])))
         .collect();
     let fit = |pick: fn(&Errors) -> f64| {
         let points: Vec<(f64, f64)> = levels.iter().map(|l| (l.h, pick(&l.error))).collect();
@@ -317,39 +375,91 @@ pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> 
     };
     StudyReport {
         scene: "pendulum",
-        settings: study,
+        settings: *study,
         levels,
         observed_order,
         reference_failures,
     }
 }
 
+/// Runs the whole study; `progress` is called with the number of finished paths.
+pub fn pendulum_study(study: PendulumStudy, progress: impl Fn(usize) + Sync) -> StudyReport {
+    build_report(&study, run_paths(&study, 0, 1, progress))
+}
+
+/// Merges shards into exactly the report an unsharded run gives (timings aside): same
+/// settings (the thread count may differ), and every path index present exactly once.
+pub fn merge_shards(shards: Vec<Shard>) -> Result<StudyReport, String> {
+    let first = shards.first().ok_or("no shards to merge")?;
+    let settings = PendulumStudy {
+        threads: 1,
+        ..first.settings
+    };
+    let count = first.count;
+    let mut seen = vec![false; settings.paths];
+    let mut records = Vec::with_capacity(settings.paths);
+    for shard in shards {
+        let same = PendulumStudy {
+            threads: 1,
+            ..shard.settings
+        };
+        if same != settings || shard.count != count {
+            return Err(format!(
+                "shard {}/{} was run with other settings than shard {}/{}",
+                shard.index,
+                shard.count,
+                first_index(&seen),
+                count
+            ));
+        }
+        for record in shard.records {
+            match seen.get_mut(record.index) {
+                Some(s) if !*s => *s = true,
+                _ => {
+                    return Err(format!(
+                        "path {} appears twice or is out of range",
+                        record.index
+                    ));
+                }
+            }
+            records.push(record);
+        }
+    }
+    if let Some(missing) = seen.iter().position(|s| !s) {
+        return Err(format!(
+            "path {missing} is missing: merge needs all {count} shards"
+        ));
+    }
+    Ok(build_report(&settings, records))
+}
+
+fn first_index(seen: &[bool]) -> usize {
+    seen.iter().position(|s| *s).unwrap_or(0)
+}
+
 fn level_report<'a>(
     study: &PendulumStudy,
     steps: usize,
-    paths: impl Iterator<Item = &'a PathLevel>,
+    paths: impl Iterator<Item = &'a LevelOutcome>,
 ) -> LevelReport {
     let mut distances: [Vec<f64>; 3] = Default::default();
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, 0usize);
-    let mut total = PathDiagnostics::default();
-    let mut truncated = 0usize;
-    let mut iterations = 0usize;
+    let (mut steps_total, mut truncated, mut iterations) = (0usize, 0usize, 0usize);
+    let (mut homotopy_steps, mut max_position_residual) = (0usize, 0.0_f64);
     for p in paths {
         count += 1;
         seconds += p.seconds;
-        truncated += p.diagnostics.truncated_steps;
-        iterations += p.diagnostics.newton_iterations;
-        total.steps += p.diagnostics.steps;
-        total.homotopy_steps += p.diagnostics.homotopy_steps;
-        total.max_position_residual = total
-            .max_position_residual
-            .max(p.diagnostics.max_position_residual);
+        truncated += p.truncated_steps;
+        iterations += p.newton_iterations;
+        steps_total += p.steps;
+        homotopy_steps += p.homotopy_steps;
+        max_position_residual = max_position_residual.max(p.max_position_residual);
         match p.distances {
             Some(e) => (0..3).for_each(|c| distances[c].push(e[c])),
             None => failures += 1,
         }
     }
-    let steps_total = total.steps.max(1) as f64;
+    let steps_total = steps_total.max(1) as f64;
     LevelReport {
         n_steps: steps,
         h: study.t_end / steps as f64,
@@ -361,9 +471,9 @@ fn level_report<'a>(
         seconds_per_path: seconds / count.max(1) as f64,
         truncated_fraction: truncated as f64 / steps_total,
         newton_iterations_per_step: iterations as f64 / steps_total,
-        homotopy_steps: total.homotopy_steps,
+        homotopy_steps,
         failures,
-        max_position_residual: total.max_position_residual,
+        max_position_residual,
     }
 }
 

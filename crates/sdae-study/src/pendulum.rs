@@ -3,8 +3,9 @@
 use std::time::Instant;
 
 use sdae_scheme::{
-    Coarsened, GaussianIncrements, IncrementSource, Observer, PathDiagnostics, PendulumParams,
-    RecordedIncrements, Recorder, Stepper, StepperConfig, TimeGrid, pendulum, run_path,
+    Coarsened, GaussianIncrements, IncrementSource, Observer, PathDiagnostics, Pendulum,
+    PendulumParams, RecordedIncrements, Recorder, Stepper, StepperConfig, TimeGrid, pendulum,
+    run_path,
 };
 use serde::{Deserialize, Serialize};
 
@@ -220,20 +221,16 @@ fn coarsen(fine: &[f64], factor: usize) -> Vec<f64> {
 /// beforehand) and its diagnostics.
 fn run_level<O: Observer>(
     study: &PendulumStudy,
+    stepper: &mut Stepper<Pendulum>,
     increments: &[f64],
     observer: &mut O,
 ) -> (bool, f64, PathDiagnostics) {
     let steps = increments.len() / 2;
-    let system = pendulum(scene()).expect("the built-in scene is valid");
-    let config = StepperConfig::for_system(&system)
-        .and_then(|c| c.with_c_eta(study.c_eta))
-        .expect("validated by PendulumStudy::validate");
-    let mut stepper = Stepper::new(system, config).expect("the built-in scene is valid");
     let grid = TimeGrid::new(study.t_end, steps).expect("validated by PendulumStudy::validate");
     let mut source = RecordedIncrements::new(increments, 2);
     let (mut r, mut v) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let start = Instant::now();
-    let outcome = run_path(&mut stepper, &mut r, &mut v, grid, &mut source, observer);
+    let outcome = run_path(stepper, &mut r, &mut v, grid, &mut source, observer);
     let seconds = start.elapsed().as_secs_f64();
     match outcome {
         Ok(d) => (true, seconds, d),
@@ -267,7 +264,16 @@ impl Observer for SupDistance<'_> {
 }
 
 /// One Monte Carlo path: the reference and every level on the same Brownian path.
-fn one_path(study: &PendulumStudy, index: usize) -> PathRecord {
+/// The study's stepper; one per worker thread (it keeps no state from one path to the next).
+fn new_stepper(study: &PendulumStudy) -> Stepper<Pendulum> {
+    let system = pendulum(scene()).expect("the built-in scene is valid");
+    let config = StepperConfig::for_system(&system)
+        .and_then(|c| c.with_c_eta(study.c_eta))
+        .expect("validated by PendulumStudy::validate");
+    Stepper::new(system, config).expect("the built-in scene is valid")
+}
+
+fn one_path(study: &PendulumStudy, stepper: &mut Stepper<Pendulum>, index: usize) -> PathRecord {
     let fine_steps = 1usize << study.reference;
     let h_fine = study.t_end / fine_steps as f64;
     let mut increments = vec![0.0; 2 * fine_steps];
@@ -277,7 +283,7 @@ fn one_path(study: &PendulumStudy, index: usize) -> PathRecord {
     }
     // The reference is recorded on the finest level's grid, which contains every coarser one.
     let mut reference = Recorder::every(fine_steps >> study.finest).with_mu();
-    let (ok, _, _) = run_level(study, &increments, &mut reference);
+    let (ok, _, _) = run_level(study, stepper, &increments, &mut reference);
     if !ok {
         return PathRecord {
             index,
@@ -293,7 +299,7 @@ fn one_path(study: &PendulumStudy, index: usize) -> PathRecord {
                 stride: 1 << (study.finest - k),
                 max: [0.0; 3],
             };
-            let (ok, seconds, d) = run_level(study, &coarse, &mut sup);
+            let (ok, seconds, d) = run_level(study, stepper, &coarse, &mut sup);
             LevelOutcome {
                 distances: ok.then_some(sup.max),
                 seconds,
@@ -334,11 +340,12 @@ pub fn run_paths(
             .map(|t| {
                 let (done, progress, mine) = (&done, &progress, &mine);
                 scope.spawn(move || {
+                    let mut stepper = new_stepper(study);
                     mine.iter()
                         .skip(t)
                         .step_by(threads)
                         .map(|&i| {
-                            let record = one_path(study, i);
+                            let record = one_path(study, &mut stepper, i);
                             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
                             record
                         })

@@ -15,9 +15,13 @@ usage: cargo xtask <task> [options]
 
 tasks:
   study [options]
-        the convergence study of the stochastic pendulum, built in release mode; writes
-        target/study/pendulum.json and .csv (`cargo xtask study --help` lists the options,
-        --quick runs in seconds)
+        the convergence study (default: the seed's stochastic pendulum, all schemes), built
+        in release mode; writes target/study/<scene>/report.json, .csv, .md and SVG plots
+        (`cargo xtask study --help` lists the options, --quick runs in seconds)
+  study merge DIR... [--out DIR]
+        merge the shard files of `study --shard I/N` runs into the unsharded report
+  study list
+        the built-in scenes and the schemes
   bench [--quick] [-- <criterion options>]
         run `cargo bench -p sdae-scheme --bench step` and write target/bench/summary.json
         (--quick: short warm-up and measurement times)

@@ -1,34 +1,41 @@
-//! SVG plots of a study: strong error against step size (with the fitted slopes) and against
-//! run time per path, for r, v and mu, on log-log axes.
+//! SVG plots of a convergence study: strong error against step size (with the fitted slopes)
+//! and against run time per path, one panel per component (r, v, mu), one line per scheme, on
+//! log-log axes with 95% error bars.
 
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::pendulum::{Errors, StudyReport};
+use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
 use crate::stats::{Interval, OrderFit};
 
-const COLOURS: [RGBColor; 3] = [
+/// One colour per scheme (in report order).
+pub const COLOURS: [RGBColor; 7] = [
     RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
+    RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
 ];
 
-/// One plotted component: its name, how to pick its error from a level, and its order fit.
-type Component<'a> = (&'static str, fn(&Errors) -> Interval, &'a OrderFit);
+/// A component: its name, how to pick its error from a level and its fit from the orders.
+type Component = (
+    &'static str,
+    fn(&Errors) -> Option<Interval>,
+    fn(&Orders) -> Option<&OrderFit>,
+);
 
-/// r, v and mu.
-fn components(report: &StudyReport) -> [Component<'_>; 3] {
-    let o = &report.observed_order;
-    [
-        ("r", |e: &Errors| e.r, &o.r),
-        ("v", |e: &Errors| e.v, &o.v),
-        ("mu", |e: &Errors| e.mu, &o.mu),
-    ]
-}
+const COMPONENTS: [Component; 3] = [
+    ("r", |e| e.r, |o| o.r.as_ref()),
+    ("v", |e| e.v, |o| o.v.as_ref()),
+    ("mu", |e| e.mu, |o| o.mu.as_ref()),
+];
 
-/// Padded logarithmic range covering the positive values.
-fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+/// Padded logarithmic range covering the positive finite values.
+pub fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && *v > 0.0)
         .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
@@ -40,33 +47,61 @@ fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo / 1.5..hi * 1.5
 }
 
-/// Draws error against `x(level)` for the three components; with `fits`, adds the fitted lines.
-fn draw(
-    report: &StudyReport,
-    path: &Path,
-    title: &str,
-    x_label: &str,
-    x: impl Fn(&crate::pendulum::LevelReport) -> f64,
-    fits: bool,
+/// What the x axis shows.
+#[derive(Clone, Copy)]
+enum Axis {
+    StepSize,
+    RunTime,
+}
+
+impl Axis {
+    fn of(self, l: &LevelReport) -> f64 {
+        match self {
+            Axis::StepSize => l.h,
+            Axis::RunTime => l.seconds_per_path,
+        }
+    }
+    fn label(self) -> &'static str {
+        match self {
+            Axis::StepSize => "step size h",
+            Axis::RunTime => "seconds per path",
+        }
+    }
+}
+
+/// The finished points (x, error) of a scheme for a component.
+fn points(
+    s: &SchemeReport,
+    pick: fn(&Errors) -> Option<Interval>,
+    axis: Axis,
+) -> Vec<(f64, Interval)> {
+    s.levels
+        .iter()
+        .filter_map(|l| pick(&l.error).map(|e| (axis.of(l), e)))
+        .filter(|(x, e)| *x > 0.0 && e.estimate.is_finite() && e.estimate > 0.0)
+        .collect()
+}
+
+fn panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    report: &ConvergenceReport,
+    (name, pick, order): Component,
+    axis: Axis,
 ) -> Result<(), String> {
-    let root = SVGBackend::new(path, (720, 520)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let xs = log_range(report.levels.iter().map(&x));
-    let ys = log_range(report.levels.iter().flat_map(|l| {
-        let e = &l.error;
-        [
-            e.r.ci_low,
-            e.r.ci_high,
-            e.v.ci_low,
-            e.v.ci_high,
-            e.mu.ci_low,
-            e.mu.ci_high,
-        ]
-    }));
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
+    let err = |e: &dyn std::fmt::Display| format!("plot panel {name}: {e}");
+    let all: Vec<(f64, Interval)> = report
+        .schemes
+        .iter()
+        .flat_map(|s| points(s, pick, axis))
+        .collect();
+    let xs = log_range(all.iter().map(|p| p.0));
+    let ys = log_range(
+        all.iter()
+            .flat_map(|p| [p.1.ci_low, p.1.ci_high, p.1.estimate]),
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(format!("error of {name}"), ("sans-serif", 18))
+        .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
         .build_cartesian_2d(xs.log_scale(), ys.log_scale())
@@ -74,100 +109,101 @@ fn draw(
     chart
         .configure_mesh()
         .light_line_style(RGBColor(245, 245, 245))
-        .x_labels(8)
+        .x_labels(6)
         .y_labels(8)
-        .x_desc(x_label)
-        .y_desc(format!(
-            "L^{} norm of the sup error over the grid",
-            report.settings.p
-        ))
+        .x_desc(axis.label())
+        .y_desc(format!("L^{} norm of the sup error", report.p))
         .x_label_formatter(&|v| format!("{v:.0e}"))
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .draw()
         .map_err(|e| err(&e))?;
-    for (k, (name, pick, fit)) in components(report).into_iter().enumerate() {
-        let colour = COLOURS[k];
-        let points: Vec<(f64, f64)> = report
-            .levels
-            .iter()
-            .map(|l| (x(l), pick(&l.error).estimate))
-            .filter(|(a, b)| *a > 0.0 && *b > 0.0)
-            .collect();
-        let label = if fits {
-            format!("{name}: order {:.2}", fit.order.estimate)
-        } else {
-            name.to_string()
+    for (k, scheme) in report.schemes.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        let pts = points(scheme, pick, axis);
+        if pts.is_empty() {
+            continue;
+        }
+        let fit = order(&scheme.observed_order);
+        let label = match (axis, fit) {
+            (Axis::StepSize, Some(f)) if f.order.estimate.is_finite() => {
+                format!("{} ({:.2})", scheme.name, f.order.estimate)
+            }
+            _ => scheme.name.to_string(),
         };
         chart
-            .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                pts.iter().map(|(x, e)| (*x, e.estimate)),
+                colour.stroke_width(2),
+            ))
             .map_err(|e| err(&e))?
             .label(label)
             .legend(move |(a, b)| {
                 PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2))
             });
         chart
-            .draw_series(report.levels.iter().map(|l| {
-                let i = pick(&l.error);
+            .draw_series(pts.iter().map(|(x, i)| {
                 ErrorBar::new_vertical(
-                    x(l),
+                    *x,
                     i.ci_low.max(f64::MIN_POSITIVE),
                     i.estimate,
                     i.ci_high,
                     colour.filled(),
-                    6,
+                    5,
                 )
             }))
             .map_err(|e| err(&e))?;
-        if fits && fit.fitted.len() >= 2 {
-            // The fitted line c h^order through the fitted levels' geometric centre.
-            let fitted: Vec<(f64, f64)> = fit
-                .fitted
-                .iter()
-                .map(|&i| points_of(report, i, pick))
-                .collect();
-            let n = fitted.len() as f64;
-            let (mx, my) = fitted.iter().fold((0.0, 0.0), |(a, b), (h, e)| {
-                (a + h.ln() / n, b + e.ln() / n)
-            });
-            let line = fitted
-                .iter()
-                .map(|(h, _)| (*h, (my + fit.order.estimate * (h.ln() - mx)).exp()));
-            chart
-                .draw_series(LineSeries::new(line, colour.mix(0.5).stroke_width(1)))
-                .map_err(|e| err(&e))?;
-        }
     }
     chart
         .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
+        .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::LowerRight)
+        .label_font(("sans-serif", 11))
+        .position(match axis {
+            Axis::StepSize => SeriesLabelPosition::LowerRight,
+            Axis::RunTime => SeriesLabelPosition::UpperRight,
+        })
         .draw()
         .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+fn draw(report: &ConvergenceReport, path: &Path, title: &str, axis: Axis) -> Result<(), String> {
+    let components: Vec<Component> = COMPONENTS
+        .into_iter()
+        .filter(|(_, pick, _)| {
+            report
+                .schemes
+                .iter()
+                .any(|s| s.levels.iter().any(|l| pick(&l.error).is_some()))
+        })
+        .collect();
+    let width = 480 * components.len().max(1) as u32;
+    let root = SVGBackend::new(path, (width, 480)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    let panels = root.split_evenly((1, components.len().max(1)));
+    for (area, component) in panels.iter().zip(components) {
+        panel(area, report, component, axis)?;
+    }
     root.present().map_err(|e| err(&e))
 }
 
-fn points_of(report: &StudyReport, level: usize, pick: fn(&Errors) -> Interval) -> (f64, f64) {
-    let l = &report.levels[level];
-    (l.h, pick(&l.error).estimate)
-}
-
-/// Writes `<stem>_error_vs_h.svg` and `<stem>_error_vs_time.svg` into `dir`.
-pub fn write_plots(report: &StudyReport, dir: &Path, stem: &str) -> Result<(), String> {
+/// Writes `error_vs_h.svg` and `error_vs_time.svg` into `dir`.
+pub fn write_plots(report: &ConvergenceReport, dir: &Path) -> Result<(), String> {
+    let stem = &report.scene;
     draw(
         report,
-        &dir.join(format!("{stem}_error_vs_h.svg")),
-        &format!("{}: strong error against step size", report.scene),
-        "step size h",
-        |l| l.h,
-        true,
+        &dir.join("error_vs_h.svg"),
+        &format!("{stem}: strong error against step size (fitted order)"),
+        Axis::StepSize,
     )?;
     draw(
         report,
-        &dir.join(format!("{stem}_error_vs_time.svg")),
-        &format!("{}: strong error against run time", report.scene),
-        "seconds per path",
-        |l| l.seconds_per_path,
-        false,
+        &dir.join("error_vs_time.svg"),
+        &format!("{stem}: strong error against run time"),
+        Axis::RunTime,
     )
 }

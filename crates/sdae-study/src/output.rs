@@ -1,0 +1,251 @@
+//! The files of a convergence report: JSON (the whole report), CSV (one row per scheme and step
+//! size), a Markdown summary (settings, tables, orders, which scheme reaches an error fastest,
+//! plots) and the SVG plots.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::convergence::{ConvergenceReport, Errors, LevelReport};
+use crate::stats::{Interval, OrderFit};
+
+fn fmt_interval(i: Option<Interval>) -> [String; 3] {
+    match i {
+        Some(i) => [i.estimate, i.ci_low, i.ci_high].map(|x| format!("{x:e}")),
+        None => [String::new(), String::new(), String::new()],
+    }
+}
+
+/// One row per scheme and step size.
+pub fn csv(report: &ConvergenceReport) -> String {
+    let mut s = String::from(
+        "scheme,n_steps,h,error_r,error_r_low,error_r_high,error_v,error_v_low,error_v_high,error_mu,error_mu_low,error_mu_high,seconds_per_path,steps_per_second,failures,truncated_fraction,newton_iterations_per_step,homotopy_steps,max_position_residual,max_velocity_residual\n",
+    );
+    for scheme in &report.schemes {
+        for l in &scheme.levels {
+            let e = &l.error;
+            let cells: Vec<String> = [e.r, e.v, e.mu]
+                .into_iter()
+                .flat_map(fmt_interval)
+                .collect();
+            let _ = writeln!(
+                s,
+                "{},{},{:e},{},{:e},{:e},{},{},{},{},{:e},{:e}",
+                scheme.name,
+                l.n_steps,
+                l.h,
+                cells.join(","),
+                l.seconds_per_path,
+                l.steps_per_second,
+                l.failures,
+                l.truncated_fraction,
+                l.newton_iterations_per_step,
+                l.homotopy_steps,
+                l.max_position_residual,
+                l.max_velocity_residual
+            );
+        }
+    }
+    s
+}
+
+/// "order [low, high]" and the pre-asymptotic levels left out.
+pub fn describe_fit(fit: &OrderFit) -> String {
+    let o = &fit.order;
+    let flagged = if fit.pre_asymptotic.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " ({} coarse level(s) pre-asymptotic)",
+            fit.pre_asymptotic.len()
+        )
+    };
+    format!(
+        "{:.2} [{:.2}, {:.2}]{flagged}",
+        o.estimate, o.ci_low, o.ci_high
+    )
+}
+
+fn cell(i: Option<Interval>) -> String {
+    match i {
+        Some(i) if i.estimate.is_finite() => {
+            format!("{:.2e} [{:.1e}, {:.1e}]", i.estimate, i.ci_low, i.ci_high)
+        }
+        Some(_) => "n/a".into(),
+        None => "-".into(),
+    }
+}
+
+type Pick = fn(&Errors) -> Option<Interval>;
+
+const PICKS: [(&str, Pick); 3] = [("r", |e| e.r), ("v", |e| e.v), ("mu", |e| e.mu)];
+
+/// For each component and each decade of error that some scheme reaches: the scheme that
+/// reaches it with the least run time per path (over the levels measured, no interpolation).
+fn fastest(report: &ConvergenceReport) -> String {
+    let mut s = String::new();
+    for (name, pick) in PICKS {
+        let reached = |target: f64| {
+            report
+                .schemes
+                .iter()
+                .filter_map(|scheme| {
+                    scheme
+                        .levels
+                        .iter()
+                        .filter(|l| pick(&l.error).is_some_and(|e| e.estimate <= target))
+                        .map(|l| (l.seconds_per_path, l))
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .map(|(t, l)| (t, scheme.name, l.n_steps))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        };
+        let errors: Vec<f64> = report
+            .schemes
+            .iter()
+            .flat_map(|sc| sc.levels.iter().filter_map(|l| pick(&l.error)))
+            .map(|e| e.estimate)
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        let (Some(lo), Some(hi)) = (
+            errors.iter().copied().reduce(f64::min),
+            errors.iter().copied().reduce(f64::max),
+        ) else {
+            continue;
+        };
+        let mut decade = 10f64.powf(hi.log10().floor());
+        while decade >= lo {
+            if let Some((t, scheme, n)) = reached(decade) {
+                let _ = writeln!(
+                    s,
+                    "| {name} | {decade:.0e} | {scheme} | {n} | {:.1} |",
+                    t * 1e6
+                );
+            }
+            decade /= 10.0;
+        }
+    }
+    if s.is_empty() {
+        return s;
+    }
+    format!(
+        "## Fastest to a given error\n\nFor each error level, the scheme that reached it with the least run time per path (over the step sizes measured).\n\n| component | error <= | scheme | N | us/path |\n|---|---|---|---|---|\n{s}"
+    )
+}
+
+fn level_row(scheme: &str, l: &LevelReport) -> String {
+    format!(
+        "| {scheme} | {} | {:.2e} | {} | {} | {} | {:.1} | {} | {:.1}% | {:.2} | {:.1e} |\n",
+        l.n_steps,
+        l.h,
+        cell(l.error.r),
+        cell(l.error.v),
+        cell(l.error.mu),
+        l.seconds_per_path * 1e6,
+        l.failures,
+        100.0 * l.truncated_fraction,
+        l.newton_iterations_per_step,
+        l.max_position_residual,
+    )
+}
+
+/// The Markdown summary.
+pub fn markdown(report: &ConvergenceReport) -> String {
+    let st = &report.settings;
+    let mut s = format!(
+        "# Convergence study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference: {} with 2^{} steps on the same Brownian paths, T = {}, seed {}; errors are the L^{} norm over paths of the sup over the grid, with 95% confidence intervals.\n\n",
+        report.scene,
+        report.scene_definition.description,
+        report.paths,
+        st.coarsest,
+        st.finest,
+        report.reference.scheme,
+        st.reference,
+        report.t_end,
+        report.seed,
+        report.p,
+    );
+    s += "## Observed orders (95% intervals)\n\n| scheme | r | v | mu |\n|---|---|---|---|\n";
+    for scheme in &report.schemes {
+        let o = &scheme.observed_order;
+        let f = |fit: &Option<OrderFit>| fit.as_ref().map_or("-".into(), describe_fit);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            scheme.name,
+            f(&o.r),
+            f(&o.v),
+            f(&o.mu)
+        );
+    }
+    s += "\n";
+    s += &fastest(report);
+    s += "\n## All levels\n\n| scheme | N | h | error r | error v | error mu | us/path | failures | truncated | Newton it./step | max abs g |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for scheme in &report.schemes {
+        for l in &scheme.levels {
+            s += &level_row(scheme.name, l);
+        }
+    }
+    let r = &report.reference;
+    let _ = write!(
+        s,
+        "\nReference: {} failures of {} paths; {:.1} ms per path.\n",
+        r.failures,
+        report.paths,
+        r.seconds_per_path * 1e3
+    );
+    for skipped in &report.skipped {
+        let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
+    }
+    s += "\n![error against h](error_vs_h.svg)\n\n![error against run time](error_vs_time.svg)\n";
+    s
+}
+
+/// A short table on the terminal: per scheme, its orders and its finest level.
+pub fn print_summary(report: &ConvergenceReport) {
+    println!(
+        "{:<28} {:>22} {:>22} {:>22} {:>10} {:>6}",
+        "scheme", "order r", "order v", "order mu", "us/path", "fail"
+    );
+    for scheme in &report.schemes {
+        let o = &scheme.observed_order;
+        let f = |fit: &Option<OrderFit>| {
+            fit.as_ref().map_or("-".into(), |f| {
+                format!(
+                    "{:.2} [{:.2}, {:.2}]",
+                    f.order.estimate, f.order.ci_low, f.order.ci_high
+                )
+            })
+        };
+        let finest = scheme.levels.last();
+        println!(
+            "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
+            scheme.name,
+            f(&o.r),
+            f(&o.v),
+            f(&o.mu),
+            finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
+            scheme.levels.iter().map(|l| l.failures).sum::<usize>()
+        );
+    }
+    for skipped in &report.skipped {
+        println!("left out {}: {}", skipped.name, skipped.reason);
+    }
+    if report.reference.failures > 0 {
+        println!(
+            "reference failures (paths left out): {}",
+            report.reference.failures
+        );
+    }
+}
+
+/// Writes `report.json`, `report.csv`, `report.md`, `error_vs_h.svg` and `error_vs_time.svg`
+/// into `dir` (one folder per scene).
+pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
+    std::fs::write(dir.join("report.csv"), csv(report)).map_err(io)?;
+    std::fs::write(dir.join("report.md"), markdown(report)).map_err(io)?;
+    crate::plots::write_plots(report, dir)
+}

@@ -1,0 +1,28 @@
+//! Small studies shared by the tests.
+
+use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
+use sdae_study::scene::Scene;
+
+/// The built-in pendulum with a small, fast setting.
+pub fn small(paths: usize) -> (Scene, ConvergenceSettings) {
+    let scene = Scene::built_in("pendulum").unwrap();
+    let settings = ConvergenceSettings {
+        paths,
+        coarsest: 2,
+        finest: 4,
+        reference: 8,
+        threads: 2,
+        ..ConvergenceSettings::for_scene(&scene)
+    };
+    (scene, settings)
+}
+
+/// Runs shard `index` of `count`.
+pub fn run(
+    scene: &Scene,
+    settings: &ConvergenceSettings,
+    index: usize,
+    count: usize,
+) -> ConvergenceRun {
+    run_convergence(scene, settings, (index, count), |_| {}).unwrap()
+}

@@ -9,7 +9,7 @@ use crate::integrator::{FailureKind, SchemeKind};
 use crate::lockstep::{Limits, PathPlan, PathRecord, TrackOutcome};
 use crate::parallel::{PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneError, SceneRunner};
-use crate::stats::{Interval, OrderFit, fit_order, lp_error};
+use crate::stats::{Interval, OrderFit, fit_order, lp_error, mean_interval};
 
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' by more.
 const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.15;
@@ -23,8 +23,9 @@ pub struct ConvergenceSettings {
     pub coarsest: u32,
     /// See `coarsest`.
     pub finest: u32,
-    /// The reference uses 2^`reference` steps on the same Brownian path.
-    pub reference: u32,
+    /// The reference uses 2^`reference` steps on the same Brownian path (`None`: no reference,
+    /// no errors; the increments are then drawn on the finest level).
+    pub reference: Option<u32>,
     /// Final time T.
     #[serde(rename = "T")]
     pub t_end: f64,
@@ -38,6 +39,10 @@ pub struct ConvergenceSettings {
     pub schemes: Vec<SchemeKind>,
     /// The scheme that computes the reference.
     pub reference_scheme: SchemeKind,
+    /// Bounds beyond which a path counts as failed.
+    pub limits: Limits,
+    /// Average the kinetic energy over the grid points with t >= this time.
+    pub kinetic_after: Option<f64>,
 }
 
 impl ConvergenceSettings {
@@ -50,13 +55,15 @@ impl ConvergenceSettings {
             paths: scene.study.paths.unwrap_or(1000),
             coarsest,
             finest,
-            reference: scene.study.reference.unwrap_or(finest + 5),
+            reference: Some(scene.study.reference.unwrap_or(finest + 5)),
             t_end: scene.t_end,
             seed: 2026,
             p: 2.0,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             schemes: SchemeKind::ALL.to_vec(),
             reference_scheme: SchemeKind::HalfExplicitPractical,
+            limits: Limits::default(),
+            kinetic_after: None,
         }
     }
 
@@ -71,10 +78,30 @@ impl ConvergenceSettings {
                 self.coarsest, self.finest
             ));
         }
-        if self.finest >= self.reference || self.reference > 26 {
+        match self.reference {
+            Some(r) if r <= self.finest || r > 26 => {
+                return Err(format!(
+                    "--ref-level must be above the finest level {} and at most 26, got {r}",
+                    self.finest
+                ));
+            }
+            None if self.finest > 26 => {
+                return Err(format!(
+                    "--levels: at most 2^26 steps, got 2^{}",
+                    self.finest
+                ));
+            }
+            _ => {}
+        }
+        if let Some(tol) = self.limits.drift_tolerance {
+            if tol.is_nan() || tol <= 0.0 {
+                return Err(format!("drift tolerance must be > 0, got {tol}"));
+            }
+        }
+        if self.limits.blow_up.is_nan() || self.limits.blow_up <= 0.0 {
             return Err(format!(
-                "--ref-level must be above the finest level {} and at most 26, got {}",
-                self.finest, self.reference
+                "blow-up bound must be > 0, got {}",
+                self.limits.blow_up
             ));
         }
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
@@ -105,6 +132,8 @@ pub struct ConvergenceRun {
     pub schemes: Vec<SchemeKind>,
     /// The schemes left out.
     pub skipped: Vec<Skipped>,
+    /// The equipartition value of the kinetic energy, for Langevin scenes.
+    pub kinetic_target: Option<f64>,
     /// This run is shard `shard.0` of `shard.1` (paths i with i % shard.1 == shard.0).
     pub shard: (usize, usize),
     /// One record per path, by index.
@@ -151,7 +180,7 @@ impl SceneRunner for Runner<'_> {
         };
         let (schemes, skipped) = applicable(&st.schemes, &prepared);
         let (reference_ok, reference_skipped) = applicable(&[st.reference_scheme], &prepared);
-        if reference_ok.is_empty() {
+        if st.reference.is_some() && reference_ok.is_empty() {
             return Err(invalid(format!(
                 "the reference scheme {} does not apply: {}",
                 st.reference_scheme.name(),
@@ -160,16 +189,18 @@ impl SceneRunner for Runner<'_> {
         }
         let plan = PathPlan {
             t_end: st.t_end,
-            fine: st.reference,
+            fine: st.reference.unwrap_or(st.finest),
             levels: st.levels(),
-            want_mu: scene.wants(Output::Multiplier),
-            limits: Limits::default(),
-            kinetic_after: None,
+            want_mu: scene.wants(Output::Multiplier) && st.reference.is_some(),
+            limits: st.limits,
+            kinetic_after: st
+                .kinetic_after
+                .filter(|_| scene.wants(Output::KineticEnergy)),
         };
         let records = run_paths(
             &plan,
             &schemes,
-            Some(st.reference_scheme),
+            st.reference.map(|_| st.reference_scheme),
             &prepared,
             PathSelection {
                 seed: st.seed,
@@ -185,6 +216,7 @@ impl SceneRunner for Runner<'_> {
             settings: st.clone(),
             schemes,
             skipped,
+            kinetic_target: prepared.kinetic_target,
             shard: self.shard,
             records,
         })
@@ -223,6 +255,13 @@ pub struct LevelReport {
     /// L^p norms over the finished paths of sup_k |r_k - r_ref(t_k)|, sup_k |v_k - v_ref(t_k)|,
     /// sup_k |mu_k - mu_ref(t_k)| (k over this level's grid), with 95% confidence intervals.
     pub error: Errors,
+    /// Paths counted (those whose reference finished).
+    pub paths: usize,
+    /// Share of the paths that finished.
+    pub finished_fraction: f64,
+    /// Mean over the finished paths of the time-averaged kinetic energy v^T M v / 2, with a 95%
+    /// confidence interval (when the scene asks for it).
+    pub kinetic_energy: Option<Interval>,
     /// Mean wall-clock seconds of stepping per path.
     pub seconds_per_path: f64,
     /// Steps per second of stepping.
@@ -286,12 +325,14 @@ pub struct ConvergenceReport {
     pub t_end: f64,
     /// All settings.
     pub settings: ConvergenceSettings,
-    /// The reference.
-    pub reference: ReferenceReport,
+    /// The reference (`None` when the study ran without one).
+    pub reference: Option<ReferenceReport>,
     /// The schemes compared.
     pub schemes: Vec<SchemeReport>,
     /// Schemes left out, with the reason.
     pub skipped: Vec<Skipped>,
+    /// The equipartition value (n - m) kT / 2 of the kinetic energy, for Langevin scenes.
+    pub kinetic_target: Option<f64>,
     /// The scene as run.
     pub scene_definition: Scene,
 }
@@ -314,6 +355,7 @@ fn level_report<'a>(
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, Vec::new());
     let (mut steps_total, mut truncated, mut iterations, mut homotopy) = (0, 0, 0, 0);
     let (mut max_g, mut max_dgv) = (0.0_f64, 0.0_f64);
+    let mut kinetic = Vec::new();
     for p in paths {
         count += 1;
         seconds += p.seconds;
@@ -328,11 +370,12 @@ fn level_report<'a>(
         }
         if let Some(kind) = p.failure {
             failures.push(kind);
+        } else if let Some(k) = p.kinetic_energy {
+            kinetic.push(k);
         }
     }
     let error = |c: usize, output: Output| {
-        scene
-            .wants(output)
+        (scene.wants(output) && settings.reference.is_some())
             .then(|| lp_error(&distances[c], settings.p))
     };
     let per_step = |x: usize| x as f64 / steps_total.max(1) as f64;
@@ -344,6 +387,9 @@ fn level_report<'a>(
             v: error(1, Output::Velocity),
             mu: error(2, Output::Multiplier),
         },
+        paths: count,
+        finished_fraction: 1.0 - failures.len() as f64 / count.max(1) as f64,
+        kinetic_energy: (!kinetic.is_empty()).then(|| mean_interval(&kinetic)),
         seconds_per_path: seconds / count.max(1) as f64,
         steps_per_second: if seconds > 0.0 {
             steps_total as f64 / seconds
@@ -375,6 +421,7 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         settings,
         schemes,
         skipped,
+        kinetic_target,
         mut records,
         ..
     } = run;
@@ -407,14 +454,14 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
             }
         })
         .collect();
-    let reference = ReferenceReport {
+    let reference = settings.reference.map(|level| ReferenceReport {
         scheme: settings.reference_scheme.name(),
-        n_steps: 1 << settings.reference,
+        n_steps: 1 << level,
         failures: records.len() - good.len(),
         failures_by_kind: count_kinds(records.iter().filter_map(|r| r.reference_failure)),
         seconds_per_path: records.iter().map(|r| r.reference_seconds).sum::<f64>()
             / records.len().max(1) as f64,
-    };
+    });
     ConvergenceReport {
         scene: scene.name.clone(),
         seed: settings.seed,
@@ -425,6 +472,7 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         reference,
         schemes,
         skipped,
+        kinetic_target,
         scene_definition: scene,
     }
 }

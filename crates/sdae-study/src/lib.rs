@@ -9,16 +9,21 @@
 //!   driven by one Brownian path, with memory independent of the number of fine steps.
 //! - [`convergence`]: strong errors (L^p over paths of the sup over the grid) with confidence
 //!   intervals, observed orders, run time and failures per scheme and step size; sharding.
+//! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
+//!   scenes over a range of step sizes.
+//! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
 //! - [`stats`], [`plots`], [`output`]: statistics, SVG plots and the report files.
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
 
 pub mod convergence;
+pub mod equipartition;
 pub mod integrator;
 pub mod lockstep;
 pub mod output;
 pub mod parallel;
 pub mod plots;
 pub mod scene;
+pub mod stability;
 pub mod stats;

@@ -9,15 +9,21 @@ use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::convergence::{
     ConvergenceRun, ConvergenceSettings, build_report, merge_shards, run_convergence,
 };
+use sdae_study::equipartition;
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, write_report};
 use sdae_study::scene::{BUILT_IN, Scene};
+use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
 
 const USAGE: &str = "\
 sdae-study: strong errors of the half-explicit drift-truncated Euler scheme and of solvers of
 the inherent SDE, against a fine-step reference on the same Brownian paths, with run time.
 
 Usage: sdae-study [options]           convergence study (default: the pendulum scene)
+       sdae-study stability [options] stability study of the stiff and extreme scenes
+       sdae-study equipartition [options]
+                                      kinetic temperature of the Langevin scenes against h
+                                      and C_eta
        sdae-study merge DIR... [--out DIR]
                                       merge shard files into the unsharded report
        sdae-study list                built-in scenes and schemes
@@ -35,11 +41,17 @@ Options:
   --p P                errors are L^p norms over paths (default 2)
   --threads K          worker threads (default: available cores; results do not depend on it)
   --out DIR            output folder (default target/study); one subfolder per scene
-  --quick              a small run for CI: 200 paths, levels 3..7, reference 2^11
+  --quick              a small run for CI: 200 paths, levels 3..7, reference 2^11 (stability
+                       and equipartition: fewer paths and levels)
   --shard I/N          run only paths i with i % N == I, write DIR/<scene>/shard-I-of-N.json
   --help               this text
 
 Each scene folder gets report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg.
+The stability study (default: every built-in scene with a [stability] table) writes
+DIR/stability/report.json, report.md and stability.svg; the equipartition study (default:
+every built-in scene with an [equipartition] table) writes DIR/equipartition/report.json,
+report.md and equipartition.svg. Of the options above they take --scene, --scene-file,
+--paths, --seed, --threads, --out and --quick.
 ";
 
 fn parse<T: std::str::FromStr>(flag: &str, value: Option<String>) -> Result<T, String> {
@@ -64,8 +76,13 @@ struct Overrides {
 }
 
 impl Overrides {
-    fn settings(&self, scene: &Scene) -> ConvergenceSettings {
+    /// The convergence settings of `scene`: its defaults, or with `quick` 200 paths, levels
+    /// 3..7 and reference 2^11, then the command line's values.
+    fn settings(&self, scene: &Scene, quick: bool) -> ConvergenceSettings {
         let mut s = ConvergenceSettings::for_scene(scene);
+        if quick {
+            (s.paths, s.coarsest, s.finest, s.reference) = (200, 3, 7, Some(11));
+        }
         if let Some((a, b)) = self.levels {
             s.coarsest = a;
             s.finest = b;
@@ -75,7 +92,7 @@ impl Overrides {
         }
         s.reference_scheme = self.reference_scheme.unwrap_or(s.reference_scheme);
         s.paths = self.paths.unwrap_or(s.paths);
-        s.reference = self.reference.unwrap_or(s.reference);
+        s.reference = self.reference.or(s.reference);
         s.t_end = self.t_end.unwrap_or(s.t_end);
         s.seed = self.seed.unwrap_or(s.seed);
         s.p = self.p.unwrap_or(s.p);
@@ -84,13 +101,23 @@ impl Overrides {
     }
 }
 
+/// Which study to run.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    Convergence,
+    Stability,
+    Equipartition,
+}
+
 /// What the command line asks for.
 enum Command {
     Help,
     List,
     Run {
+        mode: Mode,
         scenes: Vec<Scene>,
         overrides: Overrides,
+        quick: bool,
         out: PathBuf,
         shard: Option<(usize, usize)>,
     },
@@ -116,14 +143,18 @@ fn parse_scheme(name: &str) -> Result<SchemeKind, String> {
 
 fn parse_args(args: Vec<String>) -> Result<Command, String> {
     let mut args = args.into_iter().peekable();
-    let merge = match args.peek().map(String::as_str) {
-        Some("merge") => {
-            args.next();
-            true
-        }
+    let (merge, mode) = match args.peek().map(String::as_str) {
+        Some("merge") => (true, Mode::Convergence),
+        Some("stability") => (false, Mode::Stability),
+        Some("equipartition") => (false, Mode::Equipartition),
+        Some("convergence") => (false, Mode::Convergence),
         Some("list") => return Ok(Command::List),
-        _ => false,
+        _ => (false, Mode::Convergence),
     };
+    if args.peek().is_some_and(|a| !a.starts_with('-')) {
+        args.next();
+    }
+    let mut quick = false;
     let mut o = Overrides::default();
     let mut out = PathBuf::from("target/study");
     let (mut shard, mut dirs) = (None, Vec::new());
@@ -149,11 +180,7 @@ fn parse_args(args: Vec<String>) -> Result<Command, String> {
             "--reference-scheme" => {
                 o.reference_scheme = Some(parse_scheme(&parse::<String>(&flag, args.next())?)?);
             }
-            "--quick" => {
-                o.paths = Some(200);
-                o.levels = Some((3, 7));
-                o.reference = Some(11);
-            }
+            "--quick" => quick = true,
             "--paths" => o.paths = Some(parse(&flag, args.next())?),
             "--ref-level" => o.reference = Some(parse(&flag, args.next())?),
             "--T" => o.t_end = Some(parse(&flag, args.next())?),
@@ -180,9 +207,6 @@ fn parse_args(args: Vec<String>) -> Result<Command, String> {
         }
         return Ok(Command::Merge { dirs, out });
     }
-    if names.is_empty() && files.is_empty() {
-        names.push("pendulum".into());
-    }
     let mut scenes = Vec::new();
     for name in &names {
         scenes.push(Scene::built_in(name).map_err(|e| e.to_string())?);
@@ -190,14 +214,23 @@ fn parse_args(args: Vec<String>) -> Result<Command, String> {
     for file in &files {
         scenes.push(Scene::from_file(file).map_err(|e| e.to_string())?);
     }
-    for scene in &scenes {
-        o.settings(scene)
-            .validate()
-            .map_err(|e| format!("scene {}: {e}", scene.name))?;
+    if scenes.is_empty() {
+        scenes = default_scenes(mode)?;
+    }
+    if mode == Mode::Convergence {
+        for scene in &scenes {
+            o.settings(scene, quick)
+                .validate()
+                .map_err(|e| format!("scene {}: {e}", scene.name))?;
+        }
+    } else if shard.is_some() {
+        return Err("--shard applies to convergence studies only".into());
     }
     Ok(Command::Run {
+        mode,
         scenes,
         overrides: o,
+        quick,
         out,
         shard,
     })
@@ -254,21 +287,24 @@ fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), String> {
     Ok(())
 }
 
-fn run_scene(
+/// Runs shard `index` of `count` of a study of `scene` with a progress bar.
+fn run_with_progress(
     scene: &Scene,
     settings: &ConvergenceSettings,
-    out: &Path,
-    shard: Option<(usize, usize)>,
-) -> Result<(), String> {
-    let (index, count) = shard.unwrap_or((0, 1));
+    (index, count): (usize, usize),
+) -> Result<ConvergenceRun, String> {
     eprintln!(
-        "{}: {} paths (shard {index}/{count}), N = 2^{}..2^{}, reference 2^{} ({}), T = {}, {} threads",
+        "{}: {} paths (shard {index}/{count}), N = 2^{}..2^{}, {}, T = {}, {} threads",
         scene.name,
         settings.paths,
         settings.coarsest,
         settings.finest,
-        settings.reference,
-        settings.reference_scheme.name(),
+        settings
+            .reference
+            .map_or("no reference".into(), |r| format!(
+                "reference 2^{r} ({})",
+                settings.reference_scheme.name()
+            )),
         settings.t_end,
         settings.threads
     );
@@ -283,6 +319,18 @@ fn run_scene(
     })
     .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
+    Ok(run)
+}
+
+fn run_scene(
+    scene: &Scene,
+    settings: &ConvergenceSettings,
+    out: &Path,
+    shard: Option<(usize, usize)>,
+) -> Result<(), String> {
+    let (index, count) = shard.unwrap_or((0, 1));
+    let mine = (index..settings.paths).step_by(count).count();
+    let run = run_with_progress(scene, settings, (index, count))?;
     let dir = out.join(&scene.name);
     if shard.is_some() {
         let file = dir.join(format!("shard-{index}-of-{count}.json"));
@@ -301,6 +349,115 @@ fn run_scene(
     write_report(&report, &dir)?;
     println!(
         "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
+        dir.display()
+    );
+    Ok(())
+}
+
+/// The built-in scenes a study runs by default.
+fn default_scenes(mode: Mode) -> Result<Vec<Scene>, String> {
+    let all = BUILT_IN
+        .iter()
+        .map(|(name, _)| Scene::built_in(name).map_err(|e| e.to_string()))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(match mode {
+        Mode::Convergence => all.into_iter().filter(|s| s.name == "pendulum").collect(),
+        Mode::Stability => all.into_iter().filter(|s| s.stability.is_some()).collect(),
+        Mode::Equipartition => all
+            .into_iter()
+            .filter(|s| s.equipartition.is_some())
+            .collect(),
+    })
+}
+
+/// Applies the command line's paths, seed and threads to a stability or equipartition run.
+fn apply(o: &Overrides, mut s: ConvergenceSettings) -> ConvergenceSettings {
+    s.paths = o.paths.unwrap_or(s.paths);
+    s.seed = o.seed.unwrap_or(s.seed);
+    s.threads = o.threads.unwrap_or(s.threads);
+    s
+}
+
+fn run_stability(scenes: &[Scene], o: &Overrides, quick: bool, out: &Path) -> Result<(), String> {
+    let mut report = StabilityReport { scenes: Vec::new() };
+    for scene in scenes {
+        let settings = stability_settings(scene, quick)
+            .ok_or_else(|| format!("scene {} has no [stability] table", scene.name))?;
+        let settings = apply(o, settings);
+        settings
+            .validate()
+            .map_err(|e| format!("scene {}: {e}", scene.name))?;
+        let run = run_with_progress(scene, &settings, (0, 1))?;
+        let case = scene
+            .stability
+            .as_ref()
+            .map(|s| s.case.clone())
+            .unwrap_or_default();
+        report.scenes.push(StabilityScene {
+            case,
+            report: build_report(run),
+        });
+    }
+    let dir = out.join("stability");
+    stability::write_report(&report, &dir)?;
+    println!(
+        "{}",
+        stability::markdown(&report)
+            .lines()
+            .take(4 + report.scenes.len())
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    println!(
+        "wrote {0}/report.json, report.md, stability.svg",
+        dir.display()
+    );
+    Ok(())
+}
+
+fn run_equipartition(
+    scenes: &[Scene],
+    o: &Overrides,
+    quick: bool,
+    out: &Path,
+) -> Result<(), String> {
+    let mut results = Vec::new();
+    for scene in scenes {
+        let variants = equipartition::variants(scene, quick)
+            .ok_or_else(|| format!("scene {} has no [equipartition] table", scene.name))?;
+        let mut reports = Vec::new();
+        for variant in variants {
+            let settings = apply(o, variant.settings);
+            settings
+                .validate()
+                .map_err(|e| format!("scene {}: {e}", scene.name))?;
+            eprintln!("{}: {}", scene.name, variant.label);
+            reports.push(build_report(run_with_progress(
+                &variant.scene,
+                &settings,
+                (0, 1),
+            )?));
+        }
+        let collected = equipartition::collect(&reports).ok_or_else(|| {
+            format!(
+                "scene {} has no equipartition value (not a Langevin system)",
+                scene.name
+            )
+        })?;
+        results.push(collected);
+    }
+    let dir = out.join("equipartition");
+    equipartition::write_report(&results, &dir)?;
+    for sc in &results {
+        let biased = sc.rows.iter().filter(|r| r.biased == Some(true)).count();
+        println!(
+            "{}: {biased} of {} settings biased (95% interval excludes the set temperature)",
+            sc.scene,
+            sc.rows.len()
+        );
+    }
+    println!(
+        "wrote {0}/report.json, report.md, equipartition.svg",
         dir.display()
     );
     Ok(())
@@ -339,13 +496,31 @@ fn main() -> ExitCode {
         }
         Command::Merge { dirs, out } => merge(&dirs, &out),
         Command::Run {
+            mode: Mode::Convergence,
             scenes,
             overrides,
+            quick,
             out,
             shard,
         } => scenes
             .iter()
-            .try_for_each(|scene| run_scene(scene, &overrides.settings(scene), &out, shard)),
+            .try_for_each(|scene| run_scene(scene, &overrides.settings(scene, quick), &out, shard)),
+        Command::Run {
+            mode: Mode::Stability,
+            scenes,
+            overrides,
+            quick,
+            out,
+            ..
+        } => run_stability(&scenes, &overrides, quick, &out),
+        Command::Run {
+            mode: Mode::Equipartition,
+            scenes,
+            overrides,
+            quick,
+            out,
+            ..
+        } => run_equipartition(&scenes, &overrides, quick, &out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -168,6 +168,49 @@ pub struct StudyDefaults {
     pub reference: Option<u32>,
 }
 
+/// Settings of the stability study for a stiff or extreme scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StabilitySpec {
+    /// The stiff or extreme case the scene stands for.
+    pub case: String,
+    /// Monte Carlo paths.
+    pub paths: usize,
+    /// Level exponents [A, B]: N = 2^A .. 2^B.
+    pub levels: [u32; 2],
+    /// Reference level R (2^R steps), where a reference is affordable and trustworthy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<u32>,
+    /// |g(r)| or |Dg(r) v| above this counts as constraint drift (default 1e-2).
+    #[serde(default = "default_drift_tolerance")]
+    pub drift_tolerance: f64,
+    /// |r_i| or |v_i| above this counts as a blow-up (default 1e8).
+    #[serde(default = "default_blow_up")]
+    pub blow_up: f64,
+}
+
+fn default_drift_tolerance() -> f64 {
+    1e-2
+}
+
+fn default_blow_up() -> f64 {
+    1e8
+}
+
+/// Settings of the equipartition study for a Langevin scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EquipartitionSpec {
+    /// Monte Carlo paths.
+    pub paths: usize,
+    /// Level exponents [A, B]: N = 2^A .. 2^B over T.
+    pub levels: [u32; 2],
+    /// The kinetic energy is averaged over t >= burn_in.
+    pub burn_in: f64,
+    /// The values of C_eta of the half-explicit scheme to compare.
+    pub c_eta: Vec<f64>,
+}
+
 /// A scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -193,14 +236,36 @@ pub struct Scene {
     /// Study defaults.
     #[serde(default)]
     pub study: StudyDefaults,
+    /// Settings of the stability study, for stiff and extreme scenes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability: Option<StabilitySpec>,
+    /// Settings of the equipartition study, for Langevin scenes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub equipartition: Option<EquipartitionSpec>,
 }
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 2] = [
+pub const BUILT_IN: [(&str, &str); 6] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
         include_str!("../scenes/spherical-pendulum.toml"),
+    ),
+    (
+        "fast-pendulum",
+        include_str!("../scenes/fast-pendulum.toml"),
+    ),
+    (
+        "noisy-pendulum",
+        include_str!("../scenes/noisy-pendulum.toml"),
+    ),
+    (
+        "long-pendulum",
+        include_str!("../scenes/long-pendulum.toml"),
+    ),
+    (
+        "thermal-pendulum",
+        include_str!("../scenes/thermal-pendulum.toml"),
     ),
 ];
 
@@ -218,6 +283,8 @@ pub struct Prepared<S> {
     /// Whether the noise depends on r only (stochastic Heun then converges to the Ito
     /// solution; with noise depending on v it would converge to the Stratonovich one).
     pub noise_independent_of_velocity: bool,
+    /// The equipartition value (n - m) kT / 2 of E[v^T M v / 2] for Langevin systems.
+    pub kinetic_target: Option<f64>,
 }
 
 /// Work to do with whatever system a scene builds: the scene's system type is known only at
@@ -320,6 +387,42 @@ impl Scene {
                 return Err(self.invalid(format!("study.levels = [{a}, {b}] is empty")));
             }
         }
+        if let Some(st) = &self.stability {
+            let [a, b] = st.levels;
+            if a > b {
+                return Err(self.invalid(format!("stability.levels = [{a}, {b}] is empty")));
+            }
+            for (name, x) in [
+                ("drift_tolerance", st.drift_tolerance),
+                ("blow_up", st.blow_up),
+            ] {
+                if x.is_nan() || x <= 0.0 {
+                    return Err(self.invalid(format!("stability.{name} = {x}: must be > 0")));
+                }
+            }
+        }
+        if let Some(eq) = &self.equipartition {
+            if !self.wants(Output::KineticEnergy) {
+                return Err(
+                    self.invalid("an [equipartition] table needs \"kinetic-energy\" in outputs")
+                );
+            }
+            let [a, b] = eq.levels;
+            if a > b {
+                return Err(self.invalid(format!("equipartition.levels = [{a}, {b}] is empty")));
+            }
+            if !(eq.burn_in >= 0.0 && eq.burn_in < self.t_end) {
+                return Err(self.invalid(format!(
+                    "equipartition.burn_in = {}: must be in [0, T = {})",
+                    eq.burn_in, self.t_end
+                )));
+            }
+            if let Some(c) = eq.c_eta.iter().find(|c| !(c.is_finite() && **c > 0.0)) {
+                return Err(self.invalid(format!(
+                    "equipartition.c_eta contains {c}: each must be finite and > 0"
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -333,7 +436,11 @@ impl Scene {
                 let mut rest = vec![0.0; spec.dim];
                 rest[spec.dim - 1] = -spec.length;
                 let theory = theory_constants(&system);
-                let prepared = self.prepare(system, rest, true, theory)?;
+                let mut prepared = self.prepare(system, rest, true, theory)?;
+                // Langevin: kT = sigma^2 / (2 gamma), d - 1 degrees of freedom.
+                prepared.kinetic_target = (spec.friction > 0.0).then(|| {
+                    (spec.dim - 1) as f64 * spec.noise * spec.noise / (4.0 * spec.friction)
+                });
                 Ok(runner.run(self, prepared))
             }
         }
@@ -386,6 +493,7 @@ impl Scene {
             velocity,
             constants,
             noise_independent_of_velocity,
+            kinetic_target: None,
         })
     }
 }

@@ -43,6 +43,27 @@ pub fn lp_error(errors: &[f64], p: f64) -> Interval {
     }
 }
 
+/// The mean of independent samples with a 95% interval from the central limit theorem
+/// (mean +- 1.96 s / sqrt(n)); a single sample gives an infinite interval.
+pub fn mean_interval(values: &[f64]) -> Interval {
+    let n = values.len();
+    let mean = values.iter().sum::<f64>() / n as f64;
+    if n < 2 {
+        return Interval {
+            estimate: mean,
+            ci_low: f64::NEG_INFINITY,
+            ci_high: f64::INFINITY,
+        };
+    }
+    let var = values.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1) as f64;
+    let half = Z95 * (var / n as f64).sqrt();
+    Interval {
+        estimate: mean,
+        ci_low: mean - half,
+        ci_high: mean + half,
+    }
+}
+
 /// A fitted order of convergence.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderFit {

@@ -19,7 +19,7 @@ fn quick_report_snapshot() {
         paths: 200,
         coarsest: 3,
         finest: 7,
-        reference: 11,
+        reference: Some(11),
         threads: 2,
         ..ConvergenceSettings::for_scene(&scene)
     };
@@ -51,6 +51,9 @@ fn quick_report_snapshot() {
             );
         }
     }
-    text += &format!("reference failures: {}\n", report.reference.failures);
+    text += &format!(
+        "reference failures: {}\n",
+        report.reference.unwrap().failures
+    );
     insta::assert_snapshot!("pendulum_quick", text);
 }

@@ -8,7 +8,9 @@ use sdae_study::convergence::{ConvergenceReport, ConvergenceRun, build_report, m
 /// The report without its timings (which differ from run to run).
 fn numbers(report: &ConvergenceReport) -> String {
     let mut report = report.clone();
-    report.reference.seconds_per_path = 0.0;
+    if let Some(r) = report.reference.as_mut() {
+        r.seconds_per_path = 0.0;
+    }
     for scheme in &mut report.schemes {
         for level in &mut scheme.levels {
             level.seconds_per_path = 0.0;

@@ -10,7 +10,7 @@ pub fn small(paths: usize) -> (Scene, ConvergenceSettings) {
         paths,
         coarsest: 2,
         finest: 4,
-        reference: 8,
+        reference: Some(8),
         threads: 2,
         ..ConvergenceSettings::for_scene(&scene)
     };

@@ -1,0 +1,302 @@
+//! The equipartition study: on Langevin scenes at equilibrium, E[v^T M v / 2] must equal
+//! (n - m) kT / 2 on the constraint manifold. Measured (time average after a burn-in, mean over
+//! independent paths with a 95% interval) for every scheme and step size, and for the
+//! half-explicit scheme over a range of C_eta, so that a user can read off which settings give
+//! the right temperature and where truncation biases it (design notes, Section 6).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::convergence::{ConvergenceReport, ConvergenceSettings};
+use crate::integrator::SchemeKind;
+use crate::plots::{COLOURS, log_range};
+use crate::scene::Scene;
+use crate::stats::Interval;
+
+/// One configuration of the comparison: a scheme, and C_eta for the half-explicit runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variant {
+    /// Label in the report.
+    pub label: String,
+    /// The scene to run (its practical C_eta set for this variant).
+    pub scene: Scene,
+    /// Its settings.
+    pub settings: ConvergenceSettings,
+}
+
+/// The variants of a scene's equipartition study (`None` without an `[equipartition]` table):
+/// every scheme but the practical half-explicit one at the scene's C_eta, then the practical
+/// half-explicit scheme at each C_eta of the table. `quick` keeps at most 40 paths and the two
+/// finest levels.
+pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
+    let spec = scene.equipartition.as_ref()?;
+    let [mut coarsest, finest] = spec.levels;
+    let mut paths = spec.paths;
+    if quick {
+        paths = paths.min(40);
+        coarsest = coarsest.max(finest.saturating_sub(1));
+    }
+    let base = ConvergenceSettings {
+        paths,
+        coarsest,
+        finest,
+        reference: None,
+        kinetic_after: Some(spec.burn_in),
+        ..ConvergenceSettings::for_scene(scene)
+    };
+    let others: Vec<SchemeKind> = SchemeKind::ALL
+        .into_iter()
+        .filter(|k| *k != SchemeKind::HalfExplicitPractical)
+        .collect();
+    let mut variants = vec![Variant {
+        label: "all schemes".into(),
+        scene: scene.clone(),
+        settings: ConvergenceSettings {
+            schemes: others,
+            ..base.clone()
+        },
+    }];
+    for &c in &spec.c_eta {
+        let mut scene = scene.clone();
+        scene.scheme.practical_c_eta = c;
+        variants.push(Variant {
+            label: format!("half-explicit C_eta = {c}"),
+            scene,
+            settings: ConvergenceSettings {
+                schemes: vec![SchemeKind::HalfExplicitPractical],
+                ..base.clone()
+            },
+        });
+    }
+    Some(variants)
+}
+
+/// One row: a scheme (with its C_eta where it has one) at one step size.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EquipartitionRow {
+    /// The scheme, with C_eta for the half-explicit family.
+    pub scheme: String,
+    /// Step size.
+    pub h: f64,
+    /// Mean kinetic energy with its 95% interval (over the paths that finished).
+    pub kinetic_energy: Option<Interval>,
+    /// Its ratio to the equipartition value (the temperature ratio T_measured / T).
+    pub temperature_ratio: Option<Interval>,
+    /// Whether the interval of the ratio excludes 1 (`None` with fewer than 2 finished paths).
+    pub biased: Option<bool>,
+    /// Share of truncated steps.
+    pub truncated_fraction: f64,
+    /// Paths that failed.
+    pub failures: usize,
+    /// Paths counted.
+    pub paths: usize,
+}
+
+/// The equipartition study of one scene.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EquipartitionScene {
+    /// The scene.
+    pub scene: String,
+    /// The equipartition value (n - m) kT / 2.
+    pub target: f64,
+    /// The time after which the kinetic energy is averaged.
+    pub burn_in: f64,
+    /// T.
+    #[serde(rename = "T")]
+    pub t_end: f64,
+    /// One row per scheme and step size.
+    pub rows: Vec<EquipartitionRow>,
+}
+
+/// C_eta of a scheme run in `report`, for its label.
+fn label(report: &ConvergenceReport, name: &str) -> String {
+    let c = &report.scene_definition.scheme;
+    match SchemeKind::from_name(name) {
+        Some(SchemeKind::HalfExplicitPractical) => {
+            format!("half-explicit C_eta = {}", c.practical_c_eta)
+        }
+        _ => name.to_string(),
+    }
+}
+
+/// Collects the rows of the variants' reports of one scene.
+pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
+    let first = reports.first()?;
+    let target = first.kinetic_target?;
+    let spec = first.scene_definition.equipartition.as_ref()?;
+    let mut rows = Vec::new();
+    for report in reports {
+        for scheme in &report.schemes {
+            for l in &scheme.levels {
+                let ratio = l.kinetic_energy.map(|k| Interval {
+                    estimate: k.estimate / target,
+                    ci_low: k.ci_low / target,
+                    ci_high: k.ci_high / target,
+                });
+                rows.push(EquipartitionRow {
+                    scheme: label(report, scheme.name),
+                    h: l.h,
+                    kinetic_energy: l.kinetic_energy,
+                    temperature_ratio: ratio,
+                    biased: ratio
+                        .filter(|r| r.ci_low.is_finite() && r.ci_high.is_finite())
+                        .map(|r| !(r.ci_low <= 1.0 && 1.0 <= r.ci_high)),
+                    truncated_fraction: l.truncated_fraction,
+                    failures: l.failures,
+                    paths: l.paths,
+                });
+            }
+        }
+    }
+    Some(EquipartitionScene {
+        scene: first.scene.clone(),
+        target,
+        burn_in: spec.burn_in,
+        t_end: first.t_end,
+        rows,
+    })
+}
+
+/// The Markdown summary.
+pub fn markdown(scenes: &[EquipartitionScene]) -> String {
+    let mut s = String::from(
+        "# Equipartition study\n\nAt equilibrium, E[v^T M v / 2] = (n - m) kT / 2 on the constraint manifold. \
+         Each row: the kinetic energy averaged over t >= burn-in and over independent paths, with a 95% interval, \
+         and its ratio to the equipartition value (the measured temperature over the set one). \
+         \"biased\" marks rows whose interval excludes 1 (n/a: fewer than 2 paths finished).\n",
+    );
+    for sc in scenes {
+        let _ = write!(
+            s,
+            "\n## {}\n\nTarget (n - m) kT / 2 = {:.4}, T = {}, averaged over t >= {}.\n\n| scheme | h | kinetic energy [95% CI] | T ratio [95% CI] | biased | truncated | failures |\n|---|---|---|---|---|---|---|\n",
+            sc.scene, sc.target, sc.t_end, sc.burn_in
+        );
+        for r in &sc.rows {
+            let k = r.kinetic_energy.map_or("-".into(), |k| {
+                format!("{:.4} [{:.4}, {:.4}]", k.estimate, k.ci_low, k.ci_high)
+            });
+            let t = r.temperature_ratio.map_or("-".into(), |k| {
+                format!("{:.3} [{:.3}, {:.3}]", k.estimate, k.ci_low, k.ci_high)
+            });
+            let _ = writeln!(
+                s,
+                "| {} | {:.1e} | {k} | {t} | {} | {:.1}% | {}/{} |",
+                r.scheme,
+                r.h,
+                match r.biased {
+                    Some(true) => "yes",
+                    Some(false) => "no",
+                    None => "n/a",
+                },
+                100.0 * r.truncated_fraction,
+                r.failures,
+                r.paths
+            );
+        }
+    }
+    s += "\n![temperature ratio against h](equipartition.svg)\n";
+    s
+}
+
+/// `equipartition.svg`: per scene, the temperature ratio against h, one line per scheme and
+/// C_eta, with 95% error bars and the line ratio = 1.
+pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
+    let count = scenes.len().max(1);
+    let root = SVGBackend::new(path, (560 * count as u32, 460)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled("measured over set temperature", ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    for (area, sc) in root.split_evenly((1, count)).iter().zip(scenes) {
+        let finite = |x: f64| x.is_finite().then_some(x);
+        let xs = log_range(sc.rows.iter().map(|r| r.h));
+        let ys: Vec<f64> = sc
+            .rows
+            .iter()
+            .filter_map(|r| r.temperature_ratio)
+            .flat_map(|i| [i.ci_low, i.ci_high])
+            .filter_map(finite)
+            .chain([0.9, 1.1])
+            .collect();
+        let lo = ys.iter().copied().fold(f64::INFINITY, f64::min).max(0.0);
+        let hi = ys.iter().copied().fold(0.0, f64::max).min(10.0);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&sc.scene, ("sans-serif", 15))
+            .margin(10)
+            .x_label_area_size(32)
+            .y_label_area_size(48)
+            .build_cartesian_2d(xs.clone().log_scale(), lo..hi)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .light_line_style(RGBColor(245, 245, 245))
+            .x_desc("h")
+            .y_desc("T measured / T")
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(LineSeries::new(
+                [(xs.start, 1.0), (xs.end, 1.0)],
+                BLACK.mix(0.5),
+            ))
+            .map_err(|e| err(&e))?;
+        let mut labels: Vec<&str> = sc.rows.iter().map(|r| r.scheme.as_str()).collect();
+        labels.dedup();
+        for (k, name) in labels.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            let rows: Vec<(f64, Interval)> = sc
+                .rows
+                .iter()
+                .filter(|r| r.scheme == *name)
+                .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
+                .filter(|(_, t)| t.estimate.is_finite())
+                .collect();
+            chart
+                .draw_series(LineSeries::new(
+                    rows.iter().map(|(h, t)| (*h, t.estimate.clamp(lo, hi))),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?
+                .label(*name)
+                .legend(move |(a, b)| {
+                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
+                });
+            chart
+                .draw_series(rows.iter().map(|(h, t)| {
+                    ErrorBar::new_vertical(
+                        *h,
+                        t.ci_low.clamp(lo, hi),
+                        t.estimate.clamp(lo, hi),
+                        t.ci_high.clamp(lo, hi),
+                        colour.filled(),
+                        5,
+                    )
+                }))
+                .map_err(|e| err(&e))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 10))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))
+}
+
+/// Writes `report.json`, `report.md` and `equipartition.svg` into `dir`.
+pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let json = serde_json::to_string_pretty(scenes).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
+    std::fs::write(dir.join("report.md"), markdown(scenes)).map_err(io)?;
+    plot(scenes, &dir.join("equipartition.svg"))
+}

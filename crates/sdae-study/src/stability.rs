@@ -1,0 +1,235 @@
+//! The stability study: every scheme on stiff and extreme scenes over a range of step sizes,
+//! counting the paths that finish and the failures by kind, with the largest constraint
+//! residuals, the share of truncated steps, the error against a reference where one exists,
+//! and the run time.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::convergence::{ConvergenceReport, ConvergenceSettings, LevelReport};
+use crate::lockstep::Limits;
+use crate::plots::{COLOURS, log_range};
+use crate::scene::Scene;
+
+/// The stability settings of a scene (`None` if it has no `[stability]` table); `quick` keeps
+/// at most 20 paths, the three coarsest levels and a reference 4 levels above them.
+pub fn stability_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> {
+    let spec = scene.stability.as_ref()?;
+    let [mut coarsest, mut finest] = spec.levels;
+    let mut paths = spec.paths;
+    let mut reference = spec.reference;
+    if quick {
+        paths = paths.min(20);
+        finest = finest.min(coarsest + 2);
+        reference = reference.map(|r| r.min(finest + 4));
+        coarsest = coarsest.min(finest);
+    }
+    Some(ConvergenceSettings {
+        paths,
+        coarsest,
+        finest,
+        reference,
+        limits: Limits {
+            blow_up: spec.blow_up,
+            drift_tolerance: Some(spec.drift_tolerance),
+        },
+        ..ConvergenceSettings::for_scene(scene)
+    })
+}
+
+/// One scene of the stability study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StabilityScene {
+    /// The stiff or extreme case it stands for.
+    pub case: String,
+    /// Its results (errors only where a reference exists).
+    pub report: ConvergenceReport,
+}
+
+/// The stability study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StabilityReport {
+    /// One entry per scene.
+    pub scenes: Vec<StabilityScene>,
+}
+
+fn failures(l: &LevelReport) -> String {
+    if l.failures_by_kind.is_empty() {
+        return "-".into();
+    }
+    l.failures_by_kind
+        .iter()
+        .map(|(k, n)| format!("{} {n}", k.name()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The largest h at which every path of the scheme finished at every h up to it, if any.
+fn largest_stable_h(levels: &[LevelReport]) -> Option<f64> {
+    let mut stable = None;
+    for l in levels.iter().rev() {
+        if l.failures > 0 {
+            break;
+        }
+        stable = Some(l.h);
+    }
+    stable
+}
+
+/// The Markdown summary: an overview (largest stable h per scheme and scene) and per scene a
+/// table of every scheme and step size.
+pub fn markdown(report: &StabilityReport) -> String {
+    let mut s = String::from("# Stability study\n\n");
+    s += "Largest step size h up to which every path finished (failures: no root, spurious root, \
+          no convergence, singular, non-finite, blow-up, constraint drift beyond tolerance):\n\n";
+    let schemes: Vec<&str> = report
+        .scenes
+        .iter()
+        .flat_map(|sc| sc.report.schemes.iter().map(|s| s.name))
+        .fold(Vec::new(), |mut v, n| {
+            if !v.contains(&n) {
+                v.push(n);
+            }
+            v
+        });
+    s += "| scene | case |";
+    for name in &schemes {
+        let _ = write!(s, " {name} |");
+    }
+    s += "\n|---|---|";
+    s += &"---|".repeat(schemes.len());
+    s += "\n";
+    for sc in &report.scenes {
+        let case = sc.case.replace('|', "\\|");
+        let _ = write!(s, "| {} | {case} |", sc.report.scene);
+        for name in &schemes {
+            let cell = match sc.report.schemes.iter().find(|x| x.name == *name) {
+                None => "n/a".into(),
+                Some(x) => {
+                    largest_stable_h(&x.levels).map_or("none".into(), |h| format!("{h:.1e}"))
+                }
+            };
+            let _ = write!(s, " {cell} |");
+        }
+        s += "\n";
+    }
+    for sc in &report.scenes {
+        let r = &sc.report;
+        let tol = r.settings.limits.drift_tolerance.unwrap_or(f64::INFINITY);
+        let _ = write!(
+            s,
+            "\n## {}\n\n{}. {} paths, T = {}, drift tolerance {tol:e}, blow-up bound {:e}{}.\n\n",
+            r.scene,
+            sc.case,
+            r.paths,
+            r.t_end,
+            r.settings.limits.blow_up,
+            r.reference
+                .as_ref()
+                .map_or(", no reference".into(), |x| format!(
+                    ", reference {} with {} steps",
+                    x.scheme, x.n_steps
+                ))
+        );
+        s += "| scheme | h | finished | failures | max abs g | max abs Dg v | truncated | error r | us/path |\n|---|---|---|---|---|---|---|---|---|\n";
+        for scheme in &r.schemes {
+            for l in &scheme.levels {
+                let error = l
+                    .error
+                    .r
+                    .filter(|e| e.estimate.is_finite())
+                    .map_or("-".into(), |e| format!("{:.2e}", e.estimate));
+                let _ = writeln!(
+                    s,
+                    "| {} | {:.1e} | {:.0}% | {} | {:.1e} | {:.1e} | {:.1}% | {error} | {:.0} |",
+                    scheme.name,
+                    l.h,
+                    100.0 * l.finished_fraction,
+                    failures(l),
+                    l.max_position_residual,
+                    l.max_velocity_residual,
+                    100.0 * l.truncated_fraction,
+                    l.seconds_per_path * 1e6,
+                );
+            }
+        }
+        for skipped in &r.skipped {
+            let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
+        }
+    }
+    s += "\n![share of paths that finish](stability.svg)\n";
+    s
+}
+
+/// `stability.svg`: per scene, the share of paths that finish against h, one line per scheme.
+pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), String> {
+    let count = report.scenes.len().max(1);
+    let cols = count.min(3);
+    let rows = count.div_ceil(cols);
+    let root =
+        SVGBackend::new(path, (420 * cols as u32, 340 * rows as u32 + 40)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled("share of paths that finish", ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    for (area, sc) in root.split_evenly((rows, cols)).iter().zip(&report.scenes) {
+        let r = &sc.report;
+        let xs = log_range(r.schemes.iter().flat_map(|s| s.levels.iter().map(|l| l.h)));
+        let mut chart = ChartBuilder::on(area)
+            .caption(&r.scene, ("sans-serif", 15))
+            .margin(8)
+            .x_label_area_size(32)
+            .y_label_area_size(40)
+            .build_cartesian_2d(xs.log_scale(), -0.05..1.05)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .light_line_style(RGBColor(245, 245, 245))
+            .x_desc("h")
+            .x_labels(5)
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for (k, scheme) in r.schemes.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            // Offset the lines slightly so that coinciding schemes stay visible.
+            let offset = 0.012 * (k as f64 - 3.0);
+            chart
+                .draw_series(LineSeries::new(
+                    scheme
+                        .levels
+                        .iter()
+                        .map(|l| (l.h, l.finished_fraction + offset)),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?
+                .label(scheme.name)
+                .legend(move |(a, b)| {
+                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 10))
+            .position(SeriesLabelPosition::LowerLeft)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))
+}
+
+/// Writes `report.json`, `report.md` and `stability.svg` into `dir`.
+pub fn write_report(report: &StabilityReport, dir: &Path) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
+    std::fs::write(dir.join("report.md"), markdown(report)).map_err(io)?;
+    plot(report, &dir.join("stability.svg"))
+}

@@ -20,6 +20,11 @@ tasks:
         (`cargo xtask study --help` lists the options, --quick runs in seconds)
   study merge DIR... [--out DIR]
         merge the shard files of `study --shard I/N` runs into the unsharded report
+  study stability [--quick]
+        the stability study of the stiff and extreme scenes: target/study/stability/
+  study equipartition [--quick]
+        kinetic temperature of the Langevin scenes against h and C_eta:
+        target/study/equipartition/
   study list
         the built-in scenes and the schemes
   bench [--quick] [-- <criterion options>]

@@ -239,12 +239,14 @@ impl Factorize for TridiagonalGram {
     fn new_factor(&self) -> TridiagonalFactor {
         TridiagonalFactor::with_order(self.diag.len())
     }
+    /// Thomas' algorithm first; a non-finite entry makes it fail (it reaches a NaN or infinite
+    /// minor or pivot), so the entries are checked only before the pivoted fallback.
     fn factor_into(&self, factor: &mut TridiagonalFactor) -> Result<(), LinearError> {
-        check_finite(&self.diag)?;
-        check_finite(&self.lower)?;
-        check_finite(&self.upper)?;
         factor.pivoted = !factor.factor_thomas(self);
         if factor.pivoted {
+            check_finite(&self.diag)?;
+            check_finite(&self.lower)?;
+            check_finite(&self.upper)?;
             factor.factor_pivoted(self)?;
         }
         Ok(())

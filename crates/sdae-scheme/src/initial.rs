@@ -39,20 +39,22 @@ where
     };
     // The kappa system with y = r: g(r + M^-1 grad g(r) gamma) = 0.
     let y = r.to_vec();
+    let mut problem = KappaProblem {
+        constraint,
+        mass,
+        r,
+        y: &y,
+        x: &mut x,
+        scratch: &mut scratch,
+        floor: 0.0,
+        at_y: false,
+    };
     solver
-        .solve(
-            &mut KappaProblem {
-                constraint,
-                mass,
-                r,
-                y: &y,
-                x: &mut x,
-                scratch: &mut scratch,
-                floor: 0.0,
-            },
-            f64::INFINITY,
-        )
+        .solve(&mut problem, f64::INFINITY)
         .map_err(project_error)?;
+    if problem.at_y {
+        x.copy_from_slice(&y);
+    }
     let displacement = x
         .iter()
         .zip(r.iter())

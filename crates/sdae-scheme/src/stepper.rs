@@ -30,7 +30,8 @@ impl StepReport {
 
 /// The kappa system R(gamma) = g(y + M^-1 grad g(r) gamma), y = r + eta v h, with Jacobian
 /// Dg(x) M^-1 grad g(r) at x = y + M^-1 grad g(r) gamma (seed eq. 3.1 upper part, eq. 3.10).
-/// After a successful solve, `x` holds r' (the solver's last evaluation is at the root).
+/// After a successful solve, r' is `y` if `at_y` and `x` otherwise (the solver's last
+/// evaluation is at the root; at gamma = 0 the position is y itself and is not copied).
 pub(crate) struct KappaProblem<'a, C, M> {
     pub(crate) constraint: &'a C,
     pub(crate) mass: &'a M,
@@ -40,6 +41,8 @@ pub(crate) struct KappaProblem<'a, C, M> {
     pub(crate) scratch: &'a mut [f64],
     /// The residual floor of g near y (`Constraint::value_roundoff`).
     pub(crate) floor: f64,
+    /// Whether the last evaluation was at gamma = 0, i.e. at x = y.
+    pub(crate) at_y: bool,
 }
 
 impl<C, M> BallProblem for KappaProblem<'_, C, M>
@@ -58,14 +61,16 @@ where
     #[inline]
     fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
         let c = self.constraint;
-        if gamma.iter().all(|&g| g == 0.0) {
-            self.x.copy_from_slice(self.y);
+        self.at_y = gamma.iter().all(|&g| g == 0.0);
+        let x: &[f64] = if self.at_y {
+            self.y
         } else {
             c.displace(self.r, gamma, self.mass, self.y, self.x);
-        }
+            self.x
+        };
         match jacobian {
-            Some(j) => c.value_and_cross_gram(self.x, self.r, self.mass, self.scratch, residual, j),
-            None => c.value(self.x, residual),
+            Some(j) => c.value_and_cross_gram(x, self.r, self.mass, self.scratch, residual, j),
+            None => c.value(x, residual),
         }
     }
     fn residual_floor(&self) -> f64 {
@@ -221,7 +226,7 @@ where
             max_abs_y = max_abs_y.max(yi.abs());
         }
 
-        let certificate = {
+        let (certificate, at_y) = {
             let mut problem = KappaProblem {
                 constraint,
                 mass,
@@ -230,9 +235,12 @@ where
                 x: &mut self.x,
                 scratch: &mut self.scratch,
                 floor: constraint.value_roundoff(max_abs_y),
+                at_y: false,
             };
-            self.solver.solve(&mut problem, self.config.c_kappa)?
+            let certificate = self.solver.solve(&mut problem, self.config.c_kappa)?;
+            (certificate, problem.at_y)
         };
+        let r_new: &[f64] = if at_y { &self.y } else { &self.x };
 
         // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
         // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
@@ -244,7 +252,7 @@ where
         for (f, vi) in self.force.iter_mut().zip(v.iter()) {
             *f += vi;
         }
-        constraint.jacobian_mul(&self.x, &self.force, &mut self.lambda);
+        constraint.jacobian_mul(r_new, &self.force, &mut self.lambda);
         for l in self.lambda.iter_mut() {
             *l = -*l;
         }
@@ -255,7 +263,7 @@ where
         if !new_v_norm2.is_finite() {
             return Err(StepFailure::NonFiniteVelocity { norm2: new_v_norm2 });
         }
-        r.copy_from_slice(&self.x);
+        r.copy_from_slice(r_new);
         v.copy_from_slice(&self.drift);
         let velocity_residual = if self.config.monitor_velocity_constraint {
             constraint.jacobian_mul(r, v, &mut self.tangency);

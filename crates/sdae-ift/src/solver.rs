@@ -5,6 +5,7 @@
 use crate::error::IftError;
 use crate::linear::{Factorize, Solve};
 use crate::problem::BallProblem;
+use sdae_manifold::GramStructure;
 use sdae_manifold::vector::{max_abs as norm_max, norm2};
 
 /// How the root was found.
@@ -171,6 +172,14 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Result<Certificate, IftError> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
+        if A::STRUCTURE == GramStructure::Scalar && start_is_zero {
+            if let Some(certificate) = self.solve_scalar(problem, radius) {
+                return Ok(certificate);
+            }
+            // Not certified on the fast path: the general path below repeats the solve and
+            // reports the failure or falls back to the homotopy.
+            self.gamma.fill(0.0);
+        }
         self.probe.fill(0.0);
         problem.evaluate(
             &self.probe,
@@ -234,6 +243,103 @@ impl<A: Factorize> BallSolver<A> {
             Err(_) if matches!(newton, Corrector::Converged(_)) => Err(newton_error),
             Err(homotopy_error) => Err(homotopy_error),
         }
+    }
+
+    /// Newton from gamma = 0 for m = 1 on scalars: the iteration, tolerances, checks and
+    /// certificate of the general path (`newton` at tau = 1, `accept`, `contraction_estimate`)
+    /// with the same floating-point operations, without the per-call overhead of slices of
+    /// length 1. `None` when the general path must decide (no convergence, a singular or
+    /// non-finite Jacobian, a root outside the ball or implausible): it repeats the solve, so
+    /// errors and the homotopy fallback are those of the general path.
+    #[inline]
+    fn solve_scalar<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        radius: f64,
+    ) -> Option<Certificate> {
+        let mut residual = [0.0];
+        problem.evaluate(&[0.0], &mut residual, Some(&mut self.matrix));
+        self.matrix.factor_into(&mut self.factor_at_zero).ok()?;
+        self.residual_at_zero[0] = residual[0];
+        let mut step = residual;
+        self.factor_at_zero.solve_in_place(&mut step);
+        let first_step = (step[0] * step[0]).sqrt();
+        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
+        self.root_in_factor = false;
+        let mut gamma = 0.0;
+        let mut r = residual[0].abs();
+        if !r.is_finite() {
+            return None;
+        }
+        let mut iterations = 0;
+        if r > self.tolerance {
+            let mut previous_residual = r;
+            gamma -= step[0];
+            loop {
+                iterations += 1;
+                if iterations > self.settings.max_iterations {
+                    return None;
+                }
+                problem.evaluate(&[gamma], &mut residual, Some(&mut self.matrix));
+                r = residual[0].abs();
+                if !r.is_finite() {
+                    return None;
+                }
+                self.matrix.factor_into(&mut self.factor).ok()?;
+                self.root_in_factor = true;
+                if r <= self.tolerance {
+                    break;
+                }
+                if iterations == self.settings.max_iterations {
+                    return None;
+                }
+                if r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance {
+                    break;
+                }
+                previous_residual = r;
+                step = residual;
+                self.factor.solve_in_place(&mut step);
+                gamma -= step[0];
+            }
+        }
+        self.gamma[0] = gamma;
+        let norm = (gamma * gamma).sqrt();
+        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
+            || (norm > self.settings.plausibility_factor * first_step && norm > 64.0 * f64::EPSILON)
+        {
+            return None;
+        }
+        // Power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*|.
+        let contraction = if self.settings.contraction_probes == 0 {
+            f64::NAN
+        } else if norm == 0.0 {
+            0.0
+        } else {
+            let mut probe = [gamma / norm];
+            let mut estimate = 0.0;
+            for _ in 0..self.settings.contraction_probes {
+                let mut image = [0.0];
+                self.matrix.mul_vec(&probe, &mut image);
+                self.factor_at_zero.solve_in_place(&mut image);
+                image[0] -= probe[0];
+                estimate = (image[0] * image[0]).sqrt();
+                if estimate == 0.0 {
+                    break;
+                }
+                probe[0] = image[0] / estimate;
+            }
+            estimate
+        };
+        Some(Certificate {
+            iterations,
+            homotopy_steps: 0,
+            method: Method::Newton,
+            residual: r,
+            norm,
+            radius,
+            first_step,
+            contraction,
+        })
     }
 
     /// Checks the root in `self.gamma` against the ball and the first Newton step, and builds

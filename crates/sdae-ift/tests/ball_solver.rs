@@ -4,7 +4,7 @@
 //! (seed Section 5.1, Fig. 1).
 
 use sdae_ift::{BallProblem, BallSolver, IftError, Method, SolverSettings};
-use sdae_manifold::ScalarGram;
+use sdae_manifold::{DenseGram, ScalarGram};
 
 struct PendulumKappa {
     s: f64,
@@ -22,6 +22,26 @@ impl BallProblem for PendulumKappa {
         r[0] = 0.5 * (1.0 - (1.0 - g[0]).powi(2) - self.s * self.s);
         if let Some(j) = j {
             j.0 = 1.0 - g[0];
+        }
+    }
+}
+
+/// The same problem with its Jacobian in a 1 x 1 dense matrix: solved by the general path.
+struct DensePendulumKappa(PendulumKappa);
+
+impl BallProblem for DensePendulumKappa {
+    type Matrix = DenseGram;
+    fn dim(&self) -> usize {
+        1
+    }
+    fn new_matrix(&self) -> DenseGram {
+        DenseGram::zeros(1)
+    }
+    fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut DenseGram>) {
+        let mut scalar = ScalarGram(0.0);
+        self.0.evaluate(g, r, Some(&mut scalar));
+        if let Some(j) = j {
+            j.set(0, 0, scalar.0);
         }
     }
 }
@@ -128,5 +148,51 @@ fn newton_from_zero_converges_inside_the_theorem() {
         let cert = solver.solve(&mut PendulumKappa { s }, 0.125).unwrap();
         assert_eq!(cert.method, Method::Newton);
         assert!(cert.iterations <= 5, "s = {s}: {cert:?}");
+    }
+}
+
+#[test]
+fn scalar_fast_path_matches_the_general_path() {
+    // m = 1 takes a scalar Newton path; a 1 x 1 dense Jacobian takes the general one (which
+    // divides by the pivot where the scalar factor multiplies by its inverse, so values agree to
+    // rounding). Iteration counts and methods agree exactly, failures are the same errors.
+    let settings = |homotopy| SolverSettings {
+        homotopy,
+        ..SolverSettings::default()
+    };
+    for homotopy in [false, true] {
+        for s in [0.0, 1e-9, 0.1, 0.25, 0.8, 0.99, 1.2] {
+            for radius in [0.125, 10.0] {
+                let mut scalar = BallSolver::new(ScalarGram(0.0), settings(homotopy));
+                let mut dense = BallSolver::new(DenseGram::zeros(1), settings(homotopy));
+                let fast = scalar.solve(&mut PendulumKappa { s }, radius);
+                let general = dense.solve(&mut DensePendulumKappa(PendulumKappa { s }), radius);
+                let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * (1.0 + a.abs());
+                match (fast, general) {
+                    (Ok(f), Ok(g)) => {
+                        assert_eq!(
+                            (f.iterations, f.homotopy_steps, f.method),
+                            (g.iterations, g.homotopy_steps, g.method),
+                            "s = {s}, radius = {radius}"
+                        );
+                        for (a, b) in [
+                            (f.residual, g.residual),
+                            (f.norm, g.norm),
+                            (f.first_step, g.first_step),
+                            (f.contraction, g.contraction),
+                            (scalar.root()[0], dense.root()[0]),
+                        ] {
+                            assert!(close(a, b), "s = {s}, radius = {radius}: {f:?} {g:?}");
+                        }
+                    }
+                    (Err(f), Err(g)) => assert_eq!(
+                        std::mem::discriminant(&f),
+                        std::mem::discriminant(&g),
+                        "s = {s}, radius = {radius}: {f:?} {g:?}"
+                    ),
+                    (f, g) => panic!("s = {s}, radius = {radius}: {f:?} against {g:?}"),
+                }
+            }
+        }
     }
 }

@@ -81,6 +81,18 @@ impl Constraint for Sphere {
     ) {
         out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
     }
+    /// One pass for diagonal masses: out_k = y_k + w_k (-z x_k / rho^2), w_k = (M^-1)_kk
+    /// (seed eq. 3.1: the position of the kappa system and the velocity update).
+    #[inline]
+    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
+        if mass.inverse_diagonal_entry(0).is_none() {
+            return crate::constraint::displace_in_passes(self, r, z, mass, y, out);
+        }
+        let s = -z[0] * self.inv_r2;
+        for (k, ((o, ri), yi)) in out.iter_mut().zip(r).zip(y).enumerate() {
+            *o = s * ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0) + yi;
+        }
+    }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         self.roundoff(max_abs_x)
     }

@@ -35,7 +35,7 @@ fn untruncated_scheme_has_no_root_in_figure_1b_and_truncated_one_steps() {
     let base = StepperConfig::for_system(&free_pendulum()).unwrap();
     let mut untruncated = Stepper::new(free_pendulum(), base.untruncated()).unwrap();
     let (mut r, mut v) = (r0, v0);
-    match untruncated.step(&mut r, &mut v, h, &[0.0, 0.0]) {
+    match untruncated.step(&mut r, &mut v, h, &[]) {
         Err(StepFailure::Kappa(IftError::NoRoot { tau, .. })) => {
             // The path (1 - gamma)^2 = 1 - tau s^2 folds at tau = 1/s^2 with s = 1.2.
             assert!((tau - 1.0 / 1.44).abs() < 1e-3, "tau = {tau}");
@@ -45,7 +45,7 @@ fn untruncated_scheme_has_no_root_in_figure_1b_and_truncated_one_steps() {
     assert_eq!((r, v), (r0, v0), "a failed step leaves the state unchanged");
 
     let mut truncated = Stepper::new(free_pendulum(), base).unwrap();
-    let report = truncated.step(&mut r, &mut v, h, &[0.0, 0.0]).unwrap();
+    let report = truncated.step(&mut r, &mut v, h, &[]).unwrap();
     // C_g = 1: eta |v| h <= C_eta = 1/4 and |kappa| < C_kappa = 1/8.
     assert!(report.eta * 12.0 * h <= 0.25 + 1e-15);
     assert!(report.certificate.norm < 0.125);
@@ -64,7 +64,7 @@ fn the_first_root_is_outside_the_theory_ball_when_c_eta_is_too_large() {
         .unwrap();
     let mut stepper = Stepper::new(free_pendulum(), config).unwrap();
     let (mut r, mut v) = ([0.5, s3], [8.0 * s3, -4.0]);
-    match stepper.step(&mut r, &mut v, 0.1, &[0.0, 0.0]) {
+    match stepper.step(&mut r, &mut v, 0.1, &[]) {
         Err(StepFailure::Kappa(IftError::OutsideBall { norm, radius })) => {
             assert!(
                 (norm - 0.4).abs() < 1e-12 && radius == 0.125,

@@ -6,7 +6,7 @@ mod common;
 
 use common::{brownian_path, observed_order, planar, show, state_distance};
 use sdae_reference::{EulerMaruyama, ReferenceSolver, StochasticHeun, run_reference_path};
-use sdae_scheme::{Coarsened, NoObserver, Pendulum, RecordedIncrements};
+use sdae_scheme::{Coarsened, GaussianIncrements, NoObserver, Pendulum, RecordedIncrements};
 
 const T: f64 = 1.0;
 const FINE: usize = 1 << 12;
@@ -14,8 +14,14 @@ const LEVELS: [usize; 4] = [32, 64, 128, 256];
 
 fn run<S: ReferenceSolver>(solver: &mut S, fine: &[f64], steps: usize) -> (Vec<f64>, Vec<f64>) {
     let (mut r, mut v) = (vec![0.6, -0.8], vec![1.2, 0.9]);
-    let mut dw = Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);
-    run_reference_path(solver, &mut r, &mut v, T, steps, &mut dw, &mut NoObserver).unwrap();
+    if solver.sde().noise_dim() == 0 {
+        // Without noise (sigma = 0 gives l = 0) no increments are needed.
+        let mut none = GaussianIncrements::for_path(0, 0, 0);
+        run_reference_path(solver, &mut r, &mut v, T, steps, &mut none, &mut NoObserver).unwrap();
+    } else {
+        let mut dw = Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);
+        run_reference_path(solver, &mut r, &mut v, T, steps, &mut dw, &mut NoObserver).unwrap();
+    }
     (r, v)
 }
 

@@ -65,7 +65,8 @@ impl Noise for NoNoise {
     fn add(&self, _r: &[f64], _v: &[f64], _dw: &[f64], _out: &mut [f64]) {}
 }
 
-/// Additive noise B = sigma I_n (l = n).
+/// Additive noise B = sigma I_n (l = n; l = 0 for sigma = 0, so that a noise-free system draws
+/// no random numbers).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AdditiveNoise {
     sigma: f64,
@@ -73,7 +74,8 @@ pub struct AdditiveNoise {
 }
 
 impl AdditiveNoise {
-    /// B = sigma I_dim; sigma must be finite and >= 0.
+    /// B = sigma I_dim; sigma must be finite and >= 0. With sigma = 0 the noise dimension is
+    /// 0: no increments are asked for.
     pub fn new(sigma: f64, dim: usize) -> Result<Self, SchemeError> {
         if !(sigma.is_finite() && sigma >= 0.0) {
             return Err(SchemeError::InvalidSetting {
@@ -82,6 +84,7 @@ impl AdditiveNoise {
                 reason: "noise amplitude must be finite and >= 0",
             });
         }
+        let dim = if sigma == 0.0 { 0 } else { dim };
         Ok(Self { sigma, dim })
     }
     /// The amplitude sigma.

@@ -20,6 +20,7 @@
 //! # Ok::<(), sdae_manifold::ManifoldError>(())
 //! ```
 
+mod bonds;
 mod chain;
 mod closure;
 mod constraint;
@@ -30,6 +31,7 @@ mod sphere;
 mod state;
 pub mod vector;
 
+pub use bonds::{Bond, RigidBonds};
 pub use chain::BeadChain;
 pub use closure::{ClosureConstraint, NoCurvature};
 pub use constraint::{

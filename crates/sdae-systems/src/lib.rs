@@ -1,2 +1,43 @@
 //! Built-in constrained stochastic mechanical systems (seed Section 5): constrained Langevin
-//! molecules (5.2) and inextensible fibers in turbulent air (5.3).
+//! molecules (Section 5.2) and inextensible fibers in turbulent air (Section 5.3), each a
+//! [`System`](sdae_scheme::System) of seed eq. 1.1,
+//!
+//! ```text
+//! M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu,   g(r) = 0,
+//! ```
+//!
+//! that runs with the half-explicit scheme ([`Stepper`](sdae_scheme::Stepper)) and, since
+//! every constraint here provides D^2 g, with the inherent-SDE reference solvers.
+//!
+//! - [`langevin`]: [`Langevin`] (any constraint and [`Potential`]), [`chain_molecule`] and
+//!   [`rigid_triatomic`] with their parameter structs;
+//! - [`fiber`]: [`Fiber`] with bending, gravity, drag relative to an [`AirFlow`] and
+//!   turbulent forcing ([`FiberParams`]);
+//! - [`potential`]: [`BondAngles`], [`Torsions`], [`HarmonicTrap`], composable as tuples.
+//!
+//! Parameter structs derive serde (unknown fields are errors, missing ones take the defaults),
+//! and every constructor checks its parameters, failing with a [`SystemError`] that names the
+//! parameter, its value and the rule it breaks.
+//!
+//! ```
+//! use sdae_systems::{Fiber, FiberParams, SystemError};
+//! let e = Fiber::new(&FiberParams { bending_stiffness: -1.0, ..FiberParams::default() });
+//! assert!(matches!(e, Err(SystemError::InvalidParameter { name: "bending_stiffness", .. })));
+//! ```
+
+mod error;
+pub mod fiber;
+pub mod langevin;
+mod masses;
+pub mod potential;
+
+pub use error::SystemError;
+pub use fiber::{AirFlow, Fiber, FiberParams};
+pub use langevin::{
+    ChainMolecule, ChainMoleculeParams, ChainPotential, Langevin, RigidTriatomic,
+    RigidTriatomicParams, chain_molecule, rigid_triatomic,
+};
+pub use masses::Masses;
+pub use potential::{
+    AngleParams, BondAngles, HarmonicTrap, Potential, TorsionParams, Torsions, TrapParams,
+};

@@ -41,7 +41,11 @@ fn bench_mass<M: Mass + Clone>(c: &mut Criterion, name: &str, mass: M) {
                 (r, v) = (r0, v0);
             }
             noise.next_increment(H, &mut dw);
-            black_box(stepper.step(&mut r, &mut v, H, &dw).expect("a pendulum step"));
+            black_box(
+                stepper
+                    .step(&mut r, &mut v, H, &dw)
+                    .expect("a pendulum step"),
+            );
         })
     });
 }

@@ -12,6 +12,7 @@
 //! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
+//! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`plots`], [`output`]: statistics, SVG plots and the report files.
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
@@ -27,3 +28,4 @@ pub mod plots;
 pub mod scene;
 pub mod stability;
 pub mod stats;
+pub mod trace;

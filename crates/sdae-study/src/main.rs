@@ -9,11 +9,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::convergence::{
     ConvergenceRun, ConvergenceSettings, build_report, merge_shards, run_convergence,
 };
-use sdae_study::equipartition;
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, write_report};
 use sdae_study::scene::{BUILT_IN, Scene};
 use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
+use sdae_study::{equipartition, trace};
 
 const USAGE: &str = "\
 sdae-study: strong errors of the half-explicit drift-truncated Euler scheme and of solvers of
@@ -26,6 +26,8 @@ Usage: sdae-study [options]           convergence study (default: the pendulum s
                                       and C_eta
        sdae-study merge DIR... [--out DIR]
                                       merge shard files into the unsharded report
+       sdae-study trace [--scene NAMES] [--scene-file PATH] [--seed S] [--out DIR]
+                                      one path of each scene as DIR/trace/<scene>.svg and .csv
        sdae-study list                built-in scenes and schemes
 
 Options:
@@ -107,6 +109,7 @@ enum Mode {
     Convergence,
     Stability,
     Equipartition,
+    Trace,
 }
 
 /// What the command line asks for.
@@ -147,6 +150,7 @@ fn parse_args(args: Vec<String>) -> Result<Command, String> {
         Some("merge") => (true, Mode::Convergence),
         Some("stability") => (false, Mode::Stability),
         Some("equipartition") => (false, Mode::Equipartition),
+        Some("trace") => (false, Mode::Trace),
         Some("convergence") => (false, Mode::Convergence),
         Some("list") => return Ok(Command::List),
         _ => (false, Mode::Convergence),
@@ -362,6 +366,7 @@ fn default_scenes(mode: Mode) -> Result<Vec<Scene>, String> {
         .collect::<Result<Vec<_>, _>>()?;
     Ok(match mode {
         Mode::Convergence => all.into_iter().filter(|s| s.name == "pendulum").collect(),
+        Mode::Trace => all,
         Mode::Stability => all.into_iter().filter(|s| s.stability.is_some()).collect(),
         Mode::Equipartition => all
             .into_iter()
@@ -463,6 +468,45 @@ fn run_equipartition(
     Ok(())
 }
 
+/// The number of steps of a scene's trace: its finest study level (default 2^10).
+fn trace_steps(scene: &Scene) -> usize {
+    let finest = scene
+        .study
+        .levels
+        .map(|l| l[1])
+        .or(scene.stability.as_ref().map(|s| s.levels[1]))
+        .or(scene.equipartition.as_ref().map(|e| e.levels[1]))
+        .unwrap_or(10);
+    1 << finest
+}
+
+fn run_trace(scenes: &[Scene], o: &Overrides, out: &Path) -> Result<(), String> {
+    let dir = out.join("trace");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot write to {}: {e}", dir.display()))?;
+    for scene in scenes {
+        let steps = trace_steps(scene);
+        let trace =
+            trace::trace(scene, steps, o.seed.unwrap_or(2026)).map_err(|e| e.to_string())?;
+        if let Some(failure) = &trace.failure {
+            eprintln!("{}: the path stopped early: {failure}", scene.name);
+        }
+        let file = dir.join(format!("{}.csv", scene.name));
+        std::fs::write(&file, trace::csv(&trace))
+            .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+        let title = format!(
+            "{}: one path, {steps} steps over T = {}",
+            scene.name, scene.t_end
+        );
+        trace::plot(&trace, &title, &dir.join(format!("{}.svg", scene.name)))?;
+        println!(
+            "wrote {0}/{1}.svg and {0}/{1}.csv",
+            dir.display(),
+            scene.name
+        );
+    }
+    Ok(())
+}
+
 fn list() {
     println!("built-in scenes:");
     for (name, _) in BUILT_IN {
@@ -521,6 +565,13 @@ fn main() -> ExitCode {
             out,
             ..
         } => run_equipartition(&scenes, &overrides, quick, &out),
+        Command::Run {
+            mode: Mode::Trace,
+            scenes,
+            overrides,
+            out,
+            ..
+        } => run_trace(&scenes, &overrides, &out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

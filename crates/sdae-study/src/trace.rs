@@ -1,0 +1,194 @@
+//! A picture of a scene: one path of the half-explicit scheme (practical C_eta) at the scene's
+//! finest study step, recorded at a few hundred times, written as CSV and drawn as SVG. A
+//! single particle (the pendulum) is drawn as its path; several particles (a molecule, a fiber)
+//! as their shape at a few times, projected on the (x, z) plane in R^3.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+use sdae_reference::CurvedSystem;
+use sdae_scheme::{GaussianIncrements, Recorder, Stepper, StepperConfig, TimeGrid, run_path};
+
+use crate::plots::COLOURS;
+use crate::scene::{Prepared, Scene, SceneError, SceneRunner};
+
+/// Shapes drawn for a scene of several particles.
+const SHAPES: usize = 6;
+/// Recorded states of a path.
+const RECORDS: usize = 400;
+
+/// One recorded path of a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    /// Space dimension of a particle (2 or 3).
+    pub particle_dim: usize,
+    /// (t, r) at the recorded times.
+    pub states: Vec<(f64, Vec<f64>)>,
+    /// Why the path stopped early, if it did.
+    pub failure: Option<String>,
+}
+
+/// Records one path (stream `seed`, path 0) of `scene` with `steps` steps.
+pub fn trace(scene: &Scene, steps: usize, seed: u64) -> Result<Trace, SceneError> {
+    scene.run(Tracer { steps, seed })
+}
+
+struct Tracer {
+    steps: usize,
+    seed: u64,
+}
+
+impl SceneRunner for Tracer {
+    type Output = Trace;
+    fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> Trace
+    where
+        S: CurvedSystem + Clone + Send + Sync + 'static,
+    {
+        let n = prepared.position.len();
+        let particle_dim = if n % 3 == 0 { 3 } else { 2 };
+        let l = prepared.system.noise_dim();
+        let mut noise = GaussianIncrements::for_path(self.seed, 0, l);
+        let config = StepperConfig::new(
+            prepared.constants.practical_c_eta,
+            prepared.constants.c_kappa,
+        );
+        let grid = TimeGrid::new(scene.t_end, self.steps.max(1));
+        let (config, grid) = match (config, grid) {
+            (Ok(c), Ok(g)) => (c, g),
+            (Err(e), _) => return failed(particle_dim, e.to_string()),
+            (_, Err(e)) => return failed(particle_dim, e.to_string()),
+        };
+        let mut stepper = match Stepper::new(prepared.system, config) {
+            Ok(s) => s,
+            Err(e) => return failed(particle_dim, e.to_string()),
+        };
+        let (mut r, mut v) = (prepared.position, prepared.velocity);
+        let mut recorder = Recorder::every((self.steps / RECORDS).max(1));
+        let outcome = run_path(
+            &mut stepper,
+            &mut r,
+            &mut v,
+            grid,
+            &mut noise,
+            &mut recorder,
+        );
+        let states = (0..recorder.len())
+            .map(|i| (recorder.times[i], recorder.position(i).to_vec()))
+            .collect();
+        Trace {
+            particle_dim,
+            states,
+            failure: outcome.err().map(|e| e.to_string()),
+        }
+    }
+}
+
+fn failed(particle_dim: usize, message: String) -> Trace {
+    Trace {
+        particle_dim,
+        states: Vec::new(),
+        failure: Some(message),
+    }
+}
+
+/// The trace as CSV: t, then the coordinates of r.
+pub fn csv(trace: &Trace) -> String {
+    let n = trace.states.first().map_or(0, |s| s.1.len());
+    let mut s = String::from("t");
+    for i in 0..n {
+        let _ = write!(s, ",r{i}");
+    }
+    s += "\n";
+    for (t, r) in &trace.states {
+        let _ = write!(s, "{t:e}");
+        for x in r {
+            let _ = write!(s, ",{x:e}");
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// The (horizontal, vertical) coordinates drawn for particle `i` of r: (x, y) in the plane,
+/// (x, z) in space.
+fn point(r: &[f64], dim: usize, i: usize) -> (f64, f64) {
+    let p = &r[dim * i..dim * (i + 1)];
+    (p[0], p[dim - 1])
+}
+
+/// Draws the trace: the path of a single particle, or the shapes of several at a few times.
+pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    let dim = trace.particle_dim;
+    let particles = trace.states.first().map_or(0, |s| s.1.len() / dim);
+    let all: Vec<(f64, f64)> = trace
+        .states
+        .iter()
+        .flat_map(|(_, r)| (0..particles).map(move |i| point(r, dim, i)))
+        .collect();
+    let (x0, x1, y0, y1) = all.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), (x, y)| (a.min(*x), b.max(*x), c.min(*y), d.max(*y)),
+    );
+    if !(x0.is_finite() && y0.is_finite()) {
+        return Err(format!("plot {}: no finite state to draw", path.display()));
+    }
+    // Equal scales on both axes, with a margin.
+    let half = 0.55 * (x1 - x0).max(y1 - y0).max(1e-9);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let root = SVGBackend::new(path, (560, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(48)
+        .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .light_line_style(RGBColor(245, 245, 245))
+        .x_desc("x")
+        .y_desc(if dim == 3 { "z" } else { "y" })
+        .draw()
+        .map_err(|e| err(&e))?;
+    if particles == 1 {
+        chart
+            .draw_series(LineSeries::new(
+                all.iter().copied(),
+                COLOURS[0].stroke_width(1),
+            ))
+            .map_err(|e| err(&e))?;
+    } else {
+        let count = trace.states.len();
+        for k in 0..SHAPES {
+            let Some((t, r)) = trace.states.get(k * (count - 1) / (SHAPES - 1).max(1)) else {
+                continue;
+            };
+            let colour = COLOURS[k % COLOURS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    (0..particles).map(|i| point(r, dim, i)),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?
+                .label(format!("t = {t:.3}"))
+                .legend(move |(a, b)| {
+                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))
+}

@@ -44,6 +44,7 @@ pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
         coarsest,
         finest,
         reference: None,
+        t_end: spec.t_end,
         kinetic_after: Some(spec.burn_in),
         ..ConvergenceSettings::for_scene(scene)
     };
@@ -155,7 +156,7 @@ pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
         scene: first.scene.clone(),
         target,
         burn_in: spec.burn_in,
-        t_end: first.t_end,
+        t_end: spec.t_end,
         rows,
     })
 }

@@ -25,10 +25,13 @@
 //! # Ok::<(), sdae_study::scene::SceneError>(())
 //! ```
 
-use sdae_manifold::{TheoryBound, check_state};
+use sdae_manifold::{BeadChain, TheoryBound, check_state};
 use sdae_reference::CurvedSystem;
 use sdae_scheme::{
     INITIAL_STATE_TOLERANCE, PendulumParams, StepperConfig, System, pendulum, project_state,
+};
+use sdae_systems::{
+    ChainMoleculeParams, Fiber, FiberParams, RigidTriatomicParams, chain_molecule, rigid_triatomic,
 };
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -113,14 +116,33 @@ impl From<PendulumSpec> for PendulumParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SystemSpec {
-    /// The stochastic pendulum.
+    /// The stochastic pendulum (seed 5.1).
     Pendulum(PendulumSpec),
+    /// A chain molecule with rigid bonds under Langevin dynamics (seed 5.2).
+    ChainMolecule(ChainMoleculeParams),
+    /// A rigid triatomic molecule in a harmonic trap under Langevin dynamics (seed 5.2).
+    Triatomic(RigidTriatomicParams),
+    /// An inextensible fiber in turbulent air (seed 5.3).
+    Fiber(FiberParams),
 }
 
-/// The initial state: explicit vectors, or the system's default where left out.
+/// A named initial shape of a chain of beads (chain molecule, fiber).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Shape {
+    /// Straight, from bead 0 at the origin along -z (an ill-conditioned Gram matrix).
+    Straight,
+    /// A planar zigzag in the x-y plane, segments at +/- this angle (rad) to the x axis.
+    Zigzag(f64),
+}
+
+/// The initial state: explicit vectors, a named shape, or the system's default where left out.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
+    /// A named shape for chains of beads (instead of `position`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<Shape>,
     /// r_0 (default: the system's rest configuration).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub position: Option<Vec<f64>>,
@@ -201,6 +223,9 @@ fn default_blow_up() -> f64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EquipartitionSpec {
+    /// The final time of the runs (long enough to reach equilibrium after the burn-in).
+    #[serde(rename = "T")]
+    pub t_end: f64,
     /// Monte Carlo paths.
     pub paths: usize,
     /// Level exponents [A, B]: N = 2^A .. 2^B over T.
@@ -245,7 +270,7 @@ pub struct Scene {
 }
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 6] = [
+pub const BUILT_IN: [(&str, &str); 13] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
@@ -267,6 +292,19 @@ pub const BUILT_IN: [(&str, &str); 6] = [
         "thermal-pendulum",
         include_str!("../scenes/thermal-pendulum.toml"),
     ),
+    (
+        "chain-molecule",
+        include_str!("../scenes/chain-molecule.toml"),
+    ),
+    ("triatomic", include_str!("../scenes/triatomic.toml")),
+    ("fiber", include_str!("../scenes/fiber.toml")),
+    ("stiff-fiber", include_str!("../scenes/stiff-fiber.toml")),
+    (
+        "straight-fiber",
+        include_str!("../scenes/straight-fiber.toml"),
+    ),
+    ("drag-fiber", include_str!("../scenes/drag-fiber.toml")),
+    ("long-fiber", include_str!("../scenes/long-fiber.toml")),
 ];
 
 /// A system built from a scene, ready to run.
@@ -368,6 +406,17 @@ impl Scene {
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
             return Err(self.invalid(format!("T = {}: must be finite and > 0", self.t_end)));
         }
+        if self.initial.shape.is_some() && self.initial.position.is_some() {
+            return Err(self.invalid("initial: give either shape or position, not both"));
+        }
+        let chain_like = matches!(
+            self.system,
+            SystemSpec::ChainMolecule(_) | SystemSpec::Fiber(_)
+        );
+        if self.initial.shape.is_some() && !chain_like {
+            return Err(self
+                .invalid("initial.shape applies to chains of beads (chain-molecule, fiber) only"));
+        }
         if self.outputs.is_empty() {
             return Err(self.invalid("outputs is empty: name at least one output"));
         }
@@ -411,10 +460,10 @@ impl Scene {
             if a > b {
                 return Err(self.invalid(format!("equipartition.levels = [{a}, {b}] is empty")));
             }
-            if !(eq.burn_in >= 0.0 && eq.burn_in < self.t_end) {
+            if !(eq.burn_in >= 0.0 && eq.burn_in < eq.t_end) {
                 return Err(self.invalid(format!(
-                    "equipartition.burn_in = {}: must be in [0, T = {})",
-                    eq.burn_in, self.t_end
+                    "equipartition.burn_in = {}: must be in [0, equipartition.T = {})",
+                    eq.burn_in, eq.t_end
                 )));
             }
             if let Some(c) = eq.c_eta.iter().find(|c| !(c.is_finite() && **c > 0.0)) {
@@ -430,6 +479,34 @@ impl Scene {
     /// `runner`.
     pub fn run<R: SceneRunner>(&self, runner: R) -> Result<R::Output, SceneError> {
         match &self.system {
+            SystemSpec::ChainMolecule(params) => {
+                let system =
+                    chain_molecule(params).map_err(|e| self.invalid(format!("system: {e}")))?;
+                let rest = self.shaped(system.constraint(), system.initial_state().0)?;
+                let theory = theory_constants(&system);
+                let mut prepared = self.prepare(system, rest, true, theory)?;
+                prepared.kinetic_target = Some(prepared.system.equipartition_energy());
+                Ok(runner.run(self, prepared))
+            }
+            SystemSpec::Triatomic(params) => {
+                let system =
+                    rigid_triatomic(params).map_err(|e| self.invalid(format!("system: {e}")))?;
+                let rest = system.initial_state().0;
+                let theory = theory_constants(&system);
+                let mut prepared = self.prepare(system, rest, true, theory)?;
+                prepared.kinetic_target = Some(prepared.system.equipartition_energy());
+                Ok(runner.run(self, prepared))
+            }
+            SystemSpec::Fiber(params) => {
+                let system =
+                    Fiber::new(params).map_err(|e| self.invalid(format!("system: {e}")))?;
+                let rest = self.shaped(system.constraint(), system.hanging().0)?;
+                let theory = theory_constants(&system);
+                // sigma_j = sigma_0 (1 + alpha |v_j - u(x_j)|) depends on v unless alpha = 0.
+                let independent = params.turbulence_gain == 0.0;
+                let prepared = self.prepare(system, rest, independent, theory)?;
+                Ok(runner.run(self, prepared))
+            }
             SystemSpec::Pendulum(spec) => {
                 let system =
                     pendulum((*spec).into()).map_err(|e| self.invalid(format!("system: {e}")))?;
@@ -443,6 +520,20 @@ impl Scene {
                 });
                 Ok(runner.run(self, prepared))
             }
+        }
+    }
+
+    /// The positions of the initial shape, if one is named, else `default`.
+    fn shaped(&self, chain: &BeadChain, default: Vec<f64>) -> Result<Vec<f64>, SceneError> {
+        match self.initial.shape {
+            None => Ok(default),
+            Some(Shape::Straight) => chain
+                .straight([0.0, 0.0, -1.0])
+                .map_err(|e| self.invalid(format!("initial.shape: {e}"))),
+            Some(Shape::Zigzag(angle)) if angle.is_finite() => Ok(chain.zigzag(angle)),
+            Some(Shape::Zigzag(angle)) => Err(self.invalid(format!(
+                "initial.shape.zigzag = {angle}: the angle must be finite"
+            ))),
         }
     }
 

@@ -107,3 +107,26 @@ fn bad_systems_and_initial_states_are_refused_when_run() {
     let projected = off.replace("[initial]", "[initial]\nproject = true");
     runs(&Scene::from_toml(&projected).unwrap()).unwrap();
 }
+
+#[test]
+fn system_parameters_and_shapes_are_checked() {
+    let fiber = sdae_study::scene::BUILT_IN
+        .iter()
+        .find(|(n, _)| *n == "fiber")
+        .unwrap()
+        .1;
+    let e = error_of(&fiber.replace("segment = 0.05263157894736842\n", ""));
+    assert!(e.contains("segment"), "{e}");
+    let e = error_of(&fiber.replace("turbulence_gain", "turbulence_gian"));
+    assert!(e.contains("turbulence_gian"), "{e}");
+    let e = error_of(&fiber.replace(
+        "shape = { zigzag = 0.3 }",
+        "shape = { zigzag = 0.3 }\nposition = [0.0]",
+    ));
+    assert!(e.contains("either shape or position"), "{e}");
+    let e = error_of(&GOOD.replace("position = [0.0, -1.0]", "shape = \"straight\""));
+    assert!(e.contains("chains of beads"), "{e}");
+    let scene = Scene::from_toml(&fiber.replace("beads = 20", "beads = 1")).unwrap();
+    let e = runs(&scene).unwrap_err().to_string();
+    assert!(e.contains("beads"), "{e}");
+}

@@ -68,13 +68,15 @@ use crate::masses::Masses;
 
 /// The air velocity field u(x) = u_0 + S x (serde: `wind`, `shear`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct AirFlow {
     /// The uniform wind u_0 (unit: length / time).
     pub wind: [f64; 3],
     /// The velocity gradient S (unit: 1 / time), row-major:
     /// u_k(x) = wind_k + sum_l `shear[k][l]` x_l.
     /// A simple shear flow along x varying with height z has only `shear[0][2]` nonzero.
+    /// Optional in a file (no shear).
+    #[serde(default)]
     pub shear: [[f64; 3]; 3],
 }
 
@@ -88,9 +90,10 @@ impl AirFlow {
 }
 
 /// Parameters of a [`Fiber`] in any consistent units (the defaults are nondimensional: fiber
-/// length about 1, gravity 1). Missing fields take their defaults; unknown fields are an error.
+/// length about 1, gravity 1). In a file every field is required except `air.shear`; unknown
+/// fields are an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct FiberParams {
     /// Number of beads K >= 2.
     pub beads: usize,

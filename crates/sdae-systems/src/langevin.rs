@@ -179,10 +179,10 @@ pub type ChainPotential = (Option<BondAngles>, Option<Torsions>);
 pub type ChainMolecule = Langevin<BeadChain, ChainPotential>;
 
 /// Parameters of [`chain_molecule`] in any consistent units (the defaults are reduced units:
-/// bond length, atom mass and kT equal to 1). Missing fields take their defaults; unknown
-/// fields are an error.
+/// bond length, atom mass and kT equal to 1). In a file every field is required except the
+/// optional `angle` and `torsion` tables (off); unknown fields are an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct ChainMoleculeParams {
     /// Number of atoms N >= 2 (N - 1 rigid bonds between consecutive atoms).
     pub atoms: usize,
@@ -194,9 +194,13 @@ pub struct ChainMoleculeParams {
     pub friction: f64,
     /// Temperature kT >= 0 (unit: energy).
     pub temperature: f64,
-    /// Harmonic angle potential at each inner atom (off when the stiffness is 0).
+    /// Harmonic angle potential at each inner atom (off when the stiffness is 0; optional in a
+    /// file: off).
+    #[serde(default)]
     pub angle: AngleParams,
-    /// Dihedral cosine potential about each inner bond (off when the stiffness is 0).
+    /// Dihedral cosine potential about each inner bond (off when the stiffness is 0; optional
+    /// in a file: off).
+    #[serde(default)]
     pub torsion: TorsionParams,
 }
 
@@ -268,9 +272,9 @@ impl ChainMolecule {
 pub type RigidTriatomic = Langevin<RigidBonds, HarmonicTrap>;
 
 /// Parameters of [`rigid_triatomic`] in any consistent units (the defaults are reduced units).
-/// Missing fields take their defaults; unknown fields are an error.
+/// In a file every field is required; unknown fields are an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct RigidTriatomicParams {
     /// Bond lengths (unit: length) of the bonds 0-1, 0-2 and 1-2: each finite, > 0, and shorter
     /// than the sum of the other two (a non-degenerate triangle).

@@ -15,7 +15,8 @@
 //!   turbulent forcing ([`FiberParams`]);
 //! - [`potential`]: [`BondAngles`], [`Torsions`], [`HarmonicTrap`], composable as tuples.
 //!
-//! Parameter structs derive serde (unknown fields are errors, missing ones take the defaults),
+//! Parameter structs derive serde (unknown and missing fields are errors that name the field;
+//! only switched-off extras such as potentials and shear are optional),
 //! and every constructor checks its parameters, failing with a [`SystemError`] that names the
 //! parameter, its value and the rule it breaks.
 //!

@@ -117,7 +117,7 @@ fn check_term<const K: usize>(
 /// Parameters of a harmonic bond-angle potential (serde: `stiffness`, `equilibrium`; missing
 /// fields take their defaults, unknown ones are an error).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct AngleParams {
     /// k_theta >= 0 (unit: energy / rad^2); 0 switches the term off (no cost).
     pub stiffness: f64,
@@ -246,7 +246,7 @@ impl Potential for BondAngles {
 /// Parameters of a dihedral cosine potential (serde: `stiffness`, `multiplicity`, `phase`;
 /// missing fields take their defaults, unknown ones are an error).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct TorsionParams {
     /// k_phi >= 0 (unit: energy); 0 switches the term off (no cost).
     pub stiffness: f64,
@@ -396,7 +396,7 @@ impl Potential for Torsions {
 /// Parameters of a harmonic trap (serde: `stiffness`, `center`; missing fields take their
 /// defaults, unknown ones are an error).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
 pub struct TrapParams {
     /// k >= 0 (unit: energy / length^2); 0 switches the trap off.
     pub stiffness: f64,

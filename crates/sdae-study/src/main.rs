@@ -43,8 +43,9 @@ Options:
   --p P                errors are L^p norms over paths (default 2)
   --threads K          worker threads (default: available cores; results do not depend on it)
   --out DIR            output folder (default target/study); one subfolder per scene
-  --quick              a small run for CI: 200 paths, levels 3..7, reference 2^11 (stability
-                       and equipartition: fewer paths and levels)
+  --quick              a small run for CI: at most 200 paths, the scene's five coarsest levels,
+                       a reference 2^4 times finer than the finest (pendulum: levels 3..7,
+                       reference 2^11; stability and equipartition: fewer paths and levels)
   --shard I/N          run only paths i with i % N == I, write DIR/<scene>/shard-I-of-N.json
   --help               this text
 
@@ -78,12 +79,14 @@ struct Overrides {
 }
 
 impl Overrides {
-    /// The convergence settings of `scene`: its defaults, or with `quick` 200 paths, levels
-    /// 3..7 and reference 2^11, then the command line's values.
+    /// The convergence settings of `scene`: its defaults, or with `quick` at most 200 paths,
+    /// its five coarsest levels and a reference 2^4 times finer, then the command line's values.
     fn settings(&self, scene: &Scene, quick: bool) -> ConvergenceSettings {
         let mut s = ConvergenceSettings::for_scene(scene);
         if quick {
-            (s.paths, s.coarsest, s.finest, s.reference) = (200, 3, 7, Some(11));
+            s.paths = s.paths.min(200);
+            s.finest = s.finest.min(s.coarsest + 4);
+            s.reference = Some(s.finest + 4);
         }
         if let Some((a, b)) = self.levels {
             s.coarsest = a;

@@ -15,8 +15,10 @@ use crate::scene::{Prepared, Scene, SceneError, SceneRunner};
 
 /// Shapes drawn for a scene of several particles.
 const SHAPES: usize = 6;
-/// Recorded states of a path.
+/// Recorded states of a path, at most.
 const RECORDS: usize = 400;
+/// Recorded coordinates of a path, at most (a 10^4-bead fiber gets fewer states).
+const COORDINATES: usize = 1 << 21;
 
 /// One recorded path of a scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,7 +66,8 @@ impl SceneRunner for Tracer {
             Err(e) => return failed(particle_dim, e.to_string()),
         };
         let (mut r, mut v) = (prepared.position, prepared.velocity);
-        let mut recorder = Recorder::every((self.steps / RECORDS).max(1));
+        let records = RECORDS.min(COORDINATES / n.max(1)).max(2);
+        let mut recorder = Recorder::every((self.steps / records).max(1));
         let outcome = run_path(
             &mut stepper,
             &mut r,

@@ -123,6 +123,15 @@ impl DiagonalMass {
     pub fn diagonal(&self) -> &[f64] {
         &self.mass
     }
+
+    /// The kinetic energy v^T M v / 2.
+    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+        0.5 * v
+            .iter()
+            .zip(&self.mass)
+            .map(|(vi, mi)| mi * vi * vi)
+            .sum::<f64>()
+    }
 }
 
 impl Mass for DiagonalMass {

@@ -43,6 +43,18 @@ pub enum SystemError {
     Manifold(#[from] ManifoldError),
 }
 
+impl SystemError {
+    /// The name of the parameter at fault (`None` for errors of the constraint or the mass).
+    pub fn parameter(&self) -> Option<&'static str> {
+        match self {
+            Self::InvalidParameter { name, .. }
+            | Self::InvalidEntry { name, .. }
+            | Self::WrongLength { name, .. } => Some(name),
+            Self::Manifold(_) => None,
+        }
+    }
+}
+
 /// Fails unless `value` is finite and >= 0.
 pub(crate) fn non_negative(name: &'static str, value: f64) -> Result<f64, SystemError> {
     if value.is_finite() && value >= 0.0 {

@@ -12,8 +12,8 @@ use sdae_ift::Factorize;
 use sdae_manifold::Constraint;
 use sdae_scheme::{GaussianIncrements, IncrementSource, Stepper, StepperConfig, System};
 use sdae_systems::{
-    AngleParams, ChainMoleculeParams, Masses, RigidTriatomicParams, TorsionParams, TrapParams,
-    chain_molecule, rigid_triatomic,
+    AngleParams, ChainMoleculeParams, Langevin, Masses, Potential, RigidTriatomicParams,
+    TorsionParams, TrapParams, chain_molecule, rigid_triatomic,
 };
 
 const SEED: u64 = 20_240_905;
@@ -107,6 +107,47 @@ fn paths() -> (u64, u64) {
     (right, right.div_ceil(3))
 }
 
+/// Equipartition of the Langevin system `build(kT)` with `dof` = n - m degrees of freedom: the
+/// estimate at kT is within 4 standard errors of (n - m) kT / 2, and the same check fails for
+/// the system at 2 kT (the check has power).
+fn check_equipartition<C, P>(
+    name: &str,
+    build: impl Fn(f64) -> Langevin<C, P>,
+    initial: impl Fn(&Langevin<C, P>) -> (Vec<f64>, Vec<f64>),
+    dof: usize,
+) where
+    C: Constraint + Clone,
+    P: Potential + Clone,
+    Langevin<C, P>: System + Clone,
+    <<Langevin<C, P> as System>::Constraint as Constraint>::Gram: Factorize,
+{
+    let system = build(TEMPERATURE);
+    let target = system.equipartition_energy();
+    assert_eq!(system.degrees_of_freedom(), dof);
+    let state = initial(&system);
+    let run = |s: &Langevin<C, P>, paths| {
+        kinetic_energy_estimate(
+            s,
+            &state,
+            |v| s.kinetic_energy(v),
+            H,
+            BURN_IN,
+            T_END,
+            5,
+            paths,
+        )
+    };
+    let right = run(&system, paths().0);
+    report(name, &right, target);
+    assert!(right.z(target).abs() < 4.0, "equipartition fails");
+    let wrong = run(&build(2.0 * TEMPERATURE), paths().1);
+    report(&format!("{name} at 2 kT"), &wrong, target);
+    assert!(
+        wrong.z(target).abs() > 4.0,
+        "the check cannot see a wrong temperature"
+    );
+}
+
 #[test]
 fn chain_molecule_equipartition() {
     let params = |temperature| ChainMoleculeParams {
@@ -124,32 +165,8 @@ fn chain_molecule_equipartition() {
         },
         ..ChainMoleculeParams::default()
     };
-    let system = chain_molecule(&params(TEMPERATURE)).unwrap();
-    let target = system.equipartition_energy();
-    assert_eq!(system.degrees_of_freedom(), 12 - 3);
-    let state = system.initial_state();
-    let run = |s: &sdae_systems::ChainMolecule, paths| {
-        kinetic_energy_estimate(
-            s,
-            &state,
-            |v| s.kinetic_energy(v),
-            H,
-            BURN_IN,
-            T_END,
-            5,
-            paths,
-        )
-    };
-    let right = run(&system, paths().0);
-    report("chain molecule", &right, target);
-    assert!(right.z(target).abs() < 4.0, "equipartition fails");
-    let hot = chain_molecule(&params(2.0 * TEMPERATURE)).unwrap();
-    let wrong = run(&hot, paths().1);
-    report("chain molecule at 2 kT", &wrong, target);
-    assert!(
-        wrong.z(target).abs() > 4.0,
-        "the check cannot see a wrong temperature"
-    );
+    let build = |temperature| chain_molecule(&params(temperature)).unwrap();
+    check_equipartition("chain molecule", build, |s| s.initial_state(), 12 - 3);
 }
 
 #[test]
@@ -164,32 +181,8 @@ fn rigid_triatomic_equipartition() {
         friction: FRICTION,
         temperature,
     };
-    let system = rigid_triatomic(&params(TEMPERATURE)).unwrap();
-    let target = system.equipartition_energy();
-    assert_eq!(system.degrees_of_freedom(), 9 - 3);
-    let state = system.initial_state();
-    let run = |s: &sdae_systems::RigidTriatomic, paths| {
-        kinetic_energy_estimate(
-            s,
-            &state,
-            |v| s.kinetic_energy(v),
-            H,
-            BURN_IN,
-            T_END,
-            5,
-            paths,
-        )
-    };
-    let right = run(&system, paths().0);
-    report("rigid triatomic", &right, target);
-    assert!(right.z(target).abs() < 4.0, "equipartition fails");
-    let hot = rigid_triatomic(&params(2.0 * TEMPERATURE)).unwrap();
-    let wrong = run(&hot, paths().1);
-    report("rigid triatomic at 2 kT", &wrong, target);
-    assert!(
-        wrong.z(target).abs() > 4.0,
-        "the check cannot see a wrong temperature"
-    );
+    let build = |temperature| rigid_triatomic(&params(temperature)).unwrap();
+    check_equipartition("rigid triatomic", build, |s| s.initial_state(), 9 - 3);
 }
 
 /// The step. The explicit Euler step heats: a free velocity by the factor

@@ -5,7 +5,9 @@
 //! gives ([`linear`]: scalar, tridiagonal O(m), dense), falls back to the homotopy
 //! F(tau, gamma) = R(gamma) + (tau - 1) R(0) of eq. 3.10 when Newton fails, and returns a
 //! [`Certificate`]: iterations, residual, |gamma| against the radius, and an estimate of the
-//! contraction factor that backs uniqueness (Thm 3.4, Step 3). Roots outside the ball or far
+//! contraction factor that backs uniqueness (Thm 3.4, Step 3). A problem whose R is a quadratic
+//! in one unknown ([`BallProblem::quadratic`], e.g. the pendulum's) is solved in closed form
+//! instead, with the same checks and certificate. Roots outside the ball or far
 //! larger than the first Newton step justifies are rejected with a typed [`IftError`].
 //!
 //! ```

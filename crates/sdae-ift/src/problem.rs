@@ -20,6 +20,12 @@ pub trait BallProblem {
         residual: &mut [f64],
         jacobian: Option<&mut Self::Matrix>,
     );
+    /// The coefficients [c0, c1, c2] of R(gamma) = c0 + c1 gamma + c2 gamma^2 when m = 1 and R
+    /// is this quadratic polynomial exactly; the solver then takes the root connected to 0 in
+    /// closed form ([`BallSolver::solve`](crate::BallSolver::solve)). `None` (the default): Newton.
+    fn quadratic(&mut self) -> Option<[f64; 3]> {
+        None
+    }
     /// The size of max |R(gamma)| that rounding alone produces near the root; the solver does
     /// not ask for a smaller residual. 0 if unknown.
     fn residual_floor(&self) -> f64 {

@@ -15,6 +15,8 @@ pub enum Method {
     Newton,
     /// Homotopy continuation in tau from (0, 0) to (1, gamma*), after Newton failed.
     Homotopy,
+    /// The root of a quadratic R connected to 0, in closed form (no iterations).
+    ClosedForm,
 }
 
 /// Settings of [`BallSolver`].
@@ -27,7 +29,8 @@ pub struct SolverSettings {
     pub stagnation_tolerance: f64,
     /// Newton iterations before giving up (and falling back to the homotopy).
     pub max_iterations: usize,
-    /// Whether to try the homotopy when Newton fails.
+    /// Whether to try the homotopy when Newton fails (a problem solved in closed form,
+    /// [`BallProblem::quadratic`], does not iterate: its root is the homotopy's end point).
     pub homotopy: bool,
     /// Largest number of accepted plus rejected continuation steps.
     pub max_homotopy_steps: usize,
@@ -58,7 +61,7 @@ impl Default for SolverSettings {
 /// The evidence that the root found is the one the theorem speaks of.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Certificate {
-    /// Newton steps (the homotopy's corrector steps included).
+    /// Newton steps (the homotopy's corrector steps included; 0 in closed form).
     pub iterations: usize,
     /// Accepted continuation steps (0 when Newton succeeded).
     pub homotopy_steps: usize,
@@ -73,7 +76,8 @@ pub struct Certificate {
     /// |first Newton step from 0| (Euclidean).
     pub first_step: f64,
     /// Estimate of |J(0)^-1 J(gamma*) - I|, the contraction factor of the simplified Newton map
-    /// between 0 and gamma* (Thm 3.4, Step 3: < 1/2 inside the theorem's ball); NaN if not computed.
+    /// between 0 and gamma* (Thm 3.4, Step 3: < 1/2 inside the theorem's ball; exact in closed
+    /// form); NaN if not computed.
     pub contraction: f64,
 }
 
@@ -172,6 +176,15 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Result<Certificate, IftError> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
+        if start_is_zero && self.gamma.len() == 1 {
+            if let Some(coefficients) = problem.quadratic() {
+                if let Some(outcome) = self.solve_quadratic(problem, radius, coefficients) {
+                    return outcome;
+                }
+                // Not decided in closed form: Newton and the homotopy below decide.
+                self.gamma.fill(0.0);
+            }
+        }
         if A::STRUCTURE == GramStructure::Scalar && start_is_zero {
             if let Some(certificate) = self.solve_scalar(problem, radius) {
                 return Ok(certificate);
@@ -243,6 +256,90 @@ impl<A: Factorize> BallSolver<A> {
             Err(_) if matches!(newton, Corrector::Converged(_)) => Err(newton_error),
             Err(homotopy_error) => Err(homotopy_error),
         }
+    }
+
+    /// The root of R(gamma) = c0 + c1 gamma + c2 gamma^2 (m = 1) connected to 0, with the checks
+    /// and the certificate of the iterative path.
+    ///
+    /// The homotopy of seed eq. 3.10, F(tau, gamma) = c2 gamma^2 + c1 gamma + tau c0, has the
+    /// discriminant d(tau) = c1^2 - 4 tau c0 c2, with d(0) = c1^2 > 0. While d > 0 the path from
+    /// (0, 0) is the branch gamma(tau) = -2 tau c0 / (c1 + sign(c1) sqrt(d(tau))), the root of
+    /// smaller modulus (the other root, (c1 + sign(c1) sqrt(d)) / (-2 c2), starts at -c1/c2
+    /// != 0: the spurious "solution 2" of seed Fig. 1a). So the root the theorem certifies
+    /// (Thm 3.4; Appendix B, Thm B.2) is, at tau = 1,
+    ///
+    /// gamma* = -2 c0 / (c1 + sign(c1) sqrt(c1^2 - 4 c0 c2)),
+    ///
+    /// free of cancellation. If d(1) < 0 the path folds at tau* = c1^2 / (4 c0 c2) < 1, where
+    /// gamma = -c1 / (2 c2): `NoRoot` with these exact values (seed Fig. 1b). The first Newton
+    /// step is |c0 / c1| and the contraction |J(0)^-1 J(gamma*) - 1| = |2 c2 gamma* / c1|, exactly
+    /// (J(gamma) = c1 + 2 c2 gamma). R and J are evaluated once at gamma*: the problem's last
+    /// evaluation is at the root, and J(gamma*) is factored for [`BallSolver::root_factor`].
+    ///
+    /// `None` when the iterative path must decide (J(0) = 0 or non-finite coefficients, whose
+    /// errors it reports; a residual at gamma* above the tolerance, or a singular J(gamma*)).
+    fn solve_quadratic<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+        radius: f64,
+        [c0, c1, c2]: [f64; 3],
+    ) -> Option<Result<Certificate, IftError>> {
+        if !(c0.is_finite() && c1.is_finite() && c2.is_finite()) || c1 == 0.0 {
+            return None;
+        }
+        let first_step = (c0 / c1).abs();
+        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
+        let discriminant = c1 * c1 - 4.0 * c0 * c2;
+        if discriminant < 0.0 {
+            return Some(Err(IftError::NoRoot {
+                tau: c1 * c1 / (4.0 * c0 * c2),
+                norm: (c1 / (2.0 * c2)).abs(),
+            }));
+        }
+        // At the tolerance already: gamma = 0, as Newton's iteration 0 would accept.
+        let gamma = if c0.abs() <= self.tolerance {
+            0.0
+        } else {
+            -2.0 * c0 / (c1 + discriminant.sqrt().copysign(c1))
+        };
+        let norm = gamma.abs();
+        // NaN norms fail this test too.
+        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
+            return Some(Err(IftError::OutsideBall { norm, radius }));
+        }
+        let bound = self.settings.plausibility_factor * first_step;
+        if norm > bound && norm > 64.0 * f64::EPSILON {
+            return Some(Err(IftError::Implausible {
+                norm,
+                bound,
+                factor: self.settings.plausibility_factor,
+            }));
+        }
+        self.gamma[0] = gamma;
+        problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
+        let residual = self.residual[0].abs();
+        if residual > self.tolerance
+            || residual.is_nan()
+            || self.matrix.factor_into(&mut self.factor).is_err()
+        {
+            return None;
+        }
+        self.root_in_factor = true;
+        let contraction = if self.settings.contraction_probes == 0 {
+            f64::NAN
+        } else {
+            (2.0 * c2 * gamma / c1).abs()
+        };
+        Some(Ok(Certificate {
+            iterations: 0,
+            homotopy_steps: 0,
+            method: Method::ClosedForm,
+            residual,
+            norm,
+            radius,
+            first_step,
+            contraction,
+        }))
     }
 
     /// Newton from gamma = 0 for m = 1 on scalars: the iteration, tolerances, checks and

@@ -196,3 +196,73 @@ fn scalar_fast_path_matches_the_general_path() {
         }
     }
 }
+
+/// The same problem declaring its coefficients: R(gamma) = -s^2/2 + gamma - gamma^2/2.
+struct QuadraticPendulumKappa(PendulumKappa);
+
+impl BallProblem for QuadraticPendulumKappa {
+    type Matrix = ScalarGram;
+    fn dim(&self) -> usize {
+        1
+    }
+    fn new_matrix(&self) -> ScalarGram {
+        ScalarGram(0.0)
+    }
+    fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut ScalarGram>) {
+        self.0.evaluate(g, r, j);
+    }
+    fn quadratic(&mut self) -> Option<[f64; 3]> {
+        Some([-0.5 * self.0.s * self.0.s, 1.0, -0.5])
+    }
+}
+
+#[test]
+fn closed_form_matches_newton_and_the_homotopy() {
+    // The closed form gives the root Newton (or the homotopy) finds, to rounding, with the same
+    // checks; where there is no root it reports the fold of the homotopy path exactly:
+    // (1 - gamma)^2 = 1 - tau s^2 folds at tau = 1/s^2, gamma = 1.
+    for s in [0.0, 1e-9, 0.1, 0.25, 0.8, 0.99, 1.2] {
+        for radius in [0.125, 10.0] {
+            let mut closed = solver(true);
+            let mut newton = solver(true);
+            let exact = closed.solve(&mut QuadraticPendulumKappa(PendulumKappa { s }), radius);
+            let iterative = newton.solve(&mut PendulumKappa { s }, radius);
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * (1.0 + a.abs());
+            match (exact, iterative) {
+                (Ok(c), Ok(n)) => {
+                    assert_eq!(
+                        (c.method, c.iterations, c.homotopy_steps),
+                        (Method::ClosedForm, 0, 0)
+                    );
+                    assert!(c.residual <= 1e-14, "s = {s}: {c:?}");
+                    for (a, b) in [
+                        (c.norm, n.norm),
+                        (c.first_step, n.first_step),
+                        (c.contraction, n.contraction),
+                        (closed.root()[0], newton.root()[0]),
+                    ] {
+                        assert!(close(a, b), "s = {s}, radius = {radius}: {c:?} {n:?}");
+                    }
+                }
+                (Err(IftError::NoRoot { tau, norm }), Err(IftError::NoRoot { tau: t, .. })) => {
+                    assert!(
+                        (tau - 1.0 / (s * s)).abs() < 1e-15 && norm == 1.0,
+                        "{tau} {norm}"
+                    );
+                    assert!((tau - t).abs() < 1e-3, "s = {s}: fold at {tau} against {t}");
+                }
+                (Err(c), Err(n)) => assert_eq!(
+                    std::mem::discriminant(&c),
+                    std::mem::discriminant(&n),
+                    "s = {s}, radius = {radius}: {c:?} {n:?}"
+                ),
+                (c, n) => panic!("s = {s}, radius = {radius}: {c:?} against {n:?}"),
+            }
+        }
+    }
+    // Without the homotopy the closed form still knows that there is no root.
+    let e = solver(false)
+        .solve(&mut QuadraticPendulumKappa(PendulumKappa { s: 1.2 }), 10.0)
+        .unwrap_err();
+    assert!(matches!(e, IftError::NoRoot { .. }), "{e}");
+}

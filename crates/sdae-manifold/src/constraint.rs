@@ -57,6 +57,21 @@ pub trait Constraint {
         self.cross_gram(x, r, mass, scratch, gram);
     }
 
+    /// The coefficients [c0, c1, c2] of the kappa system of seed eq. 3.1 (upper part),
+    ///
+    /// R(gamma) = g(y + M^-1 grad g(r) gamma) = c0 + c1 gamma + c2 gamma^2,
+    ///
+    /// when m = 1 and g is a quadratic polynomial (then R is one in gamma: c0 = g(y),
+    /// c1 = Dg(y) M^-1 grad g(r), c2 = D^2 g(M^-1 grad g(r), M^-1 grad g(r)) / 2), so that the
+    /// root solver can take its root in closed form. `None` (the default): no closed form, the
+    /// solver runs Newton. A constraint overrides this only where it is exact, so the choice is
+    /// made per type at compile time.
+    #[inline]
+    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
+        let _ = (r, y, mass);
+        None
+    }
+
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {

@@ -93,6 +93,25 @@ impl Constraint for Sphere {
             *o = s * ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0) + yi;
         }
     }
+    /// For diagonal masses W = M^-1 (seed eq. 3.1 upper part; x = y - gamma W r / rho^2):
+    ///
+    /// R(gamma) = (1 - |x|^2 / rho^2) / 2
+    ///          = (1 - |y|^2 / rho^2) / 2 + gamma y.W r / rho^4 - gamma^2 |W r|^2 / (2 rho^6),
+    ///
+    /// in one pass over y and r; `None` for non-diagonal masses.
+    #[inline]
+    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
+        mass.inverse_diagonal_entry(0)?;
+        let (mut yy, mut yu, mut uu) = (0.0, 0.0, 0.0);
+        for (k, (ri, yi)) in r.iter().zip(y).enumerate() {
+            let u = ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0);
+            yy += yi * yi;
+            yu += yi * u;
+            uu += u * u;
+        }
+        let c = self.inv_r2;
+        Some([0.5 * (1.0 - yy * c), yu * c * c, -0.5 * uu * c * c * c])
+    }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         self.roundoff(max_abs_x)
     }

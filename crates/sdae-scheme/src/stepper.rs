@@ -73,6 +73,12 @@ where
             None => c.value(x, residual),
         }
     }
+    /// The closed form of the kappa system where the constraint has one
+    /// (`Constraint::kappa_quadratic`, e.g. the sphere with a diagonal mass).
+    #[inline]
+    fn quadratic(&mut self) -> Option<[f64; 3]> {
+        self.constraint.kappa_quadratic(self.r, self.y, self.mass)
+    }
     fn residual_floor(&self) -> f64 {
         self.floor
     }

@@ -146,19 +146,31 @@ impl<A: Factorize> BallSolver<A> {
         }
     }
 
-    /// Finds the root of `problem` in the ball |gamma| < `radius`, starting Newton from 0.
-    /// On success the problem's last evaluation was at the root.
+    /// Finds the root of `problem` in the ball |gamma| < `radius`, starting Newton from 0
+    /// (or in closed form, [`BallProblem::quadratic`]). On success the problem's last evaluation
+    /// was at the root.
+    ///
+    /// The closed form is inlined into the caller; Newton and the homotopy are not.
+    #[inline(always)]
     pub fn solve<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,
         radius: f64,
     ) -> Result<Certificate, IftError> {
+        if self.gamma.len() == 1 {
+            if let Some(coefficients) = problem.quadratic() {
+                if let Some(outcome) = self.solve_quadratic(problem, radius, coefficients) {
+                    return outcome;
+                }
+                // Not decided in closed form: Newton and the homotopy decide.
+            }
+        }
         self.gamma.fill(0.0);
         self.solve_from_current(problem, radius)
     }
 
     /// Like [`BallSolver::solve`] but starts Newton from `start` (the homotopy fallback still
-    /// starts from 0).
+    /// starts from 0); no closed form.
     pub fn solve_from<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,
@@ -169,6 +181,7 @@ impl<A: Factorize> BallSolver<A> {
         self.solve_from_current(problem, radius)
     }
 
+    #[inline(never)]
     fn solve_from_current<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,
@@ -176,15 +189,6 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Result<Certificate, IftError> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
-        if start_is_zero && self.gamma.len() == 1 {
-            if let Some(coefficients) = problem.quadratic() {
-                if let Some(outcome) = self.solve_quadratic(problem, radius, coefficients) {
-                    return outcome;
-                }
-                // Not decided in closed form: Newton and the homotopy below decide.
-                self.gamma.fill(0.0);
-            }
-        }
         if A::STRUCTURE == GramStructure::Scalar && start_is_zero {
             if let Some(certificate) = self.solve_scalar(problem, radius) {
                 return Ok(certificate);
@@ -278,6 +282,7 @@ impl<A: Factorize> BallSolver<A> {
     ///
     /// `None` when the iterative path must decide (J(0) = 0 or non-finite coefficients, whose
     /// errors it reports; a residual at gamma* above the tolerance, or a singular J(gamma*)).
+    #[inline(always)]
     fn solve_quadratic<P: BallProblem<Matrix = A>>(
         &mut self,
         problem: &mut P,

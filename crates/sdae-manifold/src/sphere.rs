@@ -81,6 +81,30 @@ impl Constraint for Sphere {
     ) {
         out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
     }
+    /// g(x) = (1 - |x|^2 / rho^2) / 2 and Dg(x) M^-1 grad g(r) = x^T M^-1 r / rho^4, in one pass
+    /// for diagonal masses (one Newton evaluation of the kappa system, seed eq. 3.1).
+    #[inline(always)]
+    fn value_and_cross_gram<M: Mass>(
+        &self,
+        x: &[f64],
+        r: &[f64],
+        mass: &M,
+        scratch: &mut [f64],
+        value: &mut [f64],
+        gram: &mut ScalarGram,
+    ) {
+        if mass.inverse_diagonal_entry(0).is_none() {
+            self.value(x, value);
+            return self.cross_gram(x, r, mass, scratch, gram);
+        }
+        let (mut xx, mut xr) = (0.0, 0.0);
+        for (k, (xi, ri)) in x.iter().zip(r).enumerate() {
+            xx += xi * xi;
+            xr += xi * ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0);
+        }
+        value[0] = 0.5 * (1.0 - xx * self.inv_r2);
+        gram.0 = xr * self.inv_r2 * self.inv_r2;
+    }
     /// One pass for diagonal masses: out_k = y_k + w_k (-z x_k / rho^2), w_k = (M^-1)_kk
     /// (seed eq. 3.1: the position of the kappa system and the velocity update).
     #[inline]

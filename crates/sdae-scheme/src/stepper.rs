@@ -2,7 +2,7 @@
 
 use sdae_ift::{BallProblem, BallSolver, Certificate, Factorize, Method, Solve};
 use sdae_manifold::vector::{max_abs, norm2_squared};
-use sdae_manifold::{Constraint, Mass, scratch_len};
+use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, scratch_len};
 
 use crate::config::StepperConfig;
 use crate::error::{SchemeError, StepFailure};
@@ -58,7 +58,7 @@ where
     fn new_matrix(&self) -> C::Gram {
         self.constraint.new_gram()
     }
-    #[inline]
+    #[inline(always)]
     fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
         let c = self.constraint;
         self.at_y = gamma.iter().all(|&g| g == 0.0);
@@ -157,13 +157,7 @@ where
 
     /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
     pub fn eta(&self, v_norm: f64, a_norm: f64, h: f64) -> f64 {
-        match self.config.c_eta {
-            None => 1.0,
-            Some(c_eta) => {
-                let size = v_norm.max(v_norm * v_norm).max(a_norm) * h;
-                if size > c_eta { c_eta / size } else { 1.0 }
-            }
-        }
+        eta(&self.config, v_norm, a_norm, h)
     }
 
     /// Checks the lengths of a step's inputs and the step size.
@@ -210,78 +204,197 @@ where
         dw: &[f64],
     ) -> Result<StepReport, StepFailure> {
         self.check_input(r, v, h, dw)?;
-        let system = &self.system;
-        let constraint = system.constraint();
-        let mass = system.mass();
-
-        let v_norm2 = norm2_squared(v);
-        if !v_norm2.is_finite() {
-            return Err(StepFailure::NonFiniteVelocity { norm2: v_norm2 });
+        if <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar {
+            // One constraint in the plane or in space (the pendulums): buffers of a size known
+            // at compile time, so that every pass over a vector is unrolled.
+            match r.len() {
+                2 => return self.step_sized::<2>(r, v, h, dw),
+                3 => return self.step_sized::<3>(r, v, h, dw),
+                _ => {}
+            }
         }
-        system.drift(r, v, &mut self.drift);
-        let a_norm2 = norm2_squared(&self.drift);
-        if !a_norm2.is_finite() {
-            let index = self.drift.iter().position(|x| !x.is_finite()).unwrap_or(0);
-            return Err(StepFailure::NonFiniteDrift { index });
-        }
-        let eta = self.eta(v_norm2.sqrt(), a_norm2.sqrt(), h);
-        let eta_h = eta * h;
-        let mut max_abs_y: f64 = 0.0;
-        for ((yi, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
-            *yi = ri + eta_h * vi;
-            max_abs_y = max_abs_y.max(yi.abs());
-        }
-
-        let (certificate, at_y) = {
-            let mut problem = KappaProblem {
-                constraint,
-                mass,
-                r,
-                y: &self.y,
-                x: &mut self.x,
-                scratch: &mut self.scratch,
-                floor: constraint.value_roundoff(max_abs_y),
-                at_y: false,
-            };
-            let certificate = self.solver.solve(&mut problem, self.config.c_kappa)?;
-            (certificate, problem.at_y)
+        let Self {
+            system,
+            config,
+            solver,
+            drift,
+            y,
+            x,
+            force,
+            lambda,
+            tangency,
+            scratch,
+        } = self;
+        let buffers = Buffers {
+            drift,
+            y,
+            x,
+            force,
+            lambda,
+            tangency,
+            scratch,
         };
-        let r_new: &[f64] = if at_y { &self.y } else { &self.x };
+        advance(system, config, solver, buffers, r, v, h, dw)
+    }
 
-        // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
-        // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
-        for (f, a) in self.force.iter_mut().zip(&self.drift) {
-            *f = eta_h * a;
-        }
-        system.add_noise(r, v, dw, &mut self.force);
-        mass.apply_inverse(&mut self.force);
-        for (f, vi) in self.force.iter_mut().zip(v.iter()) {
-            *f += vi;
-        }
-        constraint.jacobian_mul(r_new, &self.force, &mut self.lambda);
-        for l in self.lambda.iter_mut() {
-            *l = -*l;
-        }
-        self.solver.root_factor().solve_in_place(&mut self.lambda);
-        // v' = v~ + M^-1 grad g(r) lambda, into the drift buffer (a is no longer needed).
-        constraint.displace(r, &self.lambda, mass, &self.force, &mut self.drift);
-        let new_v_norm2 = norm2_squared(&self.drift);
-        if !new_v_norm2.is_finite() {
-            return Err(StepFailure::NonFiniteVelocity { norm2: new_v_norm2 });
-        }
-        r.copy_from_slice(r_new);
-        v.copy_from_slice(&self.drift);
-        let velocity_residual = if self.config.monitor_velocity_constraint {
-            constraint.jacobian_mul(r, v, &mut self.tangency);
-            max_abs(&self.tangency)
-        } else {
-            f64::NAN
+    /// [`Stepper::step`] for n = N, m = 1 with the buffers on the stack.
+    fn step_sized<const N: usize>(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepReport, StepFailure> {
+        let (mut drift, mut y, mut x, mut force) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+        let (mut lambda, mut tangency) = ([0.0; 1], [0.0; 1]);
+        let mut scratch = [0.0; SIZED_SCRATCH];
+        let buffers = Buffers {
+            drift: &mut drift,
+            y: &mut y,
+            x: &mut x,
+            force: &mut force,
+            lambda: &mut lambda,
+            tangency: &mut tangency,
+            scratch: &mut scratch[..scratch_len(N, 1)],
         };
-        Ok(StepReport {
-            eta,
-            position_residual: certificate.residual,
-            certificate,
-            velocity_residual,
-        })
+        let (r, v) = (&mut r[..N], &mut v[..N]);
+        let report = advance(
+            &self.system,
+            &self.config,
+            &mut self.solver,
+            buffers,
+            r,
+            v,
+            h,
+            dw,
+        )?;
+        self.lambda.copy_from_slice(&lambda);
+        Ok(report)
+    }
+}
+
+/// Scratch length of [`Stepper::step_sized`]: `scratch_len(3, 1)`.
+const SIZED_SCRATCH: usize = scratch_len(3, 1);
+
+/// The per-step vectors of length n (drift, y, x, force) and m (lambda, tangency).
+struct Buffers<'a> {
+    drift: &'a mut [f64],
+    y: &'a mut [f64],
+    x: &'a mut [f64],
+    force: &'a mut [f64],
+    lambda: &'a mut [f64],
+    tangency: &'a mut [f64],
+    scratch: &'a mut [f64],
+}
+
+/// The body of [`Stepper::step`] after the input checks, inlined into each caller so that
+/// fixed-size buffers give fixed-size loops.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn advance<S: System>(
+    system: &S,
+    config: &StepperConfig,
+    solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
+    buffers: Buffers<'_>,
+    r: &mut [f64],
+    v: &mut [f64],
+    h: f64,
+    dw: &[f64],
+) -> Result<StepReport, StepFailure>
+where
+    <S::Constraint as Constraint>::Gram: Factorize,
+{
+    let Buffers {
+        drift,
+        y,
+        x,
+        force,
+        lambda,
+        tangency,
+        scratch,
+    } = buffers;
+    let constraint = system.constraint();
+    let mass = system.mass();
+
+    let v_norm2 = norm2_squared(v);
+    if !v_norm2.is_finite() {
+        return Err(StepFailure::NonFiniteVelocity { norm2: v_norm2 });
+    }
+    system.drift(r, v, drift);
+    let a_norm2 = norm2_squared(drift);
+    if !a_norm2.is_finite() {
+        let index = drift.iter().position(|x| !x.is_finite()).unwrap_or(0);
+        return Err(StepFailure::NonFiniteDrift { index });
+    }
+    let eta = eta(config, v_norm2.sqrt(), a_norm2.sqrt(), h);
+    let eta_h = eta * h;
+    let mut max_abs_y: f64 = 0.0;
+    for ((yi, ri), vi) in y.iter_mut().zip(r.iter()).zip(v.iter()) {
+        *yi = ri + eta_h * vi;
+        max_abs_y = max_abs_y.max(yi.abs());
+    }
+
+    let (certificate, at_y) = {
+        let mut problem = KappaProblem {
+            constraint,
+            mass,
+            r,
+            y,
+            x,
+            scratch,
+            floor: constraint.value_roundoff(max_abs_y),
+            at_y: false,
+        };
+        let certificate = solver.solve(&mut problem, config.c_kappa)?;
+        (certificate, problem.at_y)
+    };
+    let r_new: &[f64] = if at_y { y } else { x };
+
+    // Velocity: v~ = v + M^-1 (eta a h + B dw); lambda from Dg(r') M^-1 grad g(r) lambda
+    // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
+    for (f, a) in force.iter_mut().zip(drift.iter()) {
+        *f = eta_h * a;
+    }
+    system.add_noise(r, v, dw, force);
+    mass.apply_inverse(force);
+    for (f, vi) in force.iter_mut().zip(v.iter()) {
+        *f += vi;
+    }
+    constraint.jacobian_mul(r_new, force, lambda);
+    for l in lambda.iter_mut() {
+        *l = -*l;
+    }
+    solver.root_factor().solve_in_place(lambda);
+    // v' = v~ + M^-1 grad g(r) lambda, into the drift buffer (a is no longer needed).
+    constraint.displace(r, lambda, mass, force, drift);
+    let new_v_norm2 = norm2_squared(drift);
+    if !new_v_norm2.is_finite() {
+        return Err(StepFailure::NonFiniteVelocity { norm2: new_v_norm2 });
+    }
+    r.copy_from_slice(r_new);
+    v.copy_from_slice(drift);
+    let velocity_residual = if config.monitor_velocity_constraint {
+        constraint.jacobian_mul(r, v, tangency);
+        max_abs(tangency)
+    } else {
+        f64::NAN
+    };
+    Ok(StepReport {
+        eta,
+        position_residual: certificate.residual,
+        certificate,
+        velocity_residual,
+    })
+}
+
+/// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
+#[inline]
+fn eta(config: &StepperConfig, v_norm: f64, a_norm: f64, h: f64) -> f64 {
+    match config.c_eta {
+        None => 1.0,
+        Some(c_eta) => {
+            let size = v_norm.max(v_norm * v_norm).max(a_norm) * h;
+            if size > c_eta { c_eta / size } else { 1.0 }
+        }
     }
 }

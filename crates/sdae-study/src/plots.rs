@@ -82,6 +82,32 @@ fn points(
         .collect()
 }
 
+/// The fitted line c h^order over the fitted levels, through their geometric centre.
+fn fitted_line(
+    scheme: &SchemeReport,
+    pick: fn(&Errors) -> Option<Interval>,
+    fit: &OrderFit,
+) -> Vec<(f64, f64)> {
+    let points: Vec<(f64, f64)> = fit
+        .fitted
+        .iter()
+        .filter_map(|&j| scheme.levels.get(j))
+        .filter_map(|l| pick(&l.error).map(|e| (l.h, e.estimate)))
+        .filter(|(h, e)| *h > 0.0 && *e > 0.0 && e.is_finite())
+        .collect();
+    if points.len() < 2 || !fit.order.estimate.is_finite() {
+        return Vec::new();
+    }
+    let n = points.len() as f64;
+    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), (h, e)| {
+        (a + h.ln() / n, b + e.ln() / n)
+    });
+    points
+        .iter()
+        .map(|(h, _)| (*h, (my + fit.order.estimate * (h.ln() - mx)).exp()))
+        .collect()
+}
+
 fn panel(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
     report: &ConvergenceReport,
@@ -152,6 +178,14 @@ fn panel(
                 )
             }))
             .map_err(|e| err(&e))?;
+        if let (Axis::StepSize, Some(fit)) = (axis, fit) {
+            chart
+                .draw_series(LineSeries::new(
+                    fitted_line(scheme, pick, fit),
+                    colour.mix(0.45).stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?;
+        }
     }
     chart
         .configure_series_labels()

@@ -223,20 +223,27 @@ pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
             .filter_map(finite)
             .chain([0.9, 1.1])
             .collect();
-        let lo = ys.iter().copied().fold(f64::INFINITY, f64::min).max(0.0);
-        let hi = ys.iter().copied().fold(0.0, f64::max).min(10.0);
+        // Log scale: ratios from well below 1 to thousands; the top is capped at 1e3.
+        let lo = ys
+            .iter()
+            .copied()
+            .filter(|y| *y > 0.0)
+            .fold(f64::INFINITY, f64::min)
+            / 1.2;
+        let hi = ys.iter().copied().fold(0.0, f64::max).min(1e3) * 1.2;
         let mut chart = ChartBuilder::on(area)
             .caption(&sc.scene, ("sans-serif", 15))
             .margin(10)
             .x_label_area_size(32)
             .y_label_area_size(48)
-            .build_cartesian_2d(xs.clone().log_scale(), lo..hi)
+            .build_cartesian_2d(xs.clone().log_scale(), (lo..hi).log_scale())
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .light_line_style(RGBColor(245, 245, 245))
             .x_desc("h")
             .y_desc("T measured / T")
+            .y_label_formatter(&|v| format!("{v:.2}"))
             .x_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(|e| err(&e))?;
@@ -255,7 +262,7 @@ pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
                 .iter()
                 .filter(|r| r.scheme == *name)
                 .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
-                .filter(|(_, t)| t.estimate.is_finite())
+                .filter(|(_, t)| t.estimate.is_finite() && t.estimate > 0.0)
                 .collect();
             chart
                 .draw_series(LineSeries::new(
@@ -267,8 +274,12 @@ pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
                 .legend(move |(a, b)| {
                     PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
                 });
+            // Error bars only where the interval is finite (two or more paths finished).
+            let bounded = rows
+                .iter()
+                .filter(|(_, t)| t.ci_low.is_finite() && t.ci_high.is_finite() && t.ci_low > 0.0);
             chart
-                .draw_series(rows.iter().map(|(h, t)| {
+                .draw_series(bounded.map(|(h, t)| {
                     ErrorBar::new_vertical(
                         *h,
                         t.ci_low.clamp(lo, hi),

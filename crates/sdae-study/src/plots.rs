@@ -10,8 +10,8 @@ use plotters::prelude::*;
 use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
 use crate::stats::{Interval, OrderFit};
 
-/// One colour per scheme (in report order).
-pub const COLOURS: [RGBColor; 7] = [
+/// One colour per line (in report order).
+pub const COLOURS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -19,6 +19,9 @@ pub const COLOURS: [RGBColor; 7] = [
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
 ];
 
 /// A component: its name, how to pick its error from a level and its fit from the orders.

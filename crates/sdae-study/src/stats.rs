@@ -32,14 +32,12 @@ pub fn lp_error(errors: &[f64], p: f64) -> Interval {
         };
     }
     let powered: Vec<f64> = errors.iter().map(|d| d.powf(p)).collect();
-    let mean = powered.iter().sum::<f64>() / n as f64;
-    let var = powered.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1) as f64;
-    let half = Z95 * (var / n as f64).sqrt();
+    let mean = mean_interval(&powered);
     let root = |t: f64| t.max(0.0).powf(1.0 / p);
     Interval {
-        estimate: root(mean),
-        ci_low: root(mean - half),
-        ci_high: root(mean + half),
+        estimate: root(mean.estimate),
+        ci_low: root(mean.ci_low),
+        ci_high: root(mean.ci_high),
     }
 }
 

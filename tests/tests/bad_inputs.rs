@@ -1,13 +1,14 @@
 //! Every bad input a user can give yields its typed error, naming what, where and how far off.
 
 use sdae_manifold::{BeadChain, DenseMass, DiagonalMass, IdentityMass, ManifoldError, Sphere};
-use sdae_scheme::{
-    AdditiveNoise, GaussianIncrements, MechanicalSystem, NoObserver, PendulumParams,
-    RecordedIncrements, SchemeError, StepFailure, Stepper, StepperConfig, TimeGrid, ZeroDrift,
-    pendulum, run_path,
+use sdae_model::{
+    AdditiveNoise, GaussianIncrements, MechanicalSystem, ModelError, NoObserver,
+    RecordedIncrements, Scheme, StepFailure, TimeGrid, ZeroDrift, run_path,
 };
+use sdae_scheme::{SchemeError, Stepper, StepperConfig};
+use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
-fn stepper() -> Stepper<sdae_scheme::Pendulum> {
+fn stepper() -> Stepper<Pendulum> {
     let system = pendulum(PendulumParams::default()).unwrap();
     let config = StepperConfig::for_system(&system).unwrap();
     Stepper::new(system, config).unwrap()
@@ -19,7 +20,7 @@ fn dimension_mismatches() {
     let (mut r, mut v) = (vec![1.0, 0.0, 0.0], vec![0.0, 1.0]);
     assert!(matches!(
         s.step(&mut r, &mut v, 0.01, &[0.0, 0.0]),
-        Err(StepFailure::Input(SchemeError::DimensionMismatch {
+        Err(StepFailure::Input(ModelError::DimensionMismatch {
             what: "position r",
             expected: 2,
             found: 3
@@ -28,7 +29,7 @@ fn dimension_mismatches() {
     let (mut r, mut v) = (vec![1.0, 0.0], vec![0.0, 1.0]);
     assert!(matches!(
         s.step(&mut r, &mut v, 0.01, &[0.0]),
-        Err(StepFailure::Input(SchemeError::DimensionMismatch {
+        Err(StepFailure::Input(ModelError::DimensionMismatch {
             expected: 2,
             found: 1,
             ..
@@ -45,7 +46,7 @@ fn dimension_mismatches() {
     assert!(
         matches!(
             e,
-            SchemeError::Manifold(ManifoldError::DimensionMismatch {
+            ModelError::Manifold(ManifoldError::DimensionMismatch {
                 expected: 2,
                 found: 3,
                 ..
@@ -60,7 +61,7 @@ fn dimension_mismatches() {
     assert_eq!(err.error.step, 0);
     assert!(matches!(
         err.error.failure,
-        StepFailure::Input(SchemeError::DimensionMismatch {
+        StepFailure::Input(ModelError::DimensionMismatch {
             expected: 2,
             found: 3,
             ..
@@ -72,7 +73,7 @@ fn dimension_mismatches() {
     let err = run_path(&mut s, &mut r, &mut v, grid, &mut recorded, &mut NoObserver).unwrap_err();
     assert!(matches!(
         err.error.failure,
-        StepFailure::Input(SchemeError::DimensionMismatch {
+        StepFailure::Input(ModelError::DimensionMismatch {
             expected: 10,
             found: 5,
             ..
@@ -88,7 +89,7 @@ fn bad_step_sizes_and_grids() {
         assert!(
             matches!(
                 s.step(&mut r, &mut v, h, &[0.0, 0.0]),
-                Err(StepFailure::Input(SchemeError::InvalidSetting {
+                Err(StepFailure::Input(ModelError::InvalidSetting {
                     name: "h",
                     ..
                 }))
@@ -98,15 +99,15 @@ fn bad_step_sizes_and_grids() {
     }
     assert!(matches!(
         TimeGrid::new(1.0, 0),
-        Err(SchemeError::InvalidSetting { name: "N", .. })
+        Err(ModelError::InvalidSetting { name: "N", .. })
     ));
     assert!(matches!(
         TimeGrid::new(0.0, 10),
-        Err(SchemeError::InvalidSetting { name: "T", .. })
+        Err(ModelError::InvalidSetting { name: "T", .. })
     ));
     assert!(matches!(
         TimeGrid::new(f64::NAN, 10),
-        Err(SchemeError::InvalidSetting { name: "T", .. })
+        Err(ModelError::InvalidSetting { name: "T", .. })
     ));
 }
 
@@ -116,7 +117,10 @@ fn non_finite_states() {
     let (mut r, mut v) = (vec![1.0, 0.0], vec![f64::NAN, 1.0]);
     assert!(matches!(
         s.step(&mut r, &mut v, 0.01, &[0.0, 0.0]),
-        Err(StepFailure::NonFiniteVelocity { .. })
+        Err(StepFailure::NonFinite {
+            what: "velocity v_k",
+            ..
+        })
     ));
     let (mut r, mut v) = (vec![f64::INFINITY, 0.0], vec![0.0, 1.0]);
     assert!(s.step(&mut r, &mut v, 0.01, &[0.0, 0.0]).is_err());
@@ -126,7 +130,7 @@ fn non_finite_states() {
     let err = run_path(&mut s, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap_err();
     assert!(matches!(
         err.error.failure,
-        StepFailure::Input(SchemeError::Manifold(ManifoldError::NonFinite {
+        StepFailure::Input(ModelError::Manifold(ManifoldError::NonFinite {
             what: "position r",
             index: 1
         }))
@@ -143,7 +147,10 @@ fn non_finite_states() {
     let (mut r, mut v) = (vec![1.0, 0.0], vec![0.0, 1.0]);
     assert!(matches!(
         s.step(&mut r, &mut v, 0.01, &[]),
-        Err(StepFailure::NonFiniteDrift { index: 0 })
+        Err(StepFailure::NonFinite {
+            what: "drift a(r, v)",
+            ..
+        })
     ));
 }
 
@@ -155,7 +162,7 @@ fn states_off_the_manifold() {
     let (mut r, mut v) = (vec![1.1, 0.0], vec![0.0, 1.0]);
     let err = run_path(&mut s, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap_err();
     match err.error.failure {
-        StepFailure::Input(SchemeError::Manifold(ManifoldError::OffManifold {
+        StepFailure::Input(ModelError::Manifold(ManifoldError::OffManifold {
             residual,
             index: 0,
             ..
@@ -167,7 +174,7 @@ fn states_off_the_manifold() {
     let (mut r, mut v) = (vec![1.0, 0.0], vec![0.3, 1.0]);
     let err = run_path(&mut s, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap_err();
     match err.error.failure {
-        StepFailure::Input(SchemeError::Manifold(ManifoldError::OffTangent {
+        StepFailure::Input(ModelError::Manifold(ManifoldError::OffTangent {
             residual, ..
         })) => {
             assert!((residual - 0.3).abs() < 1e-15);
@@ -196,6 +203,31 @@ fn bad_masses_and_parameters() {
         Err(ManifoldError::NonFinite { index: 1, .. })
     ));
     assert!(BeadChain::new(1, 1.0).is_err());
+    // A mass coupling bead 0 to bead 1 does not fit a chain's tridiagonal Gram matrix.
+    let mut coupled = vec![0.0; 36];
+    for i in 0..6 {
+        coupled[i * 6 + i] = 1.0;
+    }
+    coupled[3] = 0.3;
+    coupled[3 * 6] = 0.3;
+    let e = MechanicalSystem::new(
+        BeadChain::new(2, 1.0).unwrap(),
+        DenseMass::new(6, coupled).unwrap(),
+        ZeroDrift,
+        AdditiveNoise::new(1.0, 6).unwrap(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            ModelError::Manifold(ManifoldError::CoupledMass {
+                first: 0,
+                second: 1,
+                ..
+            })
+        ),
+        "{e}"
+    );
     assert!(BeadChain::new(3, -1.0).is_err());
     assert!(
         pendulum(PendulumParams {
@@ -226,6 +258,9 @@ fn bad_masses_and_parameters() {
     config.c_eta = Some(f64::NAN);
     assert!(matches!(
         Stepper::new(system, config),
-        Err(SchemeError::InvalidSetting { name: "C_eta", .. })
+        Err(SchemeError::Model(ModelError::InvalidSetting {
+            name: "C_eta",
+            ..
+        }))
     ));
 }

@@ -9,13 +9,16 @@ use rand_core::TryRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::SeedableRng;
 use sdae_manifold::{Constraint, Curvature, Mass, ScalarGram, Sphere};
-use sdae_reference::{EulerMaruyama, ReferenceSolver};
-use sdae_scheme::{
-    GaussianIncrements, IncrementSource, MechanicalSystem, NoObserver, PendulumDrift,
-    PendulumParams, Recorder, Stepper, StepperConfig, System, TimeGrid, pendulum, run_path,
+use sdae_model::{
+    GaussianIncrements, IncrementSource, MechanicalSystem, NoObserver, Recorder, Scheme, System,
+    TimeGrid, run_path,
 };
+use sdae_reference::EulerMaruyama;
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};
+use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
+use sdae_systems::{PendulumDrift, PendulumParams, pendulum};
 
 /// A random-number generator that counts the words it hands out.
 struct CountingRng<'a> {
@@ -134,7 +137,7 @@ fn only_the_inherent_sde_solvers_evaluate_the_second_derivative() {
                 gravity: 1.0,
                 friction: 0.0,
             },
-            sdae_scheme::NoNoise,
+            sdae_model::NoNoise,
         )
         .unwrap()
     };
@@ -182,7 +185,8 @@ fn mu_is_accumulated_only_when_an_output_needs_it() {
         threads: 1,
         ..ConvergenceSettings::for_scene(&scene)
     };
-    let report = build_report(run_convergence(&scene, &settings, (0, 1), |_| {}).unwrap());
+    let report =
+        build_report(run_convergence(&scene, &settings, (0, 1), Control::default()).unwrap());
     for scheme in &report.schemes {
         for level in &scheme.levels {
             assert!(level.error.r.is_some() && level.error.v.is_none() && level.error.mu.is_none());

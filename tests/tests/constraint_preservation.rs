@@ -4,10 +4,9 @@ mod common;
 
 use common::{chain_system, max_abs};
 use sdae_manifold::Constraint;
-use sdae_scheme::{
-    GaussianIncrements, Observer, PendulumParams, Stepper, StepperConfig, TimeGrid, pendulum,
-    run_path,
-};
+use sdae_model::{GaussianIncrements, Observer, TimeGrid, run_path};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, pendulum};
 
 /// Measures |g(r_k)| and |Dg(r_k) v_k| itself, independently of the stepper's diagnostics.
 struct ConstraintWatch<C> {
@@ -31,7 +30,7 @@ impl<C: Constraint> Observer for ConstraintWatch<C> {
 #[test]
 fn pendulum_stays_on_the_tangent_bundle_for_a_million_steps() {
     let system = pendulum(PendulumParams::default()).unwrap();
-    let constraint = *sdae_scheme::System::constraint(&system);
+    let constraint = *sdae_model::System::constraint(&system);
     let config = StepperConfig::for_system(&system).unwrap();
     let mut stepper = Stepper::new(system, config).unwrap();
     let (mut r, mut v) = (vec![0.0, -1.0], vec![1.5, 0.0]);
@@ -55,7 +54,7 @@ fn pendulum_stays_on_the_tangent_bundle_for_a_million_steps() {
 #[test]
 fn hundred_bead_chain_stays_on_the_tangent_bundle() {
     let system = chain_system(100, 0.5);
-    let chain = *sdae_scheme::System::constraint(&system);
+    let chain = *sdae_model::System::constraint(&system);
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let mut stepper = Stepper::new(system, config).unwrap();
     let mut r = chain.zigzag(0.5);

@@ -1,9 +1,8 @@
 //! Piecewise constant and linear interpolation of a recorded path (seed Remark 4.2).
 
-use sdae_scheme::{
-    GaussianIncrements, Interpolation, PendulumParams, Recorder, Stepper, StepperConfig, TimeGrid,
-    pendulum, run_path,
-};
+use sdae_model::{GaussianIncrements, Interpolation, Recorder, TimeGrid, run_path};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, pendulum};
 
 #[test]
 fn interpolation_between_recorded_steps() {

@@ -1,13 +1,22 @@
-//! The step allocates nothing in steady state: all buffers are created with the stepper.
+//! No scheme allocates per step: all buffers are created with it. Every scheme on the pendulum
+//! (scalar Gram matrix) and on bead chains (tridiagonal Gram matrix, m > 1), and the one-shot
+//! evaluations of the inherent SDE.
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};
 use std::cell::Cell;
 
-use sdae_scheme::{
-    GaussianIncrements, IncrementSource, PendulumParams, Stepper, StepperConfig, pendulum,
+use sdae_manifold::{BeadChain, IdentityMass};
+use sdae_model::{
+    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, System, ZeroDrift,
 };
+use sdae_reference::{
+    CurvedSystem, EulerMaruyama, InherentSde, ProjectedEulerMaruyama, StochasticHeun,
+    TruncatedEulerMaruyama,
+};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, pendulum};
 
 struct Counting;
 
@@ -33,36 +42,113 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// Allocations made by `steps` steps of size h from (r, v).
+fn allocations_of_steps<S: Scheme>(scheme: &mut S, (r, v): (&[f64], &[f64]), h: f64) -> usize {
+    let (mut r, mut v) = (r.to_vec(), v.to_vec());
+    let l = scheme.system().noise_dim();
+    let mut noise = GaussianIncrements::for_path(3, 0, l);
+    let mut dw = vec![0.0; l];
+    let before = allocations();
+    for _ in 0..500 {
+        noise.next_increment(h, &mut dw);
+        scheme.step(&mut r, &mut v, h, &dw).unwrap();
+    }
+    allocations() - before
+}
+
+/// Every scheme on `system` from `state` with step h: the half-explicit stepper with
+/// `config`, and the inherent-SDE solvers where `inherent`.
+fn check_all<S: CurvedSystem + Clone>(
+    name: &str,
+    system: S,
+    config: StepperConfig,
+    state: (&[f64], &[f64]),
+    (h, inherent): (f64, bool),
+) {
+    let mut counts = vec![(
+        "half-explicit",
+        allocations_of_steps(&mut Stepper::new(system.clone(), config).unwrap(), state, h),
+    )];
+    if inherent {
+        counts.extend([
+            (
+                "Euler-Maruyama",
+                allocations_of_steps(&mut EulerMaruyama::new(system.clone()).unwrap(), state, h),
+            ),
+            (
+                "truncated Euler-Maruyama",
+                allocations_of_steps(
+                    &mut TruncatedEulerMaruyama::new(system.clone()).unwrap(),
+                    state,
+                    h,
+                ),
+            ),
+            (
+                "projected Euler-Maruyama",
+                allocations_of_steps(
+                    &mut ProjectedEulerMaruyama::new(system.clone()).unwrap(),
+                    state,
+                    h,
+                ),
+            ),
+            (
+                "stochastic Heun",
+                allocations_of_steps(&mut StochasticHeun::new(system.clone()).unwrap(), state, h),
+            ),
+        ]);
+        // The one-shot evaluations of the inherent SDE do not allocate either.
+        let (r, v) = state;
+        let mut sde = InherentSde::new(system).unwrap();
+        let (n, m, l) = (sde.dim(), sde.n_constraints(), sde.noise_dim());
+        let (mut out, mut mu, dw) = (vec![0.0; n], vec![0.0; m], vec![0.1; l]);
+        let before = allocations();
+        sde.drift(r, v, &mut out, &mut mu).unwrap();
+        sde.diffusion(r, v, &dw, &mut out).unwrap();
+        sde.multiplier_increment(r, v, 1e-3, &dw, &mut out, &mut mu)
+            .unwrap();
+        counts.push(("one-shot inherent SDE", allocations() - before));
+    }
+    for (scheme, count) in counts {
+        assert_eq!(count, 0, "{name}: {scheme}");
+    }
+}
+
 #[test]
 fn steps_do_not_allocate() {
-    // Pendulum (scalar Gram matrix) and chain (tridiagonal), with the certificate computed.
     let system = pendulum(PendulumParams::default()).unwrap();
     let config = StepperConfig::for_system(&system).unwrap();
-    let mut pendulum_stepper = Stepper::new(system, config).unwrap();
-    let (mut r, mut v) = (vec![1.0, 0.0], vec![0.0, 1.0]);
-    let mut noise = GaussianIncrements::for_path(1, 0, 2);
-    let mut dw = vec![0.0; 2];
+    check_all(
+        "pendulum",
+        system,
+        config,
+        (&[1.0, 0.0], &[0.0, 1.0]),
+        (1e-3, true),
+    );
 
-    let chain_system = common::chain_system(50, 1.0);
-    let chain = *sdae_scheme::System::constraint(&chain_system);
-    let mut chain_stepper = Stepper::new(
-        chain_system,
-        StepperConfig::new(1.0, f64::INFINITY).unwrap(),
-    )
-    .unwrap();
-    let (mut cr, mut cv) = (chain.zigzag(0.5), vec![0.0; 150]);
-    let mut chain_noise = GaussianIncrements::for_path(1, 1, 150);
-    let mut cdw = vec![0.0; 150];
+    // A 50-bead chain under gravity, with the certificate computed.
+    let system = common::chain_system(50, 1.0);
+    let chain = *system.constraint();
+    let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
+    let state = (&chain.zigzag(0.5)[..], &vec![0.0; 150][..]);
+    check_all("50-bead chain", system, config, state, (1e-4, false));
 
-    let before = allocations();
-    for _ in 0..1000 {
-        noise.next_increment(1e-3, &mut dw);
-        pendulum_stepper.step(&mut r, &mut v, 1e-3, &dw).unwrap();
-        chain_noise.next_increment(1e-4, &mut cdw);
-        chain_stepper.step(&mut cr, &mut cv, 1e-4, &cdw).unwrap();
-    }
-    assert_eq!(allocations() - before, 0);
+    // A 20-bead chain with additive noise only.
+    let beads = 20;
+    let chain = BeadChain::new(beads, 1.0 / (beads - 1) as f64).unwrap();
+    let r = chain.zigzag(0.5);
+    let noise = AdditiveNoise::new(0.5, 3 * beads).unwrap();
+    let system = MechanicalSystem::new(chain, IdentityMass, ZeroDrift, noise).unwrap();
+    let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
+    check_all(
+        "20-bead chain",
+        system,
+        config,
+        (&r, &vec![0.0; 3 * beads]),
+        (1e-3, true),
+    );
+
     // The counter works: a vector allocates.
+    let before = allocations();
     let probe = std::hint::black_box(vec![1.0_f64; 4]);
     assert_eq!(allocations() - before, 1);
     drop(probe);

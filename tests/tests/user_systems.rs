@@ -6,10 +6,9 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use sdae_manifold::{
     ClosureConstraint, Constraint, DenseMass, DiagonalMass, IdentityMass, Mass, Sphere, check_state,
 };
-use sdae_scheme::{
-    AdditiveNoise, MechanicalSystem, PendulumParams, Stepper, StepperConfig, pendulum,
-    project_state,
-};
+use sdae_model::{AdditiveNoise, MechanicalSystem, Scheme, project_state};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, pendulum};
 
 fn gravity(_r: &[f64], _v: &[f64], a: &mut [f64]) {
     a.fill(0.0);
@@ -34,7 +33,6 @@ fn circle_from_closures() -> impl Constraint<Gram = sdae_manifold::DenseGram> + 
 fn run<C, M>(constraint: C, mass: M, steps: usize) -> (Vec<f64>, Vec<f64>)
 where
     C: Constraint,
-    C::Gram: sdae_ift::Factorize,
     M: Mass,
 {
     let system = MechanicalSystem::new(

@@ -2,8 +2,10 @@
 //!
 //! - `study`: the convergence study (the project's main job), results in `target/study/`.
 //! - `bench`: speed benchmarks of the stepper and a summary in `target/bench/summary.json`.
+//! - `cluster-check`: the Slurm job-array recipe of docs/cluster.md on a one-node cluster.
 
 mod bench;
+mod cluster;
 mod study;
 
 use std::fmt;
@@ -25,8 +27,14 @@ tasks:
   study equipartition [--quick]
         kinetic temperature of the Langevin scenes against h and C_eta:
         target/study/equipartition/
+  study trace
+        one path of each built-in scene as a picture: target/study/trace/
   study list
         the built-in scenes and the schemes
+  cluster-check
+        (as root) install Slurm and munge if missing, start a one-node cluster, run the
+        quick study as a 4-task job array, merge, compare with the unsharded run, stop
+        the daemons (docs/cluster.md)
   bench [--quick] [-- <criterion options>]
         run `cargo bench -p sdae-scheme --bench step` and write target/bench/summary.json
         (--quick: short warm-up and measurement times)
@@ -39,12 +47,15 @@ pub enum TaskError {
     Usage(String),
     /// The task ran and failed (exit code 1).
     Failed(String),
+    /// A program the task ran has reported its failure; exit with its code.
+    Reported(u8),
 }
 
 impl fmt::Display for TaskError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             TaskError::Usage(message) | TaskError::Failed(message) => f.write_str(message),
+            TaskError::Reported(code) => write!(f, "exit code {code}"),
         }
     }
 }
@@ -91,6 +102,7 @@ fn main() -> ExitCode {
     let result = match task.as_str() {
         "study" => study::run(rest),
         "bench" => bench::run(rest),
+        "cluster-check" => cluster::run_check(rest),
         "help" | "-h" | "--help" => {
             println!("{USAGE}");
             return ExitCode::SUCCESS;
@@ -107,5 +119,6 @@ fn main() -> ExitCode {
             eprintln!("error: {message}");
             ExitCode::FAILURE
         }
+        Err(TaskError::Reported(code)) => ExitCode::from(code),
     }
 }

@@ -1,36 +1,37 @@
 //! `cargo xtask study`: builds the study binary in release mode and runs it.
 //!
 //! The work runs in `sdae-study` compiled with optimizations, not inside this debug-built task.
-//! Without `--out`, results go to `<target>/study`. All options are passed on (`--help` lists
-//! them).
+//! All options are passed on unchanged (`--help` lists them); the default output folder,
+//! `<target>/study`, goes through `SDAE_STUDY_OUT`, so that the study reads the command line
+//! exactly as typed (a missing value is reported for the option that lacks it).
 
 use std::process::Command;
 
 use crate::{TaskError, target_dir, workspace_root};
 
+/// The study's default output folder (its `--out` overrides it).
+const OUT: &str = "SDAE_STUDY_OUT";
+
 /// Runs `cargo run --release -p sdae-study -- <args>` from the workspace root.
 pub fn run(args: &[String]) -> Result<(), TaskError> {
     let root = workspace_root()?;
     let target = target_dir()?;
-    let mut pass_on: Vec<String> = args.to_vec();
-    let wants_help = args.iter().any(|a| a == "--help" || a == "-h");
-    if !wants_help && !args.iter().any(|a| a == "--out") {
-        pass_on.push("--out".into());
-        pass_on.push(target.join("study").display().to_string());
-    }
+    let out = std::env::var_os(OUT).unwrap_or_else(|| target.join("study").into_os_string());
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(&root)
         .args(["run", "--release", "--quiet", "-p", "sdae-study", "--"])
-        .args(&pass_on)
+        .args(args)
         .env("CARGO_TARGET_DIR", &target)
+        .env(OUT, out)
         .status()
         .map_err(|e| TaskError::Failed(format!("cannot start cargo: {e}")))?;
     match status.code() {
         Some(0) => Ok(()),
-        Some(2) => Err(TaskError::Usage(
-            "the study rejected its options (see above)".into(),
-        )),
-        _ => Err(TaskError::Failed(format!("the study failed ({status})"))),
+        // The study has said what went wrong (and printed its one help text).
+        Some(code) => Err(TaskError::Reported(u8::try_from(code).unwrap_or(1))),
+        None => Err(TaskError::Failed(format!(
+            "the study was stopped ({status})"
+        ))),
     }
 }

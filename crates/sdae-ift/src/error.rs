@@ -1,25 +1,7 @@
-//! Error types of the root solver and the linear solvers.
+//! The error type of the root solver.
 
+use sdae_manifold::LinearError;
 use thiserror::Error;
-
-/// A linear system could not be factored.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum LinearError {
-    /// A pivot is zero or negligible: the matrix is singular to working precision.
-    #[error("singular matrix: pivot {index} is {pivot:e}")]
-    Singular {
-        /// Index of the failing pivot.
-        index: usize,
-        /// Its value.
-        pivot: f64,
-    },
-    /// The matrix has a NaN or infinite entry.
-    #[error("non-finite matrix entry in row {index}")]
-    NonFinite {
-        /// Row of the first non-finite entry found.
-        index: usize,
-    },
-}
 
 /// Why a root in the ball was not found.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -37,13 +19,20 @@ pub enum IftError {
         /// The tolerance that was asked for.
         tolerance: f64,
     },
-    /// A root was found but it lies outside the ball |gamma| < radius: a spurious root.
-    #[error("spurious root: |gamma| = {norm:e} is not inside the ball of radius {radius:e}")]
+    /// A root was found but it lies outside the ball |gamma| < radius, even with the part that
+    /// only corrects rounding set aside: a spurious root.
+    #[error(
+        "spurious root: |gamma| = {norm:e} is not inside the ball of radius {radius:e} \
+         (of which at most {rounding:e} corrects rounding)"
+    )]
     OutsideBall {
         /// Euclidean norm of the root found.
         norm: f64,
         /// Radius of the ball (C_kappa).
         radius: f64,
+        /// The part of |gamma| that may only correct residuals below the solver's tolerance
+        /// ([`Certificate::rounding`](crate::Certificate::rounding)).
+        rounding: f64,
     },
     /// A root was found, but it is far larger than the first Newton step justifies: with a
     /// contraction factor q the right root satisfies |gamma| <= |step_1| / (1 - q).
@@ -57,6 +46,18 @@ pub enum IftError {
         bound: f64,
         /// The plausibility factor.
         factor: f64,
+    },
+    /// A root in the ball whose contraction estimate |J(0)^-1 J(gamma*) - I| reaches the
+    /// limit: the theorem's uniqueness argument (Thm 3.4, Step 3: < 1/2) does not back it.
+    #[error(
+        "uncertified root: contraction estimate {contraction:.3} reaches the limit {limit} \
+         (Thm 3.4 needs < 1/2)"
+    )]
+    NotContracting {
+        /// The estimate (a power iteration, a lower bound of the norm).
+        contraction: f64,
+        /// [`SolverSettings::max_contraction`](crate::SolverSettings::max_contraction).
+        limit: f64,
     },
     /// The homotopy path from gamma = 0 at tau = 0 ends at a fold before tau = 1: no root is
     /// connected to gamma = 0 (seed Fig. 1b).

@@ -2,7 +2,7 @@
 //! (seed eq. 3.1 upper part, Theorem 3.4, Appendix B).
 //!
 //! [`BallSolver`] runs Newton from gamma = 0 with the Jacobian in the structure the problem
-//! gives ([`linear`]: scalar, tridiagonal O(m), dense), falls back to the homotopy
+//! gives (the factorizations of `sdae_manifold::Factorize`: scalar, tridiagonal O(m), dense), falls back to the homotopy
 //! F(tau, gamma) = R(gamma) + (tau - 1) R(0) of eq. 3.10 when Newton fails, and returns a
 //! [`Certificate`]: iterations, residual, |gamma| against the radius, and an estimate of the
 //! contraction factor that backs uniqueness (Thm 3.4, Step 3). A problem whose R is a quadratic
@@ -19,7 +19,6 @@
 //! impl BallProblem for Kappa {
 //!     type Matrix = ScalarGram;
 //!     fn dim(&self) -> usize { 1 }
-//!     fn new_matrix(&self) -> ScalarGram { ScalarGram(0.0) }
 //!     fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut ScalarGram>) {
 //!         r[0] = 0.5 * (1.0 - (1.0 - g[0]).powi(2) - self.0 * self.0);
 //!         if let Some(j) = j { j.0 = 1.0 - g[0]; }
@@ -34,11 +33,9 @@
 //! ```
 
 mod error;
-pub mod linear;
 mod problem;
 mod solver;
 
-pub use error::{IftError, LinearError};
-pub use linear::{DenseFactor, Factorize, ScalarFactor, Solve, TridiagonalFactor};
+pub use error::IftError;
 pub use problem::BallProblem;
 pub use solver::{BallSolver, Certificate, Method, SolverSettings};

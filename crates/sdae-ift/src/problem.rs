@@ -1,6 +1,6 @@
 //! The problem interface: a map R: R^m -> R^m whose root near 0 is wanted.
 
-use crate::linear::Factorize;
+use sdae_manifold::Factorize;
 
 /// A nonlinear system R(gamma) = 0 with its Jacobian in a structured storage.
 ///
@@ -11,8 +11,6 @@ pub trait BallProblem {
     type Matrix: Factorize;
     /// The dimension m.
     fn dim(&self) -> usize;
-    /// A zero Jacobian of the right structure.
-    fn new_matrix(&self) -> Self::Matrix;
     /// residual = R(gamma), and, when asked, jacobian = D R(gamma).
     fn evaluate(
         &mut self,

@@ -3,10 +3,10 @@
 //! as fallback.
 
 use crate::error::IftError;
-use crate::linear::{Factorize, Solve};
 use crate::problem::BallProblem;
 use sdae_manifold::GramStructure;
 use sdae_manifold::vector::{max_abs as norm_max, norm2};
+use sdae_manifold::{Factorize, Solve};
 
 /// How the root was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -39,8 +39,14 @@ pub struct SolverSettings {
     /// A root with |gamma| > factor x |first Newton step| is rejected as implausible
     /// (the theorem's contraction q <= 1/2 gives |gamma| <= 2 |step|); `f64::INFINITY` disables.
     pub plausibility_factor: f64,
-    /// Power-iteration steps for the contraction estimate; 0 skips it.
+    /// Power-iteration steps for the contraction estimate of a root in a finite ball (one
+    /// step where the radius is infinite: the estimate is then a diagnostic); 0 skips it.
     pub contraction_probes: usize,
+    /// A root in a finite ball whose contraction estimate reaches this is rejected
+    /// ([`IftError::NotContracting`]): Thm 3.4, Step 3 certifies uniqueness only below 1/2.
+    /// Not applied where the radius is infinite (no certificate is claimed); `f64::INFINITY`
+    /// disables it.
+    pub max_contraction: f64,
 }
 
 impl Default for SolverSettings {
@@ -53,7 +59,8 @@ impl Default for SolverSettings {
             max_homotopy_steps: 400,
             min_tau_step: 1e-7,
             plausibility_factor: 4.0,
-            contraction_probes: 1,
+            contraction_probes: 4,
+            max_contraction: 0.5,
         }
     }
 }
@@ -79,6 +86,17 @@ pub struct Certificate {
     /// between 0 and gamma* (Thm 3.4, Step 3: < 1/2 inside the theorem's ball; exact in closed
     /// form); NaN if not computed.
     pub contraction: f64,
+    /// The part of |gamma*| set aside as a rounding correction when |gamma*| reached the
+    /// radius (0 when the root lies in the ball on its own).
+    ///
+    /// The theorem's root solves R = 0 with g(r_k) = 0 exactly; in floating point g(r_k) and
+    /// every evaluation of R carry residuals up to the solver's tolerance t = max(tolerance,
+    /// residual floor), and correcting them moves gamma by at most |J(0)^-1 (t, ..., t)| when
+    /// J(0)^-1 has no negative entries (a scalar, or an M-matrix such as a chain's Gram matrix
+    /// whose neighbouring segments meet at less than 90 degrees; an estimate otherwise). For a
+    /// long chain with the theory's C_kappa = 1/(8 C_g^4) this exceeds the radius, so the ball
+    /// check certifies |gamma*| - rounding < radius: the part of gamma* the theorem bounds.
+    pub rounding: f64,
 }
 
 /// Buffers of the solver, created once and reused (no allocation per solve on the Newton path).
@@ -157,14 +175,13 @@ impl<A: Factorize> BallSolver<A> {
         problem: &mut P,
         radius: f64,
     ) -> Result<Certificate, IftError> {
-        if self.gamma.len() == 1 {
-            if let Some(coefficients) = problem.quadratic() {
-                if let Some(outcome) = self.solve_quadratic(problem, radius, coefficients) {
-                    return outcome;
-                }
-                // Not decided in closed form: Newton and the homotopy decide.
-            }
+        if self.gamma.len() == 1
+            && let Some(coefficients) = problem.quadratic()
+            && let Some(outcome) = self.solve_quadratic(problem, radius, coefficients)
+        {
+            return outcome;
         }
+        // Not decided in closed form: Newton and the homotopy decide.
         self.gamma.fill(0.0);
         self.solve_from_current(problem, radius)
     }
@@ -308,9 +325,19 @@ impl<A: Factorize> BallSolver<A> {
             -2.0 * c0 / (c1 + discriminant.sqrt().copysign(c1))
         };
         let norm = gamma.abs();
+        // The ball check of `in_ball` with J(0) = c1.
+        let rounding = if norm < radius {
+            0.0
+        } else {
+            self.tolerance / c1.abs()
+        };
         // NaN norms fail this test too.
-        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
-            return Some(Err(IftError::OutsideBall { norm, radius }));
+        if (norm - rounding).partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
+            return Some(Err(IftError::OutsideBall {
+                norm,
+                radius,
+                rounding,
+            }));
         }
         let bound = self.settings.plausibility_factor * first_step;
         if norm > bound && norm > 64.0 * f64::EPSILON {
@@ -330,11 +357,11 @@ impl<A: Factorize> BallSolver<A> {
             return None;
         }
         self.root_in_factor = true;
-        let contraction = if self.settings.contraction_probes == 0 {
-            f64::NAN
-        } else {
-            (2.0 * c2 * gamma / c1).abs()
-        };
+        // Exact for a quadratic: J(gamma) = c1 + 2 c2 gamma.
+        let contraction = (2.0 * c2 * gamma / c1).abs();
+        if let Err(e) = self.contracting(contraction, radius) {
+            return Some(Err(e));
+        }
         Some(Ok(Certificate {
             iterations: 0,
             homotopy_steps: 0,
@@ -344,6 +371,7 @@ impl<A: Factorize> BallSolver<A> {
             radius,
             first_step,
             contraction,
+            rounding,
         }))
     }
 
@@ -411,15 +439,17 @@ impl<A: Factorize> BallSolver<A> {
         {
             return None;
         }
-        // Power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*|.
-        let contraction = if self.settings.contraction_probes == 0 {
+        // Power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*| (exact after
+        // one step for m = 1).
+        let probes = self.probes(radius).min(1);
+        let contraction = if probes == 0 {
             f64::NAN
         } else if norm == 0.0 {
             0.0
         } else {
             let mut probe = [gamma / norm];
             let mut estimate = 0.0;
-            for _ in 0..self.settings.contraction_probes {
+            for _ in 0..probes {
                 let mut image = [0.0];
                 self.matrix.mul_vec(&probe, &mut image);
                 self.factor_at_zero.solve_in_place(&mut image);
@@ -432,16 +462,46 @@ impl<A: Factorize> BallSolver<A> {
             }
             estimate
         };
+        // Not certified: the general path repeats the solve and reports it.
+        self.contracting(contraction, radius).ok()?;
         Some(Certificate {
             iterations,
             homotopy_steps: 0,
             method: Method::Newton,
+            rounding: 0.0,
             residual: r,
             norm,
             radius,
             first_step,
             contraction,
         })
+    }
+
+    /// The ball check of a root of Euclidean norm `norm`: `Ok(rounding)` when |gamma| - rounding
+    /// < radius, with `rounding` the size of the correction of residuals below the tolerance
+    /// (computed only when |gamma| >= radius, from J(0) factored in `factor_at_zero`; see
+    /// [`Certificate::rounding`]).
+    fn in_ball(&mut self, norm: f64, radius: f64) -> Result<f64, IftError> {
+        if norm < radius {
+            return Ok(0.0);
+        }
+        let rounding = if norm.is_finite() {
+            self.probe.fill(self.tolerance);
+            self.factor_at_zero.solve_in_place(&mut self.probe);
+            norm2(&self.probe)
+        } else {
+            0.0
+        };
+        // NaN norms fail this test too.
+        if (norm - rounding).partial_cmp(&radius) == Some(std::cmp::Ordering::Less) {
+            Ok(rounding)
+        } else {
+            Err(IftError::OutsideBall {
+                norm,
+                radius,
+                rounding,
+            })
+        }
     }
 
     /// Checks the root in `self.gamma` against the ball and the first Newton step, and builds
@@ -455,10 +515,7 @@ impl<A: Factorize> BallSolver<A> {
         method: Method,
     ) -> Result<Certificate, IftError> {
         let norm = norm2(&self.gamma);
-        // NaN norms fail this test too.
-        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
-            return Err(IftError::OutsideBall { norm, radius });
-        }
+        let rounding = self.in_ball(norm, radius)?;
         let bound = self.settings.plausibility_factor * first_step;
         if norm > bound && norm > 64.0 * f64::EPSILON {
             return Err(IftError::Implausible {
@@ -468,7 +525,8 @@ impl<A: Factorize> BallSolver<A> {
             });
         }
         let residual = self.history.last().copied().unwrap_or(0.0);
-        let contraction = self.contraction_estimate();
+        let contraction = self.contraction_estimate(radius);
+        self.contracting(contraction, radius)?;
         Ok(Certificate {
             iterations,
             homotopy_steps,
@@ -478,17 +536,18 @@ impl<A: Factorize> BallSolver<A> {
             radius,
             first_step,
             contraction,
+            rounding,
         })
     }
 
     fn no_convergence(&self, iterations: usize) -> IftError {
-        if let Some(&last) = self.history.last() {
-            if !last.is_finite() {
-                return IftError::NonFinite {
-                    what: "residual",
-                    iteration: iterations,
-                };
-            }
+        if let Some(&last) = self.history.last()
+            && !last.is_finite()
+        {
+            return IftError::NonFinite {
+                what: "residual",
+                iteration: iterations,
+            };
         }
         IftError::NoConvergence {
             iterations,
@@ -585,7 +644,8 @@ impl<A: Factorize> BallSolver<A> {
             let (max_it, tol) = if final_step {
                 (self.settings.max_iterations, 0.0)
             } else {
-                (8, 1e-9)
+                // Loose along the path, but never below the floor of g's evaluation.
+                (8, self.tolerance.max(1e-9))
             };
             match self.newton(problem, next, max_it, tol, 0, f64::INFINITY) {
                 Corrector::Converged(k) => {
@@ -617,9 +677,29 @@ impl<A: Factorize> BallSolver<A> {
         Err(self.no_convergence(iterations))
     }
 
-    /// Power iteration on A = J(0)^-1 J(gamma*) - I, started along gamma*.
-    fn contraction_estimate(&mut self) -> f64 {
-        if self.settings.contraction_probes == 0 {
+    /// Rejects a root of a finite ball whose contraction estimate reaches the limit.
+    fn contracting(&self, contraction: f64, radius: f64) -> Result<(), IftError> {
+        let limit = self.settings.max_contraction;
+        if radius.is_finite() && contraction >= limit {
+            return Err(IftError::NotContracting { contraction, limit });
+        }
+        Ok(())
+    }
+
+    /// The power-iteration steps for a root in a ball of `radius`.
+    fn probes(&self, radius: f64) -> usize {
+        if radius.is_finite() {
+            self.settings.contraction_probes
+        } else {
+            self.settings.contraction_probes.min(1)
+        }
+    }
+
+    /// Power iteration on A = J(0)^-1 J(gamma*) - I, started along gamma*: a lower bound of
+    /// |A| that approaches it as the probes grow.
+    fn contraction_estimate(&mut self, radius: f64) -> f64 {
+        let probes = self.probes(radius);
+        if probes == 0 {
             return f64::NAN;
         }
         let norm = norm2(&self.gamma);
@@ -630,7 +710,7 @@ impl<A: Factorize> BallSolver<A> {
             *p = g / norm;
         }
         let mut estimate = 0.0;
-        for _ in 0..self.settings.contraction_probes {
+        for _ in 0..probes {
             self.matrix.mul_vec(&self.probe, &mut self.step);
             self.factor_at_zero.solve_in_place(&mut self.step);
             for (s, p) in self.step.iter_mut().zip(&self.probe) {

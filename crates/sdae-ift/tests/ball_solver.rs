@@ -15,9 +15,6 @@ impl BallProblem for PendulumKappa {
     fn dim(&self) -> usize {
         1
     }
-    fn new_matrix(&self) -> ScalarGram {
-        ScalarGram(0.0)
-    }
     fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut ScalarGram>) {
         r[0] = 0.5 * (1.0 - (1.0 - g[0]).powi(2) - self.s * self.s);
         if let Some(j) = j {
@@ -33,9 +30,6 @@ impl BallProblem for DensePendulumKappa {
     type Matrix = DenseGram;
     fn dim(&self) -> usize {
         1
-    }
-    fn new_matrix(&self) -> DenseGram {
-        DenseGram::zeros(1)
     }
     fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut DenseGram>) {
         let mut scalar = ScalarGram(0.0);
@@ -113,9 +107,10 @@ fn homotopy_recovers_when_newton_starts_at_a_singular_point() {
         plain.solve_from(&mut PendulumKappa { s }, 10.0, &[1.0]),
         Err(IftError::NoConvergence { .. })
     ));
+    // Its root has contraction 0.56 > 1/2: only a ball-free solve (no certificate) takes it.
     let mut globalized = solver(true);
     let cert = globalized
-        .solve_from(&mut PendulumKappa { s }, 10.0, &[1.0])
+        .solve_from(&mut PendulumKappa { s }, f64::INFINITY, &[1.0])
         .unwrap();
     assert_eq!(cert.method, Method::Homotopy);
     assert!(cert.homotopy_steps > 0);
@@ -205,9 +200,6 @@ impl BallProblem for QuadraticPendulumKappa {
     fn dim(&self) -> usize {
         1
     }
-    fn new_matrix(&self) -> ScalarGram {
-        ScalarGram(0.0)
-    }
     fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut ScalarGram>) {
         self.0.evaluate(g, r, j);
     }
@@ -265,4 +257,157 @@ fn closed_form_matches_newton_and_the_homotopy() {
         .solve(&mut QuadraticPendulumKappa(PendulumKappa { s: 1.2 }), 10.0)
         .unwrap_err();
     assert!(matches!(e, IftError::NoRoot { .. }), "{e}");
+}
+
+/// R(gamma) = J gamma + e in two unknowns: the root -J^-1 e only corrects a residual e at the
+/// rounding floor when |e| <= floor.
+struct Shifted {
+    e: [f64; 2],
+    floor: f64,
+}
+
+impl BallProblem for Shifted {
+    type Matrix = DenseGram;
+    fn dim(&self) -> usize {
+        2
+    }
+    fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut DenseGram>) {
+        // J = [[2, -1], [-1, 2]], as a chain's Gram matrix.
+        r[0] = 2.0 * g[0] - g[1] + self.e[0];
+        r[1] = -g[0] + 2.0 * g[1] + self.e[1];
+        if let Some(j) = j {
+            j.set(0, 0, 2.0);
+            j.set(0, 1, -1.0);
+            j.set(1, 0, -1.0);
+            j.set(1, 1, 2.0);
+        }
+    }
+    fn residual_floor(&self) -> f64 {
+        self.floor
+    }
+}
+
+#[test]
+fn a_root_that_only_corrects_rounding_is_certified_in_a_tiny_ball() {
+    let floor = 1e-13;
+    let radius = 1e-19;
+    let settings = SolverSettings {
+        tolerance: 0.0,
+        ..SolverSettings::default()
+    };
+    // R(0) = e at the floor: Newton stops at once (gamma = 0), nothing to set aside.
+    let mut solver = BallSolver::new(DenseGram::zeros(2), settings);
+    let at_floor = solver
+        .solve(
+            &mut Shifted {
+                e: [floor, -floor],
+                floor,
+            },
+            radius,
+        )
+        .unwrap();
+    assert_eq!((at_floor.norm, at_floor.rounding), (0.0, 0.0));
+    // A floor that the problem states but the residual exceeds by a little: Newton solves
+    // for gamma = -J^-1 e, of size ~ floor, far outside a ball of 1e-19, but no more than
+    // correcting residuals below the tolerance t = floor moves it: |J^-1 (t, t)| = sqrt(2) t.
+    let mut solver = BallSolver::new(DenseGram::zeros(2), settings);
+    let e = [1.2 * floor, -0.3 * floor];
+    let cert = solver.solve(&mut Shifted { e, floor }, radius).unwrap();
+    let exact = [-(2.0 * e[0] + e[1]) / 3.0, -(e[0] + 2.0 * e[1]) / 3.0];
+    assert!(
+        (solver.root()[0] - exact[0]).abs() < 1e-28 && (solver.root()[1] - exact[1]).abs() < 1e-28
+    );
+    assert!(
+        (cert.rounding - 2f64.sqrt() * floor).abs() < 1e-27,
+        "{cert:?}"
+    );
+    assert!(
+        cert.norm > radius && cert.norm - cert.rounding < radius,
+        "{cert:?}"
+    );
+    // Ten times the floor is not rounding: outside the ball, with the allowance named.
+    let mut solver = BallSolver::new(DenseGram::zeros(2), settings);
+    let e = [10.0 * floor, 0.0];
+    match solver.solve(&mut Shifted { e, floor }, radius) {
+        Err(IftError::OutsideBall { rounding, .. }) => {
+            assert!((rounding - 2f64.sqrt() * floor).abs() < 1e-27)
+        }
+        other => panic!("expected OutsideBall, got {other:?}"),
+    }
+}
+
+/// The pendulum's kappa equation evaluated with a rounding error of size `noise` that changes
+/// from one evaluation to the next (as g's rounding does for coordinates far from the origin),
+/// with that floor stated.
+struct NoisyKappa {
+    exact: PendulumKappa,
+    noise: f64,
+    calls: u32,
+}
+
+impl BallProblem for NoisyKappa {
+    type Matrix = ScalarGram;
+    fn dim(&self) -> usize {
+        1
+    }
+    fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut ScalarGram>) {
+        self.exact.evaluate(g, r, j);
+        self.calls += 1;
+        r[0] += if self.calls.is_multiple_of(2) {
+            self.noise
+        } else {
+            -self.noise
+        };
+    }
+    fn residual_floor(&self) -> f64 {
+        2.0 * self.noise
+    }
+}
+
+#[test]
+fn the_homotopy_corrector_stops_at_the_residual_floor() {
+    // A floor above the corrector's usual 1e-9: no continuation step could get below it.
+    let s = 0.9;
+    let mut problem = NoisyKappa {
+        exact: PendulumKappa { s },
+        noise: 1e-8,
+        calls: 0,
+    };
+    let mut globalized = solver(true);
+    let cert = globalized
+        .solve_from(&mut problem, f64::INFINITY, &[1.0])
+        .unwrap();
+    assert_eq!(cert.method, Method::Homotopy);
+    let exact = 1.0 - (1.0 - s * s).sqrt();
+    // Within what the floor allows: |R'| >= 0.4 near the root.
+    assert!(
+        (globalized.root()[0] - exact).abs() < 3.0 * 2e-8 / 0.4,
+        "{cert:?}"
+    );
+}
+
+#[test]
+fn a_root_whose_contraction_reaches_one_half_is_not_certified() {
+    // The exact contraction |J(0)^-1 J(kappa) - 1| of the pendulum's equation is kappa itself.
+    let (s, kappa) = (0.9_f64, 1.0 - (1.0 - 0.81_f64).sqrt());
+    let closed_form = solver(true).solve(&mut PendulumKappa { s }, 10.0);
+    let mut dense = BallSolver::new(DenseGram::zeros(1), SolverSettings::default());
+    let general = dense.solve(&mut DensePendulumKappa(PendulumKappa { s }), 10.0);
+    for (name, result) in [("closed form", closed_form), ("general path", general)] {
+        match result {
+            Err(IftError::NotContracting { contraction, limit }) => {
+                assert_eq!(limit, 0.5);
+                assert!((contraction - kappa).abs() < 1e-9, "{name}: {contraction}");
+            }
+            other => panic!("{name}: expected NotContracting, got {other:?}"),
+        }
+    }
+    // Without a ball no certificate is claimed: the same root is returned.
+    let mut free = solver(true);
+    let cert = free.solve(&mut PendulumKappa { s }, f64::INFINITY).unwrap();
+    assert!((free.root()[0] - kappa).abs() < 1e-14 && cert.contraction > 0.5);
+    // Inside the theorem (contraction 0.2) it is certified.
+    let mut inside = solver(true);
+    let cert = inside.solve(&mut PendulumKappa { s: 0.6 }, 10.0).unwrap();
+    assert!((cert.contraction - 0.2).abs() < 1e-12, "{cert:?}");
 }

@@ -249,7 +249,7 @@ impl Constraint for RigidBonds {
         scratch: &mut [f64],
         out: &mut DenseGram,
     ) {
-        if mass.inverse_diagonal_entry(0).is_none() {
+        if !M::DIAGONAL {
             return assemble_dense_by_columns(self, x1, x2, mass, scratch, out);
         }
         let m = self.bonds.len();
@@ -273,6 +273,23 @@ impl Constraint for RigidBonds {
     }
     /// Rounding of g_b = 1/2 - |x_j - x_i|^2 / (2 L_b^2): the differences carry an error of a
     /// few ulps of |x|, relative to the shortest bond (as for [`BeadChain`](crate::BeadChain)).
+    /// w = max_b |v_j - v_i| / L_b over the bonds, alpha = max_i |a_i| / (shortest bond).
+    fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
+        let w = self
+            .bonds
+            .iter()
+            .zip(&self.inv_l2)
+            .map(|(bond, inv_l2)| {
+                let d = bond_vector(v, bond);
+                (dot3(d, d) * inv_l2).sqrt()
+            })
+            .fold(0.0_f64, f64::max);
+        let a2 = a
+            .chunks_exact(3)
+            .map(|f| f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+            .fold(0.0_f64, f64::max);
+        Some(w.max(w * w).max(a2.sqrt() / self.shortest))
+    }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.shortest
     }

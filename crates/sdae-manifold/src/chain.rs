@@ -122,6 +122,43 @@ impl BeadChain {
 
 impl Constraint for BeadChain {
     type Gram = TridiagonalGram;
+    /// G_M = Dg M^-1 grad g is tridiagonal only if M^-1 couples no two beads: a diagonal mass,
+    /// or one block-diagonal with a 3 x 3 block per bead. Any other mass is refused, naming
+    /// the largest entry of M^-1 that couples two beads (relative size above 1e-12).
+    fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
+        if M::DIAGONAL {
+            return Ok(());
+        }
+        let n = self.dim();
+        mass.check_order(n)?;
+        let mut column = vec![0.0; n];
+        let mut largest = 0.0_f64;
+        let mut coupling: Option<(usize, usize, f64)> = None;
+        for col in 0..n {
+            column.fill(0.0);
+            column[col] = 1.0;
+            mass.apply_inverse(&mut column);
+            for (row, &w) in column.iter().enumerate() {
+                largest = largest.max(w.abs());
+                let beyond = coupling.is_none_or(|(_, _, e)| w.abs() > e.abs());
+                if row / 3 != col / 3 && w != 0.0 && beyond {
+                    coupling = Some((row, col, w));
+                }
+            }
+        }
+        match coupling {
+            Some((row, col, entry)) if entry.abs() > 1e-12 * largest => {
+                Err(ManifoldError::CoupledMass {
+                    first: row.min(col) / 3,
+                    second: row.max(col) / 3,
+                    row,
+                    col,
+                    entry,
+                })
+            }
+            _ => Ok(()),
+        }
+    }
     fn dim(&self) -> usize {
         3 * self.beads
     }
@@ -158,7 +195,7 @@ impl Constraint for BeadChain {
         scratch: &mut [f64],
         out: &mut TridiagonalGram,
     ) {
-        if mass.inverse_diagonal_entry(0).is_some() {
+        if M::DIAGONAL {
             self.cross_gram_diagonal(
                 x1,
                 x2,
@@ -173,7 +210,7 @@ impl Constraint for BeadChain {
 
     /// One pass for diagonal masses: out_j = y_j + w_j (z_j d_j - z_{j-1} d_{j-1}) / ds^2.
     fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
-        if mass.inverse_diagonal_entry(0).is_none() {
+        if !M::DIAGONAL {
             return displace_in_passes(self, r, z, mass, y, out);
         }
         self.for_each_bead_force(r, z, |j, force| {
@@ -194,7 +231,7 @@ impl Constraint for BeadChain {
         value: &mut [f64],
         gram: &mut TridiagonalGram,
     ) {
-        if mass.inverse_diagonal_entry(0).is_none() {
+        if !M::DIAGONAL {
             self.value(x, value);
             self.cross_gram(x, r, mass, scratch, gram);
             return;
@@ -210,6 +247,20 @@ impl Constraint for BeadChain {
 
     /// Rounding of g_i = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2): the differences carry an error of a
     /// few ulps of |x|, relative to ds.
+    /// w = max_i |v_{i+1} - v_i| / ds, alpha = max_i |a_i| / ds.
+    fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
+        let mut w2 = 0.0_f64;
+        for i in 0..self.beads - 1 {
+            let d = segment(v, i);
+            w2 = w2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        }
+        let a2 = a
+            .chunks_exact(3)
+            .map(|f| f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+            .fold(0.0_f64, f64::max);
+        let w = w2.sqrt() / self.segment;
+        Some(w.max(w * w).max(a2.sqrt() / self.segment))
+    }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.segment
     }

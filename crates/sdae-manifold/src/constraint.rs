@@ -3,13 +3,16 @@
 //! Code asks in its bounds only for what it uses: the stepper needs [`Constraint`] (g and Dg),
 //! the inherent-SDE solvers also need [`Curvature`] (D^2 g), theory defaults need [`TheoryBound`].
 
-use crate::gram::{DenseGram, GramMatrix, TridiagonalGram};
+use crate::error::ManifoldError;
+use crate::factor::Factorize;
+use crate::gram::{DenseGram, TridiagonalGram};
 use crate::mass::Mass;
 
 /// g and its Jacobian Dg, applied to vectors, and the structured Gram-type matrices.
 pub trait Constraint {
-    /// Storage of Dg(x1) M^-1 grad g(x2): fixes the structure the linear solvers exploit.
-    type Gram: GramMatrix;
+    /// Storage of Dg(x1) M^-1 grad g(x2), with its factorization: fixes the structure the
+    /// linear solvers exploit.
+    type Gram: Factorize;
     /// Dimension n of the configuration space.
     fn dim(&self) -> usize;
     /// Number m of constraints.
@@ -72,6 +75,26 @@ pub trait Constraint {
         None
     }
 
+    /// Checks that `mass` fits this constraint's Gram storage. Every SPD mass fits a scalar or
+    /// dense Gram matrix (the default); a structured storage says which masses keep its
+    /// structure.
+    fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
+        let _ = mass;
+        Ok(())
+    }
+
+    /// The size of the motion (v, force a) at x on this constraint's own length scale, for the
+    /// local size functional of the truncation (beyond the seed): max(w, w^2, alpha), with w
+    /// the largest relative speed of two points a constraint ties together per unit of the
+    /// length it fixes and alpha the largest force on one particle per unit of that length.
+    /// For a sphere of radius 1 this is the seed's max(|v|, |v|^2, |a|) (eq. 3.2); for a
+    /// chain it sees one segment turning fast where |v| of all beads together does not, and
+    /// a rigid translation not at all. `None` (the default): no local scale is known, and the
+    /// seed's functional is used.
+    fn local_motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
+        let _ = (x, v, a);
+        None
+    }
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {

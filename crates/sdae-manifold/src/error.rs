@@ -43,6 +43,23 @@ pub enum ManifoldError {
         /// Size of the asymmetry.
         difference: f64,
     },
+    /// The mass matrix couples coordinates that the constraint's Gram storage keeps apart (a
+    /// bead chain's tridiagonal Gram matrix needs an M^-1 that couples no two beads).
+    #[error(
+        "mass matrix couples beads {first} and {second}: (M^-1)[{row}][{col}] = {entry:e}; a bead chain needs a mass that does not couple beads (block-diagonal per bead)"
+    )]
+    CoupledMass {
+        /// The first bead.
+        first: usize,
+        /// The second bead.
+        second: usize,
+        /// Row of the coupling entry of M^-1.
+        row: usize,
+        /// Its column.
+        col: usize,
+        /// Its value.
+        entry: f64,
+    },
     /// The mass matrix is not positive definite.
     #[error("mass matrix is not positive definite: {detail}")]
     NotPositiveDefinite {
@@ -72,6 +89,25 @@ pub enum ManifoldError {
         index: usize,
         /// Allowed size.
         tolerance: f64,
+    },
+}
+
+/// A linear system could not be factored.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LinearError {
+    /// A pivot is zero or negligible: the matrix is singular to working precision.
+    #[error("singular matrix: pivot {index} is {pivot:e}")]
+    Singular {
+        /// Index of the failing pivot.
+        index: usize,
+        /// Its value.
+        pivot: f64,
+    },
+    /// The matrix has a NaN or infinite entry.
+    #[error("non-finite matrix entry in row {index}")]
+    NonFinite {
+        /// Row of the first non-finite entry found.
+        index: usize,
     },
 }
 

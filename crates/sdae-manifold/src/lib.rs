@@ -25,6 +25,7 @@ mod chain;
 mod closure;
 mod constraint;
 mod error;
+mod factor;
 mod gram;
 mod mass;
 mod sphere;
@@ -38,7 +39,12 @@ pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
     scratch_len,
 };
-pub use error::{ManifoldError, check_at_least, check_finite, check_len, check_positive};
+pub use error::{
+    LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
+};
+pub use factor::{
+    DENSE_FAER_THRESHOLD, DenseFactor, Factorize, ScalarFactor, Solve, TridiagonalFactor,
+};
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use sphere::Sphere;

@@ -8,6 +8,9 @@ use crate::error::{ManifoldError, check_finite, check_len, check_positive};
 
 /// A symmetric positive definite mass matrix.
 pub trait Mass {
+    /// Whether M is diagonal: then [`Mass::inverse_diagonal_entry`] gives every entry of M^-1
+    /// and constraints take their one-pass paths (a constant, so the other path compiles away).
+    const DIAGONAL: bool;
     /// The order n, or `None` if the matrix fits any n (the identity).
     fn order(&self) -> Option<usize>;
     /// x <- M^-1 x.
@@ -20,7 +23,7 @@ pub trait Mass {
     fn eigenvalue_bounds(&self) -> (f64, f64);
     /// a^T M^-1 b; `scratch` (length n) is used only by non-diagonal masses.
     fn inverse_inner(&self, a: &[f64], b: &[f64], scratch: &mut [f64]) -> f64 {
-        if self.inverse_diagonal_entry(0).is_some() {
+        if Self::DIAGONAL {
             a.iter()
                 .zip(b)
                 .enumerate()
@@ -50,6 +53,7 @@ pub trait Mass {
 pub struct IdentityMass;
 
 impl Mass for IdentityMass {
+    const DIAGONAL: bool = true;
     fn order(&self) -> Option<usize> {
         None
     }
@@ -135,6 +139,7 @@ impl DiagonalMass {
 }
 
 impl Mass for DiagonalMass {
+    const DIAGONAL: bool = true;
     fn order(&self) -> Option<usize> {
         Some(self.mass.len())
     }
@@ -238,6 +243,7 @@ impl DenseMass {
 }
 
 impl Mass for DenseMass {
+    const DIAGONAL: bool = false;
     fn order(&self) -> Option<usize> {
         Some(self.order)
     }

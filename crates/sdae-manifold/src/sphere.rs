@@ -66,6 +66,11 @@ impl Constraint for Sphere {
             *o = s * xi;
         }
     }
+    /// w = |v| / rho, alpha = |a| / rho: the seed's functional for rho = 1.
+    fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
+        let w = dot(v, v).sqrt() / self.radius;
+        Some(w.max(w * w).max(dot(a, a).sqrt() / self.radius))
+    }
     fn new_gram(&self) -> ScalarGram {
         ScalarGram(0.0)
     }
@@ -93,7 +98,7 @@ impl Constraint for Sphere {
         value: &mut [f64],
         gram: &mut ScalarGram,
     ) {
-        if mass.inverse_diagonal_entry(0).is_none() {
+        if !M::DIAGONAL {
             self.value(x, value);
             return self.cross_gram(x, r, mass, scratch, gram);
         }
@@ -109,7 +114,7 @@ impl Constraint for Sphere {
     /// (seed eq. 3.1: the position of the kappa system and the velocity update).
     #[inline]
     fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
-        if mass.inverse_diagonal_entry(0).is_none() {
+        if !M::DIAGONAL {
             return crate::constraint::displace_in_passes(self, r, z, mass, y, out);
         }
         let s = -z[0] * self.inv_r2;
@@ -125,7 +130,9 @@ impl Constraint for Sphere {
     /// in one pass over y and r; `None` for non-diagonal masses.
     #[inline]
     fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
-        mass.inverse_diagonal_entry(0)?;
+        if !M::DIAGONAL {
+            return None;
+        }
         let (mut yy, mut yu, mut uu) = (0.0, 0.0, 0.0);
         for (k, (ri, yi)) in r.iter().zip(y).enumerate() {
             let u = ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0);

@@ -3,7 +3,7 @@
 
 use crate::error::{ReferenceError, check_finite};
 use crate::inherent::{CurvedSystem, InherentSde};
-use crate::path::{ReferenceSolver, ReferenceStepReport};
+use sdae_model::{StepFailure, StepOutcome};
 
 /// The coefficients of one Euler step at (r, v): drift and noise parts of dv and dmu.
 #[derive(Debug, Clone)]
@@ -140,20 +140,6 @@ impl<S: CurvedSystem> EulerCore<S> {
         r.copy_from_slice(&self.next_r);
         v.copy_from_slice(&self.next_v);
     }
-
-    /// [`EulerCore::propose`] and [`EulerCore::commit`]: (r, v) are unchanged on failure.
-    pub fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-        truncation: impl Fn(f64, f64) -> f64,
-    ) -> Result<f64, ReferenceError> {
-        let theta = self.propose(r, v, h, dw, truncation)?;
-        self.commit(r, v);
-        Ok(theta)
-    }
 }
 
 /// Euler-Maruyama on the inherent SDE, seed eq. 2.4 with the multiplier of eq. 2.3:
@@ -182,23 +168,18 @@ impl<S: CurvedSystem> EulerMaruyama<S> {
     }
 }
 
-impl<S: CurvedSystem> ReferenceSolver for EulerMaruyama<S> {
-    type System = S;
-    fn sde(&self) -> &InherentSde<S> {
-        &self.core.sde
-    }
-    /// One Euler-Maruyama step of eq. 2.4 (see the type's documentation).
-    fn step(
+impl<S: CurvedSystem> EulerMaruyama<S> {
+    /// One Euler-Maruyama step of eq. 2.4 (see the type's documentation), proposed.
+    fn propose(
         &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
+        r: &[f64],
+        v: &[f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<ReferenceStepReport, ReferenceError> {
-        self.core.step(r, v, h, dw, |_, _| 1.0)?;
-        Ok(ReferenceStepReport::default())
-    }
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.core.dmu
+    ) -> Result<StepOutcome, StepFailure> {
+        self.core.propose(r, v, h, dw, |_, _| 1.0)?;
+        Ok(StepOutcome::PLAIN)
     }
 }
+
+inherent_scheme!(EulerMaruyama);

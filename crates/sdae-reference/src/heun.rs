@@ -3,7 +3,7 @@
 use crate::error::ReferenceError;
 use crate::euler::{EulerCore, EulerParts};
 use crate::inherent::{CurvedSystem, InherentSde};
-use crate::path::{ReferenceSolver, ReferenceStepReport};
+use sdae_model::{StepFailure, StepOutcome};
 
 /// Stochastic Heun for the inherent SDE (seed eq. 2.4) as an SDE in R^{2n},
 /// dX = f(X) dt + sigma(X) dw with f, sigma of Lemma 4.2:
@@ -47,19 +47,15 @@ impl<S: CurvedSystem> StochasticHeun<S> {
     }
 }
 
-impl<S: CurvedSystem> ReferenceSolver for StochasticHeun<S> {
-    type System = S;
-    fn sde(&self) -> &InherentSde<S> {
-        &self.core.sde
-    }
-    /// One stochastic Heun step (see the type's documentation). (r, v) are unchanged on failure.
-    fn step(
+impl<S: CurvedSystem> StochasticHeun<S> {
+    /// One stochastic Heun step (see the type's documentation), proposed.
+    fn propose(
         &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
+        r: &[f64],
+        v: &[f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<ReferenceStepReport, ReferenceError> {
+    ) -> Result<StepOutcome, StepFailure> {
         let core = &mut self.core;
         // Predictor X~ = X + f(X) h + sigma(X) dw into core.next_r, core.next_v.
         core.propose(r, v, h, dw, |_, _| 1.0)?;
@@ -84,10 +80,8 @@ impl<S: CurvedSystem> ReferenceSolver for StochasticHeun<S> {
             *d = half * (rate0 + rate1) + noise;
         }
         core.check_proposal()?;
-        core.commit(r, v);
-        Ok(ReferenceStepReport::default())
-    }
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.core.dmu
+        Ok(StepOutcome::PLAIN)
     }
 }
+
+inherent_scheme!(StochasticHeun);

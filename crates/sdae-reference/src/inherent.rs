@@ -11,17 +11,16 @@
 //! one factorization of G_M(r) serves the drift, the noise, the multiplier and the velocity
 //! projection at r.
 
-use sdae_ift::{Factorize, Solve};
-use sdae_manifold::{Constraint, Curvature, Mass, scratch_len};
-use sdae_scheme::System;
+use sdae_manifold::{Constraint, Curvature, Factorize, Mass, Solve, scratch_len};
+use sdae_model::{System, check_dim, check_dimensions, check_step_input, check_step_size};
 
-use crate::error::{ReferenceError, check_dim, check_finite};
+use crate::error::{ReferenceError, check_finite};
 
 /// A [`System`] whose constraint has a second derivative ([`Curvature`]) and a Gram storage
 /// that can be factored: what the inherent SDE needs. Implemented for every such system.
-pub trait CurvedSystem: System<Constraint: Curvature<Gram: Factorize>> {}
+pub trait CurvedSystem: System<Constraint: Curvature> {}
 
-impl<S> CurvedSystem for S where S: System<Constraint: Curvature<Gram: Factorize>> {}
+impl<S> CurvedSystem for S where S: System<Constraint: Curvature> {}
 
 type GramOf<S> = <<S as System>::Constraint as Constraint>::Gram;
 type FactorOf<S> = <GramOf<S> as Factorize>::Factor;
@@ -51,17 +50,8 @@ pub struct InherentSde<S: CurvedSystem> {
 impl<S: CurvedSystem> InherentSde<S> {
     /// Buffers for `system`; fails unless 1 <= m < n and the mass matrix has order n.
     pub fn new(system: S) -> Result<Self, ReferenceError> {
-        let c = system.constraint();
-        let (n, m) = (c.dim(), c.n_constraints());
-        if m == 0 || m >= n {
-            return Err(ReferenceError::DimensionMismatch {
-                what: "number of constraints m (need 1 <= m < n)",
-                expected: n.saturating_sub(1),
-                found: m,
-            });
-        }
-        system.mass().check_order(n)?;
-        let gram = c.new_gram();
+        let (n, m) = check_dimensions(&system)?;
+        let gram = system.constraint().new_gram();
         Ok(Self {
             factor: gram.new_factor(),
             gram,
@@ -163,20 +153,6 @@ impl<S: CurvedSystem> InherentSde<S> {
         self.constrain_force(r, v, 0.0, dv, dmu);
     }
 
-    /// With G_M(r) prepared: the M-orthogonal projection of v onto the tangent space at r,
-    /// `v <- v - M^-1 grad g(r) G_M(r)^-1 Dg(r) v`, using `dmu` (length m) as workspace.
-    pub fn project_velocity_prepared(&mut self, r: &[f64], v: &mut [f64], work: &mut [f64]) {
-        self.assert_prepared(r);
-        let c = self.system.constraint();
-        c.jacobian_mul(r, v, work);
-        self.factor.solve_in_place(work);
-        for z in work.iter_mut() {
-            *z = -*z;
-        }
-        self.force.copy_from_slice(v);
-        c.displace(r, work, self.system.mass(), &self.force, v);
-    }
-
     fn check_state_dims(&self, r: &[f64], v: &[f64]) -> Result<(), ReferenceError> {
         check_dim("position r", self.dim(), r.len())?;
         check_dim("velocity v", self.dim(), v.len())?;
@@ -238,7 +214,7 @@ impl<S: CurvedSystem> InherentSde<S> {
         out: &mut [f64],
     ) -> Result<(), ReferenceError> {
         self.check_state_dims(r, v)?;
-        check_step(h)?;
+        check_step_size(h)?;
         check_dim("Brownian increment dw", self.noise_dim(), dw.len())?;
         check_dim("velocity increment output", self.dim(), dv.len())?;
         check_dim("multiplier output", self.n_constraints(), out.len())?;
@@ -260,17 +236,9 @@ impl<S: CurvedSystem> InherentSde<S> {
         h: f64,
         dw: &[f64],
     ) -> Result<(), ReferenceError> {
-        self.check_state_dims(r, v)?;
-        check_dim("Brownian increment dw", self.noise_dim(), dw.len())?;
-        check_step(h)
-    }
-}
-
-/// Fails with [`ReferenceError::InvalidStepSize`] unless h is finite and > 0.
-pub(crate) fn check_step(h: f64) -> Result<(), ReferenceError> {
-    if h.is_finite() && h > 0.0 {
+        check_step_input(&self.system, r, v, h, dw)?;
+        sdae_manifold::check_finite("position r", r)?;
+        sdae_manifold::check_finite("velocity v", v)?;
         Ok(())
-    } else {
-        Err(ReferenceError::InvalidStepSize { h })
     }
 }

@@ -1,49 +1,13 @@
 //! Projected Euler-Maruyama: what a user of a general SDE suite would do with the inherent SDE.
 
-use sdae_ift::{BallProblem, BallSolver, Factorize, SolverSettings};
-use sdae_manifold::{Constraint, Mass, scratch_len};
+use sdae_ift::SolverSettings;
+use sdae_manifold::Constraint;
+use sdae_model::TangentProjector;
 
 use crate::error::{ReferenceError, check_finite};
 use crate::euler::EulerCore;
 use crate::inherent::{CurvedSystem, InherentSde};
-use crate::path::{ReferenceSolver, ReferenceStepReport};
-
-/// R(gamma) = g(y + M^-1 grad g(y) gamma): the point of the manifold on the normal line through
-/// y (the kappa system of seed eq. 3.1 with eta = 0 and r = y), Jacobian Dg(x) M^-1 grad g(y).
-/// After a successful solve `x` holds the projected point (the last evaluation is at the root).
-struct NormalLine<'a, C, M> {
-    constraint: &'a C,
-    mass: &'a M,
-    y: &'a [f64],
-    x: &'a mut [f64],
-    scratch: &'a mut [f64],
-}
-
-impl<C, M> BallProblem for NormalLine<'_, C, M>
-where
-    C: Constraint<Gram: Factorize>,
-    M: Mass,
-{
-    type Matrix = C::Gram;
-    fn dim(&self) -> usize {
-        self.constraint.n_constraints()
-    }
-    fn new_matrix(&self) -> C::Gram {
-        self.constraint.new_gram()
-    }
-    fn evaluate(&mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut C::Gram>) {
-        let c = self.constraint;
-        c.displace(self.y, gamma, self.mass, self.y, self.x);
-        match jacobian {
-            Some(j) => c.value_and_cross_gram(self.x, self.y, self.mass, self.scratch, residual, j),
-            None => c.value(self.x, residual),
-        }
-    }
-    fn residual_floor(&self) -> f64 {
-        self.constraint
-            .value_roundoff(sdae_manifold::vector::max_abs(self.y))
-    }
-}
+use sdae_model::{StepFailure, StepOutcome};
 
 /// Euler-Maruyama on the inherent SDE (seed eq. 2.4, see [`crate::EulerMaruyama`]) followed by
 /// projection onto the tangent bundle:
@@ -57,18 +21,13 @@ where
 ///
 /// The state stays on the tangent bundle to the solver's tolerance. The projection does not
 /// improve the order of Euler-Maruyama; it removes the O(h) drift off the manifold. The drift
-/// is not truncated, so large steps can still blow up ([`ReferenceError::NonFinite`]), and a
-/// projection that finds no acceptable root gives [`ReferenceError::Projection`].
+/// is not truncated, so large steps can still blow up ([`StepFailure::NonFinite`]), and a
+/// projection that finds no acceptable root gives [`StepFailure::Root`]. The projection is
+/// the [`TangentProjector`] shared with the initial-state projection.
 #[derive(Debug, Clone)]
 pub struct ProjectedEulerMaruyama<S: CurvedSystem> {
     core: EulerCore<S>,
-    solver: BallSolver<<S::Constraint as Constraint>::Gram>,
-    /// The unprojected position r^.
-    y: Vec<f64>,
-    /// The projected position.
-    x: Vec<f64>,
-    scratch: Vec<f64>,
-    work: Vec<f64>,
+    projector: TangentProjector<<S::Constraint as Constraint>::Gram>,
 }
 
 impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
@@ -80,70 +39,49 @@ impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
     /// The solver for `system` with the given settings of the position projection's root solver.
     pub fn with_settings(system: S, settings: SolverSettings) -> Result<Self, ReferenceError> {
         let core = EulerCore::new(system)?;
-        let (n, m) = (core.sde.dim(), core.sde.n_constraints());
-        let solver = BallSolver::new(core.sde.system().constraint().new_gram(), settings);
-        Ok(Self {
-            core,
-            solver,
-            y: vec![0.0; n],
-            x: vec![0.0; n],
-            scratch: vec![0.0; scratch_len(n, m)],
-            work: vec![0.0; m],
-        })
+        let projector = TangentProjector::new(core.sde.system().constraint(), settings);
+        Ok(Self { core, projector })
     }
 
     /// Projects the proposed state (`core.next_r`, `core.next_v`) onto the tangent bundle: r
     /// along the normal M^-1 grad g(r), then v M-orthogonally onto the tangent space at the
     /// new r. Returns the Newton iterations.
-    fn project_proposal(&mut self) -> Result<usize, ReferenceError> {
+    fn project_proposal(&mut self) -> Result<usize, StepFailure> {
         let core = &mut self.core;
-        self.y.copy_from_slice(&core.next_r);
         let system = core.sde.system();
-        let certificate = {
-            let mut problem = NormalLine {
-                constraint: system.constraint(),
-                mass: system.mass(),
-                y: &self.y,
-                x: &mut self.x,
-                scratch: &mut self.scratch,
-            };
-            self.solver
-                .solve(&mut problem, f64::INFINITY)
-                .map_err(|source| ReferenceError::Projection { source })?
-        };
-        check_finite("projected position", &self.x)?;
-        core.next_r.copy_from_slice(&self.x);
-        core.sde.prepare(&core.next_r)?;
-        core.sde
-            .project_velocity_prepared(&core.next_r, &mut core.next_v, &mut self.work);
+        let (constraint, mass) = (system.constraint(), system.mass());
+        let certificate = self
+            .projector
+            .project_position(constraint, mass, &mut core.next_r)
+            .map_err(|source| StepFailure::Root {
+                what: "projection onto the manifold",
+                source,
+            })?;
+        check_finite("projected position", &core.next_r)?;
+        self.projector
+            .project_velocity(constraint, mass, &core.next_r, &mut core.next_v)?;
         check_finite("projected velocity", &core.next_v)?;
         Ok(certificate.iterations)
     }
 }
 
-impl<S: CurvedSystem> ReferenceSolver for ProjectedEulerMaruyama<S> {
-    type System = S;
-    fn sde(&self) -> &InherentSde<S> {
-        &self.core.sde
-    }
-    /// One Euler-Maruyama step of eq. 2.4, then the projection (see the type's documentation).
-    /// (r, v) are unchanged on failure.
-    fn step(
+impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
+    /// One Euler-Maruyama step of eq. 2.4, then the projection (see the type's
+    /// documentation), proposed.
+    fn propose(
         &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
+        r: &[f64],
+        v: &[f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<ReferenceStepReport, ReferenceError> {
+    ) -> Result<StepOutcome, StepFailure> {
         self.core.propose(r, v, h, dw, |_, _| 1.0)?;
-        let projection_iterations = self.project_proposal()?;
-        self.core.commit(r, v);
-        Ok(ReferenceStepReport {
-            projection_iterations,
-            ..ReferenceStepReport::default()
+        let newton_iterations = self.project_proposal()?;
+        Ok(StepOutcome {
+            newton_iterations,
+            ..StepOutcome::PLAIN
         })
     }
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.core.dmu
-    }
 }
+
+inherent_scheme!(ProjectedEulerMaruyama);

@@ -4,7 +4,7 @@
 use crate::error::ReferenceError;
 use crate::euler::EulerCore;
 use crate::inherent::{CurvedSystem, InherentSde};
-use crate::path::{ReferenceSolver, ReferenceStepReport};
+use sdae_model::{ModelError, StepFailure, StepOutcome};
 
 /// Truncated Euler-Maruyama on the inherent SDE written as an R^{2n} SDE
 /// dX = f(X) dt + sigma(X) dw (seed Section 4.1, `eq:SDEstrongsetting`, with the coefficients of Lemma 4.2):
@@ -44,11 +44,12 @@ impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
     /// Sets the truncation scale c (finite, > 0): theta = min(1, c / (|f| h)).
     pub fn with_scale(mut self, scale: f64) -> Result<Self, ReferenceError> {
         if !(scale.is_finite() && scale > 0.0) {
-            return Err(ReferenceError::InvalidSetting {
+            return Err(ModelError::InvalidSetting {
                 name: "truncation scale c",
                 value: scale,
                 reason: "must be finite and > 0",
-            });
+            }
+            .into());
         }
         self.scale = scale;
         Ok(self)
@@ -66,29 +67,24 @@ impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
     }
 }
 
-impl<S: CurvedSystem> ReferenceSolver for TruncatedEulerMaruyama<S> {
-    type System = S;
-    fn sde(&self) -> &InherentSde<S> {
-        &self.core.sde
-    }
-    /// One truncated Euler-Maruyama step (see the type's documentation).
-    fn step(
+impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
+    /// One truncated Euler-Maruyama step (see the type's documentation), proposed.
+    fn propose(
         &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
+        r: &[f64],
+        v: &[f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<ReferenceStepReport, ReferenceError> {
+    ) -> Result<StepOutcome, StepFailure> {
         let scale = self.scale;
         let theta = self
             .core
-            .step(r, v, h, dw, |h, f| Self::truncation(scale, h, f))?;
-        Ok(ReferenceStepReport {
-            truncation: theta,
-            ..ReferenceStepReport::default()
+            .propose(r, v, h, dw, |h, f| Self::truncation(scale, h, f))?;
+        Ok(StepOutcome {
+            eta: theta,
+            ..StepOutcome::PLAIN
         })
     }
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.core.dmu
-    }
 }
+
+inherent_scheme!(TruncatedEulerMaruyama);

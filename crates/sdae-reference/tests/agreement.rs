@@ -6,14 +6,12 @@
 mod common;
 
 use common::{brownian_path, observed_order, planar, show, state_distance};
-use sdae_reference::{
-    ProjectedEulerMaruyama, ReferenceSolver, StochasticHeun, TruncatedEulerMaruyama,
-    run_reference_path,
+use sdae_model::{
+    Coarsened, NoObserver, Observer, RecordedIncrements, Recorder, Scheme, TimeGrid, run_path,
 };
-use sdae_scheme::{
-    Coarsened, NoObserver, Observer, Pendulum, RecordedIncrements, Recorder, Stepper,
-    StepperConfig, TimeGrid, run_path,
-};
+use sdae_reference::{ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::Pendulum;
 
 const T: f64 = 1.0;
 const FINE: usize = 1 << 12;
@@ -24,18 +22,12 @@ const V0: [f64; 2] = [0.0, 0.5];
 
 type State = (Vec<f64>, Vec<f64>);
 
-fn scheme_at(stepper: &mut Stepper<Pendulum>, fine: &[f64], steps: usize) -> State {
+/// The state at T of `scheme` at `steps` steps on the fine Brownian path.
+fn state_at<S: Scheme>(scheme: &mut S, fine: &[f64], steps: usize) -> State {
     let (mut r, mut v) = (R0.to_vec(), V0.to_vec());
     let mut dw = Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);
     let grid = TimeGrid::new(T, steps).unwrap();
-    run_path(stepper, &mut r, &mut v, grid, &mut dw, &mut NoObserver).unwrap();
-    (r, v)
-}
-
-fn reference_at<S: ReferenceSolver>(solver: &mut S, fine: &[f64], steps: usize) -> State {
-    let (mut r, mut v) = (R0.to_vec(), V0.to_vec());
-    let mut dw = Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);
-    run_reference_path(solver, &mut r, &mut v, T, steps, &mut dw, &mut NoObserver).unwrap();
+    run_path(scheme, &mut r, &mut v, grid, &mut dw, &mut NoObserver).unwrap();
     (r, v)
 }
 
@@ -63,20 +55,20 @@ fn scheme_and_reference_solvers_converge_to_each_other() {
     let mut errors = [[0.0; LEVELS.len()]; 4];
     for i in 0..PATHS {
         let fine = brownian_path(2026, i, 2, T, FINE);
-        let scheme_ref = scheme_at(&mut stepper, &fine, FINE);
-        let truncated_ref = reference_at(&mut truncated, &fine, FINE);
+        let scheme_ref = state_at(&mut stepper, &fine, FINE);
+        let truncated_ref = state_at(&mut truncated, &fine, FINE);
         fine_gap += distance(&scheme_ref, &truncated_ref).powi(2);
         for (j, &n) in LEVELS.iter().enumerate() {
-            let s = scheme_at(&mut stepper, &fine, n);
-            let t = reference_at(&mut truncated, &fine, n);
+            let s = state_at(&mut stepper, &fine, n);
+            let t = state_at(&mut truncated, &fine, n);
             if n == 32 {
                 coarse_scheme += distance(&s, &scheme_ref).powi(2);
                 coarse_truncated += distance(&t, &truncated_ref).powi(2);
             }
             errors[0][j] += distance(&s, &truncated_ref).powi(2);
             errors[1][j] += distance(&t, &scheme_ref).powi(2);
-            errors[2][j] += distance(&reference_at(&mut heun, &fine, n), &scheme_ref).powi(2);
-            errors[3][j] += distance(&reference_at(&mut projected, &fine, n), &scheme_ref).powi(2);
+            errors[2][j] += distance(&state_at(&mut heun, &fine, n), &scheme_ref).powi(2);
+            errors[3][j] += distance(&state_at(&mut projected, &fine, n), &scheme_ref).powi(2);
         }
     }
     let (fine_gap, coarse_scheme, coarse_truncated) =
@@ -127,7 +119,15 @@ fn multipliers(
     run_path(stepper, &mut r, &mut v, grid, &mut coarse(), &mut a).unwrap();
     let mut b = Recorder::every(steps).with_mu();
     let (mut r, mut v) = (R0.to_vec(), V0.to_vec());
-    run_reference_path(truncated, &mut r, &mut v, T, steps, &mut coarse(), &mut b).unwrap();
+    run_path(
+        truncated,
+        &mut r,
+        &mut v,
+        TimeGrid::new(T, steps).unwrap(),
+        &mut coarse(),
+        &mut b,
+    )
+    .unwrap();
     assert_eq!(b.len(), 2);
     (a.multiplier(1)[0], b.multiplier(1)[0])
 }
@@ -171,12 +171,11 @@ fn multipliers_agree_and_are_recorded_only_when_asked() {
     let mut observer = NoMu(0);
     let (mut r, mut v) = (R0.to_vec(), V0.to_vec());
     let mut dw = RecordedIncrements::new(&fine, 2);
-    run_reference_path(
+    run_path(
         &mut truncated,
         &mut r,
         &mut v,
-        T,
-        64,
+        TimeGrid::new(T, 64).unwrap(),
         &mut dw,
         &mut observer,
     )

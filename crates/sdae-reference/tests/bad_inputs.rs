@@ -4,18 +4,21 @@ mod common;
 
 use common::planar;
 use sdae_ift::{IftError, SolverSettings};
-use sdae_manifold::ManifoldError;
-use sdae_reference::{
-    EulerMaruyama, InherentSde, ProjectedEulerMaruyama, ReferenceDiagnostics, ReferenceError,
-    ReferencePathError, ReferenceSolver, StochasticHeun, TruncatedEulerMaruyama,
-    run_reference_path,
+use sdae_manifold::{DenseMass, ManifoldError, Sphere};
+use sdae_model::{
+    AdditiveNoise, GaussianIncrements, MechanicalSystem, ModelError, NoObserver, PathDiagnostics,
+    PathFailure, RecordedIncrements, Scheme, StepFailure, TimeGrid, run_path,
 };
-use sdae_scheme::{GaussianIncrements, NoObserver, RecordedIncrements};
+use sdae_reference::{
+    EulerMaruyama, InherentSde, ProjectedEulerMaruyama, ReferenceError, StochasticHeun,
+    TruncatedEulerMaruyama,
+};
+use sdae_systems::PendulumDrift;
 
 const R: [f64; 2] = [1.0, 0.0];
 const V: [f64; 2] = [0.0, 0.5];
 
-fn step_errors<S: ReferenceSolver>(name: &str, solver: &mut S) {
+fn step_errors<S: Scheme>(name: &str, solver: &mut S) {
     let dw = [0.1, -0.2];
     let step = |solver: &mut S, r: &[f64], v: &[f64], h: f64, dw: &[f64]| {
         let (mut r1, mut v1) = (r.to_vec(), v.to_vec());
@@ -31,11 +34,11 @@ fn step_errors<S: ReferenceSolver>(name: &str, solver: &mut S) {
     assert!(
         matches!(
             e,
-            ReferenceError::DimensionMismatch {
+            StepFailure::Input(ModelError::DimensionMismatch {
                 what: "position r",
                 expected: 2,
                 found: 3
-            }
+            })
         ),
         "{name}: {e}"
     );
@@ -43,10 +46,10 @@ fn step_errors<S: ReferenceSolver>(name: &str, solver: &mut S) {
     assert!(
         matches!(
             e,
-            ReferenceError::DimensionMismatch {
+            StepFailure::Input(ModelError::DimensionMismatch {
                 what: "velocity v",
                 ..
-            }
+            })
         ),
         "{name}: {e}"
     );
@@ -54,32 +57,35 @@ fn step_errors<S: ReferenceSolver>(name: &str, solver: &mut S) {
     assert!(
         matches!(
             e,
-            ReferenceError::DimensionMismatch {
+            StepFailure::Input(ModelError::DimensionMismatch {
                 what: "Brownian increment dw",
                 expected: 2,
                 found: 1
-            }
+            })
         ),
         "{name}: {e}"
     );
     for h in [0.0, -0.1, f64::NAN, f64::INFINITY] {
         let e = step(solver, &R, &V, h, &dw).unwrap_err();
         assert!(
-            matches!(e, ReferenceError::InvalidStepSize { .. }),
+            matches!(
+                e,
+                StepFailure::Input(ModelError::InvalidSetting { name: "h", .. })
+            ),
             "{name}: h = {h}: {e}"
         );
     }
     let e = step(solver, &[f64::NAN, 0.0], &V, 0.1, &dw).unwrap_err();
     assert!(
-        matches!(e, ReferenceError::Manifold(ManifoldError::NonFinite { .. })),
+        matches!(
+            e,
+            StepFailure::Input(ModelError::Manifold(ManifoldError::NonFinite { .. }))
+        ),
         "{name}: {e}"
     );
     // r = 0: G_M(r) = |r|^2 = 0.
     let e = step(solver, &[0.0, 0.0], &V, 0.1, &dw).unwrap_err();
-    assert!(
-        matches!(e, ReferenceError::SingularGram { .. }),
-        "{name}: {e}"
-    );
+    assert!(matches!(e, StepFailure::Singular { .. }), "{name}: {e}");
     // A good step works.
     step(solver, &R, &V, 0.1, &dw).unwrap();
 }
@@ -100,87 +106,92 @@ fn step_inputs_are_checked_by_every_solver() {
 
 #[test]
 fn path_inputs_are_checked() {
+    for t in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let e = TimeGrid::new(t, 10).unwrap_err();
+        assert!(
+            matches!(e, ModelError::InvalidSetting { name: "T", .. }),
+            "{e}"
+        );
+    }
+    let e = TimeGrid::new(1.0, 0).unwrap_err();
+    assert!(
+        matches!(e, ModelError::InvalidSetting { name: "N", .. }),
+        "{e}"
+    );
     let mut solver = TruncatedEulerMaruyama::new(planar(1.0, 1.0)).unwrap();
-    let mut run = |r: &[f64], v: &[f64], t: f64, n: usize, dim: usize| {
+    let grid = TimeGrid::new(1.0, 10).unwrap();
+    let mut run = |r: &[f64], v: &[f64], dim: usize| {
         let (mut r, mut v) = (r.to_vec(), v.to_vec());
         let mut noise = GaussianIncrements::for_path(1, 0, dim);
-        run_reference_path(
+        run_path(
             &mut solver,
             &mut r,
             &mut v,
-            t,
-            n,
+            grid,
             &mut noise,
             &mut NoObserver,
         )
         .map(|_| ())
         .unwrap_err()
     };
-    for t in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let e = run(&R, &V, t, 10, 2);
-        assert_eq!(e.step, 0);
-        assert!(
-            matches!(e.error, ReferenceError::InvalidSetting { name: "T", .. }),
-            "{e}"
-        );
-    }
-    let e = run(&R, &V, 1.0, 0, 2);
-    assert!(
-        matches!(e.error, ReferenceError::InvalidSetting { name: "N", .. }),
-        "{e}"
-    );
-    let e = run(&[1.1, 0.0], &V, 1.0, 10, 2);
+    let input = |e: &PathFailure| match &e.error.failure {
+        StepFailure::Input(m) => {
+            assert_eq!(e.error.step, 0);
+            m.clone()
+        }
+        other => panic!("not an input error: {other}"),
+    };
+    let e = run(&[1.1, 0.0], &V, 2);
     assert!(
         matches!(
-            e.error,
-            ReferenceError::Manifold(ManifoldError::OffManifold { .. })
+            input(&e),
+            ModelError::Manifold(ManifoldError::OffManifold { .. })
         ),
         "{e}"
     );
-    let e = run(&R, &[0.3, 0.5], 1.0, 10, 2);
+    let e = run(&R, &[0.3, 0.5], 2);
     assert!(
         matches!(
-            e.error,
-            ReferenceError::Manifold(ManifoldError::OffTangent { .. })
+            input(&e),
+            ModelError::Manifold(ManifoldError::OffTangent { .. })
         ),
         "{e}"
     );
-    let e = run(&R, &V, 1.0, 10, 3);
+    let e = run(&R, &V, 3);
     assert!(
         matches!(
-            e.error,
-            ReferenceError::DimensionMismatch {
+            input(&e),
+            ModelError::DimensionMismatch {
                 what: "increment source dimension",
                 ..
             }
         ),
         "{e}"
     );
-    let e = run(&R, &[0.0], 1.0, 10, 2);
+    let e = run(&R, &[0.0], 2);
     assert!(
         matches!(
-            e.error,
-            ReferenceError::Manifold(ManifoldError::DimensionMismatch { .. })
+            input(&e),
+            ModelError::Manifold(ManifoldError::DimensionMismatch { .. })
         ),
         "{e}"
     );
     // Too few recorded increments.
     let data = vec![0.0; 2 * 5];
     let (mut r, mut v) = (R.to_vec(), V.to_vec());
-    let e = run_reference_path(
+    let e = run_path(
         &mut solver,
         &mut r,
         &mut v,
-        1.0,
-        10,
+        grid,
         &mut RecordedIncrements::new(&data, 2),
         &mut NoObserver,
     )
     .unwrap_err();
     assert!(
         matches!(
-            e.error,
-            ReferenceError::DimensionMismatch {
+            input(&e),
+            ModelError::DimensionMismatch {
                 expected: 10,
                 found: 5,
                 ..
@@ -194,7 +205,10 @@ fn path_inputs_are_checked() {
             .unwrap()
             .with_scale(c)
             .unwrap_err();
-        assert!(matches!(e, ReferenceError::InvalidSetting { .. }), "{e}");
+        assert!(
+            matches!(e, ReferenceError::Model(ModelError::InvalidSetting { .. })),
+            "{e}"
+        );
     }
 }
 
@@ -202,23 +216,38 @@ fn path_inputs_are_checked() {
 fn one_shot_evaluations_check_their_inputs() {
     let mut sde = InherentSde::new(planar(1.0, 1.0)).unwrap();
     let (mut out, mut mu) = ([0.0; 2], [0.0; 1]);
+    let mismatch = |e: &ReferenceError| {
+        matches!(
+            e,
+            ReferenceError::Model(ModelError::DimensionMismatch { .. })
+        )
+    };
     let e = sde.drift(&R, &V, &mut [0.0; 3], &mut mu).unwrap_err();
-    assert!(matches!(e, ReferenceError::DimensionMismatch { .. }), "{e}");
+    assert!(mismatch(&e), "{e}");
     let e = sde.drift(&R, &V, &mut out, &mut [0.0; 2]).unwrap_err();
-    assert!(matches!(e, ReferenceError::DimensionMismatch { .. }), "{e}");
+    assert!(mismatch(&e), "{e}");
     let e = sde.diffusion(&R, &V, &[1.0], &mut out).unwrap_err();
-    assert!(matches!(e, ReferenceError::DimensionMismatch { .. }), "{e}");
+    assert!(mismatch(&e), "{e}");
     let e = sde.drift(&[0.0, 0.0], &V, &mut out, &mut mu).unwrap_err();
     assert!(matches!(e, ReferenceError::SingularGram { .. }), "{e}");
     let e = sde
         .multiplier_increment(&R, &V, -1.0, &[0.0, 0.0], &mut out, &mut mu)
         .unwrap_err();
-    assert!(matches!(e, ReferenceError::InvalidStepSize { .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            ReferenceError::Model(ModelError::InvalidSetting { name: "h", .. })
+        ),
+        "{e}"
+    );
     let e = sde
         .drift(&R, &[f64::INFINITY, 0.0], &mut out, &mut mu)
         .unwrap_err();
     assert!(
-        matches!(e, ReferenceError::Manifold(ManifoldError::NonFinite { .. })),
+        matches!(
+            e,
+            ReferenceError::Model(ModelError::Manifold(ManifoldError::NonFinite { .. }))
+        ),
         "{e}"
     );
 }
@@ -226,6 +255,17 @@ fn one_shot_evaluations_check_their_inputs() {
 #[test]
 fn projection_failure_is_typed() {
     // One Newton iteration without homotopy cannot bring an EM step of size 0.2 back to 1e-15.
+    // A dense mass (here the identity) has no closed-form projection, so Newton runs.
+    let pendulum = MechanicalSystem::new(
+        Sphere::new(2, 1.0).unwrap(),
+        DenseMass::new(2, vec![1.0, 0.0, 0.0, 1.0]).unwrap(),
+        PendulumDrift {
+            gravity: 1.0,
+            friction: 0.0,
+        },
+        AdditiveNoise::new(1.0, 2).unwrap(),
+    )
+    .unwrap();
     let settings = SolverSettings {
         tolerance: 1e-15,
         stagnation_tolerance: 1e-15,
@@ -233,14 +273,15 @@ fn projection_failure_is_typed() {
         homotopy: false,
         ..SolverSettings::default()
     };
-    let mut solver = ProjectedEulerMaruyama::with_settings(planar(1.0, 1.0), settings).unwrap();
+    let mut solver = ProjectedEulerMaruyama::with_settings(pendulum, settings).unwrap();
     let (mut r, mut v) = (R.to_vec(), vec![0.0, 2.0]);
     let e = solver.step(&mut r, &mut v, 0.2, &[0.0, 0.0]).unwrap_err();
     assert!(
         matches!(
             e,
-            ReferenceError::Projection {
-                source: IftError::NoConvergence { .. }
+            StepFailure::Root {
+                source: IftError::NoConvergence { .. },
+                ..
             }
         ),
         "{e}"
@@ -254,37 +295,29 @@ fn projection_failure_is_typed() {
 
 /// Large steps on the pendulum (T = 400, N = 200, v_0 = 3): the drift -|v|^2 r / |r|^2 is not
 /// one-sided Lipschitz. Returns the result and the final state.
-fn large_steps<S: ReferenceSolver>(
+fn large_steps<S: Scheme>(
     solver: &mut S,
-) -> (
-    Result<ReferenceDiagnostics, ReferencePathError>,
-    Vec<f64>,
-    Vec<f64>,
-) {
+) -> (Result<PathDiagnostics, PathFailure>, Vec<f64>, Vec<f64>) {
     let (mut r, mut v) = (R.to_vec(), vec![0.0, 3.0]);
     let mut noise = GaussianIncrements::for_path(5, 0, 2);
-    let result = run_reference_path(
-        solver,
-        &mut r,
-        &mut v,
-        400.0,
-        200,
-        &mut noise,
-        &mut NoObserver,
-    );
+    let grid = TimeGrid::new(400.0, 200).unwrap();
+    let result = run_path(solver, &mut r, &mut v, grid, &mut noise, &mut NoObserver);
     (result, r, v)
 }
 
-fn blow_up_step<S: ReferenceSolver>(solver: &mut S) -> usize {
+fn blow_up_step<S: Scheme>(solver: &mut S) -> usize {
     let (result, r, v) = large_steps(solver);
     let e = result.unwrap_err();
-    assert!(matches!(e.error, ReferenceError::NonFinite { .. }), "{e}");
-    assert!(e.step > 0, "{e}");
+    assert!(
+        matches!(e.error.failure, StepFailure::NonFinite { .. }),
+        "{e}"
+    );
+    assert!(e.error.step > 0, "{e}");
     assert!(
         r.iter().chain(&v).all(|x| x.is_finite()),
         "NaN left in the state"
     );
-    e.step
+    e.error.step
 }
 
 #[test]
@@ -295,6 +328,6 @@ fn euler_maruyama_blow_up_is_a_typed_error_and_truncation_prevents_it() {
     let (result, r, v) = large_steps(&mut TruncatedEulerMaruyama::new(planar(1.0, 1.0)).unwrap());
     let d = result.unwrap();
     assert!(r.iter().chain(&v).all(|x| x.is_finite()));
-    assert!(d.truncated_steps > 0 && d.min_truncation < 1.0, "{d:?}");
+    assert!(d.truncated_steps > 0 && d.min_eta < 1.0, "{d:?}");
     println!("truncated EM: {d:?}");
 }

@@ -4,9 +4,10 @@
 
 mod common;
 
+use sdae_ift::SolverSettings;
 use sdae_manifold::{BeadChain, Constraint, Curvature, DiagonalMass};
+use sdae_model::{AdditiveNoise, MechanicalSystem, System, TangentProjector};
 use sdae_reference::InherentSde;
-use sdae_scheme::{AdditiveNoise, MechanicalSystem, System};
 
 /// States on the circle and off it (the coefficients are the natural extension, Lemma 4.2).
 const STATES: [([f64; 2], [f64; 2]); 4] = [
@@ -91,10 +92,10 @@ fn chain_drift_keeps_the_hidden_constraint_and_diffusion_is_tangent() {
     let r = sde.system().constraint().zigzag(0.4);
     // A tangent velocity: project an arbitrary one.
     let mut v: Vec<f64> = (0..n).map(|i| ((i * 7 % 5) as f64 - 2.0) * 0.3).collect();
-    let mut work = vec![0.0; m];
-    sde.prepare(&r).unwrap();
-    sde.project_velocity_prepared(&r, &mut v, &mut work);
     let c = *sde.system().constraint();
+    TangentProjector::new(&c, SolverSettings::default())
+        .project_velocity(&c, sde.system().mass(), &r, &mut v)
+        .unwrap();
     let mut dgv = vec![0.0_f64; m];
     c.jacobian_mul(&r, &v, &mut dgv);
     assert!(dgv.iter().all(|x| x.abs() < 1e-13), "{dgv:?}");

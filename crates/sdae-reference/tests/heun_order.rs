@@ -5,28 +5,48 @@
 mod common;
 
 use common::{brownian_path, observed_order, planar, show, state_distance};
-use sdae_reference::{EulerMaruyama, ReferenceSolver, StochasticHeun, run_reference_path};
-use sdae_scheme::{Coarsened, GaussianIncrements, NoObserver, Pendulum, RecordedIncrements};
+use sdae_model::{
+    Coarsened, GaussianIncrements, NoObserver, RecordedIncrements, Scheme, System, TimeGrid,
+    run_path,
+};
+use sdae_reference::{EulerMaruyama, StochasticHeun};
+use sdae_systems::Pendulum;
 
 const T: f64 = 1.0;
 const FINE: usize = 1 << 12;
 const LEVELS: [usize; 4] = [32, 64, 128, 256];
 
-fn run<S: ReferenceSolver>(solver: &mut S, fine: &[f64], steps: usize) -> (Vec<f64>, Vec<f64>) {
+fn run<S: Scheme>(solver: &mut S, fine: &[f64], steps: usize) -> (Vec<f64>, Vec<f64>) {
     let (mut r, mut v) = (vec![0.6, -0.8], vec![1.2, 0.9]);
-    if solver.sde().noise_dim() == 0 {
+    if solver.system().noise_dim() == 0 {
         // Without noise (sigma = 0 gives l = 0) no increments are needed.
         let mut none = GaussianIncrements::for_path(0, 0, 0);
-        run_reference_path(solver, &mut r, &mut v, T, steps, &mut none, &mut NoObserver).unwrap();
+        run_path(
+            solver,
+            &mut r,
+            &mut v,
+            TimeGrid::new(T, steps).unwrap(),
+            &mut none,
+            &mut NoObserver,
+        )
+        .unwrap();
     } else {
         let mut dw = Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);
-        run_reference_path(solver, &mut r, &mut v, T, steps, &mut dw, &mut NoObserver).unwrap();
+        run_path(
+            solver,
+            &mut r,
+            &mut v,
+            TimeGrid::new(T, steps).unwrap(),
+            &mut dw,
+            &mut NoObserver,
+        )
+        .unwrap();
     }
     (r, v)
 }
 
 /// RMS error over `paths` paths of `make()` at each level against its own fine solution.
-fn orders<S: ReferenceSolver>(make: impl Fn() -> S, noise: bool, paths: u64) -> (Vec<f64>, f64) {
+fn orders<S: Scheme>(make: impl Fn() -> S, noise: bool, paths: u64) -> (Vec<f64>, f64) {
     let mut solver = make();
     let mut squares = vec![0.0; LEVELS.len()];
     for i in 0..paths {

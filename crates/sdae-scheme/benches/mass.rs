@@ -8,10 +8,9 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sdae_manifold::{DenseMass, DiagonalMass, IdentityMass, Mass, Sphere};
-use sdae_scheme::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PendulumDrift, Stepper,
-    StepperConfig,
-};
+use sdae_model::{AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme};
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::PendulumDrift;
 
 /// Steps of one state between resets to the initial state.
 const RESET_EVERY: u64 = 1000;
@@ -37,7 +36,7 @@ fn bench_mass<M: Mass + Clone>(c: &mut Criterion, name: &str, mass: M) {
     c.bench_function(name, |b| {
         b.iter(|| {
             k += 1;
-            if k % RESET_EVERY == 0 {
+            if k.is_multiple_of(RESET_EVERY) {
                 (r, v) = (r0, v0);
             }
             noise.next_increment(H, &mut dw);

@@ -14,11 +14,12 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use sdae_manifold::{BeadChain, Constraint, IdentityMass};
-use sdae_scheme::{
-    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, PendulumParams,
-    Stepper, StepperConfig, System, pendulum,
+use sdae_manifold::{BeadChain, IdentityMass};
+use sdae_model::{
+    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, System,
 };
+use sdae_scheme::{Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, pendulum};
 
 /// Steps between resets of the state to its initial value.
 const RESET_EVERY: u64 = 1000;
@@ -56,10 +57,7 @@ impl Drift for Gravity {
 type Chain = MechanicalSystem<BeadChain, IdentityMass, Gravity, AdditiveNoise>;
 
 /// A path being stepped: stepper, state, initial state and noise.
-struct Bench<S: System>
-where
-    <S::Constraint as Constraint>::Gram: sdae_ift::Factorize,
-{
+struct Bench<S: System> {
     name: String,
     stepper: Stepper<S>,
     r0: Vec<f64>,
@@ -73,10 +71,7 @@ where
     last_iterations: usize,
 }
 
-impl<S: System> Bench<S>
-where
-    <S::Constraint as Constraint>::Gram: sdae_ift::Factorize,
-{
+impl<S: System> Bench<S> {
     fn new(name: String, stepper: Stepper<S>, r0: Vec<f64>, v0: Vec<f64>, h: f64) -> Self {
         let l = stepper.system().noise_dim();
         Self {
@@ -98,7 +93,7 @@ where
     /// Returns max |g(r')|.
     #[inline]
     fn step(&mut self) -> f64 {
-        if self.steps % RESET_EVERY == 0 {
+        if self.steps.is_multiple_of(RESET_EVERY) {
             self.r.copy_from_slice(&self.r0);
             self.v.copy_from_slice(&self.v0);
         }
@@ -109,8 +104,8 @@ where
             .step(&mut self.r, &mut self.v, self.h, &self.dw)
         {
             Ok(report) => {
-                self.last_iterations = report.certificate.iterations;
-                report.position_residual
+                self.last_iterations = report.newton_iterations;
+                report.position_residual.unwrap_or(0.0)
             }
             Err(e) => panic!(
                 "{}: step {} (since reset: {}) failed: {e}",
@@ -144,7 +139,7 @@ where
     }
 }
 
-fn pendulum_bench() -> Bench<sdae_scheme::Pendulum> {
+fn pendulum_bench() -> Bench<sdae_systems::Pendulum> {
     let system = pendulum(PendulumParams::default()).expect("pendulum parameters");
     let config = StepperConfig::for_system(&system)
         .and_then(|c| c.with_c_eta(1.0))

@@ -1,35 +1,16 @@
-//! Error types of the stepper and the path driver.
+//! The error type of the stepper's construction and constants. Failures of a step are
+//! [`sdae_model::StepFailure`]s, shared by every scheme.
 
-use sdae_ift::IftError;
 use sdae_manifold::ManifoldError;
+use sdae_model::ModelError;
 use thiserror::Error;
 
 /// A configuration or input that the scheme cannot run with.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SchemeError {
-    /// A constraint, mass or state check failed.
+    /// A setting out of range, parts that do not fit, a constraint, mass or state check.
     #[error(transparent)]
-    Manifold(#[from] ManifoldError),
-    /// A setting is out of range.
-    #[error("invalid setting {name} = {value}: {reason}")]
-    InvalidSetting {
-        /// Setting name.
-        name: &'static str,
-        /// The offending value.
-        value: f64,
-        /// What it must satisfy.
-        reason: &'static str,
-    },
-    /// Two parts of the system do not fit together.
-    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
-    DimensionMismatch {
-        /// What was compared.
-        what: &'static str,
-        /// Expected size.
-        expected: usize,
-        /// Size found.
-        found: usize,
-    },
+    Model(#[from] ModelError),
     /// The theory constants need C_g, which this constraint does not know.
     #[error(
         "no bound on C_g (seed eq. 2.2) is known for this constraint: set C_eta and C_kappa explicitly"
@@ -37,37 +18,19 @@ pub enum SchemeError {
     NoTheoryBound,
 }
 
-/// Why one step failed.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum StepFailure {
-    /// The kappa system (seed eq. 3.1, upper part) has no acceptable root.
-    #[error("kappa system: {0}")]
-    Kappa(#[from] IftError),
-    /// a(r, v) returned a NaN or infinite entry.
-    #[error("drift a(r, v) is not finite at index {index}")]
-    NonFiniteDrift {
-        /// First non-finite entry.
-        index: usize,
-    },
-    /// The new velocity is NaN or infinite (blow-up).
-    #[error("velocity is not finite after the step (|v|^2 = {norm2})")]
-    NonFiniteVelocity {
-        /// Squared norm of the offending velocity.
-        norm2: f64,
-    },
-    /// A step input has the wrong size or value.
-    #[error("invalid step input: {0}")]
-    Input(SchemeError),
+impl From<ManifoldError> for SchemeError {
+    fn from(e: ManifoldError) -> Self {
+        SchemeError::Model(e.into())
+    }
 }
 
-/// A step of a path failed: what, at which step and time.
-#[derive(Debug, Clone, PartialEq, Error)]
-#[error("step {step} (t = {time}) failed: {failure}")]
-pub struct StepError {
-    /// Index k of the failing step (from t_k to t_{k+1}).
-    pub step: usize,
-    /// t_k.
-    pub time: f64,
-    /// What went wrong.
-    pub failure: StepFailure,
+impl SchemeError {
+    /// [`ModelError::InvalidSetting`]: setting `name` = `value` violates `reason`.
+    pub(crate) fn invalid(name: &'static str, value: f64, reason: &'static str) -> Self {
+        SchemeError::Model(ModelError::InvalidSetting {
+            name,
+            value,
+            reason,
+        })
+    }
 }

@@ -7,17 +7,18 @@
 //! eta = min(1, C_eta / (max(|v|, |v|^2, |a(r,v)|) h)),          mu_k = sum_{j<=k} lambda_j
 //! ```
 //!
-//! - [`System`] (built from parts with [`MechanicalSystem`], or the [`pendulum`]),
+//! The stepper implements the one step trait [`sdae_model::Scheme`], so it runs on the path
+//! driver [`sdae_model::run_path`] and in every study, next to the inherent-SDE solvers and a
+//! user's own schemes.
+//!
 //! - [`StepperConfig`] (C_eta, C_kappa, solver settings; theory defaults from C_g),
-//! - [`Stepper::step`] (one step, with a [`StepReport`]),
-//! - [`run_path`] (a path on a [`TimeGrid`] with increments from an [`IncrementSource`],
-//!   recorded by an [`Observer`] such as [`Recorder`], summarized in [`PathDiagnostics`]).
+//! - [`Stepper`] (the system, the constants and the buffers of one path),
+//! - [`runaway_bound`] (the C_eta below which truncated steps keep a rotor's energy bounded).
 //!
 //! ```
-//! use sdae_scheme::{
-//!     GaussianIncrements, PendulumParams, Recorder, Stepper, StepperConfig, TimeGrid, pendulum,
-//!     run_path,
-//! };
+//! use sdae_model::{GaussianIncrements, Recorder, TimeGrid, run_path};
+//! use sdae_scheme::{Stepper, StepperConfig};
+//! use sdae_systems::{PendulumParams, pendulum};
 //! let system = pendulum(PendulumParams::default())?;
 //! let config = StepperConfig::for_system(&system)?.with_c_eta(1.0)?;
 //! let mut stepper = Stepper::new(system, config)?;
@@ -33,25 +34,10 @@
 
 mod config;
 mod error;
-mod increments;
-mod initial;
-mod path;
-mod pendulum;
+mod runaway;
 mod stepper;
-mod system;
 
 pub use config::StepperConfig;
-pub use error::{SchemeError, StepError, StepFailure};
-pub use increments::{
-    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
-};
-pub use initial::project_state;
-pub use path::{
-    INITIAL_STATE_TOLERANCE, ITERATION_BINS, Interpolation, NoObserver, Observer, PathDiagnostics,
-    PathFailure, Recorder, TimeGrid, run_path,
-};
-pub use pendulum::{Pendulum, PendulumDrift, PendulumParams, pendulum};
-pub use stepper::{StepReport, Stepper};
-pub use system::{
-    AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
-};
+pub use error::SchemeError;
+pub use runaway::runaway_bound;
+pub use stepper::Stepper;

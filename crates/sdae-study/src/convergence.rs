@@ -5,14 +5,18 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::integrator::{FailureKind, SchemeKind};
-use crate::lockstep::{Limits, PathPlan, PathRecord, TrackOutcome};
-use crate::parallel::{PathSelection, Skipped, applicable, run_paths};
-use crate::scene::{Output, Prepared, Scene, SceneError, SceneRunner};
-use crate::stats::{Interval, OrderFit, fit_order, lp_error, mean_interval};
+use sdae_model::FailureKind;
 
-/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' by more.
-const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.15;
+use crate::error::StudyError;
+use crate::integrator::{SchemeKind, StudyScheme};
+use crate::lockstep::{Limits, PathPlan, PathRecord, TrackOutcome};
+use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
+use crate::scene::{Output, Prepared, Scene, SceneRunner};
+use crate::stats::{Interval, OrderFit, PathErrors, fit_order, lp_error, mean_interval};
+
+/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
+/// the Monte Carlo error and by more than this.
+const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
 
 /// What to run (the scene gives the system, T and the defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -42,6 +46,7 @@ pub struct ConvergenceSettings {
     /// Bounds beyond which a path counts as failed.
     pub limits: Limits,
     /// Average the kinetic energy over the grid points with t >= this time.
+    #[serde(with = "crate::real::option", default)]
     pub kinetic_after: Option<f64>,
 }
 
@@ -67,53 +72,74 @@ impl ConvergenceSettings {
         }
     }
 
-    /// Checks the settings; the message names the bad one.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks the settings; the error names the bad one by its scene-file key (`study.paths`)
+    /// or settings field (`p`).
+    pub fn validate(&self) -> Result<(), StudyError> {
+        let bad = |key: &'static str, value: String, rule: String| {
+            Err(StudyError::Setting { key, value, rule })
+        };
         if self.paths < 2 {
-            return Err(format!("--paths must be >= 2, got {}", self.paths));
+            return bad("study.paths", self.paths.to_string(), "must be >= 2".into());
         }
         if self.coarsest > self.finest {
-            return Err(format!(
-                "--levels {}..{} is empty",
-                self.coarsest, self.finest
-            ));
+            let levels = format!("{}..{}", self.coarsest, self.finest);
+            return bad("study.levels", levels, "is empty".into());
+        }
+        if self.finest > 25 && self.reference.is_some() {
+            let levels = format!("{}..{}", self.coarsest, self.finest);
+            let rule = "at most 2^25 steps below a reference of at most 2^26".into();
+            return bad("study.levels", levels, rule);
         }
         match self.reference {
             Some(r) if r <= self.finest || r > 26 => {
-                return Err(format!(
-                    "--ref-level must be above the finest level {} and at most 26, got {r}",
+                let rule = format!(
+                    "must be above the finest level {} and at most 26",
                     self.finest
-                ));
+                );
+                return bad("study.reference", r.to_string(), rule);
             }
             None if self.finest > 26 => {
-                return Err(format!(
-                    "--levels: at most 2^26 steps, got 2^{}",
-                    self.finest
-                ));
+                let rule = "at most 2^26 steps".into();
+                return bad("study.levels", format!("..{}", self.finest), rule);
             }
             _ => {}
         }
-        if let Some(tol) = self.limits.drift_tolerance {
-            if tol.is_nan() || tol <= 0.0 {
-                return Err(format!("drift tolerance must be > 0, got {tol}"));
-            }
+        if let Some(tol) = self.limits.drift_tolerance
+            && (tol.is_nan() || tol <= 0.0)
+        {
+            let rule = "must be > 0".into();
+            return bad("limits.drift_tolerance", tol.to_string(), rule);
         }
         if self.limits.blow_up.is_nan() || self.limits.blow_up <= 0.0 {
-            return Err(format!(
-                "blow-up bound must be > 0, got {}",
-                self.limits.blow_up
-            ));
+            let rule = "must be > 0".into();
+            return bad("limits.blow_up", self.limits.blow_up.to_string(), rule);
         }
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
-            return Err(format!("--T must be finite and > 0, got {}", self.t_end));
+            return bad(
+                "T",
+                format!("{:e}", self.t_end),
+                "must be finite and > 0".into(),
+            );
         }
         if !(self.p.is_finite() && self.p >= 1.0) {
-            return Err(format!("--p must be finite and >= 1, got {}", self.p));
+            return bad("p", self.p.to_string(), "must be finite and >= 1".into());
+        }
+        if self.threads == 0 {
+            return bad("threads", "0".into(), "must be >= 1".into());
         }
         if self.schemes.is_empty() {
-            return Err("--schemes names no scheme".into());
+            return bad("schemes", "[]".into(), "names no scheme".into());
         }
         Ok(())
+    }
+
+    /// Whether `other` gives the same numbers: equal but perhaps for the thread count.
+    pub fn same_numbers(&self, other: &ConvergenceSettings) -> bool {
+        let threads = |s: &ConvergenceSettings| ConvergenceSettings {
+            threads: 1,
+            ..s.clone()
+        };
+        threads(self) == threads(other)
     }
 
     fn levels(&self) -> Vec<u32> {
@@ -128,11 +154,12 @@ pub struct ConvergenceRun {
     pub scene: Scene,
     /// The settings.
     pub settings: ConvergenceSettings,
-    /// The schemes that ran, in the order of the records' tracks.
-    pub schemes: Vec<SchemeKind>,
+    /// The names of the schemes that ran, in the order of the records' tracks.
+    pub schemes: Vec<String>,
     /// The schemes left out.
     pub skipped: Vec<Skipped>,
     /// The equipartition value of the kinetic energy, for Langevin scenes.
+    #[serde(with = "crate::real::option", default)]
     pub kinetic_target: Option<f64>,
     /// This run is shard `shard.0` of `shard.1` (paths i with i % shard.1 == shard.0).
     pub shard: (usize, usize),
@@ -140,87 +167,104 @@ pub struct ConvergenceRun {
     pub records: Vec<PathRecord>,
 }
 
-/// Runs the paths of shard `index` of `count`; `progress` is called with the number of
-/// finished paths. Path i draws from its own stream, so the records do not depend on the
-/// thread count or the sharding.
+/// Runs the paths of shard `index` of `count` of a scene file's system with the built-in
+/// schemes of `settings`, steered by `control` (progress, an early stop, paths already done).
+/// Path i draws from its own stream, so the records do not depend on the thread count, the
+/// sharding or an interruption.
 pub fn run_convergence(
     scene: &Scene,
     settings: &ConvergenceSettings,
-    (index, count): (usize, usize),
-    progress: impl Fn(usize) + Sync,
-) -> Result<ConvergenceRun, SceneError> {
-    settings.validate().map_err(|message| SceneError::Invalid {
-        scene: scene.name.clone(),
-        message,
-    })?;
+    shard: (usize, usize),
+    control: Control<'_>,
+) -> Result<ConvergenceRun, StudyError> {
     scene.run(Runner {
         settings,
-        shard: (index, count.max(1)),
-        progress: &progress,
+        shard,
+        control,
     })?
 }
 
 struct Runner<'a> {
     settings: &'a ConvergenceSettings,
     shard: (usize, usize),
-    progress: &'a (dyn Fn(usize) + Sync),
+    control: Control<'a>,
 }
 
 impl SceneRunner for Runner<'_> {
-    type Output = Result<ConvergenceRun, SceneError>;
+    type Output = Result<ConvergenceRun, StudyError>;
 
     fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> Self::Output
     where
         S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
     {
-        let st = self.settings;
-        let invalid = |message: String| SceneError::Invalid {
-            scene: scene.name.clone(),
-            message,
-        };
-        let (schemes, skipped) = applicable(&st.schemes, &prepared);
-        let (reference_ok, reference_skipped) = applicable(&[st.reference_scheme], &prepared);
-        if st.reference.is_some() && reference_ok.is_empty() {
-            return Err(invalid(format!(
-                "the reference scheme {} does not apply: {}",
-                st.reference_scheme.name(),
-                reference_skipped[0].reason
-            )));
-        }
-        let plan = PathPlan {
-            t_end: st.t_end,
-            fine: st.reference.unwrap_or(st.finest),
-            levels: st.levels(),
-            want_mu: scene.wants(Output::Multiplier) && st.reference.is_some(),
-            limits: st.limits,
-            kinetic_after: st
-                .kinetic_after
-                .filter(|_| scene.wants(Output::KineticEnergy)),
-        };
-        let records = run_paths(
-            &plan,
-            &schemes,
-            st.reference.map(|_| st.reference_scheme),
+        run_convergence_on(
+            scene,
             &prepared,
-            PathSelection {
-                seed: st.seed,
-                paths: st.paths,
-                shard: self.shard,
-                threads: st.threads,
-            },
-            self.progress,
+            &[],
+            self.settings,
+            self.shard,
+            self.control,
         )
-        .map_err(invalid)?;
-        Ok(ConvergenceRun {
-            scene: scene.clone(),
-            settings: st.clone(),
-            schemes,
-            skipped,
-            kinetic_target: prepared.kinetic_target,
-            shard: self.shard,
-            records,
-        })
     }
+}
+
+/// The convergence study of any system (`prepared`: the system, its initial state and the
+/// constants of the built-in schemes; [`Scene::custom`] describes it for the report) with the
+/// built-in schemes of `settings` and the user's `extra` schemes, side by side on the same
+/// Brownian paths. Runs the paths of shard `index` of `count`, steered by `control`.
+pub fn run_convergence_on<S>(
+    scene: &Scene,
+    prepared: &Prepared<S>,
+    extra: &[StudyScheme<S>],
+    settings: &ConvergenceSettings,
+    (index, count): (usize, usize),
+    control: Control<'_>,
+) -> Result<ConvergenceRun, StudyError>
+where
+    S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
+{
+    let st = settings;
+    st.validate()?;
+    let (schemes, skipped) = applicable(&st.schemes, extra, prepared);
+    let (reference, reference_skipped) = applicable(&[st.reference_scheme], &[], prepared);
+    if let (Some(_), Some(skipped)) = (st.reference, reference_skipped.first()) {
+        return Err(StudyError::SchemeNotApplicable {
+            scheme: skipped.name.clone(),
+            reason: format!("as the reference: {}", skipped.reason),
+        });
+    }
+    let plan = PathPlan {
+        t_end: st.t_end,
+        fine: st.reference.unwrap_or(st.finest),
+        levels: st.levels(),
+        want_mu: scene.wants(Output::Multiplier) && st.reference.is_some(),
+        limits: st.limits,
+        kinetic_after: st
+            .kinetic_after
+            .filter(|_| scene.wants(Output::KineticEnergy)),
+    };
+    let records = run_paths(
+        &plan,
+        &schemes,
+        st.reference.and(reference.first()),
+        prepared,
+        PathSelection {
+            seed: st.seed,
+            paths: st.paths,
+            shard: (index, count.max(1)),
+            threads: st.threads,
+        },
+        control,
+    )?;
+    Ok(ConvergenceRun {
+        scene: scene.clone(),
+        settings: st.clone(),
+        schemes: schemes.iter().map(|s| s.name().to_string()).collect(),
+        skipped,
+        kinetic_target: prepared.kinetic_target,
+        shard: (index, count.max(1)),
+        records,
+    })
 }
 
 /// Errors of r, v and mu (those the scene asked for).
@@ -251,34 +295,59 @@ pub struct LevelReport {
     /// N.
     pub n_steps: usize,
     /// h = T / N.
+    #[serde(with = "crate::real")]
     pub h: f64,
-    /// L^p norms over the finished paths of sup_k |r_k - r_ref(t_k)|, sup_k |v_k - v_ref(t_k)|,
-    /// sup_k |mu_k - mu_ref(t_k)| (k over this level's grid), with 95% confidence intervals.
+    /// L^p norms over the compared paths of sup_k |r_k - r_ref(t_k)|, sup_k |v_k - v_ref(t_k)|,
+    /// sup_k |mu_k - mu_ref(t_k)| (k over this level's grid), with 95% confidence intervals
+    /// (`None` where not asked for, without a reference, or with fewer than 2 compared paths).
     pub error: Errors,
     /// Paths counted (those whose reference finished).
     pub paths: usize,
-    /// Share of the paths that finished.
+    /// Paths whose errors are compared: those that finished at every level of the scheme (one
+    /// set of paths for all its levels).
+    pub compared_paths: usize,
+    /// Paths that finished at this level but failed at another level of the scheme, and so
+    /// are left out of the errors here too.
+    pub failed_elsewhere: usize,
+    /// Share of the counted paths that finished (0 when no path could be counted).
+    #[serde(with = "crate::real")]
     pub finished_fraction: f64,
     /// Mean over the finished paths of the time-averaged kinetic energy v^T M v / 2, with a 95%
     /// confidence interval (when the scene asks for it).
     pub kinetic_energy: Option<Interval>,
     /// Mean wall-clock seconds of stepping per path.
+    #[serde(with = "crate::real")]
     pub seconds_per_path: f64,
     /// Steps per second of stepping.
+    #[serde(with = "crate::real")]
     pub steps_per_second: f64,
     /// Paths that failed (not counted in the errors).
     pub failures: usize,
     /// Failures by kind.
     pub failures_by_kind: BTreeMap<FailureKind, usize>,
     /// Share of steps with a truncated drift.
+    #[serde(with = "crate::real")]
     pub truncated_fraction: f64,
     /// Mean Newton iterations per step.
+    #[serde(with = "crate::real")]
     pub newton_iterations_per_step: f64,
     /// Steps that needed the homotopy fallback.
     pub homotopy_steps: usize,
+    /// Steps whose kappa reached C_kappa and was certified with the part that only corrects
+    /// rounding set aside (the residual floor mattered).
+    pub rounding_certified_steps: usize,
+    /// More than [`TRUNCATION_DOMINATED`](sdae_model::TRUNCATION_DOMINATED) of the steps were
+    /// truncated: the level is stable but biased.
+    pub stable_but_biased: bool,
+    /// Mean over paths of the clock lag sum_k (1 - eta_k) h: the time the truncated drift
+    /// did not integrate (0 without truncation).
+    #[serde(with = "crate::real")]
+    pub clock_lag: f64,
     /// Largest |g(r_k)| on the grid.
+    #[serde(with = "crate::real")]
     pub max_position_residual: f64,
     /// Largest |Dg(r_k) v_k| on the grid.
+    #[serde(with = "crate::real")]
     pub max_velocity_residual: f64,
 }
 
@@ -286,12 +355,15 @@ pub struct LevelReport {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SchemeReport {
     /// The scheme's name.
-    pub name: &'static str,
+    pub name: String,
     /// Levels from coarse to fine.
     pub levels: Vec<LevelReport>,
-    /// Least-squares slope of log(error) against log(h) with 95% intervals; coarse levels whose
-    /// local slope departs from the finer ones by more than 0.15 are flagged, not fitted.
+    /// Least-squares slope of log(error) against log(h) with 95% intervals from the Monte Carlo
+    /// error; coarse levels whose local slope departs from the finer ones beyond that error
+    /// (and by more than 0.05) are flagged, not fitted.
     pub observed_order: Orders,
+    /// Levels left out of the fit because their failure count differs from the finest level's.
+    pub not_fitted_for_failures: Vec<usize>,
 }
 
 /// The reference solution.
@@ -306,6 +378,7 @@ pub struct ReferenceReport {
     /// Failures by kind.
     pub failures_by_kind: BTreeMap<FailureKind, usize>,
     /// Mean wall-clock seconds per path.
+    #[serde(with = "crate::real")]
     pub seconds_per_path: f64,
 }
 
@@ -332,9 +405,53 @@ pub struct ConvergenceReport {
     /// Schemes left out, with the reason.
     pub skipped: Vec<Skipped>,
     /// The equipartition value (n - m) kT / 2 of the kinetic energy, for Langevin scenes.
+    #[serde(with = "crate::real::option", default)]
     pub kinetic_target: Option<f64>,
     /// The scene as run.
     pub scene_definition: Scene,
+}
+
+impl ConvergenceReport {
+    /// What could not be compared with the reference, one sentence each naming the failure
+    /// kinds and counts: the reference itself when it failed on every path, and each scheme
+    /// none of whose paths finished every level. Empty when every scheme was compared (or the
+    /// study ran without a reference).
+    pub fn uncompared(&self) -> Vec<String> {
+        let Some(reference) = &self.reference else {
+            return Vec::new();
+        };
+        let kinds = |map: &BTreeMap<FailureKind, usize>| {
+            map.iter()
+                .map(|(k, n)| format!("{} {n}", k.name()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if reference.failures >= self.paths {
+            return vec![format!(
+                "the reference ({}) failed on all {} paths [{}]: no error could be measured",
+                reference.scheme,
+                self.paths,
+                kinds(&reference.failures_by_kind)
+            )];
+        }
+        self.schemes
+            .iter()
+            .filter(|s| s.levels.iter().all(|l| l.compared_paths == 0))
+            .map(|s| {
+                let mut all = BTreeMap::new();
+                for l in &s.levels {
+                    for (k, n) in &l.failures_by_kind {
+                        *all.entry(*k).or_insert(0) += n;
+                    }
+                }
+                format!(
+                    "{}: no path finished every level [failures over all levels: {}]",
+                    s.name,
+                    kinds(&all)
+                )
+            })
+            .collect()
+    }
 }
 
 fn count_kinds(kinds: impl Iterator<Item = FailureKind>) -> BTreeMap<FailureKind, usize> {
@@ -345,15 +462,41 @@ fn count_kinds(kinds: impl Iterator<Item = FailureKind>) -> BTreeMap<FailureKind
     map
 }
 
+/// The outcomes of scheme `s` at level `j` of the paths whose reference finished.
+fn outcomes<'a>(
+    good: &'a [&PathRecord],
+    (s, j, levels): (usize, usize, usize),
+) -> impl Iterator<Item = &'a TrackOutcome> + 'a {
+    good.iter().map(move |p| &p.tracks[s * levels + j])
+}
+
+/// The paths of scheme `s` that finished at every level: one set of paths for all levels, so
+/// that a path that fails at some level (typically with the largest errors) leaves every level
+/// instead of vanishing from one level's average only.
+fn common_paths<'a>(good: &[&'a PathRecord], s: usize, levels: usize) -> Vec<&'a PathRecord> {
+    good.iter()
+        .copied()
+        .filter(|p| (0..levels).all(|j| p.tracks[s * levels + j].failure.is_none()))
+        .collect()
+}
+
+/// Distances of output `c` (0: r, 1: v, 2: mu) of scheme `s` at level `j` over `paths`.
+fn distances(paths: &[&PathRecord], (s, j, levels): (usize, usize, usize), c: usize) -> Vec<f64> {
+    paths
+        .iter()
+        .filter_map(|p| p.tracks[s * levels + j].distances.map(|d| d[c]))
+        .collect()
+}
+
 fn level_report<'a>(
-    scene: &Scene,
-    settings: &ConvergenceSettings,
     steps: usize,
+    settings: &ConvergenceSettings,
     paths: impl Iterator<Item = &'a TrackOutcome>,
+    (error, compared): (Errors, usize),
 ) -> LevelReport {
-    let mut distances: [Vec<f64>; 3] = Default::default();
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, Vec::new());
-    let (mut steps_total, mut truncated, mut iterations, mut homotopy) = (0, 0, 0, 0);
+    let (mut steps_total, mut truncated, mut iterations) = (0, 0, 0);
+    let (mut homotopy, mut rounding, mut lag) = (0, 0, 0.0);
     let (mut max_g, mut max_dgv) = (0.0_f64, 0.0_f64);
     let mut kinetic = Vec::new();
     for p in paths {
@@ -363,33 +506,31 @@ fn level_report<'a>(
         iterations += p.newton_iterations;
         steps_total += p.steps;
         homotopy += p.homotopy_steps;
+        rounding += p.rounding_certified_steps;
+        lag += p.clock_lag;
         max_g = max_g.max(p.max_position_residual);
         max_dgv = max_dgv.max(p.max_velocity_residual);
-        if let Some(e) = p.distances {
-            (0..3).for_each(|c| distances[c].push(e[c]));
-        }
         if let Some(kind) = p.failure {
             failures.push(kind);
         } else if let Some(k) = p.kinetic_energy {
             kinetic.push(k);
         }
     }
-    let error = |c: usize, output: Output| {
-        (scene.wants(output) && settings.reference.is_some())
-            .then(|| lp_error(&distances[c], settings.p))
-    };
     let per_step = |x: usize| x as f64 / steps_total.max(1) as f64;
+    let finished = count - failures.len();
     LevelReport {
         n_steps: steps,
         h: settings.t_end / steps as f64,
-        error: Errors {
-            r: error(0, Output::Position),
-            v: error(1, Output::Velocity),
-            mu: error(2, Output::Multiplier),
-        },
+        error,
         paths: count,
-        finished_fraction: 1.0 - failures.len() as f64 / count.max(1) as f64,
-        kinetic_energy: (!kinetic.is_empty()).then(|| mean_interval(&kinetic)),
+        compared_paths: compared,
+        failed_elsewhere: finished.saturating_sub(compared),
+        finished_fraction: if count == 0 {
+            0.0
+        } else {
+            finished as f64 / count as f64
+        },
+        kinetic_energy: mean_interval(&kinetic),
         seconds_per_path: seconds / count.max(1) as f64,
         steps_per_second: if seconds > 0.0 {
             steps_total as f64 / seconds
@@ -399,19 +540,97 @@ fn level_report<'a>(
         failures: failures.len(),
         failures_by_kind: count_kinds(failures.into_iter()),
         truncated_fraction: per_step(truncated),
+        stable_but_biased: per_step(truncated) > sdae_model::TRUNCATION_DOMINATED,
         newton_iterations_per_step: per_step(iterations),
         homotopy_steps: homotopy,
+        rounding_certified_steps: rounding,
+        clock_lag: lag / count.max(1) as f64,
         max_position_residual: max_g,
         max_velocity_residual: max_dgv,
     }
 }
 
-fn fit(levels: &[LevelReport], pick: fn(&Errors) -> Option<Interval>) -> Option<OrderFit> {
-    let points: Option<Vec<(f64, f64)>> = levels
-        .iter()
-        .map(|l| pick(&l.error).map(|e| (l.h, e.estimate)))
+/// The levels an order is fitted over: the finest level and the coarser ones next to it with
+/// the same number of failed paths (no fit across levels whose failure counts differ).
+fn fittable(levels: &[LevelReport]) -> Vec<usize> {
+    let Some(finest) = levels.last() else {
+        return Vec::new();
+    };
+    let mut fit: Vec<usize> = (0..levels.len())
+        .rev()
+        .take_while(|&j| levels[j].failures == finest.failures)
         .collect();
-    points.map(|p| fit_order(&p, PRE_ASYMPTOTIC_TOLERANCE))
+    fit.reverse();
+    fit
+}
+
+/// An order fit over the levels `fitted` (indices into all levels), with every index it
+/// reports mapped back to all levels.
+fn fit_levels(fitted: &[usize], h: &[f64], errors: &[Vec<f64>], p: f64) -> Option<OrderFit> {
+    let data = PathErrors { h, errors, p };
+    let mut fit = fit_order(data, PRE_ASYMPTOTIC_TOLERANCE)?;
+    let map = |i: &mut usize| *i = fitted[*i];
+    fit.fitted.iter_mut().for_each(map);
+    fit.pre_asymptotic.iter_mut().for_each(map);
+    fit.curvature.iter_mut().for_each(map);
+    for l in &mut fit.local_slopes {
+        map(&mut l.coarse);
+        map(&mut l.fine);
+    }
+    Some(fit)
+}
+
+/// The report of scheme `s` (named `name`) from the paths whose reference finished.
+fn scheme_report(
+    (s, name): (usize, &str),
+    good: &[&PathRecord],
+    scene: &Scene,
+    settings: &ConvergenceSettings,
+) -> SchemeReport {
+    let levels = settings.levels();
+    let count = levels.len();
+    let common = common_paths(good, s, count);
+    let wanted = |output: Output| scene.wants(output) && settings.reference.is_some();
+    let outputs = [Output::Position, Output::Velocity, Output::Multiplier].map(wanted);
+    let reports: Vec<LevelReport> = levels
+        .iter()
+        .enumerate()
+        .map(|(j, &k)| {
+            let error = |c: usize| {
+                outputs[c]
+                    .then(|| lp_error(&distances(&common, (s, j, count), c), settings.p))
+                    .flatten()
+            };
+            let errors = Errors {
+                r: error(0),
+                v: error(1),
+                mu: error(2),
+            };
+            let paths = outcomes(good, (s, j, count));
+            level_report(1usize << k, settings, paths, (errors, common.len()))
+        })
+        .collect();
+    let fitted = fittable(&reports);
+    let h: Vec<f64> = fitted.iter().map(|&j| reports[j].h).collect();
+    let fit = |c: usize| {
+        let errors: Vec<Vec<f64>> = fitted
+            .iter()
+            .map(|&j| distances(&common, (s, j, count), c))
+            .collect();
+        outputs[c]
+            .then(|| fit_levels(&fitted, &h, &errors, settings.p))
+            .flatten()
+    };
+    SchemeReport {
+        name: name.to_string(),
+        observed_order: Orders {
+            r: fit(0),
+            v: fit(1),
+            mu: fit(2),
+        },
+        not_fitted_for_failures: (0..reports.len()).filter(|j| !fitted.contains(j)).collect(),
+        levels: reports,
+    }
 }
 
 /// The report from the records of all paths (in any order).
@@ -430,29 +649,10 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         .iter()
         .filter(|r| r.reference_failure.is_none())
         .collect();
-    let levels = settings.levels();
     let schemes = schemes
         .iter()
         .enumerate()
-        .map(|(s, kind)| {
-            let reports: Vec<LevelReport> = levels
-                .iter()
-                .enumerate()
-                .map(|(j, &k)| {
-                    let outcomes = good.iter().map(|p| &p.tracks[s * levels.len() + j]);
-                    level_report(&scene, &settings, 1usize << k, outcomes)
-                })
-                .collect();
-            SchemeReport {
-                name: kind.name(),
-                observed_order: Orders {
-                    r: fit(&reports, |e| e.r),
-                    v: fit(&reports, |e| e.v),
-                    mu: fit(&reports, |e| e.mu),
-                },
-                levels: reports,
-            }
-        })
+        .map(|(s, name)| scheme_report((s, name), &good, &scene, &settings))
         .collect();
     let reference = settings.reference.map(|level| ReferenceReport {
         scheme: settings.reference_scheme.name(),
@@ -477,28 +677,48 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
     }
 }
 
+impl ConvergenceRun {
+    /// Whether `other` is a part of the same study: same scene, settings (the thread count
+    /// aside), schemes and number of shards.
+    pub fn same_study(&self, other: &ConvergenceRun) -> bool {
+        self.scene == other.scene
+            && self.settings.same_numbers(&other.settings)
+            && self.schemes == other.schemes
+            && self.shard.1 == other.shard.1
+    }
+
+    /// The indices of the paths this run holds.
+    pub fn finished_paths(&self) -> Vec<usize> {
+        self.records.iter().map(|r| r.index).collect()
+    }
+
+    /// Adds the records of `later`, a continuation of this run (same study and shard) that ran
+    /// the paths this one had not finished.
+    pub fn resume_with(mut self, later: ConvergenceRun) -> Result<ConvergenceRun, StudyError> {
+        if !self.same_study(&later) || self.shard != later.shard {
+            return Err(StudyError::Merge {
+                reason: "the saved paths come from another scene, settings or shard".into(),
+            });
+        }
+        self.records.extend(later.records);
+        self.records.sort_by_key(|r| r.index);
+        Ok(self)
+    }
+}
+
 /// Merges shards into exactly the report an unsharded run gives (timings aside): same scene
 /// and settings (the thread count may differ), every path index present exactly once.
-pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, String> {
+pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, StudyError> {
+    let merge = |reason: String| StudyError::Merge { reason };
     let mut shards = shards.into_iter();
-    let mut merged = shards.next().ok_or("no shards to merge")?;
+    let mut merged = shards.next().ok_or_else(|| merge("no shards".into()))?;
     let count = merged.shard.1;
-    let same = |a: &ConvergenceRun, b: &ConvergenceRun| {
-        let threads = |s: &ConvergenceSettings| ConvergenceSettings {
-            threads: 1,
-            ..s.clone()
-        };
-        a.scene == b.scene
-            && threads(&a.settings) == threads(&b.settings)
-            && a.schemes == b.schemes
-            && a.shard.1 == b.shard.1
-    };
     for shard in shards {
-        if !same(&merged, &shard) {
-            return Err(format!(
+        if !merged.same_study(&shard) {
+            return Err(merge(format!(
                 "shard {}/{} was run with another scene or other settings than shard {}/{}",
                 shard.shard.0, shard.shard.1, merged.shard.0, count
-            ));
+            )));
         }
         merged.records.extend(shard.records);
     }
@@ -507,17 +727,17 @@ pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, St
         match seen.get_mut(record.index) {
             Some(s) if !*s => *s = true,
             _ => {
-                return Err(format!(
+                return Err(merge(format!(
                     "path {} appears twice or is out of range",
                     record.index
-                ));
+                )));
             }
         }
     }
     if let Some(missing) = seen.iter().position(|s| !s) {
-        return Err(format!(
+        return Err(merge(format!(
             "path {missing} is missing: merge needs all {count} shards"
-        ));
+        )));
     }
     merged.shard = (0, 1);
     Ok(build_report(merged))

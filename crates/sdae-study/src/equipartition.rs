@@ -10,10 +10,17 @@ use std::path::Path;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::convergence::{ConvergenceReport, ConvergenceSettings};
-use crate::integrator::SchemeKind;
+use sdae_reference::CurvedSystem;
+
+use crate::convergence::{
+    ConvergenceReport, ConvergenceSettings, build_report, run_convergence_on,
+};
+use crate::error::StudyError;
+use crate::files::{write_atomically, write_json};
+use crate::integrator::{SchemeKind, StudyScheme};
+use crate::parallel::Control;
 use crate::plots::{COLOURS, log_range};
-use crate::scene::Scene;
+use crate::scene::{Prepared, Scene};
 use crate::stats::Interval;
 
 /// One configuration of the comparison: a scheme, and C_eta for the half-explicit runs.
@@ -28,8 +35,8 @@ pub struct Variant {
 }
 
 /// The variants of a scene's equipartition study (`None` without an `[equipartition]` table):
-/// every scheme but the practical half-explicit one at the scene's C_eta, then the practical
-/// half-explicit scheme at each C_eta of the table. `quick` keeps at most 40 paths and the two
+/// every scheme but the practical and rescaled half-explicit ones at the scene's C_eta, then
+/// those two at each C_eta of the table. `quick` keeps at most 40 paths and the two
 /// finest levels.
 pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
     let spec = scene.equipartition.as_ref()?;
@@ -48,9 +55,13 @@ pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
         kinetic_after: Some(spec.burn_in),
         ..ConvergenceSettings::for_scene(scene)
     };
+    let per_c_eta = [
+        SchemeKind::HalfExplicitPractical,
+        SchemeKind::HalfExplicitRescaled,
+    ];
     let others: Vec<SchemeKind> = SchemeKind::ALL
         .into_iter()
-        .filter(|k| *k != SchemeKind::HalfExplicitPractical)
+        .filter(|k| !per_c_eta.contains(k))
         .collect();
     let mut variants = vec![Variant {
         label: "all schemes".into(),
@@ -67,12 +78,48 @@ pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
             label: format!("half-explicit C_eta = {c}"),
             scene,
             settings: ConvergenceSettings {
-                schemes: vec![SchemeKind::HalfExplicitPractical],
+                schemes: per_c_eta.to_vec(),
                 ..base.clone()
             },
         });
     }
     Some(variants)
+}
+
+/// The equipartition study of one scene: its `variants` (from [`variants`], perhaps with the
+/// settings adjusted) with the scene's system as `prepared` (from a scene file through a
+/// [`SceneRunner`](crate::scene::SceneRunner), or built in code with
+/// [`Scene::prepare_custom`]; it must have a kinetic target), the user's `extra` schemes run
+/// with the first variant; `progress` is called with the variant's label and the number of
+/// finished paths. `None` when the system has no equipartition value.
+pub fn run_equipartition_on<S>(
+    prepared: &Prepared<S>,
+    variants: &[Variant],
+    extra: &[StudyScheme<S>],
+    progress: &(dyn Fn(&str, usize) + Sync),
+) -> Result<Option<EquipartitionScene>, StudyError>
+where
+    S: CurvedSystem + Clone + Send + Sync + 'static,
+{
+    let mut reports = Vec::new();
+    for (i, variant) in variants.iter().enumerate() {
+        let mut prepared = prepared.clone();
+        prepared.constants.practical_c_eta = variant.scene.scheme.practical_c_eta;
+        let extra = if i == 0 { extra } else { &[] };
+        let run = run_convergence_on(
+            &variant.scene,
+            &prepared,
+            extra,
+            &variant.settings,
+            (0, 1),
+            Control {
+                progress: Some(&|done| progress(&variant.label, done)),
+                ..Control::default()
+            },
+        )?;
+        reports.push(build_report(run));
+    }
+    Ok(collect(&reports))
 }
 
 /// One row: a scheme (with its C_eta where it has one) at one step size.
@@ -119,6 +166,9 @@ fn label(report: &ConvergenceReport, name: &str) -> String {
         Some(SchemeKind::HalfExplicitPractical) => {
             format!("half-explicit C_eta = {}", c.practical_c_eta)
         }
+        Some(SchemeKind::HalfExplicitRescaled) => {
+            format!("half-explicit-rescaled C_eta = {}", c.practical_c_eta)
+        }
         _ => name.to_string(),
     }
 }
@@ -138,7 +188,7 @@ pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
                     ci_high: k.ci_high / target,
                 });
                 rows.push(EquipartitionRow {
-                    scheme: label(report, scheme.name),
+                    scheme: label(report, &scheme.name),
                     h: l.h,
                     kinetic_energy: l.kinetic_energy,
                     temperature_ratio: ratio,
@@ -184,7 +234,7 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
             });
             let _ = writeln!(
                 s,
-                "| {} | {:.1e} | {k} | {t} | {} | {:.1}% | {}/{} |",
+                "| {} | {:.1e} | {k} | {t} | {} | {} | {}/{} |",
                 r.scheme,
                 r.h,
                 match r.biased {
@@ -192,7 +242,7 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
                     Some(false) => "no",
                     None => "n/a",
                 },
-                100.0 * r.truncated_fraction,
+                crate::output::truncated_cell(r.truncated_fraction),
                 r.failures,
                 r.paths
             );
@@ -204,10 +254,10 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
 
 /// `equipartition.svg`: per scene, the temperature ratio against h, one line per scheme and
 /// C_eta, with 95% error bars and the line ratio = 1.
-pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
+pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), StudyError> {
     let count = scenes.len().max(1);
     let root = SVGBackend::new(path, (560 * count as u32, 460)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled("measured over set temperature", ("sans-serif", 20))
@@ -304,11 +354,8 @@ pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), String> {
 }
 
 /// Writes `report.json`, `report.md` and `equipartition.svg` into `dir`.
-pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), String> {
-    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
-    std::fs::create_dir_all(dir).map_err(io)?;
-    let json = serde_json::to_string_pretty(scenes).map_err(|e| e.to_string())?;
-    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
-    std::fs::write(dir.join("report.md"), markdown(scenes)).map_err(io)?;
+pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), StudyError> {
+    write_json(&dir.join("report.json"), scenes)?;
+    write_atomically(&dir.join("report.md"), &markdown(scenes))?;
     plot(scenes, &dir.join("equipartition.svg"))
 }

@@ -1,16 +1,15 @@
-//! The schemes a study compares, behind one object-safe interface: the half-explicit
-//! drift-truncated Euler scheme (seed eq. 3.1-3.2) with several constants, and the solvers of the
-//! inherent SDE (seed eq. 2.4) from `sdae-reference`.
+//! The built-in schemes a study compares, each an implementation of the one step trait
+//! [`Scheme`]: the half-explicit drift-truncated Euler scheme (seed eq. 3.1-3.2) with several
+//! constants, and the solvers of the inherent SDE (seed eq. 2.4) from `sdae-reference`.
 
-use sdae_ift::{Factorize, IftError};
-use sdae_manifold::vector::{dot, max_abs};
-use sdae_manifold::{Constraint, Mass};
+use sdae_model::Scheme;
 use sdae_reference::{
-    CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, ReferenceError, ReferenceSolver,
-    StochasticHeun, TruncatedEulerMaruyama,
+    CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
-use sdae_scheme::{StepFailure, Stepper, StepperConfig, System};
+use sdae_scheme::{Stepper, StepperConfig};
 use serde::{Deserialize, Serialize};
+
+use crate::error::StudyError;
 
 /// A scheme of the comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -22,22 +21,33 @@ pub enum SchemeKind {
     HalfExplicitPractical,
     /// The half-explicit Euler scheme without truncation (eta = 1).
     HalfExplicitUntruncated,
+    /// Beyond the seed: the practical variant with the Brownian increment of a truncated step
+    /// scaled by sqrt(eta), so that the step is in law an untruncated step of size eta h
+    /// (truncation that keeps the temperature).
+    HalfExplicitRescaled,
+    /// Beyond the seed: the size functional on each constraint's own length scale (the
+    /// relative speed of neighbouring beads per segment length, with the largest force per
+    /// particle), with the scene's `local_c_eta`; the seed's functional for a unit sphere.
+    HalfExplicitLocal,
     /// Euler-Maruyama on the inherent SDE.
     EulerMaruyama,
     /// Truncated Euler-Maruyama on the inherent SDE (Remark 3.3, drift of Lemma 4.2).
     TruncatedEulerMaruyama,
     /// Euler-Maruyama followed by projection onto the tangent bundle.
     ProjectedEulerMaruyama,
-    /// Stochastic Heun on the inherent SDE (for noise B(r) that does not depend on v).
+    /// Stochastic Heun on the inherent SDE (diffusion at the left point: an Ito scheme, also
+    /// where the noise depends on v).
     StochasticHeun,
 }
 
 impl SchemeKind {
     /// Every scheme, in report order.
-    pub const ALL: [SchemeKind; 7] = [
+    pub const ALL: [SchemeKind; 9] = [
         SchemeKind::HalfExplicitTheory,
         SchemeKind::HalfExplicitPractical,
         SchemeKind::HalfExplicitUntruncated,
+        SchemeKind::HalfExplicitRescaled,
+        SchemeKind::HalfExplicitLocal,
         SchemeKind::EulerMaruyama,
         SchemeKind::TruncatedEulerMaruyama,
         SchemeKind::ProjectedEulerMaruyama,
@@ -50,6 +60,8 @@ impl SchemeKind {
             SchemeKind::HalfExplicitTheory => "half-explicit-theory",
             SchemeKind::HalfExplicitPractical => "half-explicit-practical",
             SchemeKind::HalfExplicitUntruncated => "half-explicit-untruncated",
+            SchemeKind::HalfExplicitRescaled => "half-explicit-rescaled",
+            SchemeKind::HalfExplicitLocal => "half-explicit-local",
             SchemeKind::EulerMaruyama => "euler-maruyama",
             SchemeKind::TruncatedEulerMaruyama => "truncated-euler-maruyama",
             SchemeKind::ProjectedEulerMaruyama => "projected-euler-maruyama",
@@ -74,231 +86,6 @@ impl SchemeKind {
     }
 }
 
-/// Why a path of a scheme stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FailureKind {
-    /// The kappa system has no root (the homotopy stops at a fold, seed Fig. 1b).
-    NoRoot,
-    /// A root outside the ball or implausibly far (the second root, seed Fig. 1a).
-    SpuriousRoot,
-    /// Newton (and the homotopy) did not converge.
-    NoConvergence,
-    /// A singular Jacobian or Gram matrix.
-    Singular,
-    /// NaN or infinite values.
-    NonFinite,
-    /// Finite but beyond the study's blow-up bound.
-    BlowUp,
-    /// |g(r)| or |Dg(r) v| beyond the study's drift tolerance.
-    ConstraintDrift,
-    /// Anything else (an input the solver rejected).
-    Other,
-}
-
-impl FailureKind {
-    /// Every kind, in report order.
-    pub const ALL: [FailureKind; 8] = [
-        FailureKind::NoRoot,
-        FailureKind::SpuriousRoot,
-        FailureKind::NoConvergence,
-        FailureKind::Singular,
-        FailureKind::NonFinite,
-        FailureKind::BlowUp,
-        FailureKind::ConstraintDrift,
-        FailureKind::Other,
-    ];
-
-    /// The name used in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            FailureKind::NoRoot => "no-root",
-            FailureKind::SpuriousRoot => "spurious-root",
-            FailureKind::NoConvergence => "no-convergence",
-            FailureKind::Singular => "singular",
-            FailureKind::NonFinite => "non-finite",
-            FailureKind::BlowUp => "blow-up",
-            FailureKind::ConstraintDrift => "constraint-drift",
-            FailureKind::Other => "other",
-        }
-    }
-}
-
-impl From<&IftError> for FailureKind {
-    fn from(error: &IftError) -> Self {
-        match error {
-            IftError::NoRoot { .. } => FailureKind::NoRoot,
-            IftError::OutsideBall { .. } | IftError::Implausible { .. } => {
-                FailureKind::SpuriousRoot
-            }
-            IftError::NoConvergence { .. } => FailureKind::NoConvergence,
-            IftError::Singular { .. } => FailureKind::Singular,
-            IftError::NonFinite { .. } => FailureKind::NonFinite,
-        }
-    }
-}
-
-impl From<&StepFailure> for FailureKind {
-    fn from(failure: &StepFailure) -> Self {
-        match failure {
-            StepFailure::Kappa(e) => e.into(),
-            StepFailure::NonFiniteDrift { .. } | StepFailure::NonFiniteVelocity { .. } => {
-                FailureKind::NonFinite
-            }
-            StepFailure::Input(_) => FailureKind::Other,
-        }
-    }
-}
-
-impl From<&ReferenceError> for FailureKind {
-    fn from(error: &ReferenceError) -> Self {
-        match error {
-            ReferenceError::NonFinite { .. } => FailureKind::NonFinite,
-            ReferenceError::SingularGram { .. } => FailureKind::Singular,
-            ReferenceError::Projection { source } => source.into(),
-            _ => FailureKind::Other,
-        }
-    }
-}
-
-/// What one step did, in the terms every scheme shares.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct StepInfo {
-    /// The drift was truncated (eta < 1 or theta < 1).
-    pub truncated: bool,
-    /// Newton iterations (of the kappa system or of the projection).
-    pub newton_iterations: usize,
-    /// The homotopy fallback was needed.
-    pub homotopy: bool,
-}
-
-/// One scheme, stepping a path of a system with n coordinates, m constraints and l noise
-/// components.
-pub trait Integrator {
-    /// The scheme.
-    fn kind(&self) -> SchemeKind;
-    /// (n, m, l).
-    fn dims(&self) -> (usize, usize, usize);
-    /// Advances (r, v) by one step of size h with Brownian increment dw and writes the increment
-    /// of mu (eq. 1.4 for the scheme, eq. 2.3 for the inherent SDE) to `dmu`.
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-        dmu: &mut [f64],
-    ) -> Result<StepInfo, FailureKind>;
-    /// (max |g(r)|, max |Dg(r) v|); `scratch` has length m.
-    fn residuals(&self, r: &[f64], v: &[f64], scratch: &mut [f64]) -> (f64, f64);
-    /// The kinetic energy v^T M v / 2; `scratch` has length n.
-    fn kinetic_energy(&self, v: &[f64], scratch: &mut [f64]) -> f64;
-}
-
-fn kinetic_of<M: Mass>(mass: &M, v: &[f64], scratch: &mut [f64]) -> f64 {
-    mass.apply(v, scratch);
-    0.5 * dot(v, scratch)
-}
-
-fn residuals_of<C: Constraint>(c: &C, r: &[f64], v: &[f64], scratch: &mut [f64]) -> (f64, f64) {
-    c.value(r, scratch);
-    let position = max_abs(scratch);
-    c.jacobian_mul(r, v, scratch);
-    (position, max_abs(scratch))
-}
-
-/// The half-explicit scheme (seed eq. 3.1-3.2) as an [`Integrator`].
-struct HalfExplicit<S>
-where
-    S: System<Constraint: Constraint<Gram: Factorize>>,
-{
-    kind: SchemeKind,
-    stepper: Stepper<S>,
-}
-
-impl<S> Integrator for HalfExplicit<S>
-where
-    S: CurvedSystem,
-{
-    fn kind(&self) -> SchemeKind {
-        self.kind
-    }
-    fn dims(&self) -> (usize, usize, usize) {
-        let s = self.stepper.system();
-        let c = s.constraint();
-        (c.dim(), c.n_constraints(), s.noise_dim())
-    }
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-        dmu: &mut [f64],
-    ) -> Result<StepInfo, FailureKind> {
-        let report = self
-            .stepper
-            .step(r, v, h, dw)
-            .map_err(|e| FailureKind::from(&e))?;
-        dmu.copy_from_slice(self.stepper.lambda());
-        Ok(StepInfo {
-            truncated: report.eta < 1.0,
-            newton_iterations: report.certificate.iterations,
-            homotopy: report.used_homotopy(),
-        })
-    }
-    fn residuals(&self, r: &[f64], v: &[f64], scratch: &mut [f64]) -> (f64, f64) {
-        residuals_of(self.stepper.system().constraint(), r, v, scratch)
-    }
-    fn kinetic_energy(&self, v: &[f64], scratch: &mut [f64]) -> f64 {
-        kinetic_of(self.stepper.system().mass(), v, scratch)
-    }
-}
-
-/// A solver of the inherent SDE as an [`Integrator`].
-struct Inherent<R> {
-    kind: SchemeKind,
-    solver: R,
-}
-
-impl<R> Integrator for Inherent<R>
-where
-    R: ReferenceSolver,
-{
-    fn kind(&self) -> SchemeKind {
-        self.kind
-    }
-    fn dims(&self) -> (usize, usize, usize) {
-        let sde = self.solver.sde();
-        (sde.dim(), sde.n_constraints(), sde.noise_dim())
-    }
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-        dmu: &mut [f64],
-    ) -> Result<StepInfo, FailureKind> {
-        let report = self
-            .solver
-            .step(r, v, h, dw)
-            .map_err(|e| FailureKind::from(&e))?;
-        dmu.copy_from_slice(self.solver.multiplier_increment());
-        Ok(StepInfo {
-            truncated: report.truncation < 1.0,
-            newton_iterations: report.projection_iterations,
-            homotopy: false,
-        })
-    }
-    fn residuals(&self, r: &[f64], v: &[f64], scratch: &mut [f64]) -> (f64, f64) {
-        residuals_of(self.solver.sde().system().constraint(), r, v, scratch)
-    }
-    fn kinetic_energy(&self, v: &[f64], scratch: &mut [f64]) -> f64 {
-        kinetic_of(self.solver.sde().system().mass(), v, scratch)
-    }
-}
-
 /// The constants of the half-explicit family for one scene.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SchemeConstants {
@@ -308,29 +95,39 @@ pub struct SchemeConstants {
     pub practical_c_eta: f64,
     /// C_kappa of the practical and untruncated variants (infinite: only the plausibility check).
     pub c_kappa: f64,
+    /// C_eta of the local size functional (`half-explicit-local`).
+    pub local_c_eta: f64,
 }
 
+/// A boxed scheme stepping systems of type `S`.
+pub type BoxedScheme<S> = Box<dyn Scheme<System = S>>;
+
 /// Builds `kind` for `system`; fails with a reason if the scheme does not apply to it (no
-/// theory bound, noise that depends on v for Heun, a setting the solver rejects).
+/// theory bound, a setting the solver rejects).
 pub fn build_integrator<S>(
     kind: SchemeKind,
     system: &S,
     constants: &SchemeConstants,
-) -> Result<Box<dyn Integrator>, String>
+) -> Result<BoxedScheme<S>, StudyError>
 where
     S: CurvedSystem + Clone + 'static,
 {
-    let stepper = |config: Result<StepperConfig, sdae_scheme::SchemeError>| {
-        let config = config.map_err(|e| e.to_string())?;
-        let stepper = Stepper::new(system.clone(), config).map_err(|e| e.to_string())?;
-        Ok::<Box<dyn Integrator>, String>(Box::new(HalfExplicit { kind, stepper }))
+    let not_applicable = |reason: String| StudyError::SchemeNotApplicable {
+        scheme: kind.name().into(),
+        reason,
     };
-    let inherent = |e: ReferenceError| e.to_string();
+    let stepper = |config: Result<StepperConfig, sdae_scheme::SchemeError>| {
+        let config = config.map_err(|e| not_applicable(e.to_string()))?;
+        let stepper =
+            Stepper::new(system.clone(), config).map_err(|e| not_applicable(e.to_string()))?;
+        Ok::<BoxedScheme<S>, StudyError>(Box::new(stepper))
+    };
+    let inherent = |e: sdae_reference::ReferenceError| not_applicable(e.to_string());
     match kind {
         SchemeKind::HalfExplicitTheory => {
-            let (c_eta, c_kappa) = constants
-                .theory
-                .ok_or("no bound on C_g (eq. 2.2) is known for this scene")?;
+            let (c_eta, c_kappa) = constants.theory.ok_or_else(|| {
+                not_applicable("no bound on C_g (eq. 2.2) is known for this scene".into())
+            })?;
             stepper(StepperConfig::new(c_eta, c_kappa))
         }
         SchemeKind::HalfExplicitPractical => stepper(StepperConfig::new(
@@ -341,21 +138,88 @@ where
             StepperConfig::new(constants.practical_c_eta, constants.c_kappa)
                 .map(StepperConfig::untruncated),
         ),
-        SchemeKind::EulerMaruyama => Ok(Box::new(Inherent {
-            kind,
-            solver: EulerMaruyama::new(system.clone()).map_err(inherent)?,
-        })),
-        SchemeKind::TruncatedEulerMaruyama => Ok(Box::new(Inherent {
-            kind,
-            solver: TruncatedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        })),
-        SchemeKind::ProjectedEulerMaruyama => Ok(Box::new(Inherent {
-            kind,
-            solver: ProjectedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        })),
-        SchemeKind::StochasticHeun => Ok(Box::new(Inherent {
-            kind,
-            solver: StochasticHeun::new(system.clone()).map_err(inherent)?,
-        })),
+        SchemeKind::HalfExplicitRescaled => stepper(
+            StepperConfig::new(constants.practical_c_eta, constants.c_kappa)
+                .map(StepperConfig::rescaled),
+        ),
+        SchemeKind::HalfExplicitLocal => stepper(
+            StepperConfig::new(constants.local_c_eta, constants.c_kappa).map(StepperConfig::local),
+        ),
+        SchemeKind::EulerMaruyama => Ok(Box::new(
+            EulerMaruyama::new(system.clone()).map_err(inherent)?,
+        )),
+        SchemeKind::TruncatedEulerMaruyama => Ok(Box::new(
+            TruncatedEulerMaruyama::new(system.clone()).map_err(inherent)?,
+        )),
+        SchemeKind::ProjectedEulerMaruyama => Ok(Box::new(
+            ProjectedEulerMaruyama::new(system.clone()).map_err(inherent)?,
+        )),
+        SchemeKind::StochasticHeun => Ok(Box::new(
+            StochasticHeun::new(system.clone()).map_err(inherent)?,
+        )),
+    }
+}
+
+/// Builds a fresh scheme (one per worker thread) or says why it does not apply.
+type Build<S> = dyn Fn() -> Result<BoxedScheme<S>, StudyError> + Send + Sync;
+
+/// A scheme of a study, by name: a built-in one ([`StudyScheme::built_in`]) or any
+/// implementation of [`Scheme`] a user brings ([`StudyScheme::new`]). Each worker thread
+/// builds its own instance, so a scheme needs no `Send` or `Sync` itself.
+#[derive(Clone)]
+pub struct StudyScheme<S> {
+    name: String,
+    build: std::sync::Arc<Build<S>>,
+}
+
+impl<S> StudyScheme<S> {
+    /// A scheme named `name` (as it appears in reports), built by `build`, which says why
+    /// the scheme does not apply when it does not.
+    pub fn new<F, T>(name: impl Into<String>, build: F) -> Self
+    where
+        F: Fn() -> Result<T, String> + Send + Sync + 'static,
+        T: Scheme<System = S> + 'static,
+    {
+        let name: String = name.into();
+        let scheme = name.clone();
+        Self {
+            name,
+            build: std::sync::Arc::new(move || match build() {
+                Ok(s) => Ok(Box::new(s) as BoxedScheme<S>),
+                Err(reason) => Err(StudyError::SchemeNotApplicable {
+                    scheme: scheme.clone(),
+                    reason,
+                }),
+            }),
+        }
+    }
+
+    /// The name used in reports.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// A new instance, or why the scheme does not apply.
+    pub fn build(&self) -> Result<BoxedScheme<S>, StudyError> {
+        (self.build)()
+    }
+}
+
+impl<S: CurvedSystem + Clone + Send + Sync + 'static> StudyScheme<S> {
+    /// The built-in scheme `kind` for `system` with `constants`.
+    pub fn built_in(kind: SchemeKind, system: &S, constants: &SchemeConstants) -> Self {
+        let (system, constants) = (system.clone(), *constants);
+        Self {
+            name: kind.name().into(),
+            build: std::sync::Arc::new(move || build_integrator(kind, &system, &constants)),
+        }
+    }
+}
+
+impl<S> std::fmt::Debug for StudyScheme<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StudyScheme")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
     }
 }

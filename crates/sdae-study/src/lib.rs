@@ -18,14 +18,20 @@
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
 
+pub mod checkpoint;
 pub mod convergence;
 pub mod equipartition;
+mod error;
+pub mod files;
 pub mod integrator;
 pub mod lockstep;
 pub mod output;
 pub mod parallel;
 pub mod plots;
+pub mod real;
 pub mod scene;
 pub mod stability;
 pub mod stats;
 pub mod trace;
+
+pub use error::StudyError;

@@ -6,6 +6,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::convergence::{ConvergenceReport, Errors, LevelReport};
+use crate::error::StudyError;
+use crate::files::{write_atomically, write_json};
 use crate::stats::{Interval, OrderFit};
 
 fn fmt_interval(i: Option<Interval>) -> [String; 3] {
@@ -18,7 +20,7 @@ fn fmt_interval(i: Option<Interval>) -> [String; 3] {
 /// One row per scheme and step size.
 pub fn csv(report: &ConvergenceReport) -> String {
     let mut s = String::from(
-        "scheme,n_steps,h,error_r,error_r_low,error_r_high,error_v,error_v_low,error_v_high,error_mu,error_mu_low,error_mu_high,seconds_per_path,steps_per_second,failures,truncated_fraction,newton_iterations_per_step,homotopy_steps,max_position_residual,max_velocity_residual\n",
+        "scheme,n_steps,h,error_r,error_r_low,error_r_high,error_v,error_v_low,error_v_high,error_mu,error_mu_low,error_mu_high,seconds_per_path,steps_per_second,failures,truncated_fraction,newton_iterations_per_step,homotopy_steps,rounding_certified_steps,max_position_residual,max_velocity_residual\n",
     );
     for scheme in &report.schemes {
         for l in &scheme.levels {
@@ -29,7 +31,7 @@ pub fn csv(report: &ConvergenceReport) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "{},{},{:e},{},{:e},{:e},{},{},{},{},{:e},{:e}",
+                "{},{},{:e},{},{:e},{:e},{},{},{},{},{},{:e},{:e}",
                 scheme.name,
                 l.n_steps,
                 l.h,
@@ -40,6 +42,7 @@ pub fn csv(report: &ConvergenceReport) -> String {
                 l.truncated_fraction,
                 l.newton_iterations_per_step,
                 l.homotopy_steps,
+                l.rounding_certified_steps,
                 l.max_position_residual,
                 l.max_velocity_residual
             );
@@ -48,16 +51,35 @@ pub fn csv(report: &ConvergenceReport) -> String {
     s
 }
 
-/// "order [low, high]" and the pre-asymptotic levels left out.
+/// A number as people read it: plain for moderate magnitudes, in exponent form otherwise
+/// (`1e300`, not 301 digits; `2.5e-7`).
+pub fn readable(x: f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || !a.is_finite() || (1e-4..1e6).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// "order [low, high]", the pre-asymptotic levels left out and the fitted levels where the
+/// error curve still bends beyond the Monte Carlo error.
 pub fn describe_fit(fit: &OrderFit) -> String {
     let o = &fit.order;
-    let flagged = if fit.pre_asymptotic.is_empty() {
+    let mut flags = Vec::new();
+    if !fit.pre_asymptotic.is_empty() {
+        flags.push(format!(
+            "{} coarse level(s) pre-asymptotic",
+            fit.pre_asymptotic.len()
+        ));
+    }
+    if !fit.curvature.is_empty() {
+        flags.push(format!("curved at {} level(s)", fit.curvature.len()));
+    }
+    let flagged = if flags.is_empty() {
         String::new()
     } else {
-        format!(
-            " ({} coarse level(s) pre-asymptotic)",
-            fit.pre_asymptotic.len()
-        )
+        format!(" ({})", flags.join("; "))
     };
     format!(
         "{:.2} [{:.2}, {:.2}]{flagged}",
@@ -95,7 +117,7 @@ fn fastest(report: &ConvergenceReport) -> String {
                         .filter(|l| pick(&l.error).is_some_and(|e| e.estimate <= target))
                         .map(|l| (l.seconds_per_path, l))
                         .min_by(|a, b| a.0.total_cmp(&b.0))
-                        .map(|(t, l)| (t, scheme.name, l.n_steps))
+                        .map(|(t, l)| (t, scheme.name.as_str(), l.n_steps))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
         };
@@ -132,9 +154,19 @@ fn fastest(report: &ConvergenceReport) -> String {
     )
 }
 
+/// The share of truncated steps as a table cell, marked "stable but biased" above
+/// [`TRUNCATION_DOMINATED`](sdae_model::TRUNCATION_DOMINATED).
+pub fn truncated_cell(fraction: f64) -> String {
+    if fraction > sdae_model::TRUNCATION_DOMINATED {
+        format!("{:.1}% (stable but biased)", 100.0 * fraction)
+    } else {
+        format!("{:.1}%", 100.0 * fraction)
+    }
+}
+
 fn level_row(scheme: &str, l: &LevelReport) -> String {
     format!(
-        "| {scheme} | {} | {:.2e} | {} | {} | {} | {:.1} | {} | {:.1}% | {:.2} | {:.1e} |\n",
+        "| {scheme} | {} | {:.2e} | {} | {} | {} | {:.1} | {} | {} | {:.2} | {:.1e} |\n",
         l.n_steps,
         l.h,
         cell(l.error.r),
@@ -142,7 +174,7 @@ fn level_row(scheme: &str, l: &LevelReport) -> String {
         cell(l.error.mu),
         l.seconds_per_path * 1e6,
         l.failures,
-        100.0 * l.truncated_fraction,
+        truncated_cell(l.truncated_fraction),
         l.newton_iterations_per_step,
         l.max_position_residual,
     )
@@ -165,7 +197,7 @@ pub fn markdown(report: &ConvergenceReport) -> String {
         report.paths,
         st.coarsest,
         st.finest,
-        report.t_end,
+        readable(report.t_end),
         report.seed,
         report.p,
     );
@@ -187,7 +219,7 @@ pub fn markdown(report: &ConvergenceReport) -> String {
     s += "\n## All levels\n\n| scheme | N | h | error r | error v | error mu | us/path | failures | truncated | Newton it./step | max abs g |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for scheme in &report.schemes {
         for l in &scheme.levels {
-            s += &level_row(scheme.name, l);
+            s += &level_row(&scheme.name, l);
         }
     }
     if let Some(r) = &report.reference {
@@ -233,22 +265,69 @@ pub fn print_summary(report: &ConvergenceReport) {
             scheme.levels.iter().map(|l| l.failures).sum::<usize>()
         );
     }
+    for scheme in &report.schemes {
+        let biased: Vec<String> = scheme
+            .levels
+            .iter()
+            .filter(|l| l.stable_but_biased)
+            .map(|l| l.n_steps.to_string())
+            .collect();
+        if !biased.is_empty() {
+            println!(
+                "stable but biased: {} is truncated on more than {:.0}% of the steps at N = {}",
+                scheme.name,
+                100.0 * sdae_model::TRUNCATION_DOMINATED,
+                biased.join(", ")
+            );
+        }
+    }
+    if let Some(r) = &report.reference {
+        println!(
+            "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
+            format!("ref {}", r.scheme),
+            "-",
+            "-",
+            "-",
+            r.seconds_per_path * 1e6,
+            r.failures
+        );
+        if r.failures > 0 {
+            println!(
+                "the reference failed on {} of {} paths ({}): they are left out of every error",
+                r.failures,
+                report.paths,
+                r.failures_by_kind
+                    .iter()
+                    .map(|(kind, n)| format!("{kind} {n}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
     for skipped in &report.skipped {
         println!("left out {}: {}", skipped.name, skipped.reason);
-    }
-    if let Some(r) = report.reference.as_ref().filter(|r| r.failures > 0) {
-        println!("reference failures (paths left out): {}", r.failures);
     }
 }
 
 /// Writes `report.json`, `report.csv`, `report.md`, `error_vs_h.svg` and `error_vs_time.svg`
 /// into `dir` (one folder per scene).
-pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), String> {
-    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
-    std::fs::create_dir_all(dir).map_err(io)?;
-    let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
-    std::fs::write(dir.join("report.csv"), csv(report)).map_err(io)?;
-    std::fs::write(dir.join("report.md"), markdown(report)).map_err(io)?;
+pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyError> {
+    write_json(&dir.join("report.json"), report)?;
+    write_atomically(&dir.join("report.csv"), &csv(report))?;
+    write_atomically(&dir.join("report.md"), &markdown(report))?;
     crate::plots::write_plots(report, dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::readable;
+
+    #[test]
+    fn numbers_read_as_people_write_them() {
+        assert_eq!(readable(1e300), "1e300");
+        assert_eq!(readable(2.5e-7), "2.5e-7");
+        assert_eq!(readable(1.0), "1");
+        assert_eq!(readable(256.0), "256");
+        assert_eq!(readable(0.0), "0");
+    }
 }

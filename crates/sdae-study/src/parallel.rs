@@ -2,13 +2,14 @@
 //! the selected paths, each from its own random stream (the numbers do not depend on the thread
 //! count or the sharding).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 use sdae_reference::CurvedSystem;
 use serde::{Deserialize, Serialize};
 
-use crate::integrator::{Integrator, SchemeKind, build_integrator};
+use crate::error::StudyError;
+use crate::integrator::{BoxedScheme, SchemeKind, StudyScheme};
 use crate::lockstep::{PathPlan, PathRecord, run_path};
 use crate::scene::Prepared;
 
@@ -21,50 +22,41 @@ pub struct Skipped {
     pub reason: String,
 }
 
-/// The schemes of `kinds` that apply to the scene (each built once to find out), and the rest
-/// with the reason.
+/// The built-in schemes of `kinds` and the user's `extra` schemes that apply to the scene (each
+/// built once to find out), and the rest with the reason.
 pub fn applicable<S>(
     kinds: &[SchemeKind],
+    extra: &[StudyScheme<S>],
     prepared: &Prepared<S>,
-) -> (Vec<SchemeKind>, Vec<Skipped>)
+) -> (Vec<StudyScheme<S>>, Vec<Skipped>)
 where
-    S: CurvedSystem + Clone + 'static,
+    S: CurvedSystem + Clone + Send + Sync + 'static,
 {
+    let built_in = kinds
+        .iter()
+        .map(|&kind| StudyScheme::built_in(kind, &prepared.system, &prepared.constants));
     let mut run = Vec::new();
     let mut skipped = Vec::new();
-    for &kind in kinds {
-        let reason = if kind == SchemeKind::StochasticHeun
-            && !prepared.noise_independent_of_velocity
-        {
-            Some(
-                "the noise depends on v: stochastic Heun would converge to the Stratonovich solution"
-                    .to_string(),
-            )
-        } else {
-            build_integrator(kind, &prepared.system, &prepared.constants).err()
-        };
-        match reason {
-            None => run.push(kind),
-            Some(reason) => skipped.push(Skipped {
-                name: kind.name().into(),
-                reason,
+    for scheme in built_in.chain(extra.iter().cloned()) {
+        match scheme.build() {
+            Ok(_) => run.push(scheme),
+            Err(e) => skipped.push(Skipped {
+                name: scheme.name().into(),
+                reason: match e {
+                    StudyError::SchemeNotApplicable { reason, .. } => reason,
+                    other => other.to_string(),
+                },
             }),
         }
     }
     (run, skipped)
 }
 
-/// Builds the integrators of `kinds` (all known to apply).
-fn integrators<S>(kinds: &[SchemeKind], prepared: &Prepared<S>) -> Vec<Box<dyn Integrator>>
-where
-    S: CurvedSystem + Clone + 'static,
-{
-    kinds
+/// Builds an instance of each of `schemes` (all known to apply).
+fn instances<S>(schemes: &[StudyScheme<S>]) -> Vec<BoxedScheme<S>> {
+    schemes
         .iter()
-        .map(|&k| {
-            build_integrator(k, &prepared.system, &prepared.constants)
-                .expect("checked by `applicable`")
-        })
+        .map(|s| s.build().expect("checked by `applicable`"))
         .collect()
 }
 
@@ -81,37 +73,64 @@ pub struct PathSelection {
     pub threads: usize,
 }
 
+/// What the caller steers while a run goes on: progress, an early stop, and the paths an
+/// earlier run already finished.
+#[derive(Clone, Copy, Default)]
+pub struct Control<'a> {
+    /// Called once per finished path with the number of paths this run has finished.
+    pub progress: Option<&'a (dyn Fn(usize) + Sync)>,
+    /// Once set (say by a Ctrl-C or SIGTERM handler), no further path starts and the run
+    /// returns the paths it finished; each path is whole or absent, never cut short.
+    pub stop: Option<&'a AtomicBool>,
+    /// Indices of paths finished by an interrupted run (their records are kept by the caller):
+    /// they are not run again.
+    pub done: &'a [usize],
+}
+
+impl Control<'_> {
+    fn stopped(&self) -> bool {
+        self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+}
+
 /// Runs the selected paths of `plan` with `schemes` (and `reference`, if given; all must
-/// apply), sorted by index; `progress` is called with the number of finished paths.
+/// apply) but those in `control.done`, sorted by index, until `control.stop` is set.
 pub fn run_paths<S>(
     plan: &PathPlan,
-    schemes: &[SchemeKind],
-    reference: Option<SchemeKind>,
+    schemes: &[StudyScheme<S>],
+    reference: Option<&StudyScheme<S>>,
     prepared: &Prepared<S>,
     selection: PathSelection,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Result<Vec<PathRecord>, String>
+    control: Control<'_>,
+) -> Result<Vec<PathRecord>, StudyError>
 where
     S: CurvedSystem + Clone + Sync + 'static,
 {
     let (index, count) = selection.shard;
+    let done: std::collections::BTreeSet<usize> = control.done.iter().copied().collect();
     let mine: Vec<usize> = (0..selection.paths)
-        .filter(|i| i % count.max(1) == index)
+        .filter(|i| i % count.max(1) == index && !done.contains(i))
         .collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(selection.threads.max(1))
         .build()
-        .map_err(|e| format!("cannot start {} threads: {e}", selection.threads))?;
-    let done = AtomicUsize::new(0);
-    let reference: Vec<SchemeKind> = reference.into_iter().collect();
+        .map_err(|e| StudyError::Threads {
+            threads: selection.threads,
+            message: e.to_string(),
+        })?;
+    let finished = AtomicUsize::new(0);
+    let reference: Vec<StudyScheme<S>> = reference.into_iter().cloned().collect();
     let records = pool.install(|| {
         mine.par_iter()
             .map_init(
                 || {
-                    let reference = integrators(&reference, prepared).pop();
-                    (integrators(schemes, prepared), reference)
+                    let reference = instances(&reference).pop();
+                    (instances(schemes), reference)
                 },
                 |(tracks, reference), &i| {
+                    if control.stopped() {
+                        return Ok(None);
+                    }
                     let record = run_path(
                         plan,
                         tracks,
@@ -120,11 +139,14 @@ where
                         selection.seed,
                         i,
                     );
-                    progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-                    record
+                    let finished = finished.fetch_add(1, Ordering::Relaxed) + 1;
+                    if let Some(progress) = control.progress {
+                        progress(finished);
+                    }
+                    record.map(Some)
                 },
             )
-            .collect::<Vec<_>>()
+            .collect::<Result<Vec<_>, _>>()
     });
-    Ok(records)
+    Ok(records?.into_iter().flatten().collect())
 }

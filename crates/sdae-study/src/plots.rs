@@ -8,6 +8,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
+use crate::error::StudyError;
 use crate::stats::{Interval, OrderFit};
 
 /// One colour per line (in report order).
@@ -116,8 +117,8 @@ fn panel(
     report: &ConvergenceReport,
     (name, pick, order): Component,
     axis: Axis,
-) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("plot panel {name}: {e}");
+) -> Result<(), StudyError> {
+    let err = |e: &dyn std::fmt::Display| StudyError::write(name, e);
     let all: Vec<(f64, Interval)> = report
         .schemes
         .iter()
@@ -204,7 +205,12 @@ fn panel(
     Ok(())
 }
 
-fn draw(report: &ConvergenceReport, path: &Path, title: &str, axis: Axis) -> Result<(), String> {
+fn draw(
+    report: &ConvergenceReport,
+    path: &Path,
+    title: &str,
+    axis: Axis,
+) -> Result<(), StudyError> {
     let components: Vec<Component> = COMPONENTS
         .into_iter()
         .filter(|(_, pick, _)| {
@@ -216,7 +222,7 @@ fn draw(report: &ConvergenceReport, path: &Path, title: &str, axis: Axis) -> Res
         .collect();
     let width = 480 * components.len().max(1) as u32;
     let root = SVGBackend::new(path, (width, 480)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled(title, ("sans-serif", 20))
@@ -229,7 +235,7 @@ fn draw(report: &ConvergenceReport, path: &Path, title: &str, axis: Axis) -> Res
 }
 
 /// Writes `error_vs_h.svg` and `error_vs_time.svg` into `dir`.
-pub fn write_plots(report: &ConvergenceReport, dir: &Path) -> Result<(), String> {
+pub fn write_plots(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyError> {
     let stem = &report.scene;
     draw(
         report,

@@ -22,53 +22,21 @@
 //! )?;
 //! assert_eq!(scene.name, "my-pendulum");
 //! assert!(!scene.wants(sdae_study::scene::Output::Multiplier));
-//! # Ok::<(), sdae_study::scene::SceneError>(())
+//! # Ok::<(), sdae_study::StudyError>(())
 //! ```
 
 use sdae_manifold::{BeadChain, TheoryBound, check_state};
+use sdae_model::{INITIAL_STATE_TOLERANCE, System, project_state};
 use sdae_reference::CurvedSystem;
-use sdae_scheme::{
-    INITIAL_STATE_TOLERANCE, PendulumParams, StepperConfig, System, pendulum, project_state,
-};
+use sdae_scheme::StepperConfig;
 use sdae_systems::{
-    ChainMoleculeParams, Fiber, FiberParams, RigidTriatomicParams, chain_molecule, rigid_triatomic,
+    ChainMoleculeParams, Fiber, FiberParams, PendulumParams, RigidTriatomicParams, chain_molecule,
+    pendulum, rigid_triatomic,
 };
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
+use crate::error::StudyError;
 use crate::integrator::SchemeConstants;
-
-/// Why a scene cannot be used.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum SceneError {
-    /// The file is not valid TOML or does not fit the scene format (the message names the key).
-    #[error("scene file {file}: {message}")]
-    Format {
-        /// The file (or "<inline>").
-        file: String,
-        /// What is wrong, naming the key.
-        message: String,
-    },
-    /// The file cannot be read.
-    #[error("cannot read scene file {file}: {message}")]
-    Io {
-        /// The file.
-        file: String,
-        /// The system's message.
-        message: String,
-    },
-    /// A value is out of range or the parts do not fit together.
-    #[error("scene {scene}: {message}")]
-    Invalid {
-        /// The scene's name.
-        scene: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// No built-in scene of that name.
-    #[error("no built-in scene '{0}' (built-in: {list})", list = BUILT_IN.map(|(n, _)| n).join(", "))]
-    Unknown(String),
-}
 
 /// What a study of the scene computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -84,46 +52,21 @@ pub enum Output {
     KineticEnergy,
 }
 
-/// The seed's stochastic pendulum (Section 5.1).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PendulumSpec {
-    /// Space dimension: 2 (planar) or 3 (spherical).
-    pub dim: usize,
-    /// Length rho.
-    pub length: f64,
-    /// Gravity c_g.
-    pub gravity: f64,
-    /// Noise amplitude sigma.
-    pub noise: f64,
-    /// Friction gamma.
-    pub friction: f64,
-}
-
-impl From<PendulumSpec> for PendulumParams {
-    fn from(s: PendulumSpec) -> Self {
-        PendulumParams {
-            dim: s.dim,
-            length: s.length,
-            gravity: s.gravity,
-            noise: s.noise,
-            friction: s.friction,
-        }
-    }
-}
-
 /// The system of a scene, by kind: a table `[system.<kind>]` with the kind's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SystemSpec {
     /// The stochastic pendulum (seed 5.1).
-    Pendulum(PendulumSpec),
+    Pendulum(PendulumParams),
     /// A chain molecule with rigid bonds under Langevin dynamics (seed 5.2).
     ChainMolecule(ChainMoleculeParams),
     /// A rigid triatomic molecule in a harmonic trap under Langevin dynamics (seed 5.2).
     Triatomic(RigidTriatomicParams),
     /// An inextensible fiber in turbulent air (seed 5.3).
     Fiber(FiberParams),
+    /// A system built in code (named here), run through the library API with
+    /// [`Scene::prepare_custom`] and the studies' `*_on` functions; a scene file cannot build it.
+    Custom(String),
 }
 
 /// A named initial shape of a chain of beads (chain molecule, fiber).
@@ -162,8 +105,21 @@ pub struct SchemeSpec {
     pub practical_c_eta: f64,
     /// C_kappa of the practical and untruncated variants (default: infinite, leaving only the
     /// solver's plausibility check).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "crate::real::option"
+    )]
     pub c_kappa: Option<f64>,
+    /// C_eta of `half-explicit-local` (beyond the seed): the largest turn of a constraint's
+    /// length per step, in radians, with the local size functional; one value for every
+    /// system, no scaling with the number of beads (default 0.5).
+    #[serde(default = "default_local_c_eta")]
+    pub local_c_eta: f64,
+}
+
+fn default_local_c_eta() -> f64 {
+    0.5
 }
 
 impl Default for SchemeSpec {
@@ -171,6 +127,7 @@ impl Default for SchemeSpec {
         Self {
             practical_c_eta: 1.0,
             c_kappa: None,
+            local_c_eta: default_local_c_eta(),
         }
     }
 }
@@ -205,9 +162,11 @@ pub struct StabilitySpec {
     pub reference: Option<u32>,
     /// |g(r)| or |Dg(r) v| above this counts as constraint drift (default 1e-2).
     #[serde(default = "default_drift_tolerance")]
+    #[serde(with = "crate::real")]
     pub drift_tolerance: f64,
     /// |r_i| or |v_i| above this counts as a blow-up (default 1e8).
     #[serde(default = "default_blow_up")]
+    #[serde(with = "crate::real")]
     pub blow_up: f64,
 }
 
@@ -318,9 +277,6 @@ pub struct Prepared<S> {
     pub velocity: Vec<f64>,
     /// Constants of the half-explicit family.
     pub constants: SchemeConstants,
-    /// Whether the noise depends on r only (stochastic Heun then converges to the Ito
-    /// solution; with noise depending on v it would converge to the Stratonovich one).
-    pub noise_independent_of_velocity: bool,
     /// The equipartition value (n - m) kT / 2 of E[v^T M v / 2] for Langevin systems.
     pub kinetic_target: Option<f64>,
 }
@@ -338,12 +294,12 @@ pub trait SceneRunner {
 
 impl Scene {
     /// Reads a scene from TOML text.
-    pub fn from_toml(text: &str) -> Result<Self, SceneError> {
+    pub fn from_toml(text: &str) -> Result<Self, StudyError> {
         Self::parse(text, "<inline>")
     }
 
-    fn parse(text: &str, file: &str) -> Result<Self, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| SceneError::Format {
+    fn parse(text: &str, file: &str) -> Result<Self, StudyError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| StudyError::Format {
             file: file.to_string(),
             message: e.to_string(),
         })?;
@@ -352,9 +308,9 @@ impl Scene {
     }
 
     /// Reads a scene file.
-    pub fn from_file(path: &std::path::Path) -> Result<Self, SceneError> {
+    pub fn from_file(path: &std::path::Path) -> Result<Self, StudyError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError::Io {
             file: file.clone(),
             message: e.to_string(),
         })?;
@@ -362,17 +318,17 @@ impl Scene {
     }
 
     /// A built-in scene by name.
-    pub fn built_in(name: &str) -> Result<Self, SceneError> {
+    pub fn built_in(name: &str) -> Result<Self, StudyError> {
         let (_, text) = BUILT_IN
             .iter()
             .find(|(n, _)| *n == name)
-            .ok_or_else(|| SceneError::Unknown(name.to_string()))?;
+            .ok_or_else(|| StudyError::Unknown(name.to_string()))?;
         Self::parse(text, &format!("scenes/{name}.toml"))
     }
 
     /// The scene as TOML text (reads back to an equal scene).
-    pub fn to_toml(&self) -> Result<String, SceneError> {
-        toml::to_string(self).map_err(|e| SceneError::Format {
+    pub fn to_toml(&self) -> Result<String, StudyError> {
+        toml::to_string(self).map_err(|e| StudyError::Format {
             file: self.name.clone(),
             message: e.to_string(),
         })
@@ -383,15 +339,15 @@ impl Scene {
         self.outputs.contains(&output)
     }
 
-    fn invalid(&self, message: impl Into<String>) -> SceneError {
-        SceneError::Invalid {
+    fn invalid(&self, message: impl Into<String>) -> StudyError {
+        StudyError::Invalid {
             scene: self.name.clone(),
             message: message.into(),
         }
     }
 
     /// Checks what the types cannot: ranges and consistency.
-    fn validate(&self) -> Result<(), SceneError> {
+    fn validate(&self) -> Result<(), StudyError> {
         if self.name.is_empty()
             || !self
                 .name
@@ -426,15 +382,21 @@ impl Scene {
                 "scheme.practical_c_eta = {c_eta}: must be finite and > 0"
             )));
         }
-        if let Some(c) = self.scheme.c_kappa {
-            if c.is_nan() || c <= 0.0 {
-                return Err(self.invalid(format!("scheme.c_kappa = {c}: must be > 0")));
-            }
+        let local = self.scheme.local_c_eta;
+        if !(local.is_finite() && local > 0.0) {
+            return Err(self.invalid(format!(
+                "scheme.local_c_eta = {local}: must be finite and > 0"
+            )));
         }
-        if let Some([a, b]) = self.study.levels {
-            if a > b {
-                return Err(self.invalid(format!("study.levels = [{a}, {b}] is empty")));
-            }
+        if let Some(c) = self.scheme.c_kappa
+            && (c.is_nan() || c <= 0.0)
+        {
+            return Err(self.invalid(format!("scheme.c_kappa = {c}: must be > 0")));
+        }
+        if let Some([a, b]) = self.study.levels
+            && a > b
+        {
+            return Err(self.invalid(format!("study.levels = [{a}, {b}] is empty")));
         }
         if let Some(st) = &self.stability {
             let [a, b] = st.levels;
@@ -475,16 +437,70 @@ impl Scene {
         Ok(())
     }
 
+    /// The scene of a system built in code: its name, T and outputs, the practical C_eta of
+    /// the half-explicit scheme, the study defaults (`paths`, `levels`, `reference`) left to the
+    /// studies' settings. Checked like a scene file.
+    pub fn custom(
+        name: &str,
+        t_end: f64,
+        outputs: Vec<Output>,
+        practical_c_eta: f64,
+    ) -> Result<Self, StudyError> {
+        let scene = Scene {
+            name: name.into(),
+            description: format!("custom system {name}"),
+            t_end,
+            outputs,
+            system: SystemSpec::Custom(name.into()),
+            initial: InitialSpec::default(),
+            scheme: SchemeSpec {
+                practical_c_eta,
+                ..SchemeSpec::default()
+            },
+            study: StudyDefaults::default(),
+            stability: None,
+            equipartition: None,
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// The system, initial state (checked to lie on the tangent bundle) and constants of a
+    /// system built in code, for the studies' `*_on` functions. No C_g (seed eq. 2.2) is known
+    /// for such a system, so the theory variant of the half-explicit scheme does not apply
+    /// (reported as skipped); the practical and untruncated variants use the scene's C_eta.
+    pub fn prepare_custom<S>(
+        &self,
+        system: S,
+        position: Vec<f64>,
+        velocity: Vec<f64>,
+    ) -> Result<Prepared<S>, StudyError>
+    where
+        S: CurvedSystem,
+    {
+        let scene = Scene {
+            initial: InitialSpec {
+                velocity: Some(velocity),
+                ..InitialSpec::default()
+            },
+            ..self.clone()
+        };
+        scene.prepare(system, position, None)
+    }
+
     /// Builds the system, the initial state and the scheme constants, and hands them to
     /// `runner`.
-    pub fn run<R: SceneRunner>(&self, runner: R) -> Result<R::Output, SceneError> {
+    pub fn run<R: SceneRunner>(&self, runner: R) -> Result<R::Output, StudyError> {
         match &self.system {
+            SystemSpec::Custom(name) => Err(self.invalid(format!(
+                "system '{name}' is built in code: run it with Scene::prepare_custom and the studies' *_on functions"
+            ))),
             SystemSpec::ChainMolecule(params) => {
                 let system =
                     chain_molecule(params).map_err(|e| self.invalid(format!("system: {e}")))?;
                 let rest = self.shaped(system.constraint(), system.initial_state().0)?;
                 let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, true, theory)?;
+                let mut prepared = self.prepare(system, rest, theory)?;
                 prepared.kinetic_target = Some(prepared.system.equipartition_energy());
                 Ok(runner.run(self, prepared))
             }
@@ -493,7 +509,7 @@ impl Scene {
                     rigid_triatomic(params).map_err(|e| self.invalid(format!("system: {e}")))?;
                 let rest = system.initial_state().0;
                 let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, true, theory)?;
+                let mut prepared = self.prepare(system, rest, theory)?;
                 prepared.kinetic_target = Some(prepared.system.equipartition_energy());
                 Ok(runner.run(self, prepared))
             }
@@ -502,18 +518,16 @@ impl Scene {
                     Fiber::new(params).map_err(|e| self.invalid(format!("system: {e}")))?;
                 let rest = self.shaped(system.constraint(), system.hanging().0)?;
                 let theory = theory_constants(&system);
-                // sigma_j = sigma_0 (1 + alpha |v_j - u(x_j)|) depends on v unless alpha = 0.
-                let independent = params.turbulence_gain == 0.0;
-                let prepared = self.prepare(system, rest, independent, theory)?;
+                let prepared = self.prepare(system, rest, theory)?;
                 Ok(runner.run(self, prepared))
             }
             SystemSpec::Pendulum(spec) => {
                 let system =
-                    pendulum((*spec).into()).map_err(|e| self.invalid(format!("system: {e}")))?;
+                    pendulum(*spec).map_err(|e| self.invalid(format!("system: {e}")))?;
                 let mut rest = vec![0.0; spec.dim];
                 rest[spec.dim - 1] = -spec.length;
                 let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, true, theory)?;
+                let mut prepared = self.prepare(system, rest, theory)?;
                 // Langevin: kT = sigma^2 / (2 gamma), d - 1 degrees of freedom.
                 prepared.kinetic_target = (spec.friction > 0.0).then(|| {
                     (spec.dim - 1) as f64 * spec.noise * spec.noise / (4.0 * spec.friction)
@@ -524,7 +538,7 @@ impl Scene {
     }
 
     /// The positions of the initial shape, if one is named, else `default`.
-    fn shaped(&self, chain: &BeadChain, default: Vec<f64>) -> Result<Vec<f64>, SceneError> {
+    fn shaped(&self, chain: &BeadChain, default: Vec<f64>) -> Result<Vec<f64>, StudyError> {
         match self.initial.shape {
             None => Ok(default),
             Some(Shape::Straight) => chain
@@ -542,9 +556,8 @@ impl Scene {
         &self,
         system: S,
         rest: Vec<f64>,
-        noise_independent_of_velocity: bool,
         theory: Option<(f64, f64)>,
-    ) -> Result<Prepared<S>, SceneError>
+    ) -> Result<Prepared<S>, StudyError>
     where
         S: CurvedSystem,
     {
@@ -577,13 +590,13 @@ impl Scene {
             theory,
             practical_c_eta: self.scheme.practical_c_eta,
             c_kappa: self.scheme.c_kappa.unwrap_or(f64::INFINITY),
+            local_c_eta: self.scheme.local_c_eta,
         };
         Ok(Prepared {
             system,
             position,
             velocity,
             constants,
-            noise_independent_of_velocity,
             kinetic_target: None,
         })
     }

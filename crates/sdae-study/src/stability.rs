@@ -9,10 +9,18 @@ use std::path::Path;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::convergence::{ConvergenceReport, ConvergenceSettings, LevelReport};
+use sdae_reference::CurvedSystem;
+
+use crate::convergence::{
+    ConvergenceReport, ConvergenceSettings, LevelReport, build_report, run_convergence_on,
+};
+use crate::error::StudyError;
+use crate::files::{write_atomically, write_json};
+use crate::integrator::StudyScheme;
 use crate::lockstep::Limits;
+use crate::parallel::Control;
 use crate::plots::{COLOURS, log_range};
-use crate::scene::Scene;
+use crate::scene::{Prepared, Scene};
 
 /// The stability settings of a scene (`None` if it has no `[stability]` table); `quick` keeps
 /// at most 20 paths, the three coarsest levels and a reference 4 levels above them.
@@ -47,6 +55,36 @@ pub struct StabilityScene {
     pub case: String,
     /// Its results (errors only where a reference exists).
     pub report: ConvergenceReport,
+}
+
+/// The stability study of one scene with `settings` (from [`stability_settings`], perhaps
+/// adjusted): the scene's system as `prepared` (from a scene file through a
+/// [`SceneRunner`](crate::scene::SceneRunner), or built in code with
+/// [`Scene::prepare_custom`]), the built-in schemes of the settings and the user's `extra`
+/// schemes; `progress` is called with the number of finished paths.
+pub fn run_stability_on<S>(
+    scene: &Scene,
+    prepared: &Prepared<S>,
+    extra: &[StudyScheme<S>],
+    settings: &ConvergenceSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<StabilityScene, StudyError>
+where
+    S: CurvedSystem + Clone + Send + Sync + 'static,
+{
+    let control = Control {
+        progress: Some(progress),
+        ..Control::default()
+    };
+    let run = run_convergence_on(scene, prepared, extra, settings, (0, 1), control)?;
+    let case = scene.stability.as_ref().map_or_else(
+        || format!("{} (no [stability] table)", scene.name),
+        |s| s.case.clone(),
+    );
+    Ok(StabilityScene {
+        case,
+        report: build_report(run),
+    })
 }
 
 /// The stability study.
@@ -88,7 +126,7 @@ pub fn markdown(report: &StabilityReport) -> String {
     let schemes: Vec<&str> = report
         .scenes
         .iter()
-        .flat_map(|sc| sc.report.schemes.iter().map(|s| s.name))
+        .flat_map(|sc| sc.report.schemes.iter().map(|s| s.name.as_str()))
         .fold(Vec::new(), |mut v, n| {
             if !v.contains(&n) {
                 v.push(n);
@@ -125,7 +163,7 @@ pub fn markdown(report: &StabilityReport) -> String {
             r.scene,
             sc.case,
             r.paths,
-            r.t_end,
+            crate::output::readable(r.t_end),
             r.settings.limits.blow_up,
             r.reference
                 .as_ref()
@@ -144,14 +182,14 @@ pub fn markdown(report: &StabilityReport) -> String {
                     .map_or("-".into(), |e| format!("{:.2e}", e.estimate));
                 let _ = writeln!(
                     s,
-                    "| {} | {:.1e} | {:.0}% | {} | {:.1e} | {:.1e} | {:.1}% | {error} | {:.0} |",
+                    "| {} | {:.1e} | {:.0}% | {} | {:.1e} | {:.1e} | {} | {error} | {:.0} |",
                     scheme.name,
                     l.h,
                     100.0 * l.finished_fraction,
                     failures(l),
                     l.max_position_residual,
                     l.max_velocity_residual,
-                    100.0 * l.truncated_fraction,
+                    crate::output::truncated_cell(l.truncated_fraction),
                     l.seconds_per_path * 1e6,
                 );
             }
@@ -165,13 +203,13 @@ pub fn markdown(report: &StabilityReport) -> String {
 }
 
 /// `stability.svg`: per scene, the share of paths that finish against h, one line per scheme.
-pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), String> {
+pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), StudyError> {
     let count = report.scenes.len().max(1);
     let cols = count.min(3);
     let rows = count.div_ceil(cols);
     let root =
         SVGBackend::new(path, (420 * cols as u32, 340 * rows as u32 + 40)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled("share of paths that finish", ("sans-serif", 20))
@@ -207,7 +245,7 @@ pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), String> {
                     colour.stroke_width(2),
                 ))
                 .map_err(|e| err(&e))?
-                .label(scheme.name)
+                .label(scheme.name.as_str())
                 .legend(move |(a, b)| {
                     PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
                 });
@@ -225,11 +263,8 @@ pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), String> {
 }
 
 /// Writes `report.json`, `report.md` and `stability.svg` into `dir`.
-pub fn write_report(report: &StabilityReport, dir: &Path) -> Result<(), String> {
-    let io = |e: std::io::Error| format!("cannot write to {}: {e}", dir.display());
-    std::fs::create_dir_all(dir).map_err(io)?;
-    let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-    std::fs::write(dir.join("report.json"), json + "\n").map_err(io)?;
-    std::fs::write(dir.join("report.md"), markdown(report)).map_err(io)?;
+pub fn write_report(report: &StabilityReport, dir: &Path) -> Result<(), StudyError> {
+    write_json(&dir.join("report.json"), report)?;
+    write_atomically(&dir.join("report.md"), &markdown(report))?;
     plot(report, &dir.join("stability.svg"))
 }

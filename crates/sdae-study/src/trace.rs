@@ -7,11 +7,13 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use plotters::prelude::*;
+use sdae_model::{GaussianIncrements, Recorder, TimeGrid, run_path};
 use sdae_reference::CurvedSystem;
-use sdae_scheme::{GaussianIncrements, Recorder, Stepper, StepperConfig, TimeGrid, run_path};
+use sdae_scheme::{Stepper, StepperConfig};
 
+use crate::error::StudyError;
 use crate::plots::COLOURS;
-use crate::scene::{Prepared, Scene, SceneError, SceneRunner};
+use crate::scene::{Prepared, Scene, SceneRunner};
 
 /// Shapes drawn for a scene of several particles.
 const SHAPES: usize = 6;
@@ -32,7 +34,7 @@ pub struct Trace {
 }
 
 /// Records one path (stream `seed`, path 0) of `scene` with `steps` steps.
-pub fn trace(scene: &Scene, steps: usize, seed: u64) -> Result<Trace, SceneError> {
+pub fn trace(scene: &Scene, steps: usize, seed: u64) -> Result<Trace, StudyError> {
     scene.run(Tracer { steps, seed })
 }
 
@@ -48,7 +50,7 @@ impl SceneRunner for Tracer {
         S: CurvedSystem + Clone + Send + Sync + 'static,
     {
         let n = prepared.position.len();
-        let particle_dim = if n % 3 == 0 { 3 } else { 2 };
+        let particle_dim = if n.is_multiple_of(3) { 3 } else { 2 };
         let l = prepared.system.noise_dim();
         let mut noise = GaussianIncrements::for_path(self.seed, 0, l);
         let config = StepperConfig::new(
@@ -121,8 +123,8 @@ fn point(r: &[f64], dim: usize, i: usize) -> (f64, f64) {
 }
 
 /// Draws the trace: the path of a single particle, or the shapes of several at a few times.
-pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("plot {}: {e}", path.display());
+pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), StudyError> {
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     let dim = trace.particle_dim;
     let particles = trace.states.first().map_or(0, |s| s.1.len() / dim);
     let all: Vec<(f64, f64)> = trace
@@ -140,7 +142,7 @@ pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), String> {
         |(a, b, c, d), (x, y)| (a.min(*x), b.max(*x), c.min(*y), d.max(*y)),
     );
     if !(x0.is_finite() && y0.is_finite()) {
-        return Err(format!("plot {}: no finite state to draw", path.display()));
+        return Err(StudyError::write(path, "no finite state to draw"));
     }
     // Equal scales on both axes, with a margin.
     let half = 0.55 * (x1 - x0).max(y1 - y0).max(1e-9);

@@ -5,6 +5,7 @@
 
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};
 use sdae_study::integrator::SchemeKind;
+use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
 use sdae_study::stats::Interval;
 
@@ -21,7 +22,8 @@ fn kinetic_energy(level: u32) -> (Interval, f64) {
         threads: 2,
         ..ConvergenceSettings::for_scene(&scene)
     };
-    let report = build_report(run_convergence(&scene, &settings, (0, 1), |_| {}).unwrap());
+    let report =
+        build_report(run_convergence(&scene, &settings, (0, 1), Control::default()).unwrap());
     let level = &report.schemes[0].levels[0];
     assert_eq!(level.failures, 0);
     (

@@ -1,16 +1,16 @@
 //! The lockstep driver against a direct computation: the same scheme run level by level with
-//! the whole Brownian path in memory (sdae_scheme::run_path, Recorder, Coarsened), on a fine
-//! grid longer than one chunk so that coarse steps span several chunks.
+//! the whole Brownian path in memory (sdae_model::run_path, Recorder, Coarsened), on a fine
+//! grid longer than one chunk so that coarse steps span several chunks, and with the reference
+//! so far above the finest level that a chunk is shorter than one finest step.
 
-use sdae_scheme::{
-    Coarsened, GaussianIncrements, IncrementSource, PendulumParams, RecordedIncrements, Recorder,
-    Stepper, StepperConfig, TimeGrid, pendulum, run_path,
+use sdae_model::{
+    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, Recorder, TimeGrid,
+    run_path,
 };
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_study::integrator::{SchemeConstants, SchemeKind, build_integrator};
 use sdae_study::lockstep::{Limits, PathPlan};
-
-const FINE: u32 = 14;
-const LEVELS: [u32; 3] = [1, 4, 9];
+use sdae_systems::{PendulumParams, pendulum};
 
 fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
@@ -22,17 +22,28 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
 
 #[test]
 fn lockstep_matches_a_direct_run_of_each_level() {
+    matches_a_direct_run(14, &[1, 4, 9]);
+}
+
+#[test]
+fn a_reference_far_above_the_finest_level_gives_the_same_distances() {
+    // A finest step of 2^13 fine steps, longer than a chunk (2^12).
+    matches_a_direct_run(16, &[1, 2, 3]);
+}
+
+fn matches_a_direct_run(fine: u32, levels: &[u32]) {
     let system = pendulum(PendulumParams::default()).unwrap();
     let constants = SchemeConstants {
         theory: None,
         practical_c_eta: 1.0,
         c_kappa: f64::INFINITY,
+        local_c_eta: 0.5,
     };
     let (r0, v0) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let plan = PathPlan {
         t_end: 1.0,
-        fine: FINE,
-        levels: LEVELS.to_vec(),
+        fine,
+        levels: levels.to_vec(),
         want_mu: true,
         limits: Limits::default(),
         kinetic_after: None,
@@ -49,11 +60,12 @@ fn lockstep_matches_a_direct_run_of_each_level() {
         (&r0, &v0),
         seed,
         index,
-    );
+    )
+    .unwrap();
     assert!(record.reference_failure.is_none());
 
     // Direct: all fine increments in memory, the reference recorded on the finest level's grid.
-    let fine_steps = 1usize << FINE;
+    let fine_steps = 1usize << fine;
     let mut increments = vec![0.0; 2 * fine_steps];
     let mut noise = GaussianIncrements::for_path(seed, index as u64, 2);
     for dw in increments.chunks_exact_mut(2) {
@@ -61,8 +73,8 @@ fn lockstep_matches_a_direct_run_of_each_level() {
     }
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let mut stepper = Stepper::new(system, config).unwrap();
-    let finest = *LEVELS.last().unwrap();
-    let mut reference_path = Recorder::every(1 << (FINE - finest)).with_mu();
+    let finest = *levels.last().unwrap();
+    let mut reference_path = Recorder::every(1 << (fine - finest)).with_mu();
     let (mut r, mut v) = (r0.clone(), v0.clone());
     let grid = TimeGrid::new(1.0, fine_steps).unwrap();
     let mut source = RecordedIncrements::new(&increments, 2);
@@ -76,7 +88,7 @@ fn lockstep_matches_a_direct_run_of_each_level() {
     )
     .unwrap();
 
-    for (j, &level) in LEVELS.iter().enumerate() {
+    for (j, &level) in levels.iter().enumerate() {
         let steps = 1usize << level;
         let mut coarse = Recorder::every(1).with_mu();
         let mut source =

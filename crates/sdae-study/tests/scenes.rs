@@ -1,7 +1,8 @@
 //! Scene files: every built-in scene parses and round-trips, and each malformed file gives an
 //! error that names the key or value at fault.
 
-use sdae_study::scene::{BUILT_IN, Scene, SceneError};
+use sdae_study::StudyError;
+use sdae_study::scene::{BUILT_IN, Scene};
 
 const GOOD: &str = r#"
 name = "test"
@@ -26,7 +27,7 @@ fn error_of(text: &str) -> String {
 }
 
 /// Checks that a scene runs: builds its system and initial state.
-fn runs(scene: &Scene) -> Result<(), SceneError> {
+fn runs(scene: &Scene) -> Result<(), StudyError> {
     struct Nothing;
     impl sdae_study::scene::SceneRunner for Nothing {
         type Output = ();
@@ -46,7 +47,7 @@ fn built_in_scenes_parse_run_and_round_trip() {
     }
     assert!(matches!(
         Scene::built_in("nope"),
-        Err(SceneError::Unknown(_))
+        Err(StudyError::Unknown(_))
     ));
 }
 
@@ -129,4 +130,35 @@ fn system_parameters_and_shapes_are_checked() {
     let scene = Scene::from_toml(&fiber.replace("beads = 20", "beads = 1")).unwrap();
     let e = runs(&scene).unwrap_err().to_string();
     assert!(e.contains("beads"), "{e}");
+}
+
+#[test]
+fn bad_settings_are_named_by_their_scene_key() {
+    use sdae_study::convergence::ConvergenceSettings;
+    let scene = Scene::built_in("pendulum").unwrap();
+    let base = ConvergenceSettings::for_scene(&scene);
+    let key = |settings: ConvergenceSettings| match settings.validate() {
+        Err(StudyError::Setting { key, .. }) => key,
+        other => panic!("{other:?}"),
+    };
+    let paths = ConvergenceSettings {
+        paths: 1,
+        ..base.clone()
+    };
+    assert_eq!(key(paths), "study.paths");
+    let levels = ConvergenceSettings {
+        coarsest: base.finest + 1,
+        ..base.clone()
+    };
+    assert_eq!(key(levels), "study.levels");
+    let threads = ConvergenceSettings {
+        threads: 0,
+        ..base.clone()
+    };
+    assert_eq!(key(threads), "threads");
+    let t_end = ConvergenceSettings {
+        t_end: f64::NAN,
+        ..base
+    };
+    assert_eq!(key(t_end), "T");
 }

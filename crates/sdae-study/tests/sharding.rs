@@ -34,7 +34,7 @@ fn merged_shards_reproduce_the_unsharded_report() {
     let whole = build_report(shard(0, 1, 2));
     let merged = merge_shards((0..3).map(|i| shard(i, 3, 1 + i % 2)).collect()).unwrap();
     assert_eq!(numbers(&whole), numbers(&merged));
-    assert_eq!(whole.schemes.len(), 7);
+    assert_eq!(whole.schemes.len(), 9);
     assert!(whole.schemes.iter().all(|s| {
         s.levels
             .iter()
@@ -52,12 +52,48 @@ fn results_do_not_depend_on_the_thread_count() {
 #[test]
 fn incomplete_or_inconsistent_shards_are_refused() {
     let err = merge_shards(vec![shard(0, 3, 1), shard(2, 3, 1)]).unwrap_err();
-    assert!(err.contains("missing"), "{err}");
+    assert!(err.to_string().contains("missing"), "{err}");
     let err = merge_shards(vec![shard(0, 2, 1), shard(0, 2, 1), shard(1, 2, 1)]).unwrap_err();
-    assert!(err.contains("twice"), "{err}");
+    assert!(err.to_string().contains("twice"), "{err}");
     let mut other = shard(1, 2, 1);
     other.settings.seed = 7;
     let err = merge_shards(vec![shard(0, 2, 1), other]).unwrap_err();
-    assert!(err.contains("other settings"), "{err}");
-    assert!(merge_shards(Vec::new()).is_err());
+    assert!(err.to_string().contains("other settings"), "{err}");
+    assert!(matches!(
+        merge_shards(Vec::new()),
+        Err(sdae_study::StudyError::Merge { .. })
+    ));
+}
+
+#[test]
+fn shards_holding_non_finite_numbers_are_written_read_and_merged() {
+    let dir = std::env::temp_dir().join(format!("sdae-nonfinite-{}", std::process::id()));
+    let mut first = shard(0, 2, 1);
+    let track = &mut first.records[0].tracks[0];
+    track.max_position_residual = f64::INFINITY;
+    track.max_velocity_residual = f64::NAN;
+    track.kinetic_energy = Some(f64::NEG_INFINITY);
+    first.settings.limits.blow_up = f64::INFINITY;
+    let second = {
+        let mut s = shard(1, 2, 1);
+        s.settings.limits.blow_up = f64::INFINITY;
+        s
+    };
+    let mut read = Vec::new();
+    for (i, run) in [first.clone(), second].iter().enumerate() {
+        let file = dir.join(format!("shard-{i}-of-2.json"));
+        sdae_study::files::write_json(&file, run).unwrap();
+        let text = std::fs::read_to_string(&file).unwrap();
+        assert!(text.contains("\"blow_up\": \"inf\""), "{text}");
+        read.push(sdae_study::files::read_json::<ConvergenceRun>(&file).unwrap());
+    }
+    let back = &read[0].records[0].tracks[0];
+    assert_eq!(back.max_position_residual, f64::INFINITY);
+    assert!(back.max_velocity_residual.is_nan());
+    assert_eq!(back.kinetic_energy, Some(f64::NEG_INFINITY));
+    assert_eq!(read[0].settings.limits.blow_up, f64::INFINITY);
+    let report = merge_shards(read).unwrap();
+    let json = serde_json::to_string(&report).unwrap();
+    assert!(json.contains("\"max_position_residual\":\"inf\""), "{json}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

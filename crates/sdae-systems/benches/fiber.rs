@@ -16,7 +16,8 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use sdae_scheme::{GaussianIncrements, IncrementSource, Stepper, StepperConfig, System};
+use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 
 /// Steps between resets of the state to its initial value.
@@ -47,14 +48,14 @@ impl<I: IncrementSource> Bench<I> {
     /// One step (after a reset every RESET_EVERY steps); returns the Newton iterations.
     #[inline]
     fn step(&mut self) -> usize {
-        if self.steps % RESET_EVERY == 0 {
+        if self.steps.is_multiple_of(RESET_EVERY) {
             self.r.copy_from_slice(&self.r0);
             self.v.fill(0.0);
         }
         self.steps += 1;
         self.noise.next_increment(H, &mut self.dw);
         match self.stepper.step(&mut self.r, &mut self.v, H, &self.dw) {
-            Ok(report) => report.certificate.iterations,
+            Ok(report) => report.certificate.unwrap().iterations,
             Err(e) => panic!("step {} failed: {e}", self.steps),
         }
     }

@@ -1,6 +1,7 @@
 //! The error type of this crate and the parameter checks that produce it.
 
 use sdae_manifold::ManifoldError;
+use sdae_model::ModelError;
 use thiserror::Error;
 
 /// A parameter set that does not describe a valid system.
@@ -41,6 +42,9 @@ pub enum SystemError {
     /// The constraint or the mass matrix could not be built.
     #[error(transparent)]
     Manifold(#[from] ManifoldError),
+    /// The parts of the system do not fit together.
+    #[error(transparent)]
+    Model(#[from] ModelError),
 }
 
 impl SystemError {
@@ -50,7 +54,7 @@ impl SystemError {
             Self::InvalidParameter { name, .. }
             | Self::InvalidEntry { name, .. }
             | Self::WrongLength { name, .. } => Some(name),
-            Self::Manifold(_) => None,
+            Self::Manifold(_) | Self::Model(_) => None,
         }
     }
 }

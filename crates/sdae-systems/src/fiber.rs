@@ -46,7 +46,8 @@
 //!   holds |w|, at large relative speeds). The defaults have 1.08 against 2.
 //!
 //! ```
-//! use sdae_scheme::{GaussianIncrements, NoObserver, Stepper, StepperConfig, TimeGrid, run_path};
+//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_scheme::{Stepper, StepperConfig};
 //! use sdae_systems::{Fiber, FiberParams};
 //! let fiber = Fiber::new(&FiberParams::default())?;
 //! let (mut r, mut v) = fiber.zigzag(0.2);
@@ -60,7 +61,7 @@
 //! ```
 
 use sdae_manifold::{BeadChain, DiagonalMass};
-use sdae_scheme::System;
+use sdae_model::System;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, at_least, finite_entries, non_negative, positive};

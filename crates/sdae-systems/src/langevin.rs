@@ -20,7 +20,8 @@
 //!   ([`RigidTriatomicParams`]).
 //!
 //! ```
-//! use sdae_scheme::{GaussianIncrements, NoObserver, Stepper, StepperConfig, TimeGrid, run_path};
+//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_scheme::{Stepper, StepperConfig};
 //! use sdae_systems::{ChainMoleculeParams, chain_molecule};
 //! let molecule = chain_molecule(&ChainMoleculeParams::default())?;
 //! let (mut r, mut v) = molecule.initial_state();
@@ -34,7 +35,7 @@
 //! ```
 
 use sdae_manifold::{BeadChain, Constraint, DiagonalMass, Mass, RigidBonds};
-use sdae_scheme::System;
+use sdae_model::System;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, at_least, non_negative, positive};
@@ -306,7 +307,8 @@ impl Default for RigidTriatomicParams {
 /// constants are available:
 ///
 /// ```
-/// use sdae_scheme::{GaussianIncrements, IncrementSource, Stepper, StepperConfig, System};
+/// use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+/// use sdae_scheme::{Stepper, StepperConfig};
 /// use sdae_systems::{RigidTriatomicParams, rigid_triatomic};
 /// let molecule = rigid_triatomic(&RigidTriatomicParams::default())?;
 /// let target = molecule.equipartition_energy();

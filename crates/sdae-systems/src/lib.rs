@@ -1,14 +1,17 @@
-//! Built-in constrained stochastic mechanical systems (seed Section 5): constrained Langevin
-//! molecules (Section 5.2) and inextensible fibers in turbulent air (Section 5.3), each a
-//! [`System`](sdae_scheme::System) of seed eq. 1.1,
+//! Built-in constrained stochastic mechanical systems (seed Section 5): the stochastic pendulum
+//! (Section 5.1), constrained Langevin molecules (Section 5.2) and inextensible fibers in
+//! turbulent air (Section 5.3), each a [`System`](sdae_model::System) of seed eq. 1.1,
 //!
 //! ```text
 //! M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu,   g(r) = 0,
 //! ```
 //!
-//! that runs with the half-explicit scheme ([`Stepper`](sdae_scheme::Stepper)) and, since
-//! every constraint here provides D^2 g, with the inherent-SDE reference solvers.
+//! that runs with every [`Scheme`](sdae_model::Scheme): the half-explicit stepper of
+//! `sdae-scheme` and, since every constraint here provides D^2 g, the inherent-SDE solvers of
+//! `sdae-reference`.
 //!
+//! - [`pendulum`]: the planar or spherical pendulum with gravity, friction and additive noise
+//!   ([`PendulumParams`]);
 //! - [`langevin`]: [`Langevin`] (any constraint and [`Potential`]), [`chain_molecule`] and
 //!   [`rigid_triatomic`] with their parameter structs;
 //! - [`fiber`]: [`Fiber`] with bending, gravity, drag relative to an [`AirFlow`] and
@@ -30,6 +33,7 @@ mod error;
 pub mod fiber;
 pub mod langevin;
 mod masses;
+pub mod pendulum;
 pub mod potential;
 
 pub use error::SystemError;
@@ -39,6 +43,7 @@ pub use langevin::{
     RigidTriatomicParams, chain_molecule, rigid_triatomic,
 };
 pub use masses::Masses;
+pub use pendulum::{Pendulum, PendulumDrift, PendulumParams, pendulum};
 pub use potential::{
     AngleParams, BondAngles, HarmonicTrap, Potential, TorsionParams, Torsions, TrapParams,
 };

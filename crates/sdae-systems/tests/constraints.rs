@@ -2,10 +2,10 @@
 //! with the inherent-SDE reference solvers, which agree with the scheme on the same Brownian
 //! path.
 
-use sdae_ift::Factorize;
-use sdae_manifold::{Constraint, state_residuals};
-use sdae_reference::{CurvedSystem, ReferenceSolver, TruncatedEulerMaruyama};
-use sdae_scheme::{GaussianIncrements, IncrementSource, Stepper, StepperConfig, System};
+use sdae_manifold::state_residuals;
+use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_reference::{CurvedSystem, TruncatedEulerMaruyama};
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{
     AirFlow, ChainMoleculeParams, Fiber, FiberParams, RigidTriatomicParams, chain_molecule,
     rigid_triatomic,
@@ -18,7 +18,6 @@ const SEED: u64 = 77;
 fn max_residuals<S>(system: S, state: (Vec<f64>, Vec<f64>), h: f64, steps: usize) -> (f64, f64)
 where
     S: System + Clone,
-    <S::Constraint as Constraint>::Gram: Factorize,
 {
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let mut stepper = Stepper::new(system.clone(), config).unwrap();
@@ -93,7 +92,6 @@ fn distance_to_reference<S>(
 ) -> f64
 where
     S: CurvedSystem + Clone,
-    <S::Constraint as Constraint>::Gram: Factorize,
 {
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let mut stepper = Stepper::new(system.clone(), config).unwrap();
@@ -126,7 +124,6 @@ where
 fn assert_agrees_with_reference<S>(name: &str, system: &S, state: &(Vec<f64>, Vec<f64>), h: f64)
 where
     S: CurvedSystem + Clone,
-    <S::Constraint as Constraint>::Gram: Factorize,
 {
     let steps = (0.5 / h) as usize;
     let same = distance_to_reference(system, state, h, steps, 0);

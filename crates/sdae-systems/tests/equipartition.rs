@@ -8,9 +8,9 @@
 //! check must fail for a system whose noise is that of 2 kT, which shows that the test can see
 //! a wrong temperature.
 
-use sdae_ift::Factorize;
 use sdae_manifold::Constraint;
-use sdae_scheme::{GaussianIncrements, IncrementSource, Stepper, StepperConfig, System};
+use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{
     AngleParams, ChainMoleculeParams, Langevin, Masses, Potential, RigidTriatomicParams,
     TorsionParams, TrapParams, chain_molecule, rigid_triatomic,
@@ -45,7 +45,6 @@ fn kinetic_energy_estimate<S>(
 ) -> Estimate
 where
     S: System + Clone,
-    <S::Constraint as Constraint>::Gram: Factorize,
 {
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let mut stepper = Stepper::new(system.clone(), config).unwrap();
@@ -119,7 +118,6 @@ fn check_equipartition<C, P>(
     C: Constraint + Clone,
     P: Potential + Clone,
     Langevin<C, P>: System + Clone,
-    <<Langevin<C, P> as System>::Constraint as Constraint>::Gram: Factorize,
 {
     let system = build(TEMPERATURE);
     let target = system.equipartition_energy();

@@ -2,7 +2,8 @@
 //! fixed segment lengths, and dissipation by air drag.
 
 use sdae_manifold::state_residuals;
-use sdae_scheme::{Stepper, StepperConfig, System};
+use sdae_model::{Scheme, System};
+use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 
 /// A noise-free fiber in still air with the given drag coefficients and unequal bead masses.

@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use sdae_manifold::{BeadChain, IdentityMass};
-use sdae_scheme::{AdditiveNoise, Drift, MechanicalSystem};
+use sdae_model::{AdditiveNoise, Drift, MechanicalSystem};
 
 /// Gravity -c e_z on every bead.
 #[derive(Debug, Clone, Copy)]

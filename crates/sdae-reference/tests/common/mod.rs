@@ -1,7 +1,8 @@
 //! Helpers shared by the integration tests of the reference solvers.
 #![allow(dead_code)]
 
-use sdae_scheme::{GaussianIncrements, IncrementSource, Pendulum, PendulumParams, pendulum};
+use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
 /// The planar unit pendulum with gravity c_g, unit noise, no friction.
 pub fn planar(gravity: f64, noise: f64) -> Pendulum {

@@ -1,6 +1,7 @@
 //! Small studies shared by the tests.
 
 use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
+use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
 
 /// The built-in pendulum with a small, fast setting.
@@ -24,5 +25,5 @@ pub fn run(
     index: usize,
     count: usize,
 ) -> ConvergenceRun {
-    run_convergence(scene, settings, (index, count), |_| {}).unwrap()
+    run_convergence(scene, settings, (index, count), Control::default()).unwrap()
 }

@@ -2,9 +2,10 @@
 //! dv = (-c_g e_d - gamma v) dt + sigma dw - r dmu / rho^2, |r| = rho, unit mass.
 
 use sdae_manifold::{IdentityMass, Sphere};
+use sdae_model::{AdditiveNoise, Drift, MechanicalSystem};
+use serde::{Deserialize, Serialize};
 
-use crate::error::SchemeError;
-use crate::system::{AdditiveNoise, Drift, MechanicalSystem};
+use crate::error::{SystemError, non_negative};
 
 /// Gravity along -e_d and linear friction: a(r, v) = -c_g e_d - gamma v.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,8 +31,10 @@ impl Drift for PendulumDrift {
 /// The seed's stochastic pendulum as a system.
 pub type Pendulum = MechanicalSystem<Sphere, IdentityMass, PendulumDrift, AdditiveNoise>;
 
-/// Parameters of [`pendulum`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of [`pendulum`] (in a scene file, the table `[system.pendulum]`; every field is
+/// required there).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PendulumParams {
     /// Space dimension d: 2 (planar) or 3 (spherical).
     pub dim: usize,
@@ -59,31 +62,23 @@ impl Default for PendulumParams {
 }
 
 /// Builds the pendulum; fails on d not in {2, 3}, non-positive length, negative or non-finite
-/// gravity, noise or friction.
-pub fn pendulum(params: PendulumParams) -> Result<Pendulum, SchemeError> {
+/// gravity, noise or friction, naming the parameter.
+pub fn pendulum(params: PendulumParams) -> Result<Pendulum, SystemError> {
     if !(params.dim == 2 || params.dim == 3) {
-        return Err(SchemeError::InvalidSetting {
+        return Err(SystemError::InvalidParameter {
             name: "dim",
             value: params.dim as f64,
-            reason: "a pendulum is planar (2) or spherical (3)",
+            rule: "a pendulum is planar (2) or spherical (3)",
         });
     }
-    for (name, value) in [("gravity", params.gravity), ("friction", params.friction)] {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(SchemeError::InvalidSetting {
-                name,
-                value,
-                reason: "must be finite and >= 0",
-            });
-        }
-    }
-    MechanicalSystem::new(
-        Sphere::new(params.dim, params.length)?,
+    let gravity = non_negative("gravity", params.gravity)?;
+    let friction = non_negative("friction", params.friction)?;
+    let noise = AdditiveNoise::new(non_negative("noise", params.noise)?, params.dim)?;
+    let sphere = Sphere::new(params.dim, crate::error::positive("length", params.length)?)?;
+    Ok(MechanicalSystem::new(
+        sphere,
         IdentityMass,
-        PendulumDrift {
-            gravity: params.gravity,
-            friction: params.friction,
-        },
-        AdditiveNoise::new(params.noise, params.dim)?,
-    )
+        PendulumDrift { gravity, friction },
+        noise,
+    )?)
 }

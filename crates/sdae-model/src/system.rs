@@ -2,7 +2,7 @@
 
 use sdae_manifold::{Constraint, Mass};
 
-use crate::error::SchemeError;
+use crate::error::{ModelError, check_dim, check_step_size};
 
 /// Everything the stepper needs to know about a constrained stochastic mechanical system.
 pub trait System {
@@ -76,9 +76,9 @@ pub struct AdditiveNoise {
 impl AdditiveNoise {
     /// B = sigma I_dim; sigma must be finite and >= 0. With sigma = 0 the noise dimension is
     /// 0: no increments are asked for.
-    pub fn new(sigma: f64, dim: usize) -> Result<Self, SchemeError> {
+    pub fn new(sigma: f64, dim: usize) -> Result<Self, ModelError> {
         if !(sigma.is_finite() && sigma >= 0.0) {
-            return Err(SchemeError::InvalidSetting {
+            return Err(ModelError::InvalidSetting {
                 name: "sigma",
                 value: sigma,
                 reason: "noise amplitude must be finite and >= 0",
@@ -138,9 +138,11 @@ pub struct MechanicalSystem<C, M, A, B> {
 }
 
 impl<C: Constraint, M: Mass, A: Drift, B: Noise> MechanicalSystem<C, M, A, B> {
-    /// Checks that the mass matrix has order n.
-    pub fn new(constraint: C, mass: M, drift: A, noise: B) -> Result<Self, SchemeError> {
+    /// Checks that the mass matrix has order n and fits the constraint (a bead chain refuses a
+    /// mass that couples beads).
+    pub fn new(constraint: C, mass: M, drift: A, noise: B) -> Result<Self, ModelError> {
         mass.check_order(constraint.dim())?;
+        constraint.check_mass(&mass)?;
         Ok(Self {
             constraint,
             mass,
@@ -178,4 +180,38 @@ impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, 
     fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
         self.noise.add(r, v, dw, out)
     }
+}
+
+/// Checks that a system fits a scheme of seed eq. 1.1: 1 <= m < n constraints and a mass
+/// matrix of order n that fits the constraint's Gram storage ([`Constraint::check_mass`]).
+/// Returns (n, m).
+pub fn check_dimensions<S: System + ?Sized>(system: &S) -> Result<(usize, usize), ModelError> {
+    let c = system.constraint();
+    let (n, m) = (c.dim(), c.n_constraints());
+    if m == 0 || m >= n {
+        return Err(ModelError::DimensionMismatch {
+            what: "number of constraints m (need 1 <= m < n)",
+            expected: n.saturating_sub(1),
+            found: m,
+        });
+    }
+    system.mass().check_order(n)?;
+    c.check_mass(system.mass())?;
+    Ok((n, m))
+}
+
+/// Checks a step's inputs against `system`: r and v of length n, dw of length l, and a step
+/// size h that is finite and > 0.
+pub fn check_step_input<S: System + ?Sized>(
+    system: &S,
+    r: &[f64],
+    v: &[f64],
+    h: f64,
+    dw: &[f64],
+) -> Result<(), ModelError> {
+    let n = system.constraint().dim();
+    check_dim("position r", n, r.len())?;
+    check_dim("velocity v", n, v.len())?;
+    check_dim("Brownian increment dw", system.noise_dim(), dw.len())?;
+    check_step_size(h)
 }

@@ -1,10 +1,11 @@
-//! Linear solves by structure: scalar, tridiagonal in O(m), dense (hand-written LU for small
-//! orders, faer above [`DENSE_FAER_THRESHOLD`]). Factor once, solve as often as needed.
-
-use faer::linalg::solvers::Solve as _;
-use sdae_manifold::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
+//! Factorizations of the Gram storages, by structure: scalar, tridiagonal in O(m), dense
+//! (hand-written LU for small orders, faer above [`DENSE_FAER_THRESHOLD`]). Factor once, solve
+//! as often as needed. Every constraint's Gram storage is [`Factorize`]: a matrix, its
+//! factorization, [`Solve`].
 
 use crate::error::LinearError;
+use crate::gram::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
+use faer::linalg::solvers::Solve as _;
 
 /// Above this order, dense systems are factored by faer; below it by the hand-written LU,
 /// which does not allocate.

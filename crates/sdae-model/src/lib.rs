@@ -1,0 +1,99 @@
+//! What every scheme and every system for constrained stochastic mechanical systems (seed eq.
+//! 1.1) shares:
+//!
+//! ```text
+//! dr = v dt,   M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu,   g(r) = 0
+//! ```
+//!
+//! - the system: [`System`], built from parts ([`Drift`], [`Noise`]) with [`MechanicalSystem`];
+//! - Brownian increments: [`IncrementSource`], one stream per path ([`path_rng`],
+//!   [`GaussianIncrements`]), [`Coarsened`] and [`RecordedIncrements`];
+//! - the one step trait [`Scheme`] with its [`StepOutcome`] and [`StepFailure`] (classified by
+//!   [`FailureKind`]);
+//! - the one path driver [`run_path`] on a [`TimeGrid`] (and [`advance`], a stretch of a path
+//!   in progress), reporting to an [`Observer`] such as [`Recorder`] and summarized in
+//!   [`PathDiagnostics`];
+//! - the tangent bundle: [`project_state`], [`TangentProjector`] and the [`KappaProblem`] of
+//!   seed eq. 3.1.
+//!
+//! A scheme of one's own is a type that implements [`Scheme`]; here the explicit Euler step of
+//! a free particle on the unit circle, projected back by [`TangentProjector`]:
+//!
+//! ```
+//! use sdae_ift::SolverSettings;
+//! use sdae_manifold::{IdentityMass, ScalarGram, Sphere};
+//! use sdae_model::{
+//!     GaussianIncrements, MechanicalSystem, NoNoise, NoObserver, Scheme, StepFailure,
+//!     StepOutcome, System, TangentProjector, TimeGrid, ZeroDrift, run_path,
+//! };
+//!
+//! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
+//!
+//! struct ProjectedEuler {
+//!     system: Circle,
+//!     projector: TangentProjector<ScalarGram>,
+//! }
+//!
+//! impl Scheme for ProjectedEuler {
+//!     type System = Circle;
+//!     fn system(&self) -> &Circle {
+//!         &self.system
+//!     }
+//!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
+//!         -> Result<StepOutcome, StepFailure> {
+//!         let (c, m) = (self.system.constraint(), self.system.mass());
+//!         let mut next = r.to_vec();
+//!         for (x, vi) in next.iter_mut().zip(v.iter()) {
+//!             *x += h * vi;
+//!         }
+//!         let certificate = self
+//!             .projector
+//!             .project_position(c, m, &mut next)
+//!             .map_err(|source| StepFailure::Root { what: "projection", source })?;
+//!         self.projector.project_velocity(c, m, &next, v)?;
+//!         r.copy_from_slice(&next);
+//!         Ok(StepOutcome { newton_iterations: certificate.iterations, ..StepOutcome::PLAIN })
+//!     }
+//!     fn multiplier_increment(&self) -> &[f64] {
+//!         &[0.0]
+//!     }
+//! }
+//!
+//! let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
+//! let projector = TangentProjector::new(system.constraint(), SolverSettings::default());
+//! let mut scheme = ProjectedEuler { system, projector };
+//! let (mut r, mut v) = (vec![1.0, 0.0], vec![0.0, 1.0]);
+//! let grid = TimeGrid::new(1.0, 100)?;
+//! let mut noise = GaussianIncrements::for_path(1, 0, 0);
+//! let diagnostics = run_path(&mut scheme, &mut r, &mut v, grid, &mut noise, &mut NoObserver)?;
+//! assert!(diagnostics.max_position_residual < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod driver;
+mod error;
+mod grid;
+mod increments;
+mod observer;
+mod scheme;
+mod system;
+mod tangent;
+
+pub use driver::{
+    INITIAL_STATE_TOLERANCE, ITERATION_BINS, PathDiagnostics, PathState, TRUNCATION_DOMINATED,
+    advance, run_path,
+};
+pub use error::{
+    FailureKind, ModelError, PathFailure, StepError, StepFailure, check_dim, check_step_size,
+};
+pub use grid::TimeGrid;
+pub use increments::{
+    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
+};
+pub use observer::{Interpolation, NoObserver, Observer, Recorder};
+pub use scheme::{Scheme, StepOutcome};
+pub use system::{
+    AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
+    check_dimensions, check_step_input,
+};
+pub use tangent::{KappaProblem, TangentProjector, project_state};

@@ -1,0 +1,255 @@
+//! The command line: one subcommand per study, each taking only its own options.
+
+use std::path::PathBuf;
+
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Args, Parser, Subcommand};
+use sdae_study::convergence::ConvergenceSettings;
+use sdae_study::integrator::SchemeKind;
+use sdae_study::scene::{BUILT_IN, Scene};
+
+use crate::shard::ShardArg;
+
+/// Strong errors of the half-explicit drift-truncated Euler scheme and of solvers of the
+/// inherent SDE, against a fine-step reference on the same Brownian paths, with run time.
+///
+/// Without a subcommand it runs the convergence study (default: the pendulum scene). Each
+/// scene gets <OUT>/<scene>/report.json, report.csv, report.md, error_vs_h.svg and
+/// error_vs_time.svg. Exit codes: 0 the study ran; 1 it ran but something could not be
+/// compared or saved (the message names the failures); 2 the command line or a setting is
+/// wrong; 130 interrupted (the finished paths are saved: run again with --resume).
+#[derive(Debug, Parser)]
+#[command(name = "sdae-study", version, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    /// The study to run.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// Options of the default convergence study.
+    #[command(flatten)]
+    pub convergence: ConvergenceArgs,
+}
+
+/// The studies and tools.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Strong errors against a fine reference, orders and run time (the default).
+    Convergence(ConvergenceArgs),
+    /// Failures, residuals and truncation on the stiff and extreme scenes (default: every
+    /// built-in scene with a [stability] table); writes <OUT>/stability/.
+    Stability(EnsembleArgs),
+    /// Kinetic temperature of the Langevin scenes against h and C_eta (default: every
+    /// built-in scene with an [equipartition] table); writes <OUT>/equipartition/.
+    Equipartition(EnsembleArgs),
+    /// Merge the shard files of `--shard I/N` runs into the unsharded report.
+    Merge(MergeArgs),
+    /// One path of each scene as <OUT>/trace/<scene>.svg and .csv (default: every built-in
+    /// scene).
+    Trace(TraceArgs),
+    /// The built-in scenes and the schemes.
+    List,
+}
+
+/// Which scenes to run.
+#[derive(Debug, Clone, Args)]
+pub struct SceneArgs {
+    /// Built-in scenes, comma-separated (`list` shows them).
+    #[arg(long, value_name = "NAMES", value_delimiter = ',',
+          value_parser = PossibleValuesParser::new(BUILT_IN.map(|(name, _)| name)))]
+    pub scene: Vec<String>,
+    /// A scene file (TOML); may be repeated.
+    #[arg(long = "scene-file", value_name = "PATH")]
+    pub scene_file: Vec<PathBuf>,
+}
+
+/// Where results go.
+#[derive(Debug, Clone, Args)]
+pub struct OutArgs {
+    /// Output folder; one subfolder per scene or study.
+    #[arg(
+        long,
+        value_name = "DIR",
+        env = "SDAE_STUDY_OUT",
+        default_value = "target/study"
+    )]
+    pub out: PathBuf,
+}
+
+/// Options of every Monte Carlo study.
+#[derive(Debug, Clone, Args)]
+pub struct EnsembleArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// Monte Carlo paths (default: the scene's).
+    #[arg(long, value_name = "N")]
+    pub paths: Option<usize>,
+    /// Seed of the path streams (default: the scene's, 2026 unless it says otherwise).
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u64>,
+    /// Worker threads (default: the available cores); the numbers do not depend on it.
+    #[arg(long, value_name = "K", value_parser = at_least_one)]
+    pub threads: Option<usize>,
+    /// A small run for CI: fewer paths, the scene's coarsest levels and a reference 2^4 times
+    /// finer than the finest level.
+    #[arg(long)]
+    pub quick: bool,
+    /// Carry on from the paths an interrupted run of the same command saved.
+    #[arg(long)]
+    pub resume: bool,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Options of the convergence study.
+#[derive(Debug, Clone, Args)]
+pub struct ConvergenceArgs {
+    #[command(flatten)]
+    pub ensemble: EnsembleArgs,
+    /// Schemes to compare, comma-separated (default: all that apply).
+    #[arg(long, value_name = "NAMES", value_delimiter = ',', value_parser = scheme_parser())]
+    pub schemes: Vec<SchemeKind>,
+    /// Scheme of the reference (default: half-explicit-practical).
+    #[arg(long = "reference-scheme", value_name = "NAME", value_parser = scheme_parser())]
+    pub reference_scheme: Option<SchemeKind>,
+    /// Step counts N = 2^A .. 2^B (default: the scene's).
+    #[arg(long, value_name = "A..B", value_parser = parse_levels)]
+    pub levels: Option<(u32, u32)>,
+    /// Reference with 2^R steps (default: the scene's).
+    #[arg(long = "ref-level", value_name = "R")]
+    pub ref_level: Option<u32>,
+    /// Final time (default: the scene's).
+    #[arg(long = "t-end", alias = "T", value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Errors are L^p norms over paths (default 2).
+    #[arg(long, value_name = "P")]
+    pub p: Option<f64>,
+    /// Run only paths i with i % N == I and write <OUT>/<scene>/shard-I-of-N.json; `auto`
+    /// takes I and N from a Slurm job array (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT).
+    #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse)]
+    pub shard: Option<ShardArg>,
+}
+
+/// Options of `merge`.
+#[derive(Debug, Clone, Args)]
+pub struct MergeArgs {
+    /// Folders holding shard-*.json files (searched one level deep).
+    #[arg(value_name = "DIR", required = true)]
+    pub dirs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Options of `trace`.
+#[derive(Debug, Clone, Args)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// Seed of the path stream.
+    #[arg(long, value_name = "S", default_value_t = 2026)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
+    PossibleValuesParser::new(SchemeKind::ALL.map(SchemeKind::name))
+        .map(|name| SchemeKind::from_name(&name).expect("one of the possible values"))
+}
+
+fn at_least_one(value: &str) -> Result<usize, String> {
+    match value.parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+fn parse_levels(value: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected A..B with A <= B (say 3..8), got '{value}'");
+    let (a, b) = value.split_once("..").ok_or_else(bad)?;
+    let (a, b) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if a <= b { Ok((a, b)) } else { Err(bad()) }
+}
+
+impl EnsembleArgs {
+    /// Applies the paths, seed and threads given on the command line.
+    pub fn apply(&self, mut s: ConvergenceSettings) -> ConvergenceSettings {
+        s.paths = self.paths.unwrap_or(s.paths);
+        s.seed = self.seed.unwrap_or(s.seed);
+        s.threads = self.threads.unwrap_or(s.threads);
+        s
+    }
+}
+
+impl SceneArgs {
+    /// The scenes named (built-in ones first, then files), or the built-in scenes that
+    /// `default` selects when none is named.
+    pub fn load(&self, default: fn(&Scene) -> bool) -> Result<Vec<Scene>, sdae_study::StudyError> {
+        let mut scenes = Vec::new();
+        for name in &self.scene {
+            scenes.push(Scene::built_in(name)?);
+        }
+        for file in &self.scene_file {
+            scenes.push(Scene::from_file(file)?);
+        }
+        if scenes.is_empty() {
+            for (name, _) in BUILT_IN {
+                let scene = Scene::built_in(name)?;
+                if default(&scene) {
+                    scenes.push(scene);
+                }
+            }
+        }
+        Ok(scenes)
+    }
+}
+
+impl ConvergenceArgs {
+    /// The convergence settings of `scene`: its defaults, the levels given, then with `--quick`
+    /// at most 200 paths, five levels (unless given) and a reference 2^4 times finer than the
+    /// finest, then the command line's other values.
+    pub fn settings(&self, scene: &Scene) -> ConvergenceSettings {
+        let mut s = ConvergenceSettings::for_scene(scene);
+        if let Some((a, b)) = self.levels {
+            s.coarsest = a;
+            s.finest = b;
+        }
+        if self.ensemble.quick {
+            s.paths = s.paths.min(200);
+            if self.levels.is_none() {
+                s.finest = s.finest.min(s.coarsest + 4);
+            }
+            s.reference = Some(s.finest + 4);
+        }
+        if !self.schemes.is_empty() {
+            s.schemes = self.schemes.clone();
+        }
+        s.reference_scheme = self.reference_scheme.unwrap_or(s.reference_scheme);
+        s.reference = self.ref_level.or(s.reference);
+        s.t_end = self.t_end.unwrap_or(s.t_end);
+        s.p = self.p.unwrap_or(s.p);
+        self.ensemble.apply(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn levels_and_threads_are_checked() {
+        assert_eq!(parse_levels("3..8"), Ok((3, 8)));
+        assert!(parse_levels("8..3").is_err());
+        assert!(parse_levels("3-8").is_err());
+        assert_eq!(at_least_one("2"), Ok(2));
+        assert!(at_least_one("0").is_err());
+    }
+}

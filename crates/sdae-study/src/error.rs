@@ -1,0 +1,113 @@
+//! The one error type of the studies: scene files, settings, schemes, shards and output.
+//!
+//! Settings are named by their key in a scene file (`study.paths`) or, for those a scene file
+//! does not hold, by their field in [`ConvergenceSettings`](crate::convergence::ConvergenceSettings)
+//! (`p`, `threads`); the command line maps the keys to its flags.
+
+use std::path::PathBuf;
+
+use sdae_model::ModelError;
+use thiserror::Error;
+
+use crate::scene::BUILT_IN;
+
+/// Why a study cannot run, or cannot save what it computed.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum StudyError {
+    /// The file is not valid TOML or does not fit the scene format (the message names the key).
+    #[error("scene file {file}: {message}")]
+    Format {
+        /// The file (or "<inline>").
+        file: String,
+        /// What is wrong, naming the key.
+        message: String,
+    },
+    /// The file cannot be read.
+    #[error("cannot read scene file {file}: {message}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The system's message.
+        message: String,
+    },
+    /// A value is out of range or the parts do not fit together.
+    #[error("scene {scene}: {message}")]
+    Invalid {
+        /// The scene's name.
+        scene: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// No built-in scene of that name.
+    #[error("no built-in scene '{0}' (built-in: {list})", list = BUILT_IN.map(|(n, _)| n).join(", "))]
+    Unknown(String),
+    /// A study setting is out of range.
+    #[error("{key} = {value}: {rule}")]
+    Setting {
+        /// The setting's key in a scene file (`study.paths`) or its settings field (`p`).
+        key: &'static str,
+        /// The offending value, as written.
+        value: String,
+        /// What it must satisfy.
+        rule: String,
+    },
+    /// A scheme does not apply to the scene's system.
+    #[error("scheme {scheme} does not apply: {reason}")]
+    SchemeNotApplicable {
+        /// The scheme's name.
+        scheme: String,
+        /// Why.
+        reason: String,
+    },
+    /// Shards that do not make up one study.
+    #[error("cannot merge the shards: {reason}")]
+    Merge {
+        /// What does not fit.
+        reason: String,
+    },
+    /// A report, shard or plot could not be written.
+    #[error("cannot write {}: {message}", path.display())]
+    Write {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's or the plotting library's message.
+        message: String,
+    },
+    /// A shard or checkpoint file cannot be read, or is not one.
+    #[error("cannot read {}: {message}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The system's or the JSON reader's message.
+        message: String,
+    },
+    /// The paths saved by an interrupted run belong to another study than the one resumed.
+    #[error("cannot resume from {}: {reason}", path.display())]
+    Resume {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What differs.
+        reason: String,
+    },
+    /// The worker threads could not be started.
+    #[error("cannot start {threads} worker threads: {message}")]
+    Threads {
+        /// How many were asked for.
+        threads: usize,
+        /// The thread pool's message.
+        message: String,
+    },
+    /// A time grid or path plan of a study is invalid.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+
+impl StudyError {
+    /// [`StudyError::Write`] for `path` from any error.
+    pub fn write(path: impl Into<PathBuf>, error: impl std::fmt::Display) -> Self {
+        StudyError::Write {
+            path: path.into(),
+            message: error.to_string(),
+        }
+    }
+}

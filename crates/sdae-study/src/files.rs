@@ -1,0 +1,84 @@
+//! Writing result files so that a reader never sees half a file: each is written to a
+//! temporary file in the same folder and renamed into place (a rename within one file system
+//! is atomic), so an interrupted run leaves the previous file or the new one, never a torn one.
+
+use std::path::Path;
+
+use crate::error::StudyError;
+
+/// Writes `contents` to `path` atomically, creating the folder if needed.
+pub fn write_atomically(path: &Path, contents: &str) -> Result<(), StudyError> {
+    let fail = |e: std::io::Error| StudyError::write(path, e);
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(fail)?;
+    }
+    let mut temporary = path.as_os_str().to_owned();
+    temporary.push(format!(".{}.tmp", std::process::id()));
+    std::fs::write(&temporary, contents).map_err(fail)?;
+    std::fs::rename(&temporary, path).map_err(|e| {
+        let _ = std::fs::remove_file(&temporary);
+        fail(e)
+    })
+}
+
+/// Serializes `value` as pretty JSON (with a final newline) and writes it atomically.
+pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), StudyError> {
+    let json = serde_json::to_string_pretty(value).map_err(|e| StudyError::write(path, e))?;
+    write_atomically(path, &(json + "\n"))
+}
+
+/// Reads a JSON file written by [`write_json`].
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StudyError> {
+    let fail = |message: String| StudyError::Read {
+        path: path.into(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+    serde_json::from_str(&text).map_err(|e| fail(e.to_string()))
+}
+
+/// The fields of a report that differ between runs of one study: timings and the thread count.
+pub const RUN_DEPENDENT: [&str; 3] = ["seconds_per_path", "steps_per_second", "threads"];
+
+/// A report (or shard) in JSON without its [`RUN_DEPENDENT`] fields: what is equal for every
+/// run of one study, sharded and merged, interrupted and resumed, on any thread count.
+pub fn numbers_of(json: &str) -> Result<serde_json::Value, serde_json::Error> {
+    fn strip(value: &mut serde_json::Value) {
+        match value {
+            serde_json::Value::Object(map) => {
+                for key in RUN_DEPENDENT {
+                    map.remove(key);
+                }
+                map.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut value = serde_json::from_str(json)?;
+    strip(&mut value);
+    Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_replace_whole_files_and_leave_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("sdae-files-{}", std::process::id()));
+        let path = dir.join("nested").join("report.json");
+        write_atomically(&path, "first").unwrap();
+        write_atomically(&path, "second").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "second");
+        let left: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().collect();
+        assert_eq!(left.len(), 1, "a temporary file was left behind");
+        // A folder that cannot be created is a typed error naming the path.
+        let blocked = path.join("under-a-file.json");
+        assert!(matches!(
+            write_atomically(&blocked, "x"),
+            Err(StudyError::Write { .. })
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

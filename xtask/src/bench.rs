@@ -1,5 +1,6 @@
-//! `cargo xtask bench`: runs the criterion benchmarks of `sdae-scheme` (benches/step.rs) and
-//! summarizes them in `target/bench/summary.json`.
+//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble)
+//! and `sdae-systems` (fiber) and summarizes the step and ensemble figures in
+//! `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -9,8 +10,14 @@ use serde_json::{Map, Value, json};
 
 use crate::{TaskError, target_dir, workspace_root};
 
+/// Paths of the `pendulum_ensemble` group (as in crates/sdae-scheme/benches/ensemble.rs).
+const ENSEMBLE_PATHS: u64 = 512;
+
 /// Bead counts of the `chain_step` group (as in crates/sdae-scheme/benches/step.rs).
 const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
+
+/// The benchmarked packages: every bench target of each runs.
+const PACKAGES: [&str; 2] = ["sdae-scheme", "sdae-systems"];
 
 /// Criterion options of `--quick`.
 const QUICK_OPTIONS: [&str; 4] = ["--warm-up-time", "0.5", "--measurement-time", "1"];
@@ -61,15 +68,20 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     let mut command = Command::new(&cargo);
     command
         .current_dir(&root)
-        .args(["bench", "-p", "sdae-scheme", "--bench", "step"])
+        .args(["bench", "--benches"])
+        .args(PACKAGES.iter().flat_map(|p| ["-p", p]))
         .env("CARGO_TARGET_DIR", &target)
         .env("CRITERION_HOME", &criterion_home);
     if !criterion_args.is_empty() {
         command.arg("--").args(&criterion_args);
     }
-    eprintln!(
-        "running: {} bench -p sdae-scheme --bench step{}",
+    let bench_command = format!(
+        "{} bench --benches {}",
         Path::new(&cargo).display(),
+        PACKAGES.map(|p| format!("-p {p}")).join(" ")
+    );
+    eprintln!(
+        "running: {bench_command}{}",
         if criterion_args.is_empty() {
             String::new()
         } else {
@@ -86,7 +98,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     })?;
     if !status.success() {
         return Err(TaskError::Failed(format!(
-            "`cargo bench -p sdae-scheme --bench step` failed ({status})"
+            "`{bench_command}` failed ({status})"
         )));
     }
 
@@ -102,6 +114,15 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         per_step.push((beads, ns));
     }
 
+    // Criterion's time per iteration of an ensemble step is for every path of the ensemble.
+    let ensemble_paths = ENSEMBLE_PATHS as f64;
+    let ensemble = |id: &str| -> Result<f64, TaskError> {
+        Ok(read_mean_ns(&criterion_home, "pendulum_ensemble", Some(id), started)? / ensemble_paths)
+    };
+    let ensemble_with_normals = ensemble("with_normals")?;
+    let ensemble_step_only = ensemble("step_only")?;
+    let ensemble_one_lane = ensemble("step_only_one_lane")?;
+
     let mut per_bead = Map::new();
     let mut chain_step = Map::new();
     for &(beads, ns) in &per_step {
@@ -112,6 +133,10 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_step_ns": pendulum,
         "chain_step_ns_per_bead": per_bead,
         "chain_step_ns": chain_step,
+        "pendulum_ensemble_ns_per_path_step": ensemble_with_normals,
+        "pendulum_ensemble_step_only_ns_per_path_step": ensemble_step_only,
+        "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
+        "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "quick": options.quick,
         "criterion_args": criterion_args,
         "machine": machine(),
@@ -136,6 +161,17 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         let name = format!("chain_step/{beads}");
         println!("{name:<20} {ns:>14.1} {:>16.2}", ns / beads as f64);
     }
+    println!(
+        "{:<20} {:>14.1} {:>16}   ({:.1}x pendulum_step)",
+        "pendulum_ensemble",
+        ensemble_with_normals,
+        "",
+        pendulum / ensemble_with_normals
+    );
+    println!(
+        "{:<20} {:>14.1} {:>16}   (one lane: {:.1})",
+        "  step only", ensemble_step_only, "", ensemble_one_lane
+    );
     println!("\nsummary written to {}", out.display());
     Ok(())
 }

@@ -36,7 +36,7 @@ tasks:
         quick study as a 4-task job array, merge, compare with the unsharded run, stop
         the daemons (docs/cluster.md)
   bench [--quick] [-- <criterion options>]
-        run `cargo bench -p sdae-scheme --bench step` and write target/bench/summary.json
+        run every benchmark of sdae-scheme and sdae-systems and write target/bench/summary.json
         (--quick: short warm-up and measurement times)
   help  print this message";
 

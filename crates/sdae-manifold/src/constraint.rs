@@ -95,6 +95,11 @@ pub trait Constraint {
         let _ = (x, v, a);
         None
     }
+    /// This constraint as a [`Sphere`](crate::Sphere), if it is one: an ensemble of paths then
+    /// steps it with the sphere's closed forms in SIMD lanes. `None` (the default) otherwise.
+    fn as_sphere(&self) -> Option<&crate::Sphere> {
+        None
+    }
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {

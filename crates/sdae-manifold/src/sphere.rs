@@ -39,6 +39,11 @@ impl Sphere {
     pub fn radius(&self) -> f64 {
         self.radius
     }
+
+    /// 1 / rho^2, as g and its derivatives use it.
+    pub fn inverse_radius_squared(&self) -> f64 {
+        self.inv_r2
+    }
 }
 
 impl Constraint for Sphere {
@@ -146,11 +151,14 @@ impl Constraint for Sphere {
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         self.roundoff(max_abs_x)
     }
+    fn as_sphere(&self) -> Option<&Sphere> {
+        Some(self)
+    }
 }
 
 impl Sphere {
     /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
-    fn roundoff(&self, max_abs_x: f64) -> f64 {
+    pub fn roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * (self.dim as f64) * max_abs_x * max_abs_x * self.inv_r2
     }
 }

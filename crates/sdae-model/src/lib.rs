@@ -74,6 +74,7 @@ mod driver;
 mod error;
 mod grid;
 mod increments;
+pub mod lanes;
 mod observer;
 mod scheme;
 mod system;

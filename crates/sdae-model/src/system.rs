@@ -1,8 +1,10 @@
 //! The system of seed eq. 1.1: M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu, g(r) = 0.
 
+use pulp::Simd;
 use sdae_manifold::{Constraint, Mass};
 
 use crate::error::{ModelError, check_dim, check_step_size};
+use crate::lanes::Lanes;
 
 /// Everything the stepper needs to know about a constrained stochastic mechanical system.
 pub trait System {
@@ -20,12 +22,40 @@ pub trait System {
     fn noise_dim(&self) -> usize;
     /// out += B(r, v) dw.
     fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
+    /// out = a(r, v) for W paths at once: coordinate i of every path in `r[i]`, `v[i]`,
+    /// `out[i]`. Returns `false` if the system has no lane form (the default); an ensemble
+    /// then steps its paths one at a time.
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        let _ = (r, v, out);
+        false
+    }
+    /// out += B(r, v) dw for W paths at once (layout of [`System::drift_lanes`]); `false` if
+    /// the system has no lane form (the default).
+    #[inline(always)]
+    fn add_noise_lanes<S: Simd>(
+        &self,
+        r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        let _ = (r, v, dw, out);
+        false
+    }
 }
 
 /// The drift a(r, v).
 pub trait Drift {
     /// out = a(r, v).
     fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
+    /// out = a(r, v) for W paths at once ([`System::drift_lanes`]); `false` if there is no
+    /// lane form (the default, e.g. for a closure).
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        let _ = (r, v, out);
+        false
+    }
 }
 
 impl<F: Fn(&[f64], &[f64], &mut [f64])> Drift for F {
@@ -43,6 +73,13 @@ impl Drift for ZeroDrift {
     fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
         out.fill(0.0);
     }
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        for (o, vi) in out.iter_mut().zip(v) {
+            *o = vi.splat_like(0.0);
+        }
+        true
+    }
 }
 
 /// The noise B(r, v) applied to increments dw.
@@ -51,6 +88,19 @@ pub trait Noise {
     fn dim(&self) -> usize;
     /// out += B(r, v) dw.
     fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
+    /// out += B(r, v) dw for W paths at once ([`System::add_noise_lanes`]); `false` if there
+    /// is no lane form (the default, e.g. for a closure).
+    #[inline(always)]
+    fn add_lanes<S: Simd>(
+        &self,
+        r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        let _ = (r, v, dw, out);
+        false
+    }
 }
 
 /// B = 0, l = 0: no random numbers are drawn.
@@ -63,6 +113,16 @@ impl Noise for NoNoise {
     }
     #[inline(always)]
     fn add(&self, _r: &[f64], _v: &[f64], _dw: &[f64], _out: &mut [f64]) {}
+    #[inline(always)]
+    fn add_lanes<S: Simd>(
+        &self,
+        _r: &[Lanes<S>],
+        _v: &[Lanes<S>],
+        _dw: &[Lanes<S>],
+        _out: &mut [Lanes<S>],
+    ) -> bool {
+        true
+    }
 }
 
 /// Additive noise B = sigma I_n (l = n; l = 0 for sigma = 0, so that a noise-free system draws
@@ -102,6 +162,19 @@ impl Noise for AdditiveNoise {
         for (o, w) in out.iter_mut().zip(dw) {
             *o += self.sigma * w;
         }
+    }
+    #[inline(always)]
+    fn add_lanes<S: Simd>(
+        &self,
+        _r: &[Lanes<S>],
+        _v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        for (o, &w) in out.iter_mut().zip(dw) {
+            *o = *o + w * self.sigma;
+        }
+        true
     }
 }
 
@@ -179,6 +252,20 @@ impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, 
     #[inline]
     fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
         self.noise.add(r, v, dw, out)
+    }
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        self.drift.drift_lanes(r, v, out)
+    }
+    #[inline(always)]
+    fn add_noise_lanes<S: Simd>(
+        &self,
+        r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        self.noise.add_lanes(r, v, dw, out)
     }
 }
 

@@ -13,6 +13,7 @@
 //!
 //! - [`StepperConfig`] (C_eta, C_kappa, solver settings; theory defaults from C_g),
 //! - [`Stepper`] (the system, the constants and the buffers of one path),
+//! - [`Ensemble`] (many paths of one system stepped together in SIMD lanes),
 //! - [`runaway_bound`] (the C_eta below which truncated steps keep a rotor's energy bounded).
 //!
 //! ```
@@ -33,11 +34,13 @@
 //! ```
 
 mod config;
+mod ensemble;
 mod error;
 mod runaway;
 mod stepper;
 
 pub use config::StepperConfig;
+pub use ensemble::{Ensemble, LaneWidth};
 pub use error::SchemeError;
 pub use runaway::runaway_bound;
 pub use stepper::Stepper;

@@ -1,7 +1,9 @@
 //! The stochastic pendulum of seed Section 5.1, planar (d = 2) or spherical (d = 3):
 //! dv = (-c_g e_d - gamma v) dt + sigma dw - r dmu / rho^2, |r| = rho, unit mass.
 
+use pulp::Simd;
 use sdae_manifold::{IdentityMass, Sphere};
+use sdae_model::lanes::Lanes;
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem};
 use serde::{Deserialize, Serialize};
 
@@ -25,6 +27,16 @@ impl Drift for PendulumDrift {
         if let Some(last) = out.last_mut() {
             *last -= self.gravity;
         }
+    }
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        for (o, &vi) in out.iter_mut().zip(v) {
+            *o = vi * -self.friction;
+        }
+        if let Some(last) = out.last_mut() {
+            *last = *last - self.gravity;
+        }
+        true
     }
 }
 

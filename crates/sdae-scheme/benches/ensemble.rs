@@ -1,0 +1,146 @@
+//! Speed of the ensemble engine: many paths of the planar unit pendulum stepped together in SIMD
+//! lanes, per path-step (the work of one `pendulum_step` in benches/step.rs).
+//!
+//! - `pendulum_ensemble/with_normals`: each step draws every path's two Gaussian numbers from
+//!   its own stream and steps all paths at the processor's widest lane width: the same work as
+//!   `pendulum_step`, random numbers included.
+//! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
+//! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
+//!   the lanes gain.
+//!
+//! The states are put back to the initial state every [`RESET_EVERY`] steps, as in
+//! benches/step.rs. Throughput is reported per path-step (criterion's elements).
+//!
+//! Run with `cargo bench -p sdae-scheme --bench ensemble`, or `cargo xtask bench`.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_systems::{Pendulum, PendulumParams, pendulum};
+
+/// Paths of the ensemble: 16 KiB of state, in the first-level cache.
+const PATHS: usize = 512;
+
+/// Steps between resets of the states.
+const RESET_EVERY: usize = 1000;
+
+/// Increments drawn beforehand for `step_only` (cycled).
+const DRAWN_STEPS: usize = 64;
+
+/// Step size, as `pendulum_step`.
+const H: f64 = 1e-3;
+
+/// Seed of the paths' streams.
+const SEED: u64 = 2024;
+
+const R0: [f64; 2] = [1.0, 0.0];
+const V0: [f64; 2] = [0.0, 1.0];
+
+/// An ensemble, its paths' streams and a buffer of increments.
+struct Bench {
+    ensemble: Ensemble<Pendulum>,
+    noise: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
+    drawn: Vec<Vec<f64>>,
+    steps: usize,
+}
+
+impl Bench {
+    fn new() -> Self {
+        let system = pendulum(PendulumParams::default()).expect("pendulum parameters");
+        let config = StepperConfig::for_system(&system)
+            .and_then(|c| c.with_c_eta(1.0))
+            .expect("pendulum stepper config");
+        let stepper = Stepper::new(system, config).expect("pendulum stepper");
+        let ensemble = Ensemble::new(stepper, PATHS, &R0, &V0).expect("ensemble");
+        let mut noise: Vec<_> = (0..PATHS)
+            .map(|p| GaussianIncrements::for_path(SEED, p as u64, 2))
+            .collect();
+        let stride = ensemble.stride();
+        let drawn = (0..DRAWN_STEPS)
+            .map(|_| {
+                let mut dw = vec![0.0; 2 * stride];
+                draw(&mut noise, stride, &mut dw);
+                dw
+            })
+            .collect();
+        Self {
+            ensemble,
+            noise,
+            drawn,
+            steps: 0,
+        }
+    }
+
+    fn reset_if_due(&mut self) {
+        if self.steps.is_multiple_of(RESET_EVERY) {
+            for p in 0..PATHS {
+                self.ensemble.set_state(p, &R0, &V0).expect("reset");
+            }
+        }
+        self.steps += 1;
+    }
+
+    /// One step of every path on increments drawn beforehand.
+    fn step_drawn(&mut self, width: LaneWidth) -> usize {
+        self.reset_if_due();
+        let dw = &self.drawn[self.steps % DRAWN_STEPS];
+        self.ensemble.step(H, dw, width).expect("step input")
+    }
+
+    /// Draws every path's increment, then steps every path.
+    fn step_with_normals(&mut self, dw: &mut [f64]) -> usize {
+        self.reset_if_due();
+        draw(&mut self.noise, self.ensemble.stride(), dw);
+        self.ensemble
+            .step(H, dw, LaneWidth::Best)
+            .expect("step input")
+    }
+}
+
+/// dw[j * stride + p] = increment j of path p, from path p's own stream.
+fn draw(
+    noise: &mut [GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>],
+    stride: usize,
+    dw: &mut [f64],
+) {
+    let mut one = [0.0; 2];
+    for (p, source) in noise.iter_mut().enumerate() {
+        source.next_increment(H, &mut one);
+        dw[p] = one[0];
+        dw[stride + p] = one[1];
+    }
+}
+
+fn bench_pendulum_ensemble(c: &mut Criterion) {
+    eprintln!(
+        "pendulum_ensemble: {PATHS} paths, {} lanes at once",
+        LaneWidth::Best.lanes()
+    );
+    let mut group = c.benchmark_group("pendulum_ensemble");
+    group.throughput(Throughput::Elements(PATHS as u64));
+    let mut bench = Bench::new();
+    let mut dw = vec![0.0; 2 * bench.ensemble.stride()];
+    group.bench_function("with_normals", |b| {
+        b.iter(|| black_box(bench.step_with_normals(&mut dw)))
+    });
+    let mut bench = Bench::new();
+    group.bench_function("step_only", |b| {
+        b.iter(|| black_box(bench.step_drawn(LaneWidth::Best)))
+    });
+    let mut bench = Bench::new();
+    group.bench_function("step_only_one_lane", |b| {
+        b.iter(|| black_box(bench.step_drawn(LaneWidth::One)))
+    });
+    group.finish();
+    assert_eq!(bench.ensemble.failed_paths(), 0, "a pendulum path failed");
+    assert_eq!(
+        bench.ensemble.scalar_steps(),
+        0,
+        "the lanes left steps to the scalar stepper"
+    );
+}
+
+criterion_group!(benches, bench_pendulum_ensemble);
+criterion_main!(benches);

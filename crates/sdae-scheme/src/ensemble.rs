@@ -1,0 +1,334 @@
+//! Many independent paths of one system, stepped together in SIMD lanes (seed eq. 3.1, 3.2).
+//!
+//! An [`Ensemble`] holds P paths in structure-of-arrays layout (coordinate i of path p at
+//! `i * stride + p`, stride = P rounded up to a multiple of 8) and advances W of them at once,
+//! W the width of the instruction set chosen at run time ([`LaneWidth`]): 1 (scalar), 4
+//! (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal mass and a
+//! system with a lane form ([`System::drift_lanes`], [`System::add_noise_lanes`]) the step is
+//! the closed form of [`Stepper`] written once over [`Lanes`]; a lane the closed form does not
+//! decide (no root, a root outside the ball or not contracting, a non-finite value) finishes
+//! its step through the scalar [`Stepper`], which reports the failure exactly as for one
+//! path. Any other system steps its paths one at a time through the scalar [`Stepper`].
+//!
+//! Lane p computes exactly what a lane of any other width computes: a path's numbers do not
+//! depend on W, on the other paths or on how paths are split across ensembles or threads.
+//!
+//! ```
+//! use sdae_model::GaussianIncrements;
+//! use sdae_model::IncrementSource;
+//! use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+//! use sdae_systems::{PendulumParams, pendulum};
+//! let system = pendulum(PendulumParams::default())?;
+//! let config = StepperConfig::for_system(&system)?.with_c_eta(1.0)?;
+//! let mut ensemble = Ensemble::new(Stepper::new(system, config)?, 100, &[1.0, 0.0], &[0.0, 0.5])?;
+//! let mut noise: Vec<_> = (0..100).map(|p| GaussianIncrements::for_path(7, p, 2)).collect();
+//! let (h, stride) = (1e-3, ensemble.stride());
+//! let mut dw = vec![0.0; 2 * stride];
+//! let mut one = [0.0; 2];
+//! for _ in 0..1000 {
+//!     for (p, source) in noise.iter_mut().enumerate() {
+//!         source.next_increment(h, &mut one);
+//!         dw[p] = one[0];
+//!         dw[stride + p] = one[1];
+//!     }
+//!     ensemble.step(h, &dw, LaneWidth::Best)?;
+//! }
+//! assert_eq!(ensemble.failed_paths(), 0);
+//! let (mut r, mut v) = ([0.0; 2], [0.0; 2]);
+//! ensemble.state(17, &mut r, &mut v)?;
+//! assert!((r[0] * r[0] + r[1] * r[1] - 1.0).abs() < 1e-12);
+//! assert_eq!(ensemble.diagnostics(17)?.steps, 1000);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod sphere;
+
+use pulp::{Simd, WithSimd};
+use sdae_manifold::Constraint;
+use sdae_model::lanes::Lanes;
+use sdae_model::{ModelError, PathDiagnostics, Scheme, StepFailure, System, check_dim};
+
+use crate::error::SchemeError;
+use crate::stepper::Stepper;
+
+/// Paths are stored in blocks of this many lanes, the widest instruction set's W.
+const BLOCK: usize = 8;
+
+/// The instruction set, and with it the number W of paths stepped at once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LaneWidth {
+    /// The widest this processor runs: 8 with AVX-512, 4 with AVX2, else 1.
+    #[default]
+    Best,
+    /// One path at a time, in plain f64.
+    One,
+    /// Four paths (AVX2 where the processor has it, else four f64 in turn).
+    Four,
+    /// Eight paths (AVX-512 where the processor has it, else eight f64 in turn).
+    Eight,
+}
+
+impl LaneWidth {
+    /// Runs `op` with the instruction set of this width.
+    fn dispatch<Op: WithSimd>(self, op: Op) -> Op::Output {
+        match self {
+            LaneWidth::Best => pulp::Arch::new().dispatch(op),
+            LaneWidth::One => Simd::vectorize(pulp::Scalar, op),
+            LaneWidth::Four => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V3::try_new() {
+                    return Simd::vectorize(simd, op);
+                }
+                Simd::vectorize(pulp::Scalar256b, op)
+            }
+            LaneWidth::Eight => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V4::try_new() {
+                    return Simd::vectorize(simd, op);
+                }
+                Simd::vectorize(pulp::Scalar512b, op)
+            }
+        }
+    }
+
+    /// W: the number of paths this width steps at once on this processor.
+    pub fn lanes(self) -> usize {
+        struct Width;
+        impl WithSimd for Width {
+            type Output = usize;
+            fn with_simd<S: Simd>(self, _simd: S) -> usize {
+                S::F64_LANES
+            }
+        }
+        self.dispatch(Width)
+    }
+}
+
+/// P paths of one system and the scalar stepper that decides what the lanes do not.
+pub struct Ensemble<S: System> {
+    stepper: Stepper<S>,
+    paths: usize,
+    stride: usize,
+    /// Positions, coordinate i of path p at `i * stride + p`.
+    r: Vec<f64>,
+    /// Velocities, same layout.
+    v: Vec<f64>,
+    /// 1 for a path that goes on, 0 for a stopped path or a padding lane.
+    alive: Vec<f64>,
+    /// Why each path stopped.
+    failures: Vec<Option<StepFailure>>,
+    diagnostics: Vec<PathDiagnostics>,
+    /// Path-steps taken by the scalar stepper.
+    scalar_steps: usize,
+    /// One path's r, v and dw for the scalar stepper.
+    lane_r: Vec<f64>,
+    lane_v: Vec<f64>,
+    lane_dw: Vec<f64>,
+}
+
+impl<S: System> Ensemble<S> {
+    /// `paths` >= 1 paths of `stepper`'s system, each starting at (r0, v0) (not checked to be
+    /// on the manifold, as for one path).
+    pub fn new(
+        stepper: Stepper<S>,
+        paths: usize,
+        r0: &[f64],
+        v0: &[f64],
+    ) -> Result<Self, SchemeError> {
+        if paths == 0 {
+            return Err(SchemeError::invalid(
+                "paths",
+                0.0,
+                "an ensemble needs at least one path",
+            ));
+        }
+        let n = stepper.system().constraint().dim();
+        let l = stepper.system().noise_dim();
+        check_dim("initial position", n, r0.len())?;
+        check_dim("initial velocity", n, v0.len())?;
+        let stride = paths.div_ceil(BLOCK) * BLOCK;
+        let mut r = vec![0.0; n * stride];
+        let mut v = vec![0.0; n * stride];
+        for i in 0..n {
+            // Padding lanes hold the initial state too, so that they compute finite numbers.
+            r[i * stride..(i + 1) * stride].fill(r0[i]);
+            v[i * stride..(i + 1) * stride].fill(v0[i]);
+        }
+        let mut alive = vec![0.0; stride];
+        alive[..paths].fill(1.0);
+        Ok(Self {
+            stepper,
+            paths,
+            stride,
+            r,
+            v,
+            alive,
+            failures: vec![None; paths],
+            diagnostics: vec![PathDiagnostics::default(); paths],
+            scalar_steps: 0,
+            lane_r: vec![0.0; n],
+            lane_v: vec![0.0; n],
+            lane_dw: vec![0.0; l],
+        })
+    }
+
+    /// The number P of paths.
+    pub fn paths(&self) -> usize {
+        self.paths
+    }
+
+    /// The stride of the layout: coordinate i of path p is entry `i * stride + p` of the
+    /// positions, the velocities and the increments passed to [`Ensemble::step`].
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The scalar stepper (system and constants).
+    pub fn stepper(&self) -> &Stepper<S> {
+        &self.stepper
+    }
+
+    /// Sets path `p` to (r, v) and lets it go on if it had stopped.
+    pub fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), SchemeError> {
+        self.check_path(p)?;
+        check_dim("position", self.lane_r.len(), r.len())?;
+        check_dim("velocity", self.lane_v.len(), v.len())?;
+        scatter(&mut self.r, self.stride, p, r);
+        scatter(&mut self.v, self.stride, p, v);
+        self.alive[p] = 1.0;
+        self.failures[p] = None;
+        Ok(())
+    }
+
+    /// Copies the state of path `p` into (r, v).
+    pub fn state(&self, p: usize, r: &mut [f64], v: &mut [f64]) -> Result<(), SchemeError> {
+        self.check_path(p)?;
+        check_dim("position", self.lane_r.len(), r.len())?;
+        check_dim("velocity", self.lane_v.len(), v.len())?;
+        gather(&self.r, self.stride, p, r);
+        gather(&self.v, self.stride, p, v);
+        Ok(())
+    }
+
+    /// The diagnostics of path `p`'s steps so far.
+    pub fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, SchemeError> {
+        self.check_path(p)?;
+        Ok(&self.diagnostics[p])
+    }
+
+    /// Why path `p` stopped, or `None` while it goes on.
+    pub fn failure(&self, p: usize) -> Result<Option<&StepFailure>, SchemeError> {
+        self.check_path(p)?;
+        Ok(self.failures[p].as_ref())
+    }
+
+    /// How many path-steps went through the scalar stepper (all of them for a system without
+    /// a lane form; for a sphere, the steps the closed form did not decide).
+    pub fn scalar_steps(&self) -> usize {
+        self.scalar_steps
+    }
+
+    /// How many paths have stopped on a failed step.
+    pub fn failed_paths(&self) -> usize {
+        self.failures.iter().filter(|f| f.is_some()).count()
+    }
+
+    /// Advances every path that goes on by one step of size h with Brownian increments `dw`
+    /// (coordinate j of path p at `j * stride + p`, length l * stride). A path whose step fails
+    /// keeps its state and stops; the failure is kept ([`Ensemble::failure`]) and the other
+    /// paths go on. Returns the number of paths that stopped in this step.
+    pub fn step(&mut self, h: f64, dw: &[f64], width: LaneWidth) -> Result<usize, SchemeError> {
+        sdae_model::check_step_size(h).map_err(SchemeError::Model)?;
+        check_dim(
+            "increments (l * stride)",
+            self.lane_dw.len() * self.stride,
+            dw.len(),
+        )?;
+        let before = self.failed_paths();
+        let lane_form = self
+            .stepper
+            .system()
+            .constraint()
+            .as_sphere()
+            .is_some_and(|s| s.dim() <= sphere::MAX_DIM);
+        if lane_form {
+            width.dispatch(sphere::StepAll {
+                ensemble: self,
+                h,
+                dw,
+            });
+        } else {
+            for p in 0..self.paths {
+                self.step_one(p, h, dw);
+            }
+        }
+        Ok(self.failed_paths() - before)
+    }
+
+    /// Path p's step through the scalar stepper (skipped if the path has stopped).
+    fn step_one(&mut self, p: usize, h: f64, dw: &[f64]) {
+        if self.alive[p] == 0.0 {
+            return;
+        }
+        self.scalar_steps += 1;
+        gather(&self.r, self.stride, p, &mut self.lane_r);
+        gather(&self.v, self.stride, p, &mut self.lane_v);
+        gather(dw, self.stride, p, &mut self.lane_dw);
+        match self
+            .stepper
+            .step(&mut self.lane_r, &mut self.lane_v, h, &self.lane_dw)
+        {
+            Ok(outcome) => {
+                scatter(&mut self.r, self.stride, p, &self.lane_r);
+                scatter(&mut self.v, self.stride, p, &self.lane_v);
+                self.diagnostics[p].record(&outcome, h);
+            }
+            Err(failure) => {
+                self.alive[p] = 0.0;
+                self.failures[p] = Some(failure);
+            }
+        }
+    }
+
+    fn check_path(&self, p: usize) -> Result<(), SchemeError> {
+        if p < self.paths {
+            Ok(())
+        } else {
+            Err(SchemeError::Model(ModelError::DimensionMismatch {
+                what: "path index (must be below the number of paths)",
+                expected: self.paths,
+                found: p,
+            }))
+        }
+    }
+}
+
+/// out[i] = from[i * stride + p].
+fn gather(from: &[f64], stride: usize, p: usize, out: &mut [f64]) {
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = from[i * stride + p];
+    }
+}
+
+/// to[i * stride + p] = values[i].
+fn scatter(to: &mut [f64], stride: usize, p: usize, values: &[f64]) {
+    for (i, x) in values.iter().enumerate() {
+        to[i * stride + p] = *x;
+    }
+}
+
+/// Loads coordinate i of the W paths from `offset` of each coordinate's row.
+#[inline(always)]
+fn load_rows<Sd: Simd, const N: usize>(
+    simd: Sd,
+    from: &[f64],
+    stride: usize,
+    offset: usize,
+    rows: usize,
+) -> [Lanes<Sd>; N] {
+    let mut out = [Lanes::splat(simd, 0.0); N];
+    for (i, o) in out.iter_mut().enumerate().take(rows) {
+        *o = Lanes::load(simd, &from[i * stride + offset..]);
+    }
+    out
+}

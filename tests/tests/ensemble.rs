@@ -1,0 +1,279 @@
+//! The ensemble engine: W = 1, 4 and 8 lanes give bit-identical paths, which agree with the
+//! scalar stepper on the same increments; failed lanes stop and are reported as one path's
+//! failure is; systems without a lane form go through the scalar stepper; bad input is a typed
+//! error.
+
+use sdae_manifold::{IdentityMass, Sphere};
+use sdae_model::{
+    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathDiagnostics, Scheme,
+    StepFailure, System,
+};
+use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_systems::{Pendulum, PendulumParams, pendulum};
+
+const PATHS: usize = 37;
+const STEPS: usize = 400;
+const H: f64 = 0.02;
+
+fn noisy_pendulum(dim: usize) -> Pendulum {
+    pendulum(PendulumParams {
+        dim,
+        length: 1.5,
+        gravity: 1.0,
+        noise: 3.0,
+        friction: 0.5,
+    })
+    .unwrap()
+}
+
+/// Truncated often enough that both branches of eta are taken.
+fn configs<S: System>(system: &S) -> Vec<(&'static str, StepperConfig)>
+where
+    S::Constraint: sdae_manifold::TheoryBound,
+{
+    let practical = StepperConfig::for_system(system)
+        .unwrap()
+        .with_c_eta(0.05)
+        .unwrap()
+        .with_c_kappa(f64::INFINITY)
+        .unwrap();
+    vec![
+        ("practical", practical),
+        ("rescaled", practical.rescaled()),
+        ("local", practical.local()),
+        ("theory", StepperConfig::for_system(system).unwrap()),
+    ]
+}
+
+/// Increments of every path for every step, in the ensemble's layout.
+fn increments(l: usize, stride: usize) -> Vec<Vec<f64>> {
+    let mut sources: Vec<_> = (0..PATHS)
+        .map(|p| GaussianIncrements::for_path(11, p as u64, l))
+        .collect();
+    let mut one = vec![0.0; l];
+    (0..STEPS)
+        .map(|_| {
+            let mut dw = vec![0.0; l * stride];
+            for (p, source) in sources.iter_mut().enumerate() {
+                source.next_increment(H, &mut one);
+                for (j, x) in one.iter().enumerate() {
+                    dw[j * stride + p] = *x;
+                }
+            }
+            dw
+        })
+        .collect()
+}
+
+fn initial(dim: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut r = vec![0.0; dim];
+    let mut v = vec![0.0; dim];
+    r[0] = 1.5;
+    v[1] = 0.7;
+    (r, v)
+}
+
+/// Every path's final state, bits and all.
+fn run_ensemble<S: System>(stepper: Stepper<S>, width: LaneWidth) -> (Vec<u64>, Ensemble<S>) {
+    let dim = stepper.system().constraint_dim();
+    let (r0, v0) = initial(dim);
+    let mut ensemble = Ensemble::new(stepper, PATHS, &r0, &v0).unwrap();
+    // Paths start at different speeds so that lanes of one group truncate differently.
+    for p in 0..PATHS {
+        let mut v = v0.clone();
+        v[1] = 0.1 * p as f64;
+        ensemble.set_state(p, &r0, &v).unwrap();
+    }
+    let l = ensemble.stepper().system().noise_dim();
+    for dw in increments(l, ensemble.stride()) {
+        ensemble.step(H, &dw, width).unwrap();
+    }
+    let mut bits = Vec::new();
+    let (mut r, mut v) = (vec![0.0; dim], vec![0.0; dim]);
+    for p in 0..PATHS {
+        ensemble.state(p, &mut r, &mut v).unwrap();
+        bits.extend(r.iter().chain(&v).map(|x| x.to_bits()));
+    }
+    (bits, ensemble)
+}
+
+trait ConstraintDim {
+    fn constraint_dim(&self) -> usize;
+}
+
+impl<S: System> ConstraintDim for S {
+    fn constraint_dim(&self) -> usize {
+        sdae_manifold::Constraint::dim(self.constraint())
+    }
+}
+
+#[test]
+fn one_four_and_eight_lanes_give_bit_identical_paths() {
+    for dim in [2, 3] {
+        let system = noisy_pendulum(dim);
+        for (name, config) in configs(&system) {
+            let stepper = Stepper::new(system.clone(), config).unwrap();
+            let (one, _) = run_ensemble(stepper.clone(), LaneWidth::One);
+            for width in [LaneWidth::Four, LaneWidth::Eight, LaneWidth::Best] {
+                let (other, _) = run_ensemble(stepper.clone(), width);
+                assert!(
+                    one == other,
+                    "{name}, d = {dim}: {width:?} differs from one lane"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_ensemble_agrees_with_the_scalar_stepper_on_the_same_increments() {
+    for dim in [2, 3] {
+        let system = noisy_pendulum(dim);
+        for (name, config) in configs(&system) {
+            let stepper = Stepper::new(system.clone(), config).unwrap();
+            let (_, ensemble) = run_ensemble(stepper.clone(), LaneWidth::Best);
+            let stride = ensemble.stride();
+            let all = increments(dim, stride);
+            let (r0, _) = initial(dim);
+            let mut truncated = 0;
+            for p in 0..PATHS {
+                let mut scalar = stepper.clone();
+                let (mut r, mut v) = (r0.clone(), vec![0.0; dim]);
+                v[1] = 0.1 * p as f64;
+                let mut diagnostics = PathDiagnostics::default();
+                let mut dw = vec![0.0; dim];
+                for step in &all {
+                    for (j, x) in dw.iter_mut().enumerate() {
+                        *x = step[j * stride + p];
+                    }
+                    let outcome = scalar.step(&mut r, &mut v, H, &dw).unwrap();
+                    diagnostics.record(&outcome, H);
+                }
+                let (mut re, mut ve) = (vec![0.0; dim], vec![0.0; dim]);
+                ensemble.state(p, &mut re, &mut ve).unwrap();
+                for (a, b) in r.iter().chain(&v).zip(re.iter().chain(&ve)) {
+                    assert!(
+                        (a - b).abs() <= 1e-12,
+                        "{name}, d = {dim}, path {p}: {a} vs {b}"
+                    );
+                }
+                let ours = ensemble.diagnostics(p).unwrap();
+                assert_eq!(ours.steps, diagnostics.steps);
+                assert_eq!(ours.truncated_steps, diagnostics.truncated_steps, "{name}");
+                assert_eq!(ours.newton_iterations, diagnostics.newton_iterations);
+                assert!((ours.clock_lag - diagnostics.clock_lag).abs() <= 1e-12);
+                assert!((ours.max_contraction - diagnostics.max_contraction).abs() <= 1e-12);
+                truncated += ours.truncated_steps;
+            }
+            if name != "theory" {
+                assert!(
+                    truncated > 0,
+                    "{name}: no step was truncated, eta < 1 untested"
+                );
+            }
+            // The lanes decided these steps, not the scalar stepper.
+            assert!(
+                ensemble.scalar_steps() < PATHS * STEPS / 100,
+                "{name}: {}",
+                ensemble.scalar_steps()
+            );
+        }
+    }
+}
+
+#[test]
+fn a_failed_lane_stops_with_the_scalar_failure_and_the_others_go_on() {
+    // Untruncated with a fast path: y = r + h v leaves the quadratic without a real root
+    // (seed Fig. 1b) for v = 50 at h = 0.1, while slow paths step on.
+    let system = noisy_pendulum(2);
+    let config = StepperConfig::new(1.0, f64::INFINITY)
+        .unwrap()
+        .untruncated();
+    let stepper = Stepper::new(system, config).unwrap();
+    let mut ensemble = Ensemble::new(stepper.clone(), 9, &[1.5, 0.0], &[0.0, 0.1]).unwrap();
+    ensemble.set_state(4, &[1.5, 0.0], &[0.0, 50.0]).unwrap();
+    let dw = vec![0.0; 2 * ensemble.stride()];
+    for width in [LaneWidth::One, LaneWidth::Eight] {
+        let mut run = Ensemble::new(stepper.clone(), 9, &[1.5, 0.0], &[0.0, 0.1]).unwrap();
+        run.set_state(4, &[1.5, 0.0], &[0.0, 50.0]).unwrap();
+        assert_eq!(run.step(0.1, &dw, width).unwrap(), 1, "{width:?}");
+        assert_eq!(
+            run.step(0.1, &dw, width).unwrap(),
+            0,
+            "a stopped path is not stepped again"
+        );
+        assert_eq!(run.failed_paths(), 1);
+        let mut scalar = stepper.clone();
+        let (mut r, mut v) = ([1.5, 0.0], [0.0, 50.0]);
+        let expected = scalar.step(&mut r, &mut v, 0.1, &[0.0, 0.0]).unwrap_err();
+        assert!(matches!(expected, StepFailure::Root { .. }));
+        assert_eq!(run.failure(4).unwrap(), Some(&expected));
+        let (mut r, mut v) = ([0.0; 2], [0.0; 2]);
+        run.state(4, &mut r, &mut v).unwrap();
+        assert_eq!(
+            (r, v),
+            ([1.5, 0.0], [0.0, 50.0]),
+            "a failed step leaves the state"
+        );
+        assert_eq!(run.diagnostics(4).unwrap().steps, 0);
+        assert_eq!(run.diagnostics(3).unwrap().steps, 2);
+    }
+    assert_eq!(ensemble.failed_paths(), 0);
+}
+
+#[test]
+fn a_system_without_a_lane_form_steps_through_the_scalar_stepper() {
+    // The pendulum's drift as a closure: no lane form.
+    let drift = |_r: &[f64], v: &[f64], out: &mut [f64]| {
+        out[0] = -0.5 * v[0];
+        out[1] = -0.5 * v[1] - 1.0;
+    };
+    let system = MechanicalSystem::new(
+        Sphere::new(2, 1.5).unwrap(),
+        IdentityMass,
+        drift,
+        AdditiveNoise::new(3.0, 2).unwrap(),
+    )
+    .unwrap();
+    let config = configs(&noisy_pendulum(2))[0].1;
+    let closure = Stepper::new(system, config).unwrap();
+    let built_in = Stepper::new(noisy_pendulum(2), config).unwrap();
+    let (closure_bits, ensemble) = run_ensemble(closure, LaneWidth::Best);
+    assert_eq!(ensemble.scalar_steps(), PATHS * STEPS);
+    let (built_in_bits, _) = run_ensemble(built_in, LaneWidth::Best);
+    let close = closure_bits
+        .iter()
+        .zip(&built_in_bits)
+        .all(|(a, b)| (f64::from_bits(*a) - f64::from_bits(*b)).abs() <= 1e-12);
+    assert!(close, "the closure pendulum and the built-in one differ");
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let stepper = Stepper::new(noisy_pendulum(2), configs(&noisy_pendulum(2))[0].1).unwrap();
+    let message = |e: sdae_scheme::SchemeError| e.to_string();
+    let e = Ensemble::new(stepper.clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
+        .err()
+        .unwrap();
+    assert!(message(e).contains("paths"));
+    let e = Ensemble::new(stepper.clone(), 3, &[1.5, 0.0, 0.0], &[0.0, 0.0])
+        .err()
+        .unwrap();
+    assert!(message(e).contains("initial position"));
+    let mut ensemble = Ensemble::new(stepper, 3, &[1.5, 0.0], &[0.0, 0.0]).unwrap();
+    let stride = ensemble.stride();
+    let e = ensemble
+        .step(0.01, &vec![0.0; stride], LaneWidth::Best)
+        .unwrap_err();
+    assert!(message(e).contains("increments"));
+    for h in [0.0, -1.0, f64::NAN] {
+        let e = ensemble
+            .step(h, &vec![0.0; 2 * stride], LaneWidth::Best)
+            .unwrap_err();
+        assert!(message(e).contains("step size"));
+    }
+    let e = ensemble.state(3, &mut [0.0; 2], &mut [0.0; 2]).unwrap_err();
+    assert!(message(e).contains("path index"));
+    assert!(ensemble.diagnostics(7).is_err());
+    assert!(ensemble.set_state(0, &[1.0], &[0.0, 0.0]).is_err());
+}

@@ -121,6 +121,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     };
     let ensemble_with_normals = ensemble("with_normals")?;
     let ensemble_step_only = ensemble("step_only")?;
+    let ensemble_normals = ensemble("normals_only")?;
     let ensemble_one_lane = ensemble("step_only_one_lane")?;
 
     let mut per_bead = Map::new();
@@ -136,6 +137,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_ns_per_path_step": ensemble_with_normals,
         "pendulum_ensemble_step_only_ns_per_path_step": ensemble_step_only,
         "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
+        "pendulum_ensemble_normals_ns_per_path_step": ensemble_normals,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "quick": options.quick,
         "criterion_args": criterion_args,
@@ -172,6 +174,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "{:<20} {:>14.1} {:>16}   (one lane: {:.1})",
         "  step only", ensemble_step_only, "", ensemble_one_lane
     );
+    println!("{:<20} {:>14.1}", "  normals only", ensemble_normals);
     println!("\nsummary written to {}", out.display());
     Ok(())
 }

@@ -4,6 +4,8 @@
 //! - `pendulum_ensemble/with_normals`: each step draws every path's two Gaussian numbers from
 //!   its own stream and steps all paths at the processor's widest lane width: the same work as
 //!   `pendulum_step`, random numbers included.
+//! - `pendulum_ensemble/normals_only`: the increments alone (each path's two numbers from its
+//!   own stream, written into the ensemble's layout).
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
 //!   the lanes gain.
@@ -124,6 +126,13 @@ fn bench_pendulum_ensemble(c: &mut Criterion) {
     let mut dw = vec![0.0; 2 * bench.ensemble.stride()];
     group.bench_function("with_normals", |b| {
         b.iter(|| black_box(bench.step_with_normals(&mut dw)))
+    });
+    group.bench_function("normals_only", |b| {
+        b.iter(|| {
+            let stride = bench.ensemble.stride();
+            draw(&mut bench.noise, stride, &mut dw);
+            black_box(dw[0])
+        })
     });
     let mut bench = Bench::new();
     group.bench_function("step_only", |b| {

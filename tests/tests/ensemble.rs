@@ -277,3 +277,60 @@ fn bad_input_is_a_typed_error() {
     assert!(ensemble.diagnostics(7).is_err());
     assert!(ensemble.set_state(0, &[1.0], &[0.0, 0.0]).is_err());
 }
+
+/// Noise with three components on a planar pendulum (l = 3 > n = 2), with a lane form.
+#[derive(Debug, Clone, Copy)]
+struct ThreeComponentNoise;
+
+impl sdae_model::Noise for ThreeComponentNoise {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn add(&self, _r: &[f64], _v: &[f64], dw: &[f64], out: &mut [f64]) {
+        out[0] += dw[0] + 0.5 * dw[2];
+        out[1] += dw[1] - 0.5 * dw[2];
+    }
+    fn add_lanes<S: pulp::Simd>(
+        &self,
+        _r: &[sdae_model::lanes::Lanes<S>],
+        _v: &[sdae_model::lanes::Lanes<S>],
+        dw: &[sdae_model::lanes::Lanes<S>],
+        out: &mut [sdae_model::lanes::Lanes<S>],
+    ) -> bool {
+        out[0] = out[0] + (dw[0] + dw[2] * 0.5);
+        out[1] = out[1] + (dw[1] - dw[2] * 0.5);
+        true
+    }
+}
+
+#[test]
+fn more_noise_components_than_coordinates_step_path_by_path_and_agree() {
+    let drift = sdae_systems::PendulumDrift {
+        gravity: 1.0,
+        friction: 0.5,
+    };
+    let system = MechanicalSystem::new(
+        Sphere::new(2, 1.5).unwrap(),
+        IdentityMass,
+        drift,
+        ThreeComponentNoise,
+    )
+    .unwrap();
+    let config = configs(&noisy_pendulum(2))[0].1;
+    let stepper = Stepper::new(system, config).unwrap();
+    let (bits, ensemble) = run_ensemble(stepper.clone(), LaneWidth::Best);
+    assert_eq!(ensemble.scalar_steps(), PATHS * STEPS);
+    let stride = ensemble.stride();
+    let all = increments(3, stride);
+    let (r0, _) = initial(2);
+    for p in [0, 17, PATHS - 1] {
+        let mut scalar = stepper.clone();
+        let (mut r, mut v) = (r0.clone(), vec![0.0, 0.1 * p as f64]);
+        for step in &all {
+            let dw = [step[p], step[stride + p], step[2 * stride + p]];
+            scalar.step(&mut r, &mut v, H, &dw).unwrap();
+        }
+        let expected: Vec<u64> = r.iter().chain(&v).map(|x| x.to_bits()).collect();
+        assert_eq!(&bits[4 * p..4 * p + 4], &expected[..], "path {p}");
+    }
+}

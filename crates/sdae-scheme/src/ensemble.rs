@@ -245,12 +245,13 @@ impl<S: System> Ensemble<S> {
             dw.len(),
         )?;
         let before = self.failed_paths();
+        // The lanes hold at most MAX_DIM coordinates and as many noise components.
         let lane_form = self
             .stepper
             .system()
             .constraint()
             .as_sphere()
-            .is_some_and(|s| s.dim() <= sphere::MAX_DIM);
+            .is_some_and(|s| s.dim() <= sphere::MAX_DIM && self.lane_dw.len() <= s.dim());
         if lane_form {
             width.dispatch(sphere::StepAll {
                 ensemble: self,

@@ -64,9 +64,9 @@ fn step_groups<S: System, Sd: Simd, const N: usize>(
         let alive = alive.eq(alive.splat_like(1.0));
         let r: [Lanes<Sd>; N] = load_rows(simd, &ensemble.r, stride, offset, N);
         let v: [Lanes<Sd>; N] = load_rows(simd, &ensemble.v, stride, offset, N);
-        let noise: [Lanes<Sd>; N] = load_rows(simd, dw, stride, offset, l.min(N));
+        let noise: [Lanes<Sd>; N] = load_rows(simd, dw, stride, offset, l);
         let system = ensemble.stepper.system();
-        let Some(lanes) = kernel.step(system, &r, &v, &noise[..l.min(N)]) else {
+        let Some(lanes) = kernel.step(system, &r, &v, &noise[..l]) else {
             for p in offset..(offset + width).min(ensemble.paths) {
                 ensemble.step_one(p, h, dw);
             }

@@ -1,12 +1,12 @@
 //! The ensemble engine: W = 1, 4 and 8 lanes give bit-identical paths, which agree with the
 //! scalar stepper on the same increments; failed lanes stop and are reported as one path's
-//! failure is; systems without a lane form go through the scalar stepper; bad input is a typed
-//! error.
+//! failure is; systems without a lane form go through the scalar stepper; the generic
+//! per-path loop gives the same numbers; bad input is a typed error.
 
 use sdae_manifold::{IdentityMass, Sphere};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathDiagnostics, Scheme,
-    StepFailure, System,
+    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble, PathLoop,
+    PathState, Scheme, StepFailure, System,
 };
 use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
@@ -73,28 +73,37 @@ fn initial(dim: usize) -> (Vec<f64>, Vec<f64>) {
     (r, v)
 }
 
-/// Every path's final state, bits and all.
+/// Every path's final (r, v, mu), bits and all.
 fn run_ensemble<S: System>(stepper: Stepper<S>, width: LaneWidth) -> (Vec<u64>, Ensemble<S>) {
     let dim = stepper.system().constraint_dim();
     let (r0, v0) = initial(dim);
-    let mut ensemble = Ensemble::new(stepper, PATHS, &r0, &v0).unwrap();
+    let mut ensemble = Ensemble::new(stepper, PATHS, &r0, &v0)
+        .unwrap()
+        .with_width(width);
     // Paths start at different speeds so that lanes of one group truncate differently.
     for p in 0..PATHS {
         let mut v = v0.clone();
         v[1] = 0.1 * p as f64;
         ensemble.set_state(p, &r0, &v).unwrap();
     }
-    let l = ensemble.stepper().system().noise_dim();
+    let bits = run_and_read(&mut ensemble);
+    (bits, ensemble)
+}
+
+/// Steps any ensemble through [`increments`] and reads every path's (r, v, mu) as bits.
+fn run_and_read<E: PathEnsemble>(ensemble: &mut E) -> Vec<u64> {
+    let dim = ensemble.system().constraint_dim();
+    let l = ensemble.system().noise_dim();
     for dw in increments(l, ensemble.stride()) {
-        ensemble.step(H, &dw, width).unwrap();
+        ensemble.step(H, &dw).unwrap();
     }
     let mut bits = Vec::new();
-    let (mut r, mut v) = (vec![0.0; dim], vec![0.0; dim]);
+    let (mut r, mut v, mut mu) = (vec![0.0; dim], vec![0.0; dim], [0.0]);
     for p in 0..PATHS {
-        ensemble.state(p, &mut r, &mut v).unwrap();
-        bits.extend(r.iter().chain(&v).map(|x| x.to_bits()));
+        ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
+        bits.extend(r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()));
     }
-    (bits, ensemble)
+    bits
 }
 
 trait ConstraintDim {
@@ -140,18 +149,20 @@ fn the_ensemble_agrees_with_the_scalar_stepper_on_the_same_increments() {
                 let mut scalar = stepper.clone();
                 let (mut r, mut v) = (r0.clone(), vec![0.0; dim]);
                 v[1] = 0.1 * p as f64;
-                let mut diagnostics = PathDiagnostics::default();
+                // One path as the path driver steps it: diagnostics and mu included.
+                let mut path = PathState::new(1, true, false);
                 let mut dw = vec![0.0; dim];
                 for step in &all {
                     for (j, x) in dw.iter_mut().enumerate() {
                         *x = step[j * stride + p];
                     }
-                    let outcome = scalar.step(&mut r, &mut v, H, &dw).unwrap();
-                    diagnostics.record(&outcome, H);
+                    path.step(&mut scalar, &mut r, &mut v, H, &dw).unwrap();
                 }
-                let (mut re, mut ve) = (vec![0.0; dim], vec![0.0; dim]);
-                ensemble.state(p, &mut re, &mut ve).unwrap();
-                for (a, b) in r.iter().chain(&v).zip(re.iter().chain(&ve)) {
+                let diagnostics = path.diagnostics;
+                let (mut re, mut ve, mut mue) = (vec![0.0; dim], vec![0.0; dim], [0.0]);
+                ensemble.state(p, &mut re, &mut ve, &mut mue).unwrap();
+                let scalar_state = r.iter().chain(&v).chain(&path.mu);
+                for (a, b) in scalar_state.zip(re.iter().chain(&ve).chain(&mue)) {
                     assert!(
                         (a - b).abs() <= 1e-12,
                         "{name}, d = {dim}, path {p}: {a} vs {b}"
@@ -194,11 +205,13 @@ fn a_failed_lane_stops_with_the_scalar_failure_and_the_others_go_on() {
     ensemble.set_state(4, &[1.5, 0.0], &[0.0, 50.0]).unwrap();
     let dw = vec![0.0; 2 * ensemble.stride()];
     for width in [LaneWidth::One, LaneWidth::Eight] {
-        let mut run = Ensemble::new(stepper.clone(), 9, &[1.5, 0.0], &[0.0, 0.1]).unwrap();
+        let mut run = Ensemble::new(stepper.clone(), 9, &[1.5, 0.0], &[0.0, 0.1])
+            .unwrap()
+            .with_width(width);
         run.set_state(4, &[1.5, 0.0], &[0.0, 50.0]).unwrap();
-        assert_eq!(run.step(0.1, &dw, width).unwrap(), 1, "{width:?}");
+        assert_eq!(run.step(0.1, &dw).unwrap(), 1, "{width:?}");
         assert_eq!(
-            run.step(0.1, &dw, width).unwrap(),
+            run.step(0.1, &dw).unwrap(),
             0,
             "a stopped path is not stepped again"
         );
@@ -209,7 +222,7 @@ fn a_failed_lane_stops_with_the_scalar_failure_and_the_others_go_on() {
         assert!(matches!(expected, StepFailure::Root { .. }));
         assert_eq!(run.failure(4).unwrap(), Some(&expected));
         let (mut r, mut v) = ([0.0; 2], [0.0; 2]);
-        run.state(4, &mut r, &mut v).unwrap();
+        run.state(4, &mut r, &mut v, &mut []).unwrap();
         assert_eq!(
             (r, v),
             ([1.5, 0.0], [0.0, 50.0]),
@@ -217,6 +230,15 @@ fn a_failed_lane_stops_with_the_scalar_failure_and_the_others_go_on() {
         );
         assert_eq!(run.diagnostics(4).unwrap().steps, 0);
         assert_eq!(run.diagnostics(3).unwrap().steps, 2);
+        // A path stopped by its caller takes no more steps; a restart brings every path back.
+        run.stop(3).unwrap();
+        run.step(0.1, &dw).unwrap();
+        assert_eq!(run.diagnostics(3).unwrap().steps, 2);
+        assert_eq!(run.diagnostics(2).unwrap().steps, 3);
+        run.restart(&[1.5, 0.0], &[0.0, 0.1]).unwrap();
+        assert_eq!(run.failed_paths(), 0);
+        run.step(0.1, &dw).unwrap();
+        assert!((0..9).all(|p| run.diagnostics(p).unwrap().steps == 1));
     }
     assert_eq!(ensemble.failed_paths(), 0);
 }
@@ -262,20 +284,51 @@ fn bad_input_is_a_typed_error() {
     assert!(message(e).contains("initial position"));
     let mut ensemble = Ensemble::new(stepper, 3, &[1.5, 0.0], &[0.0, 0.0]).unwrap();
     let stride = ensemble.stride();
-    let e = ensemble
-        .step(0.01, &vec![0.0; stride], LaneWidth::Best)
-        .unwrap_err();
-    assert!(message(e).contains("increments"));
+    let model = |e: sdae_model::ModelError| e.to_string();
+    let e = ensemble.step(0.01, &vec![0.0; stride]).unwrap_err();
+    assert!(model(e).contains("increments"));
     for h in [0.0, -1.0, f64::NAN] {
-        let e = ensemble
-            .step(h, &vec![0.0; 2 * stride], LaneWidth::Best)
-            .unwrap_err();
-        assert!(message(e).contains("step size"));
+        let e = ensemble.step(h, &vec![0.0; 2 * stride]).unwrap_err();
+        assert!(model(e).contains("step size"));
     }
-    let e = ensemble.state(3, &mut [0.0; 2], &mut [0.0; 2]).unwrap_err();
-    assert!(message(e).contains("path index"));
+    let e = ensemble
+        .state(3, &mut [0.0; 2], &mut [0.0; 2], &mut [])
+        .unwrap_err();
+    assert!(model(e).contains("path index"));
+    let e = ensemble
+        .state(0, &mut [0.0; 2], &mut [0.0; 2], &mut [0.0; 2])
+        .unwrap_err();
+    assert!(model(e).contains("multiplier"));
     assert!(ensemble.diagnostics(7).is_err());
+    assert!(ensemble.stop(3).is_err());
+    assert!(ensemble.restart(&[1.5], &[0.0, 0.0]).is_err());
     assert!(ensemble.set_state(0, &[1.0], &[0.0, 0.0]).is_err());
+    let e = PathLoop::new(ensemble.stepper().clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
+        .err()
+        .unwrap();
+    assert!(model(e).contains("paths"));
+}
+
+#[test]
+fn the_per_path_loop_gives_the_ensembles_numbers() {
+    for dim in [2, 3] {
+        let system = noisy_pendulum(dim);
+        for (name, config) in configs(&system) {
+            let stepper = Stepper::new(system.clone(), config).unwrap();
+            let (r0, v0) = initial(dim);
+            let mut lanes = Ensemble::new(stepper.clone(), PATHS, &r0, &v0).unwrap();
+            let mut looped = PathLoop::new(stepper, PATHS, &r0, &v0).unwrap();
+            assert_eq!(looped.stride(), lanes.stride());
+            let (a, b) = (run_and_read(&mut lanes), run_and_read(&mut looped));
+            assert!(a == b, "{name}, d = {dim}: the loop and the lanes differ");
+            for p in 0..PATHS {
+                assert_eq!(
+                    lanes.diagnostics(p).unwrap(),
+                    looped.diagnostics(p).unwrap()
+                );
+            }
+        }
+    }
 }
 
 /// Noise with three components on a planar pendulum (l = 3 > n = 2), with a lane form.
@@ -331,6 +384,6 @@ fn more_noise_components_than_coordinates_step_path_by_path_and_agree() {
             scalar.step(&mut r, &mut v, H, &dw).unwrap();
         }
         let expected: Vec<u64> = r.iter().chain(&v).map(|x| x.to_bits()).collect();
-        assert_eq!(&bits[4 * p..4 * p + 4], &expected[..], "path {p}");
+        assert_eq!(&bits[5 * p..5 * p + 4], &expected[..], "path {p}");
     }
 }

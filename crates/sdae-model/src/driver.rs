@@ -162,6 +162,33 @@ impl PathState {
         }
     }
 
+    /// One step of size h of `scheme` from (r, v) = (r_k, v_k) with the increment dw: the
+    /// residuals the scheme did not measure (if [`PathState::measure_residuals`]), the
+    /// diagnostics, mu_{k+1} = mu_k + (mu_{k+1} - mu_k) (seed eq. 1.4) and k + 1. On failure
+    /// nothing changes.
+    #[inline]
+    pub fn step<S: Scheme + ?Sized>(
+        &mut self,
+        scheme: &mut S,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepOutcome, StepFailure> {
+        let mut outcome = scheme.step(r, v, h, dw)?;
+        if self.measure_residuals {
+            self.complete(scheme.system().constraint(), r, v, &mut outcome);
+        }
+        self.diagnostics.record(&outcome, h);
+        if !self.mu.is_empty() {
+            for (acc, d) in self.mu.iter_mut().zip(scheme.multiplier_increment()) {
+                *acc += d;
+            }
+        }
+        self.k += 1;
+        Ok(outcome)
+    }
+
     /// Measures the residuals the scheme did not report into the outcome.
     fn complete<C: Constraint>(&mut self, c: &C, r: &[f64], v: &[f64], outcome: &mut StepOutcome) {
         if outcome.position_residual.is_none() {
@@ -198,22 +225,14 @@ where
     for _ in 0..steps {
         let k = path.k;
         increments.next_increment(h, &mut dw);
-        let mut outcome = scheme.step(r, v, h, &dw).map_err(|failure| StepError {
-            step: k,
-            time: grid.time(k),
-            failure,
-        })?;
-        if path.measure_residuals {
-            path.complete(scheme.system().constraint(), r, v, &mut outcome);
-        }
-        path.diagnostics.record(&outcome, h);
+        let outcome = path
+            .step(scheme, r, v, h, &dw)
+            .map_err(|failure| StepError {
+                step: k,
+                time: grid.time(k),
+                failure,
+            })?;
         observer.step_done(k, &outcome);
-        if !path.mu.is_empty() {
-            for (acc, d) in path.mu.iter_mut().zip(scheme.multiplier_increment()) {
-                *acc += d;
-            }
-        }
-        path.k = k + 1;
         if path.k == grid.steps() || observer.wants_step(path.k) {
             observer.observe(path.k, grid.time(path.k), r, v, &path.mu);
         }

@@ -13,6 +13,7 @@
 //! - the one path driver [`run_path`] on a [`TimeGrid`] (and [`advance`], a stretch of a path
 //!   in progress), reporting to an [`Observer`] such as [`Recorder`] and summarized in
 //!   [`PathDiagnostics`];
+//! - many paths of one scheme at once: [`PathEnsemble`], with [`PathLoop`] for any scheme;
 //! - the tangent bundle: [`project_state`], [`TangentProjector`] and the [`KappaProblem`] of
 //!   seed eq. 3.1.
 //!
@@ -71,6 +72,7 @@
 //! ```
 
 mod driver;
+mod ensemble;
 mod error;
 mod grid;
 mod increments;
@@ -84,6 +86,7 @@ pub use driver::{
     INITIAL_STATE_TOLERANCE, ITERATION_BINS, PathDiagnostics, PathState, TRUNCATION_DOMINATED,
     advance, run_path,
 };
+pub use ensemble::{LANE_BLOCK, PathEnsemble, PathLoop, check_path, lane_stride};
 pub use error::{
     FailureKind, ModelError, PathFailure, StepError, StepFailure, check_dim, check_step_size,
 };

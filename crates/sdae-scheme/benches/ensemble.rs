@@ -18,6 +18,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use sdae_model::PathEnsemble;
 use sdae_model::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
@@ -77,9 +78,7 @@ impl Bench {
 
     fn reset_if_due(&mut self) {
         if self.steps.is_multiple_of(RESET_EVERY) {
-            for p in 0..PATHS {
-                self.ensemble.set_state(p, &R0, &V0).expect("reset");
-            }
+            self.ensemble.restart(&R0, &V0).expect("reset");
         }
         self.steps += 1;
     }
@@ -87,17 +86,17 @@ impl Bench {
     /// One step of every path on increments drawn beforehand.
     fn step_drawn(&mut self, width: LaneWidth) -> usize {
         self.reset_if_due();
+        self.ensemble.set_width(width);
         let dw = &self.drawn[self.steps % DRAWN_STEPS];
-        self.ensemble.step(H, dw, width).expect("step input")
+        self.ensemble.step(H, dw).expect("step input")
     }
 
     /// Draws every path's increment, then steps every path.
     fn step_with_normals(&mut self, dw: &mut [f64]) -> usize {
         self.reset_if_due();
         draw(&mut self.noise, self.ensemble.stride(), dw);
-        self.ensemble
-            .step(H, dw, LaneWidth::Best)
-            .expect("step input")
+        self.ensemble.set_width(LaneWidth::Best);
+        self.ensemble.step(H, dw).expect("step input")
     }
 }
 

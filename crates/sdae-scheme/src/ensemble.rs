@@ -1,9 +1,9 @@
 //! Many independent paths of one system, stepped together in SIMD lanes (seed eq. 3.1, 3.2).
 //!
-//! An [`Ensemble`] holds P paths in structure-of-arrays layout (coordinate i of path p at
-//! `i * stride + p`, stride = P rounded up to a multiple of 8) and advances W of them at once,
-//! W the width of the instruction set chosen at run time ([`LaneWidth`]): 1 (scalar), 4
-//! (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal mass and a
+//! An [`Ensemble`] is a [`PathEnsemble`]: it holds P paths in structure-of-arrays layout
+//! (coordinate i of path p at `i * stride + p`, stride = [`lane_stride`]`(P)`) and advances W
+//! of them at once, W the width of the instruction set chosen at run time ([`LaneWidth`]): 1
+//! (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal mass and a
 //! system with a lane form ([`System::drift_lanes`], [`System::add_noise_lanes`]) the step is
 //! the closed form of [`Stepper`] written once over [`Lanes`]; a lane the closed form does not
 //! decide (no root, a root outside the ball or not contracting, a non-finite value) finishes
@@ -14,8 +14,7 @@
 //! depend on W, on the other paths or on how paths are split across ensembles or threads.
 //!
 //! ```
-//! use sdae_model::GaussianIncrements;
-//! use sdae_model::IncrementSource;
+//! use sdae_model::{GaussianIncrements, IncrementSource, PathEnsemble};
 //! use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
 //! use sdae_systems::{PendulumParams, pendulum};
 //! let system = pendulum(PendulumParams::default())?;
@@ -31,11 +30,11 @@
 //!         dw[p] = one[0];
 //!         dw[stride + p] = one[1];
 //!     }
-//!     ensemble.step(h, &dw, LaneWidth::Best)?;
+//!     ensemble.step(h, &dw)?;
 //! }
 //! assert_eq!(ensemble.failed_paths(), 0);
-//! let (mut r, mut v) = ([0.0; 2], [0.0; 2]);
-//! ensemble.state(17, &mut r, &mut v)?;
+//! let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
+//! ensemble.state(17, &mut r, &mut v, &mut mu)?;
 //! assert!((r[0] * r[0] + r[1] * r[1] - 1.0).abs() < 1e-12);
 //! assert_eq!(ensemble.diagnostics(17)?.steps, 1000);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -46,13 +45,13 @@ mod sphere;
 use pulp::{Simd, WithSimd};
 use sdae_manifold::Constraint;
 use sdae_model::lanes::Lanes;
-use sdae_model::{ModelError, PathDiagnostics, Scheme, StepFailure, System, check_dim};
+use sdae_model::{
+    ModelError, PathDiagnostics, PathEnsemble, Scheme, StepFailure, System, check_dim, check_path,
+    check_step_size, lane_stride,
+};
 
 use crate::error::SchemeError;
 use crate::stepper::Stepper;
-
-/// Paths are stored in blocks of this many lanes, the widest instruction set's W.
-const BLOCK: usize = 8;
 
 /// The instruction set, and with it the number W of paths stepped at once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -113,6 +112,10 @@ pub struct Ensemble<S: System> {
     r: Vec<f64>,
     /// Velocities, same layout.
     v: Vec<f64>,
+    /// mu (seed eq. 1.4), constraint j of path p at `j * stride + p`.
+    mu: Vec<f64>,
+    /// The instruction set the steps run with.
+    width: LaneWidth,
     /// 1 for a path that goes on, 0 for a stopped path or a padding lane.
     alive: Vec<f64>,
     /// Why each path stopped.
@@ -142,45 +145,40 @@ impl<S: System> Ensemble<S> {
                 "an ensemble needs at least one path",
             ));
         }
-        let n = stepper.system().constraint().dim();
+        let c = stepper.system().constraint();
+        let (n, m) = (c.dim(), c.n_constraints());
         let l = stepper.system().noise_dim();
-        check_dim("initial position", n, r0.len())?;
-        check_dim("initial velocity", n, v0.len())?;
-        let stride = paths.div_ceil(BLOCK) * BLOCK;
-        let mut r = vec![0.0; n * stride];
-        let mut v = vec![0.0; n * stride];
-        for i in 0..n {
-            // Padding lanes hold the initial state too, so that they compute finite numbers.
-            r[i * stride..(i + 1) * stride].fill(r0[i]);
-            v[i * stride..(i + 1) * stride].fill(v0[i]);
-        }
-        let mut alive = vec![0.0; stride];
-        alive[..paths].fill(1.0);
-        Ok(Self {
+        let stride = lane_stride(paths);
+        let mut ensemble = Self {
             stepper,
             paths,
             stride,
-            r,
-            v,
-            alive,
+            r: vec![0.0; n * stride],
+            v: vec![0.0; n * stride],
+            mu: vec![0.0; m * stride],
+            width: LaneWidth::Best,
+            alive: vec![0.0; stride],
             failures: vec![None; paths],
             diagnostics: vec![PathDiagnostics::default(); paths],
             scalar_steps: 0,
             lane_r: vec![0.0; n],
             lane_v: vec![0.0; n],
             lane_dw: vec![0.0; l],
-        })
+        };
+        ensemble.restart(r0, v0)?;
+        Ok(ensemble)
     }
 
-    /// The number P of paths.
-    pub fn paths(&self) -> usize {
-        self.paths
+    /// The same ensemble stepping with the instruction set of `width` (default
+    /// [`LaneWidth::Best`]); the numbers do not depend on it.
+    pub fn with_width(mut self, width: LaneWidth) -> Self {
+        self.width = width;
+        self
     }
 
-    /// The stride of the layout: coordinate i of path p is entry `i * stride + p` of the
-    /// positions, the velocities and the increments passed to [`Ensemble::step`].
-    pub fn stride(&self) -> usize {
-        self.stride
+    /// Steps from now on with the instruction set of `width`.
+    pub fn set_width(&mut self, width: LaneWidth) {
+        self.width = width;
     }
 
     /// The scalar stepper (system and constants).
@@ -188,9 +186,10 @@ impl<S: System> Ensemble<S> {
         &self.stepper
     }
 
-    /// Sets path `p` to (r, v) and lets it go on if it had stopped.
+    /// Sets path `p` to (r, v) and lets it go on if it had stopped (its mu and diagnostics go
+    /// on from where they were).
     pub fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), SchemeError> {
-        self.check_path(p)?;
+        check_path(p, self.paths)?;
         check_dim("position", self.lane_r.len(), r.len())?;
         check_dim("velocity", self.lane_v.len(), v.len())?;
         scatter(&mut self.r, self.stride, p, r);
@@ -198,28 +197,6 @@ impl<S: System> Ensemble<S> {
         self.alive[p] = 1.0;
         self.failures[p] = None;
         Ok(())
-    }
-
-    /// Copies the state of path `p` into (r, v).
-    pub fn state(&self, p: usize, r: &mut [f64], v: &mut [f64]) -> Result<(), SchemeError> {
-        self.check_path(p)?;
-        check_dim("position", self.lane_r.len(), r.len())?;
-        check_dim("velocity", self.lane_v.len(), v.len())?;
-        gather(&self.r, self.stride, p, r);
-        gather(&self.v, self.stride, p, v);
-        Ok(())
-    }
-
-    /// The diagnostics of path `p`'s steps so far.
-    pub fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, SchemeError> {
-        self.check_path(p)?;
-        Ok(&self.diagnostics[p])
-    }
-
-    /// Why path `p` stopped, or `None` while it goes on.
-    pub fn failure(&self, p: usize) -> Result<Option<&StepFailure>, SchemeError> {
-        self.check_path(p)?;
-        Ok(self.failures[p].as_ref())
     }
 
     /// How many path-steps went through the scalar stepper (all of them for a system without
@@ -231,39 +208,6 @@ impl<S: System> Ensemble<S> {
     /// How many paths have stopped on a failed step.
     pub fn failed_paths(&self) -> usize {
         self.failures.iter().filter(|f| f.is_some()).count()
-    }
-
-    /// Advances every path that goes on by one step of size h with Brownian increments `dw`
-    /// (coordinate j of path p at `j * stride + p`, length l * stride). A path whose step fails
-    /// keeps its state and stops; the failure is kept ([`Ensemble::failure`]) and the other
-    /// paths go on. Returns the number of paths that stopped in this step.
-    pub fn step(&mut self, h: f64, dw: &[f64], width: LaneWidth) -> Result<usize, SchemeError> {
-        sdae_model::check_step_size(h).map_err(SchemeError::Model)?;
-        check_dim(
-            "increments (l * stride)",
-            self.lane_dw.len() * self.stride,
-            dw.len(),
-        )?;
-        let before = self.failed_paths();
-        // The lanes hold at most MAX_DIM coordinates and as many noise components.
-        let lane_form = self
-            .stepper
-            .system()
-            .constraint()
-            .as_sphere()
-            .is_some_and(|s| s.dim() <= sphere::MAX_DIM && self.lane_dw.len() <= s.dim());
-        if lane_form {
-            width.dispatch(sphere::StepAll {
-                ensemble: self,
-                h,
-                dw,
-            });
-        } else {
-            for p in 0..self.paths {
-                self.step_one(p, h, dw);
-            }
-        }
-        Ok(self.failed_paths() - before)
     }
 
     /// Path p's step through the scalar stepper (skipped if the path has stopped).
@@ -282,6 +226,9 @@ impl<S: System> Ensemble<S> {
             Ok(outcome) => {
                 scatter(&mut self.r, self.stride, p, &self.lane_r);
                 scatter(&mut self.v, self.stride, p, &self.lane_v);
+                for (j, d) in self.stepper.multiplier_increment().iter().enumerate() {
+                    self.mu[j * self.stride + p] += d;
+                }
                 self.diagnostics[p].record(&outcome, h);
             }
             Err(failure) => {
@@ -290,17 +237,105 @@ impl<S: System> Ensemble<S> {
             }
         }
     }
+}
 
-    fn check_path(&self, p: usize) -> Result<(), SchemeError> {
-        if p < self.paths {
-            Ok(())
-        } else {
-            Err(SchemeError::Model(ModelError::DimensionMismatch {
-                what: "path index (must be below the number of paths)",
-                expected: self.paths,
-                found: p,
-            }))
+impl<S: System> PathEnsemble for Ensemble<S> {
+    type System = S;
+
+    fn system(&self) -> &S {
+        self.stepper.system()
+    }
+
+    fn paths(&self) -> usize {
+        self.paths
+    }
+
+    fn stride(&self) -> usize {
+        self.stride
+    }
+
+    fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
+        let n = self.lane_r.len();
+        check_dim("initial position", n, r0.len())?;
+        check_dim("initial velocity", n, v0.len())?;
+        let stride = self.stride;
+        for i in 0..n {
+            // Padding lanes hold the initial state too, so that they compute finite numbers.
+            self.r[i * stride..(i + 1) * stride].fill(r0[i]);
+            self.v[i * stride..(i + 1) * stride].fill(v0[i]);
         }
+        self.mu.fill(0.0);
+        self.alive.fill(0.0);
+        self.alive[..self.paths].fill(1.0);
+        self.failures.fill(None);
+        self.diagnostics.fill(PathDiagnostics::default());
+        Ok(())
+    }
+
+    /// A path whose step fails keeps its state and stops; the failure is kept
+    /// ([`PathEnsemble::failure`]) and the other paths go on.
+    fn step(&mut self, h: f64, dw: &[f64]) -> Result<usize, ModelError> {
+        check_step_size(h)?;
+        check_dim(
+            "increments (l * stride)",
+            self.lane_dw.len() * self.stride,
+            dw.len(),
+        )?;
+        let before = self.failed_paths();
+        // The lanes hold at most MAX_DIM coordinates and as many noise components.
+        let lane_form = self
+            .stepper
+            .system()
+            .constraint()
+            .as_sphere()
+            .is_some_and(|s| s.dim() <= sphere::MAX_DIM && self.lane_dw.len() <= s.dim());
+        if lane_form {
+            self.width.dispatch(sphere::StepAll {
+                ensemble: self,
+                h,
+                dw,
+            });
+        } else {
+            for p in 0..self.paths {
+                self.step_one(p, h, dw);
+            }
+        }
+        Ok(self.failed_paths() - before)
+    }
+
+    fn state(
+        &self,
+        p: usize,
+        r: &mut [f64],
+        v: &mut [f64],
+        mu: &mut [f64],
+    ) -> Result<(), ModelError> {
+        check_path(p, self.paths)?;
+        check_dim("position", self.lane_r.len(), r.len())?;
+        check_dim("velocity", self.lane_v.len(), v.len())?;
+        gather(&self.r, self.stride, p, r);
+        gather(&self.v, self.stride, p, v);
+        if !mu.is_empty() {
+            check_dim("multiplier", self.mu.len() / self.stride, mu.len())?;
+            gather(&self.mu, self.stride, p, mu);
+        }
+        Ok(())
+    }
+
+    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
+        check_path(p, self.paths)?;
+        Ok(&self.diagnostics[p])
+    }
+
+    fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError> {
+        check_path(p, self.paths)?;
+        Ok(self.failures[p].as_ref())
+    }
+
+    fn stop(&mut self, p: usize) -> Result<(), ModelError> {
+        check_path(p, self.paths)?;
+        self.alive[p] = 0.0;
+        Ok(())
     }
 }
 

@@ -1,12 +1,14 @@
 //! The built-in schemes a study compares, each an implementation of the one step trait
 //! [`Scheme`]: the half-explicit drift-truncated Euler scheme (seed eq. 3.1-3.2) with several
-//! constants, and the solvers of the inherent SDE (seed eq. 2.4) from `sdae-reference`.
+//! constants, and the solvers of the inherent SDE (seed eq. 2.4) from `sdae-reference`. Each
+//! also comes as a [`PathEnsemble`] of many paths: the half-explicit family as the SIMD
+//! [`Ensemble`], every other scheme as a [`PathLoop`].
 
-use sdae_model::Scheme;
+use sdae_model::{PathEnsemble, PathLoop, Scheme};
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
-use sdae_scheme::{Stepper, StepperConfig};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
@@ -102,6 +104,16 @@ pub struct SchemeConstants {
 /// A boxed scheme stepping systems of type `S`.
 pub type BoxedScheme<S> = Box<dyn Scheme<System = S>>;
 
+/// A boxed ensemble of paths of systems of type `S`.
+pub type BoxedEnsemble<S> = Box<dyn PathEnsemble<System = S>>;
+
+/// A built-in scheme as built: the half-explicit stepper (which has an ensemble form of its
+/// own) or another scheme.
+enum Built<S: CurvedSystem> {
+    HalfExplicit(Box<Stepper<S>>),
+    Other(BoxedScheme<S>),
+}
+
 /// Builds `kind` for `system`; fails with a reason if the scheme does not apply to it (no
 /// theory bound, a setting the solver rejects).
 pub fn build_integrator<S>(
@@ -109,6 +121,44 @@ pub fn build_integrator<S>(
     system: &S,
     constants: &SchemeConstants,
 ) -> Result<BoxedScheme<S>, StudyError>
+where
+    S: CurvedSystem + Clone + 'static,
+{
+    Ok(match build_kind(kind, system, constants)? {
+        Built::HalfExplicit(stepper) => stepper,
+        Built::Other(scheme) => scheme,
+    })
+}
+
+/// Builds `kind` for `paths` paths of `system` from (r0, v0): the half-explicit family as an
+/// [`Ensemble`] (SIMD lanes where the system has a lane form), the others as a [`PathLoop`].
+pub fn build_ensemble<S>(
+    kind: SchemeKind,
+    system: &S,
+    constants: &SchemeConstants,
+    (paths, r0, v0): (usize, &[f64], &[f64]),
+) -> Result<BoxedEnsemble<S>, StudyError>
+where
+    S: CurvedSystem + Clone + 'static,
+{
+    Ok(match build_kind(kind, system, constants)? {
+        Built::HalfExplicit(stepper) => {
+            Box::new(Ensemble::new(*stepper, paths, r0, v0).map_err(|e| {
+                StudyError::SchemeNotApplicable {
+                    scheme: kind.name().into(),
+                    reason: e.to_string(),
+                }
+            })?)
+        }
+        Built::Other(scheme) => Box::new(PathLoop::new(scheme, paths, r0, v0)?),
+    })
+}
+
+fn build_kind<S>(
+    kind: SchemeKind,
+    system: &S,
+    constants: &SchemeConstants,
+) -> Result<Built<S>, StudyError>
 where
     S: CurvedSystem + Clone + 'static,
 {
@@ -120,7 +170,7 @@ where
         let config = config.map_err(|e| not_applicable(e.to_string()))?;
         let stepper =
             Stepper::new(system.clone(), config).map_err(|e| not_applicable(e.to_string()))?;
-        Ok::<BoxedScheme<S>, StudyError>(Box::new(stepper))
+        Ok::<Built<S>, StudyError>(Built::HalfExplicit(Box::new(stepper)))
     };
     let inherent = |e: sdae_reference::ReferenceError| not_applicable(e.to_string());
     match kind {
@@ -145,23 +195,27 @@ where
         SchemeKind::HalfExplicitLocal => stepper(
             StepperConfig::new(constants.local_c_eta, constants.c_kappa).map(StepperConfig::local),
         ),
-        SchemeKind::EulerMaruyama => Ok(Box::new(
+        SchemeKind::EulerMaruyama => Ok(Built::Other(Box::new(
             EulerMaruyama::new(system.clone()).map_err(inherent)?,
-        )),
-        SchemeKind::TruncatedEulerMaruyama => Ok(Box::new(
+        ))),
+        SchemeKind::TruncatedEulerMaruyama => Ok(Built::Other(Box::new(
             TruncatedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        )),
-        SchemeKind::ProjectedEulerMaruyama => Ok(Box::new(
+        ))),
+        SchemeKind::ProjectedEulerMaruyama => Ok(Built::Other(Box::new(
             ProjectedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        )),
-        SchemeKind::StochasticHeun => Ok(Box::new(
+        ))),
+        SchemeKind::StochasticHeun => Ok(Built::Other(Box::new(
             StochasticHeun::new(system.clone()).map_err(inherent)?,
-        )),
+        ))),
     }
 }
 
 /// Builds a fresh scheme (one per worker thread) or says why it does not apply.
 type Build<S> = dyn Fn() -> Result<BoxedScheme<S>, StudyError> + Send + Sync;
+
+/// Builds a fresh ensemble of the scheme for (paths, r0, v0).
+type BuildEnsemble<S> =
+    dyn Fn((usize, &[f64], &[f64])) -> Result<BoxedEnsemble<S>, StudyError> + Send + Sync;
 
 /// A scheme of a study, by name: a built-in one ([`StudyScheme::built_in`]) or any
 /// implementation of [`Scheme`] a user brings ([`StudyScheme::new`]). Each worker thread
@@ -170,30 +224,40 @@ type Build<S> = dyn Fn() -> Result<BoxedScheme<S>, StudyError> + Send + Sync;
 pub struct StudyScheme<S> {
     name: String,
     build: std::sync::Arc<Build<S>>,
+    ensemble: std::sync::Arc<BuildEnsemble<S>>,
 }
 
-impl<S> StudyScheme<S> {
+impl<S: 'static> StudyScheme<S> {
     /// A scheme named `name` (as it appears in reports), built by `build`, which says why
-    /// the scheme does not apply when it does not.
+    /// the scheme does not apply when it does not. Its paths are stepped one at a time
+    /// ([`PathLoop`]).
     pub fn new<F, T>(name: impl Into<String>, build: F) -> Self
     where
         F: Fn() -> Result<T, String> + Send + Sync + 'static,
         T: Scheme<System = S> + 'static,
+        S: sdae_model::System,
     {
         let name: String = name.into();
         let scheme = name.clone();
+        let build: std::sync::Arc<Build<S>> = std::sync::Arc::new(move || match build() {
+            Ok(s) => Ok(Box::new(s) as BoxedScheme<S>),
+            Err(reason) => Err(StudyError::SchemeNotApplicable {
+                scheme: scheme.clone(),
+                reason,
+            }),
+        });
+        let one = build.clone();
         Self {
             name,
-            build: std::sync::Arc::new(move || match build() {
-                Ok(s) => Ok(Box::new(s) as BoxedScheme<S>),
-                Err(reason) => Err(StudyError::SchemeNotApplicable {
-                    scheme: scheme.clone(),
-                    reason,
-                }),
+            build,
+            ensemble: std::sync::Arc::new(move |(paths, r0, v0)| {
+                Ok(Box::new(PathLoop::new(one()?, paths, r0, v0)?) as BoxedEnsemble<S>)
             }),
         }
     }
+}
 
+impl<S> StudyScheme<S> {
     /// The name used in reports.
     pub fn name(&self) -> &str {
         &self.name
@@ -203,15 +267,29 @@ impl<S> StudyScheme<S> {
     pub fn build(&self) -> Result<BoxedScheme<S>, StudyError> {
         (self.build)()
     }
+
+    /// A new ensemble of `paths` paths from (r0, v0), or why the scheme does not apply.
+    pub fn build_ensemble(
+        &self,
+        paths: usize,
+        r0: &[f64],
+        v0: &[f64],
+    ) -> Result<BoxedEnsemble<S>, StudyError> {
+        (self.ensemble)((paths, r0, v0))
+    }
 }
 
 impl<S: CurvedSystem + Clone + Send + Sync + 'static> StudyScheme<S> {
     /// The built-in scheme `kind` for `system` with `constants`.
     pub fn built_in(kind: SchemeKind, system: &S, constants: &SchemeConstants) -> Self {
         let (system, constants) = (system.clone(), *constants);
+        let for_ensemble = system.clone();
         Self {
             name: kind.name().into(),
             build: std::sync::Arc::new(move || build_integrator(kind, &system, &constants)),
+            ensemble: std::sync::Arc::new(move |paths| {
+                build_ensemble(kind, &for_ensemble, &constants, paths)
+            }),
         }
     }
 }

@@ -17,9 +17,11 @@ use std::time::Instant;
 use sdae_manifold::vector::{dot, max_abs};
 use sdae_manifold::{Constraint, Mass};
 use sdae_model::{
-    FailureKind, GaussianIncrements, IncrementSource, ModelError, Observer, PathState,
-    RecordedIncrements, Scheme, System, TimeGrid, advance,
+    FailureKind, GaussianIncrements, IncrementSource, ModelError, PathDiagnostics, PathEnsemble,
+    System, TimeGrid, lane_stride,
 };
+
+use crate::integrator::BoxedEnsemble;
 use serde::{Deserialize, Serialize};
 
 /// Fine steps per chunk (fewer when the state is large, see [`chunk_len`]).
@@ -131,40 +133,31 @@ fn chunk_len(fine_steps: usize, record_stride: usize, row: usize, l: usize) -> u
     chunk.min(fine_steps)
 }
 
-/// The schemes of a path, all stepping one system.
-pub type Schemes<S> = [Box<dyn Scheme<System = S>>];
+/// Paths stepped together in one block (a multiple of the widest SIMD width).
+pub const BLOCK_PATHS: usize = 64;
 
-/// The state and running statistics of one scheme at one level.
+/// The ensembles a block of paths runs: `tracks[s * levels + j]` is scheme s at level j (each
+/// with as many paths as the block), and the reference, if any.
+pub struct BlockEnsembles<S> {
+    /// Scheme-major, one per scheme and level.
+    pub tracks: Vec<BoxedEnsemble<S>>,
+    /// The fine reference.
+    pub reference: Option<BoxedEnsemble<S>>,
+}
+
+/// What one path of one scheme at one level gathered so far.
+#[derive(Default)]
 struct Track {
-    r: Vec<f64>,
-    v: Vec<f64>,
-    path: PathState,
-    /// Sum of the fine increments of the current step when it spans several chunks.
-    pending: Vec<f64>,
-    pending_fine: usize,
-    sup: [f64; 3],
+    /// sup over the grid of |r - r_ref|^2, |v - v_ref|^2, |mu - mu_ref|^2.
+    squared_sup: [f64; 3],
     kinetic: (f64, usize),
     outcome: TrackOutcome,
 }
 
 impl Track {
-    fn new((r0, v0): (&[f64], &[f64]), dims: Dims) -> Self {
-        Self {
-            r: r0.to_vec(),
-            v: v0.to_vec(),
-            path: PathState::new(dims.m, dims.mu > 0, false),
-            pending: vec![0.0; dims.l],
-            pending_fine: 0,
-            sup: [0.0; 3],
-            kinetic: (0.0, 0),
-            outcome: TrackOutcome::default(),
-        }
-    }
-
-    /// The outcome of the whole path: step statistics from the driver's diagnostics, the
+    /// The outcome of the whole path: step statistics from the ensemble's diagnostics, the
     /// distances if it finished against a reference, the kinetic energy's time average.
-    fn finish(self, has_reference: bool) -> TrackOutcome {
-        let d = &self.path.diagnostics;
+    fn finish(self, d: &PathDiagnostics, has_reference: bool) -> TrackOutcome {
         let mut o = self.outcome;
         o.steps = d.steps;
         o.truncated_steps = d.truncated_steps;
@@ -173,7 +166,7 @@ impl Track {
         o.rounding_certified_steps = d.rounding_certified_steps;
         o.clock_lag = d.clock_lag;
         if o.failure.is_none() && has_reference {
-            o.distances = Some(self.sup);
+            o.distances = Some(self.squared_sup.map(f64::sqrt));
         }
         if self.kinetic.1 > 0 {
             o.kinetic_energy = Some(self.kinetic.0 / self.kinetic.1 as f64);
@@ -208,72 +201,38 @@ impl Dims {
     }
 }
 
-/// Writes (r, v, mu) at every `stride`-th step after step `start` into consecutive rows
-/// (`stride` a power of two).
-struct Rows<'a> {
-    rows: &'a mut [f64],
+/// Writes path p's (r, v, mu) into `row` (2n + mu long; mu left out when the row is 2n).
+fn read_row<S: System>(
+    ensemble: &dyn PathEnsemble<System = S>,
+    p: usize,
     n: usize,
-    start: usize,
-    stride: usize,
+    row: &mut [f64],
+) {
+    let (r, rest) = row.split_at_mut(n);
+    let (v, mu) = rest.split_at_mut(n);
+    ensemble
+        .state(p, r, v, mu)
+        .expect("the block's rows fit its ensembles");
 }
 
-impl Observer for Rows<'_> {
-    #[inline]
-    fn wants_step(&self, k: usize) -> bool {
-        k & (self.stride - 1) == 0
-    }
-    /// Row j holds step k = start + (j + 1) stride when the stretch spans whole strides, and
-    /// row 0 the one point of the stride grid a shorter stretch ends on.
-    fn observe(&mut self, k: usize, _t: f64, r: &[f64], v: &[f64], mu: &[f64]) {
-        let row = 2 * self.n + mu.len();
-        let j = (k - 1 - self.start) / self.stride;
-        let out = &mut self.rows[j * row..(j + 1) * row];
-        out[..self.n].copy_from_slice(r);
-        out[self.n..2 * self.n].copy_from_slice(v);
-        out[2 * self.n..].copy_from_slice(mu);
-    }
+/// The steps path p of `ensemble` has taken.
+fn steps_of<S: System>(ensemble: &dyn PathEnsemble<System = S>, p: usize) -> usize {
+    ensemble
+        .diagnostics(p)
+        .expect("p is a path of the block")
+        .steps
 }
 
-/// Takes `count` steps of `grid` with the increments `rows` (l each), recording the state after
-/// every `stride`-th step into `out`; returns the steps done and the failure that stopped it.
-fn step_through<S: System>(
-    scheme: &mut dyn Scheme<System = S>,
-    track: &mut Track,
-    (grid, count): (TimeGrid, usize),
-    rows: &[f64],
-    l: usize,
-    (out, stride): (&mut [f64], usize),
-) -> (usize, Option<FailureKind>) {
-    let start = track.path.k;
-    let mut increments = RecordedIncrements::new(rows, l);
-    let mut observer = Rows {
-        rows: out,
-        n: track.r.len(),
-        start,
-        stride,
-    };
-    let result = advance(
-        scheme,
-        &mut track.r,
-        &mut track.v,
-        &mut track.path,
-        (grid, count),
-        &mut increments,
-        &mut observer,
-    );
-    (track.path.k - start, result.err().map(|e| e.failure.kind()))
-}
-
-fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
+/// |a - b|^2 (the sup of distances is taken on squares: sqrt is monotone and correctly
+/// rounded, so sqrt(max d^2) is max d exactly, with one square root per path instead of one per
+/// grid point).
+fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>()
 }
 
 /// Compares snapshot rows 0..count of a track with the reference records (snapshot j is record
-/// `(j + 1) * per - 1`), updates residuals and kinetic energy, and checks the limits.
+/// `(j + 1) * per - 1`), updates residuals and kinetic energy, and checks the limits; returns
+/// the first limit broken.
 struct Compare<'a, S> {
     system: &'a S,
     plan: &'a PathPlan,
@@ -286,16 +245,16 @@ struct Compare<'a, S> {
 }
 
 impl<S: System> Compare<'_, S> {
+    /// Snapshot j is the state after step `first + j + 1`.
     fn run(
         &self,
         track: &mut Track,
         (snapshots, records): (&[f64], &[f64]),
-        count: usize,
+        (first, count): (usize, usize),
         buffers: (&mut [f64], &mut [f64]),
     ) -> Option<FailureKind> {
         let (n, row) = (self.dims.n, self.dims.row());
         let (scratch_m, scratch_n) = buffers;
-        let first = track.path.k - count;
         for j in 0..count {
             let snap = &snapshots[j * row..(j + 1) * row];
             let (r, v, mu) = (&snap[..n], &snap[n..2 * n], &snap[2 * n..]);
@@ -324,11 +283,11 @@ impl<S: System> Compare<'_, S> {
             if self.has_reference {
                 let rec = &records[((j + 1) * self.per - 1) * row..((j + 1) * self.per) * row];
                 let d = [
-                    distance(r, &rec[..n]),
-                    distance(v, &rec[n..2 * n]),
-                    distance(mu, &rec[2 * n..]),
+                    squared_distance(r, &rec[..n]),
+                    squared_distance(v, &rec[n..2 * n]),
+                    squared_distance(mu, &rec[2 * n..]),
                 ];
-                for (s, x) in track.sup.iter_mut().zip(d) {
+                for (s, x) in track.squared_sup.iter_mut().zip(d) {
                     *s = s.max(x);
                 }
             }
@@ -351,21 +310,37 @@ fn kinetic_energy<M: Mass>(mass: &M, v: &[f64], scratch: &mut [f64]) -> f64 {
     0.5 * dot(v, scratch)
 }
 
-/// Fills the pyramid of a chunk: level 0 from the noise, level j from pairwise sums of j - 1.
-fn fill_pyramid(pyramid: &mut [Vec<f64>], noise: &mut impl IncrementSource, h_fine: f64, l: usize) {
+/// Fills the pyramid of a chunk for a block of paths (rows of l * stride, component j of path
+/// p at `j * stride + p`): level 0 from each path's own stream, level j from pairwise sums of
+/// j - 1 (the sums of a path's fine increments, whatever the block).
+fn fill_pyramid<I: IncrementSource>(
+    pyramid: &mut [Vec<f64>],
+    noise: &mut [I],
+    h_fine: f64,
+    (l, stride): (usize, usize),
+) {
     if l == 0 {
         return;
     }
-    for dw in pyramid[0].chunks_exact_mut(l) {
-        noise.next_increment(h_fine, dw);
+    let width = l * stride;
+    let mut one = vec![0.0; l];
+    // Step by step, so that the rows being written stay in cache; each path draws from its
+    // own stream in its own order.
+    for row in pyramid[0].chunks_exact_mut(width) {
+        for (p, source) in noise.iter_mut().enumerate() {
+            source.next_increment(h_fine, &mut one);
+            for (j, x) in one.iter().enumerate() {
+                row[j * stride + p] = *x;
+            }
+        }
     }
     for j in 1..pyramid.len() {
         let (lower, upper) = pyramid.split_at_mut(j);
         let (below, here) = (&lower[j - 1], &mut upper[0]);
-        for (i, out) in here.chunks_exact_mut(l).enumerate() {
+        for (i, out) in here.chunks_exact_mut(width).enumerate() {
             let (a, b) = (
-                &below[2 * i * l..(2 * i + 1) * l],
-                &below[(2 * i + 1) * l..],
+                &below[2 * i * width..(2 * i + 1) * width],
+                &below[(2 * i + 1) * width..(2 * i + 2) * width],
             );
             for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
                 *o = x + y;
@@ -374,197 +349,332 @@ fn fill_pyramid(pyramid: &mut [Vec<f64>], noise: &mut impl IncrementSource, h_fi
     }
 }
 
-/// One path in lockstep: the plan, its dimensions and the buffers reused from chunk to chunk.
+/// A block of paths in lockstep: the plan, the dimensions and the buffers reused from chunk to
+/// chunk.
 struct Lockstep<'a> {
     plan: &'a PathPlan,
     /// `grids[k]`: N = 2^k steps over [0, T], for k up to the fine level.
     grids: Vec<TimeGrid>,
     dims: Dims,
+    /// Paths of the block (the ensembles' further lanes are idle) and the ensembles' stride.
+    live: usize,
+    stride: usize,
+    /// Paths whose reference failed: left out of the errors, their schemes stop.
+    dropped: Vec<bool>,
     /// Fine steps per chunk.
     chunk: usize,
     /// Fine steps per record of the reference (one record per step of the finest level).
     record_stride: usize,
-    /// pyramid[j]: sums of 2^j consecutive fine increments of the chunk (rows of l).
+    /// pyramid[j]: sums of 2^j consecutive fine increments of the chunk (rows of l * stride).
     pyramid: Vec<Vec<f64>>,
-    /// The reference at the finest level's grid points of the chunk (rows r, v, mu).
+    /// Per path, `record_rows` rows each: the reference at the finest level's grid points of
+    /// the chunk (rows r, v, mu).
     records: Vec<f64>,
-    /// A track's states at its grid points of the chunk (rows r, v, mu).
-    snapshots: Vec<f64>,
+    record_rows: usize,
+    /// Per path, one row: a track's state after its last step.
+    snapshot: Vec<f64>,
+    /// Sums of the fine increments of the current step of each track whose steps span several
+    /// chunks (l * stride each), and the fine steps summed so far.
+    pending: Vec<Vec<f64>>,
+    pending_fine: Vec<usize>,
+    /// Steps each path had taken before the current stretch.
+    before: Vec<usize>,
     scratch_m: Vec<f64>,
     scratch_n: Vec<f64>,
 }
 
 impl<'a> Lockstep<'a> {
     /// Fails if T is not finite and > 0.
-    fn new(plan: &'a PathPlan, dims: Dims) -> Result<Self, ModelError> {
+    fn new(
+        plan: &'a PathPlan,
+        dims: Dims,
+        (paths, live): (usize, usize),
+        tracks: usize,
+    ) -> Result<Self, ModelError> {
         let grids = (0..=plan.fine)
             .map(|k| TimeGrid::new(plan.t_end, 1usize << k))
             .collect::<Result<_, _>>()?;
         let fine_steps = 1usize << plan.fine;
         let finest = plan.levels.last().copied().unwrap_or(plan.fine);
         let record_stride = 1usize << (plan.fine - finest);
-        let chunk = chunk_len(fine_steps, record_stride, dims.row(), dims.l);
+        let stride = lane_stride(paths);
+        let chunk = chunk_len(
+            fine_steps,
+            record_stride,
+            dims.row() * stride,
+            dims.l * stride,
+        );
         let depth = chunk.trailing_zeros() as usize;
         // A chunk shorter than a step of the finest level holds at most one record.
-        let rows = (chunk / record_stride).max(1) * dims.row();
+        let record_rows = (chunk / record_stride).max(1);
+        let rows = record_rows * dims.row() * paths;
         Ok(Self {
             plan,
             grids,
             dims,
+            live,
+            stride,
+            dropped: vec![false; paths],
             chunk,
             record_stride,
             pyramid: (0..=depth)
-                .map(|j| vec![0.0; (chunk >> j) * dims.l])
+                .map(|j| vec![0.0; (chunk >> j) * dims.l * stride])
                 .collect(),
             records: vec![0.0; rows],
-            snapshots: vec![0.0; rows],
+            record_rows,
+            snapshot: vec![0.0; dims.row() * live],
+            pending: vec![vec![0.0; dims.l * stride]; tracks],
+            pending_fine: vec![0; tracks],
+            before: vec![0; paths],
             scratch_m: vec![0.0; dims.m],
             scratch_n: vec![0.0; dims.n],
         })
     }
 
-    /// Runs the reference over the chunk's fine increments, recording the state at the finest
-    /// level's grid points; returns the failure that stopped it.
+    /// Runs the reference over the chunk's fine increments, recording each path's state at
+    /// the finest level's grid points; returns the paths that have stopped (if any stopped in
+    /// this chunk).
     fn reference_chunk<S: System>(
         &mut self,
-        reference: &mut dyn Scheme<System = S>,
-        state: &mut Track,
-    ) -> Option<FailureKind> {
-        let grid = self.grids[self.plan.fine as usize];
-        let (_, failure) = step_through(
-            reference,
-            state,
-            (grid, self.chunk),
-            &self.pyramid[0],
-            self.dims.l,
-            (&mut self.records, self.record_stride),
-        );
-        failure
+        reference: &mut dyn PathEnsemble<System = S>,
+    ) -> Vec<usize> {
+        let (row, width) = (self.dims.row(), self.dims.l * self.stride);
+        let h = self.grids[self.plan.fine as usize].h();
+        // One record per finest step, or one at the chunk's end when the chunk is shorter
+        // (only a chunk that ends on a finest step is compared with).
+        let every = self.record_stride.min(self.chunk);
+        let mut any_failed = false;
+        for t in 0..self.chunk {
+            let dw = &self.pyramid[0][t * width..(t + 1) * width];
+            any_failed |= reference.step(h, dw).expect("the block's increments fit") > 0;
+            if (t + 1) % every == 0 {
+                let j = (t + 1) / every - 1;
+                for p in 0..self.live {
+                    let at = (p * self.record_rows + j) * row;
+                    read_row(reference, p, self.dims.n, &mut self.records[at..at + row]);
+                }
+            }
+        }
+        let failed = |p: &usize| reference.failure(*p).is_ok_and(|f| f.is_some());
+        if any_failed {
+            (0..self.live).filter(failed).collect()
+        } else {
+            Vec::new()
+        }
     }
 
-    /// Steps one scheme at one level through the chunk and compares it with the reference.
+    /// Steps one scheme at one level (track `index`) through the chunk for every path that
+    /// goes on, and compares each with the reference.
     fn level_chunk<S: System>(
         &mut self,
-        scheme: &mut dyn Scheme<System = S>,
-        track: &mut Track,
+        ensemble: &mut dyn PathEnsemble<System = S>,
+        (tracks, index): (&mut [Track], usize),
         level: u32,
         has_reference: bool,
     ) {
-        let (plan, chunk, l) = (self.plan, self.chunk, self.dims.l);
+        let (plan, chunk) = (self.plan, self.chunk);
         let stride = 1usize << (plan.fine - level);
         let depth = self.pyramid.len() - 1;
         // The coarse increments of this chunk, and records per coarse step.
         let per = if stride <= chunk {
             stride / self.record_stride
         } else {
-            for (p, x) in track.pending.iter_mut().zip(&self.pyramid[depth]) {
+            for (p, x) in self.pending[index].iter_mut().zip(&self.pyramid[depth]) {
                 *p += x;
             }
-            track.pending_fine += chunk;
-            if track.pending_fine < stride {
+            self.pending_fine[index] += chunk;
+            if self.pending_fine[index] < stride {
                 return;
             }
-            track.pending_fine = 0;
+            self.pending_fine[index] = 0;
             // The step ends at the chunk's end: compare with the chunk's last record (its only
             // one when the chunk is shorter than a step of the finest level).
             (chunk / self.record_stride).max(1)
         };
         let count = (chunk / stride).max(1);
-        let pending = std::mem::take(&mut track.pending);
+        let active: Vec<usize> = (0..self.live)
+            .filter(|&p| !self.dropped[p] && tracks[p].outcome.failure.is_none())
+            .collect();
+        // The increments, taken out of the buffers for the stretch and put back after it.
+        let at = stride.trailing_zeros() as usize;
         let rows = if stride <= chunk {
-            &self.pyramid[stride.trailing_zeros() as usize][..]
+            std::mem::take(&mut self.pyramid[at])
         } else {
-            &pending[..]
+            std::mem::take(&mut self.pending[index])
         };
-        let grid = self.grids[level as usize];
-        let start = Instant::now();
-        let (done, failure) = step_through(
-            scheme,
-            track,
-            (grid, count),
-            rows,
-            l,
-            (&mut self.snapshots[..count * self.dims.row()], 1),
+        self.stretch(
+            ensemble,
+            (tracks, active),
+            (&rows, per),
+            (level, count, has_reference),
         );
-        track.outcome.seconds += start.elapsed().as_secs_f64();
-        track.pending = pending;
-        track.pending.fill(0.0);
-        let compare = Compare {
-            system: scheme.system(),
-            plan,
-            dims: self.dims,
-            per,
-            h: grid.h(),
-            has_reference,
-        };
-        let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
-        let checked = compare.run(track, (&self.snapshots, &self.records), done, scratch);
-        track.outcome.failure = failure.or(checked);
+        if stride <= chunk {
+            self.pyramid[at] = rows;
+        } else {
+            self.pending[index] = rows;
+            self.pending[index].fill(0.0);
+        }
+    }
+
+    /// Takes `count` steps of level `level` of the active paths with the increments `rows`
+    /// (the steps timed, their share of the time charged to each path). After each step every
+    /// path's state is compared with the reference at once, and a path stops at the first step
+    /// that fails or breaks a limit, so where a path stops does not depend on the chunks.
+    fn stretch<S: System>(
+        &mut self,
+        ensemble: &mut dyn PathEnsemble<System = S>,
+        (tracks, mut active): (&mut [Track], Vec<usize>),
+        (rows, per): (&[f64], usize),
+        (level, count, has_reference): (u32, usize, bool),
+    ) {
+        let (row, width) = (self.dims.row(), self.dims.l * self.stride);
+        let h = self.grids[level as usize].h();
+        for &p in &active {
+            self.before[p] = steps_of(ensemble, p);
+        }
+        for t in 0..count {
+            if active.is_empty() {
+                return;
+            }
+            let start = Instant::now();
+            ensemble
+                .step(h, &rows[t * width..(t + 1) * width])
+                .expect("the block's increments fit");
+            // The step's time, shared by the paths that took it.
+            let share = start.elapsed().as_secs_f64() / active.len() as f64;
+            let compare = Compare {
+                system: ensemble.system(),
+                plan: self.plan,
+                dims: self.dims,
+                per,
+                h,
+                has_reference,
+            };
+            let mut stopped = Vec::new();
+            active.retain(|&p| {
+                tracks[p].outcome.seconds += share;
+                let steps = steps_of(ensemble, p);
+                let track = &mut tracks[p];
+                if steps == self.before[p] {
+                    // The step failed: the path has stopped at its last good state.
+                    track.outcome.failure = ensemble
+                        .failure(p)
+                        .expect("p is a path of the block")
+                        .map(|f| f.kind());
+                    return false;
+                }
+                self.before[p] = steps;
+                let snapshot = &mut self.snapshot[p * row..(p + 1) * row];
+                read_row(ensemble, p, self.dims.n, snapshot);
+                let span = self.record_rows * row;
+                let records = &self.records[p * span + t * per * row..(p + 1) * span];
+                let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
+                let checked = compare.run(track, (snapshot, records), (steps - 1, 1), scratch);
+                track.outcome.failure = checked;
+                if checked.is_some() {
+                    stopped.push(p);
+                }
+                checked.is_none()
+            });
+            for p in stopped {
+                ensemble.stop(p).expect("p is a path of the block");
+            }
+        }
     }
 }
 
-/// Runs path `index` of a study: every scheme at every level of `plan`, against `reference` on
-/// the fine grid if given, from (r0, v0), with the Brownian path of stream (seed, index).
-/// Fails only if the plan's T is not finite and > 0; the schemes' failures are in the record.
-pub fn run_path<S: System>(
+/// Runs the paths `indices` of a study (at most the ensembles' number of paths) as one block:
+/// every scheme at every level of `plan`, against the reference on the fine grid if given,
+/// from (r0, v0), each path with the Brownian path of stream (seed, index). A path's numbers
+/// do not depend on the block it runs in. Fails only if the plan's T is not finite and > 0 or
+/// the block is larger than the ensembles; the schemes' failures are in the records.
+pub fn run_block<S: System>(
     plan: &PathPlan,
-    schemes: &mut Schemes<S>,
-    mut reference: Option<&mut Box<dyn Scheme<System = S>>>,
-    start: (&[f64], &[f64]),
+    ensembles: &mut BlockEnsembles<S>,
+    (r0, v0): (&[f64], &[f64]),
     seed: u64,
-    index: usize,
-) -> Result<PathRecord, ModelError> {
-    let system = match (schemes.first(), reference.as_deref()) {
-        (Some(s), _) | (None, Some(s)) => s.system(),
-        (None, None) => {
-            return Ok(PathRecord {
-                index,
-                reference_failure: None,
-                reference_seconds: 0.0,
-                tracks: Vec::new(),
-            });
-        }
-    };
-    let dims = Dims::of(system, plan.want_mu);
-    let mut lockstep = Lockstep::new(plan, dims)?;
-    let mut tracks: Vec<Track> = (0..schemes.len() * plan.levels.len())
-        .map(|_| Track::new(start, dims))
+    indices: &[usize],
+) -> Result<Vec<PathRecord>, ModelError> {
+    let mut records: Vec<PathRecord> = indices
+        .iter()
+        .map(|&index| PathRecord {
+            index,
+            reference_failure: None,
+            reference_seconds: 0.0,
+            tracks: Vec::new(),
+        })
         .collect();
-    let mut reference_state = Track::new(start, dims);
-    let mut record = PathRecord {
-        index,
-        reference_failure: None,
-        reference_seconds: 0.0,
-        tracks: Vec::new(),
+    let BlockEnsembles { tracks, reference } = ensembles;
+    let Some(first) = tracks.first().or(reference.as_ref()) else {
+        return Ok(records);
     };
-    let mut noise = GaussianIncrements::for_path(seed, index as u64, dims.l);
+    let (paths, live) = (first.paths(), indices.len());
+    if live > paths {
+        return Err(ModelError::DimensionMismatch {
+            what: "paths of a block (at most the ensembles' paths)",
+            expected: paths,
+            found: live,
+        });
+    }
+    let dims = Dims::of(first.system(), plan.want_mu);
+    let levels = plan.levels.len();
+    let mut lockstep = Lockstep::new(plan, dims, (paths, live), tracks.len())?;
+    for ensemble in tracks.iter_mut().chain(reference.as_mut()) {
+        ensemble.restart(r0, v0)?;
+        // Lanes beyond the block's paths stay idle.
+        for p in live..paths {
+            ensemble.stop(p)?;
+        }
+    }
+    let mut states: Vec<Vec<Track>> = (0..tracks.len())
+        .map(|_| (0..live).map(|_| Track::default()).collect())
+        .collect();
+    let mut noise: Vec<_> = indices
+        .iter()
+        .map(|&i| GaussianIncrements::for_path(seed, i as u64, dims.l))
+        .collect();
     let h_fine = plan.t_end / (1usize << plan.fine) as f64;
+    let has_reference = reference.is_some();
     for _ in 0..(1usize << plan.fine) / lockstep.chunk {
-        fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine, dims.l);
+        let layout = (dims.l, lockstep.stride);
+        fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine, layout);
         if let Some(reference) = reference.as_deref_mut() {
             let clock = Instant::now();
-            let failure = lockstep.reference_chunk(reference.as_mut(), &mut reference_state);
-            record.reference_seconds += clock.elapsed().as_secs_f64();
-            if failure.is_some() {
-                record.reference_failure = failure;
-                return Ok(record);
+            let failed = lockstep.reference_chunk(reference);
+            let seconds = clock.elapsed().as_secs_f64() / live as f64;
+            for record in &mut records {
+                record.reference_seconds += seconds;
             }
-        }
-        for (s, scheme) in schemes.iter_mut().enumerate() {
-            for (j, &level) in plan.levels.iter().enumerate() {
-                let track = &mut tracks[s * plan.levels.len() + j];
-                if track.outcome.failure.is_none() {
-                    lockstep.level_chunk(scheme.as_mut(), track, level, reference.is_some());
+            for p in failed {
+                if !lockstep.dropped[p] {
+                    records[p].reference_failure = reference.failure(p)?.map(|f| f.kind());
+                    // The path is left out of the errors: its schemes stop here.
+                    lockstep.dropped[p] = true;
+                    for ensemble in tracks.iter_mut() {
+                        ensemble.stop(p)?;
+                    }
                 }
             }
         }
+        for (index, (ensemble, track)) in tracks.iter_mut().zip(&mut states).enumerate() {
+            let level = plan.levels[index % levels];
+            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, has_reference);
+        }
     }
-    let has_reference = reference.is_some();
-    record.tracks = tracks
-        .into_iter()
-        .map(|t| t.finish(has_reference))
-        .collect();
-    Ok(record)
+    for (p, record) in records.iter_mut().enumerate() {
+        if record.reference_failure.is_some() {
+            continue;
+        }
+        record.tracks = tracks
+            .iter()
+            .zip(&mut states)
+            .map(|(ensemble, track)| {
+                let diagnostics = ensemble.diagnostics(p).expect("p is a path of the block");
+                std::mem::take(&mut track[p]).finish(diagnostics, has_reference)
+            })
+            .collect();
+    }
+    Ok(records)
 }
 
 #[cfg(test)]

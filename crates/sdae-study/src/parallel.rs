@@ -5,12 +5,13 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
+use sdae_model::lane_stride;
 use sdae_reference::CurvedSystem;
 use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
-use crate::integrator::{BoxedScheme, SchemeKind, StudyScheme};
-use crate::lockstep::{PathPlan, PathRecord, run_path};
+use crate::integrator::{SchemeKind, StudyScheme};
+use crate::lockstep::{BLOCK_PATHS, BlockEnsembles, PathPlan, PathRecord, run_block};
 use crate::scene::Prepared;
 
 /// A scheme left out, and why.
@@ -52,13 +53,36 @@ where
     (run, skipped)
 }
 
-/// Builds an instance of each of `schemes` (all known to apply).
-fn instances<S>(schemes: &[StudyScheme<S>]) -> Vec<BoxedScheme<S>> {
-    schemes
-        .iter()
-        .map(|s| s.build().expect("checked by `applicable`"))
-        .collect()
+/// Ensembles of `paths` paths for a block: each scheme at each of the plan's levels, and the
+/// reference.
+fn block_ensembles<S>(
+    schemes: &[StudyScheme<S>],
+    reference: Option<&StudyScheme<S>>,
+    (plan, paths): (&PathPlan, usize),
+    (r0, v0): (&[f64], &[f64]),
+) -> Result<BlockEnsembles<S>, StudyError> {
+    let mut tracks = Vec::with_capacity(schemes.len() * plan.levels.len());
+    for scheme in schemes {
+        for _ in &plan.levels {
+            tracks.push(scheme.build_ensemble(paths, r0, v0)?);
+        }
+    }
+    let reference = reference
+        .map(|s| s.build_ensemble(paths, r0, v0))
+        .transpose()?;
+    Ok(BlockEnsembles { tracks, reference })
 }
+
+/// Paths per block: [`BLOCK_PATHS`], or fewer (a multiple of the lane block) so that every
+/// thread gets at least [`BLOCKS_PER_THREAD`] blocks, which balances the threads' load and
+/// lets a stop take effect early.
+fn block_len(paths: usize, threads: usize) -> usize {
+    let even = lane_stride(paths.div_ceil(BLOCKS_PER_THREAD * threads.max(1)));
+    BLOCK_PATHS.min(even).max(1)
+}
+
+/// The fewest blocks per thread [`block_len`] aims at.
+const BLOCKS_PER_THREAD: usize = 4;
 
 /// Which paths to run, and on how many threads.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,34 +143,29 @@ where
             message: e.to_string(),
         })?;
     let finished = AtomicUsize::new(0);
-    let reference: Vec<StudyScheme<S>> = reference.into_iter().cloned().collect();
-    let records = pool.install(|| {
-        mine.par_iter()
+    let start = (&prepared.position[..], &prepared.velocity[..]);
+    let block = block_len(mine.len(), selection.threads);
+    let reference = reference.cloned();
+    let blocks = pool.install(|| {
+        mine.par_chunks(block)
             .map_init(
-                || {
-                    let reference = instances(&reference).pop();
-                    (instances(schemes), reference)
-                },
-                |(tracks, reference), &i| {
+                || block_ensembles(schemes, reference.as_ref(), (plan, block), start),
+                |ensembles, indices| {
+                    let ensembles = ensembles.as_mut().map_err(|e| e.clone())?;
                     if control.stopped() {
-                        return Ok(None);
+                        return Ok(Vec::new());
                     }
-                    let record = run_path(
-                        plan,
-                        tracks,
-                        reference.as_mut(),
-                        (&prepared.position, &prepared.velocity),
-                        selection.seed,
-                        i,
-                    );
-                    let finished = finished.fetch_add(1, Ordering::Relaxed) + 1;
+                    let records = run_block(plan, ensembles, start, selection.seed, indices)?;
+                    let finished = finished.fetch_add(indices.len(), Ordering::Relaxed);
                     if let Some(progress) = control.progress {
-                        progress(finished);
+                        for done in finished + 1..=finished + indices.len() {
+                            progress(done);
+                        }
                     }
-                    record.map(Some)
+                    Ok(records)
                 },
             )
-            .collect::<Result<Vec<_>, _>>()
+            .collect::<Result<Vec<_>, StudyError>>()
     });
-    Ok(records?.into_iter().flatten().collect())
+    Ok(blocks?.into_iter().flatten().collect())
 }

@@ -1,15 +1,16 @@
 //! The lockstep driver against a direct computation: the same scheme run level by level with
 //! the whole Brownian path in memory (sdae_model::run_path, Recorder, Coarsened), on a fine
 //! grid longer than one chunk so that coarse steps span several chunks, and with the reference
-//! so far above the finest level that a chunk is shorter than one finest step.
+//! so far above the finest level that a chunk is shorter than one finest step; a path gives
+//! the same numbers whatever block of paths it runs in.
 
 use sdae_model::{
     Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, Recorder, TimeGrid,
     run_path,
 };
 use sdae_scheme::{Stepper, StepperConfig};
-use sdae_study::integrator::{SchemeConstants, SchemeKind, build_integrator};
-use sdae_study::lockstep::{Limits, PathPlan};
+use sdae_study::integrator::{SchemeConstants, SchemeKind, build_ensemble};
+use sdae_study::lockstep::{BlockEnsembles, Limits, PathPlan, run_block};
 use sdae_systems::{PendulumParams, pendulum};
 
 fn distance(a: &[f64], b: &[f64]) -> f64 {
@@ -48,20 +49,28 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         limits: Limits::default(),
         kinetic_after: None,
     };
-    let mut schemes =
-        vec![build_integrator(SchemeKind::HalfExplicitPractical, &system, &constants).unwrap()];
-    let mut reference =
-        build_integrator(SchemeKind::HalfExplicitPractical, &system, &constants).unwrap();
+    let ensembles = |paths: usize| {
+        let build =
+            |kind| build_ensemble(kind, &system, &constants, (paths, &r0[..], &v0[..])).unwrap();
+        BlockEnsembles {
+            tracks: levels
+                .iter()
+                .map(|_| build(SchemeKind::HalfExplicitPractical))
+                .collect(),
+            reference: Some(build(SchemeKind::HalfExplicitPractical)),
+        }
+    };
     let (seed, index) = (11, 3);
-    let record = sdae_study::lockstep::run_path(
-        &plan,
-        &mut schemes,
-        Some(&mut reference),
-        (&r0, &v0),
-        seed,
-        index,
-    )
-    .unwrap();
+    // Path 3 in a block with others, and alone in a wider one: the same numbers.
+    let run = |paths: usize, indices: &[usize]| {
+        run_block(&plan, &mut ensembles(paths), (&r0, &v0), seed, indices).unwrap()
+    };
+    let record = run(3, &[5, 3, 8]).swap_remove(1);
+    let alone = run(16, &[3]).swap_remove(0);
+    assert_eq!(record.index, index);
+    for (a, b) in record.tracks.iter().zip(&alone.tracks) {
+        assert_eq!((a.distances, a.steps), (b.distances, b.steps));
+    }
     assert!(record.reference_failure.is_none());
 
     // Direct: all fine increments in memory, the reference recorded on the finest level's grid.

@@ -78,6 +78,9 @@ fn step_groups<S: System, Sd: Simd, const N: usize>(
             Lanes::select(done, lanes.r[i], r[i]).store(&mut ensemble.r[row..]);
             Lanes::select(done, lanes.v[i], v[i]).store(&mut ensemble.v[row..]);
         }
+        // mu_{k+1} = mu_k + lambda_{k+1} (seed eq. 1.4; a sphere has one constraint).
+        let mu = Lanes::load(simd, &ensemble.mu[offset..]);
+        Lanes::select(done, mu + lanes.lambda, mu).store(&mut ensemble.mu[offset..]);
         let (alive, done) = (mask_values(alive), mask_values(done));
         let decided = lanes.values(kernel.radius, kernel.monitor_velocity);
         for lane in 0..width {
@@ -104,7 +107,7 @@ fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; LANES_MAX] {
 }
 
 /// The widest W.
-const LANES_MAX: usize = super::BLOCK;
+const LANES_MAX: usize = sdae_model::LANE_BLOCK;
 
 /// The constants of one step: the scheme's and the sphere's.
 struct Kernel<const N: usize> {
@@ -131,6 +134,8 @@ struct Decided<Sd: Simd, const N: usize> {
     ok: LaneMask<Sd>,
     r: [Lanes<Sd>; N],
     v: [Lanes<Sd>; N],
+    /// lambda_{k+1}, the increment of mu.
+    lambda: Lanes<Sd>,
     eta: Lanes<Sd>,
     residual: Lanes<Sd>,
     velocity_residual: Lanes<Sd>,
@@ -361,6 +366,7 @@ impl<const N: usize> Kernel<N> {
             ok,
             r: x,
             v: v_new,
+            lambda,
             eta,
             residual,
             velocity_residual,

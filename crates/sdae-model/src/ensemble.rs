@@ -1,0 +1,255 @@
+//! Many independent paths of one scheme stepped together: the trait [`PathEnsemble`], the
+//! layout of its increments ([`lane_stride`]) and [`PathLoop`], which steps the paths of any
+//! [`Scheme`] one at a time.
+//!
+//! A path's numbers never depend on the other paths of its ensemble: path p of an ensemble
+//! computes exactly what [`run_path`](crate::run_path) computes for that path alone, so a
+//! Monte Carlo run gives the same numbers however its paths are grouped into ensembles and
+//! threads. An implementation that steps W paths in SIMD lanes is `sdae_scheme::Ensemble`.
+//!
+//! ```
+//! use sdae_model::{
+//!     GaussianIncrements, IncrementSource, MechanicalSystem, NoNoise, PathEnsemble, PathLoop,
+//!     Scheme, StepFailure, StepOutcome, ZeroDrift, lane_stride,
+//! };
+//! use sdae_manifold::{IdentityMass, Sphere};
+//!
+//! // A scheme that only moves along a circle's tangent (enough to show the bookkeeping).
+//! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
+//! struct Rotate(Circle);
+//! impl Scheme for Rotate {
+//!     type System = Circle;
+//!     fn system(&self) -> &Circle {
+//!         &self.0
+//!     }
+//!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
+//!         -> Result<StepOutcome, StepFailure> {
+//!         let (c, s) = (h.cos(), h.sin());
+//!         let (x, y) = (r[0], r[1]);
+//!         r.copy_from_slice(&[c * x - s * y, s * x + c * y]);
+//!         v.copy_from_slice(&[-r[1], r[0]]);
+//!         Ok(StepOutcome::PLAIN)
+//!     }
+//!     fn multiplier_increment(&self) -> &[f64] {
+//!         &[0.0]
+//!     }
+//! }
+//!
+//! let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
+//! let mut paths = PathLoop::new(Rotate(system), 3, &[1.0, 0.0], &[0.0, 1.0])?;
+//! assert_eq!(paths.stride(), lane_stride(3));
+//! for _ in 0..100 {
+//!     paths.step(0.01, &[])?;
+//! }
+//! let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
+//! paths.state(2, &mut r, &mut v, &mut mu)?;
+//! assert!((r[0] - 1f64.cos()).abs() < 1e-12 && paths.diagnostics(2)?.steps == 100);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use sdae_manifold::Constraint;
+
+use crate::driver::{PathDiagnostics, PathState};
+use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
+use crate::scheme::Scheme;
+use crate::system::System;
+
+/// Paths are laid out in blocks of this many lanes, the widest SIMD width (8 f64 with
+/// AVX-512).
+pub const LANE_BLOCK: usize = 8;
+
+/// The stride of an ensemble of `paths` paths: `paths` rounded up to a multiple of
+/// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to [`PathEnsemble::step`]
+/// is entry `j * stride + p`.
+pub fn lane_stride(paths: usize) -> usize {
+    paths.div_ceil(LANE_BLOCK) * LANE_BLOCK
+}
+
+/// P independent paths of one scheme, each with its state (r, v), its mu (seed eq. 1.4), its
+/// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`]: a failed path keeps
+/// its last good state and stops; the others go on.
+pub trait PathEnsemble {
+    /// The system stepped.
+    type System: System;
+    /// The system.
+    fn system(&self) -> &Self::System;
+    /// The number P of paths.
+    fn paths(&self) -> usize;
+    /// The stride of the increments' layout, [`lane_stride`]`(P)`.
+    fn stride(&self) -> usize {
+        lane_stride(self.paths())
+    }
+    /// Puts every path back at (r0, v0) with mu = 0, fresh diagnostics and no failure.
+    fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError>;
+    /// Advances every path that goes on by one step of size h with Brownian increments `dw`
+    /// (component j of path p at `j * stride + p`, length l * stride); returns how many paths
+    /// stopped in this step.
+    fn step(&mut self, h: f64, dw: &[f64]) -> Result<usize, ModelError>;
+    /// Copies path p's (r, v, mu) into the slices (mu of length m, or empty to skip it).
+    fn state(
+        &self,
+        p: usize,
+        r: &mut [f64],
+        v: &mut [f64],
+        mu: &mut [f64],
+    ) -> Result<(), ModelError>;
+    /// What path p's steps did so far.
+    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError>;
+    /// Why path p stopped on a failed step, or `None`.
+    fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError>;
+    /// Stops path p (its caller found it failed, say beyond a blow-up bound): it takes no
+    /// further steps until [`PathEnsemble::restart`].
+    fn stop(&mut self, p: usize) -> Result<(), ModelError>;
+}
+
+/// Checks a path index against the number of paths.
+pub fn check_path(p: usize, paths: usize) -> Result<(), ModelError> {
+    if p < paths {
+        Ok(())
+    } else {
+        Err(ModelError::DimensionMismatch {
+            what: "path index (must be below the number of paths)",
+            expected: paths,
+            found: p,
+        })
+    }
+}
+
+/// The paths of any [`Scheme`] (a user's, one without a lane form), stepped one at a time by
+/// the same [`PathState::step`] as [`run_path`](crate::run_path).
+pub struct PathLoop<Sch: Scheme> {
+    scheme: Sch,
+    /// Path p's r_k and v_k.
+    r: Vec<Vec<f64>>,
+    v: Vec<Vec<f64>>,
+    /// Path p's k, mu and diagnostics.
+    states: Vec<PathState>,
+    /// Whether path p goes on.
+    alive: Vec<bool>,
+    failures: Vec<Option<StepFailure>>,
+    /// One path's increment.
+    dw: Vec<f64>,
+}
+
+impl<Sch: Scheme> PathLoop<Sch> {
+    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) (not checked to be on the
+    /// manifold, as for one step of a scheme).
+    pub fn new(scheme: Sch, paths: usize, r0: &[f64], v0: &[f64]) -> Result<Self, ModelError> {
+        if paths == 0 {
+            return Err(ModelError::InvalidSetting {
+                name: "paths",
+                value: 0.0,
+                reason: "an ensemble needs at least one path",
+            });
+        }
+        let system = scheme.system();
+        let m = system.constraint().n_constraints();
+        let l = system.noise_dim();
+        let mut ensemble = Self {
+            scheme,
+            r: vec![Vec::new(); paths],
+            v: vec![Vec::new(); paths],
+            states: vec![PathState::new(m, true, false); paths],
+            alive: vec![true; paths],
+            failures: vec![None; paths],
+            dw: vec![0.0; l],
+        };
+        ensemble.restart(r0, v0)?;
+        Ok(ensemble)
+    }
+
+    /// The scheme.
+    pub fn scheme(&self) -> &Sch {
+        &self.scheme
+    }
+}
+
+impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
+    type System = Sch::System;
+
+    fn system(&self) -> &Self::System {
+        self.scheme.system()
+    }
+
+    fn paths(&self) -> usize {
+        self.states.len()
+    }
+
+    fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
+        let c = self.scheme.system().constraint();
+        check_dim("initial position", c.dim(), r0.len())?;
+        check_dim("initial velocity", c.dim(), v0.len())?;
+        let m = c.n_constraints();
+        for p in 0..self.states.len() {
+            self.r[p] = r0.to_vec();
+            self.v[p] = v0.to_vec();
+            self.states[p] = PathState::new(m, true, false);
+            self.alive[p] = true;
+            self.failures[p] = None;
+        }
+        Ok(())
+    }
+
+    fn step(&mut self, h: f64, dw: &[f64]) -> Result<usize, ModelError> {
+        check_step_size(h)?;
+        let stride = self.stride();
+        check_dim("increments (l * stride)", self.dw.len() * stride, dw.len())?;
+        let mut stopped = 0;
+        for p in 0..self.states.len() {
+            if !self.alive[p] {
+                continue;
+            }
+            for (j, x) in self.dw.iter_mut().enumerate() {
+                *x = dw[j * stride + p];
+            }
+            let state = &mut self.states[p];
+            if let Err(failure) = state.step(
+                &mut self.scheme,
+                &mut self.r[p],
+                &mut self.v[p],
+                h,
+                &self.dw,
+            ) {
+                self.alive[p] = false;
+                self.failures[p] = Some(failure);
+                stopped += 1;
+            }
+        }
+        Ok(stopped)
+    }
+
+    fn state(
+        &self,
+        p: usize,
+        r: &mut [f64],
+        v: &mut [f64],
+        mu: &mut [f64],
+    ) -> Result<(), ModelError> {
+        check_path(p, self.paths())?;
+        check_dim("position", self.r[p].len(), r.len())?;
+        check_dim("velocity", self.v[p].len(), v.len())?;
+        if !mu.is_empty() {
+            check_dim("multiplier", self.states[p].mu.len(), mu.len())?;
+            mu.copy_from_slice(&self.states[p].mu);
+        }
+        r.copy_from_slice(&self.r[p]);
+        v.copy_from_slice(&self.v[p]);
+        Ok(())
+    }
+
+    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
+        check_path(p, self.paths())?;
+        Ok(&self.states[p].diagnostics)
+    }
+
+    fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError> {
+        check_path(p, self.paths())?;
+        Ok(self.failures[p].as_ref())
+    }
+
+    fn stop(&mut self, p: usize) -> Result<(), ModelError> {
+        check_path(p, self.paths())?;
+        self.alive[p] = false;
+        Ok(())
+    }
+}

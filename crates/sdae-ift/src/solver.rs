@@ -227,13 +227,15 @@ impl<A: Factorize> BallSolver<A> {
             });
         }
         self.matrix
-            .factor_into(&mut self.factor_at_zero)
+            .factor_and_solve(
+                &mut self.factor_at_zero,
+                &self.residual_at_zero,
+                &mut self.step,
+            )
             .map_err(|source| IftError::Singular {
                 iteration: 0,
                 source,
             })?;
-        self.step.copy_from_slice(&self.residual_at_zero);
-        self.factor_at_zero.solve_in_place(&mut self.step);
         let first_step = norm2(&self.step);
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
 
@@ -587,24 +589,36 @@ impl<A: Factorize> BallSolver<A> {
             if !r.is_finite() {
                 return Corrector::Failed(k);
             }
-            if self.matrix.factor_into(&mut self.factor).is_err() {
+            // At the roundoff floor (the residual no longer halves, as it would while Newton
+            // converges) accept within the stagnation tolerance.
+            let stagnated =
+                k > 0 && r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance;
+            let last = if r <= tolerance {
+                Some(Corrector::Converged(k))
+            } else if k == max_iterations {
+                Some(Corrector::Failed(k))
+            } else if stagnated {
+                Some(Corrector::Converged(k))
+            } else {
+                None
+            };
+            // The Jacobian is factored in every iteration (the last one's is the root's); the
+            // Newton step is solved only where the iteration goes on, in the same pass.
+            let factored = match last {
+                Some(_) => self.matrix.factor_into(&mut self.factor),
+                None => {
+                    self.matrix
+                        .factor_and_solve(&mut self.factor, &self.residual, &mut self.step)
+                }
+            };
+            if factored.is_err() {
                 return Corrector::Failed(k);
             }
             self.root_in_factor = true;
-            if r <= tolerance {
-                return Corrector::Converged(k);
-            }
-            if k == max_iterations {
-                return Corrector::Failed(k);
-            }
-            // At the roundoff floor (the residual no longer halves, as it would while Newton
-            // converges) accept within the stagnation tolerance.
-            if k > 0 && r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance {
-                return Corrector::Converged(k);
+            if let Some(outcome) = last {
+                return outcome;
             }
             previous_residual = r;
-            self.step.copy_from_slice(&self.residual);
-            self.factor.solve_in_place(&mut self.step);
             let step = norm2(&self.step);
             // A corrector that stops contracting will not converge: fail fast.
             if tau != 1.0 && step > 0.5 * previous_step {

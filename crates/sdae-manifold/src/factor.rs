@@ -22,6 +22,21 @@ pub trait Factorize: GramMatrix {
     fn new_factor(&self) -> Self::Factor;
     /// Factors `self` into `factor`.
     fn factor_into(&self, factor: &mut Self::Factor) -> Result<(), LinearError>;
+    /// Factors `self` into `factor` and sets out = A^-1 b, with the floating-point operations
+    /// of [`Factorize::factor_into`] followed by [`Solve::solve_in_place`] (a storage may do
+    /// both in one pass). On failure `out` is unspecified.
+    #[inline]
+    fn factor_and_solve(
+        &self,
+        factor: &mut Self::Factor,
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), LinearError> {
+        self.factor_into(factor)?;
+        out.copy_from_slice(b);
+        factor.solve_in_place(out);
+        Ok(())
+    }
 }
 
 /// Solving with a factored matrix.
@@ -104,24 +119,36 @@ impl TridiagonalFactor {
         self.pivoted
     }
 
-    /// Thomas' algorithm; `false` if a pivot is negligible relative to its row.
+    /// Thomas' algorithm; `false` if a pivot is negligible relative to its row. With `rhs`
+    /// = (b, out) the forward substitution of b runs in the same pass (into out), so that its
+    /// recurrence overlaps the one of the pivots.
     ///
     /// The pivots p_i = d_i - l_{i-1} u_{i-1} / p_{i-1} are computed as ratios s_i / s_{i-1} of
     /// the leading principal minors, s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2}: the recurrence
     /// then has a multiply and a subtract on its critical path instead of a division, and the
     /// divisions overlap. The minors are rescaled by exact powers of two to stay in range.
-    fn factor_thomas(&mut self, a: &TridiagonalGram) -> bool {
+    #[inline(always)]
+    fn factor_thomas(&mut self, a: &TridiagonalGram, rhs: Option<(&[f64], &mut [f64])>) -> bool {
         const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
         const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
+        let off = m.saturating_sub(1);
+        let (diag, lower, upper) = (&a.diag[..m], &a.lower[..off], &a.upper[..off]);
+        let (f_diag, f_lower, f_upper) = (
+            &mut self.diag[..m],
+            &mut self.lower[..off],
+            &mut self.upper[..off],
+        );
+        let mut rhs = rhs.map(|(b, out)| (&b[..m], &mut out[..m]));
         let (mut s_prev2, mut s_prev) = (0.0, 1.0);
+        // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
+        let mut l = 0.0_f64;
+        let mut coupling = 0.0;
+        let mut forward = 0.0;
         for i in 0..m {
-            let coupling = if i > 0 {
-                a.lower[i - 1] * a.upper[i - 1]
-            } else {
-                0.0
-            };
-            let mut s_i = a.diag[i] * s_prev - coupling * s_prev2;
+            let d = diag[i];
+            let u = if i < off { upper[i] } else { 0.0 };
+            let mut s_i = d * s_prev - coupling * s_prev2;
             let magnitude = s_i.abs();
             if !(SMALL..=BIG).contains(&magnitude) {
                 let scale = if magnitude > BIG { SMALL } else { BIG };
@@ -133,20 +160,28 @@ impl TridiagonalFactor {
             }
             // 1 / p_i = s_{i-1} / s_i.
             let inv = s_prev / s_i;
-            let l = if i > 0 { a.lower[i - 1] } else { 0.0 };
-            let u = if i + 1 < m { a.upper[i] } else { 0.0 };
-            let scale = l.abs() + a.diag[i].abs() + u.abs();
+            let scale = l.abs() + d.abs() + u.abs();
             // Rejects |p_i| <= 1e-8 x row scale, and a NaN inverse.
             if inv.is_nan() || inv.abs() * 1e-8 * scale >= 1.0 {
                 return false;
             }
-            self.diag[i] = inv;
+            f_diag[i] = inv;
             if i > 0 {
                 // Scaled so that the forward solve has one multiply-subtract on its critical path.
-                self.lower[i - 1] = l * inv;
+                let multiplier = l * inv;
+                f_lower[i - 1] = multiplier;
+                if let Some((b, out)) = rhs.as_mut() {
+                    forward = b[i] * inv - multiplier * forward;
+                    out[i] = forward;
+                }
+            } else if let Some((b, out)) = rhs.as_mut() {
+                forward = b[0] * inv;
+                out[0] = forward;
             }
-            if i + 1 < m {
-                self.upper[i] = u * inv;
+            if i < off {
+                f_upper[i] = u * inv;
+                l = lower[i];
+                coupling = l * u;
             }
             s_prev2 = s_prev;
             s_prev = s_i;
@@ -203,17 +238,33 @@ impl TridiagonalFactor {
     }
 }
 
+impl TridiagonalFactor {
+    /// The back substitution of Thomas' algorithm: b_i <- b_i - (u_i / p_i) b_{i+1}, the
+    /// running value kept in a register.
+    #[inline(always)]
+    fn backward(&self, b: &mut [f64]) {
+        let off = self.upper.len();
+        let (head, last) = b.split_at_mut(off);
+        let mut next = last[0];
+        for (bi, u) in head.iter_mut().zip(&self.upper).rev() {
+            next = *bi - u * next;
+            *bi = next;
+        }
+    }
+}
+
 impl Solve for TridiagonalFactor {
     fn solve_in_place(&self, b: &mut [f64]) {
         let m = self.diag.len();
         if !self.pivoted {
-            b[0] *= self.diag[0];
-            for i in 1..m {
-                b[i] = b[i] * self.diag[i] - self.lower[i - 1] * b[i - 1];
+            let b = &mut b[..m];
+            let mut previous = b[0] * self.diag[0];
+            b[0] = previous;
+            for ((bi, d), l) in b[1..].iter_mut().zip(&self.diag[1..]).zip(&self.lower) {
+                previous = *bi * d - l * previous;
+                *bi = previous;
             }
-            for i in (0..m.saturating_sub(1)).rev() {
-                b[i] -= self.upper[i] * b[i + 1];
-            }
+            self.backward(b);
             return;
         }
         for i in 0..m - 1 {
@@ -243,14 +294,40 @@ impl Factorize for TridiagonalGram {
     /// Thomas' algorithm first; a non-finite entry makes it fail (it reaches a NaN or infinite
     /// minor or pivot), so the entries are checked only before the pivoted fallback.
     fn factor_into(&self, factor: &mut TridiagonalFactor) -> Result<(), LinearError> {
-        factor.pivoted = !factor.factor_thomas(self);
+        factor.pivoted = !factor.factor_thomas(self, None);
         if factor.pivoted {
-            check_finite(&self.diag)?;
-            check_finite(&self.lower)?;
-            check_finite(&self.upper)?;
-            factor.factor_pivoted(self)?;
+            self.factor_pivoted_into(factor)?;
         }
         Ok(())
+    }
+    /// Thomas' factorization with the forward substitution in the same pass, then the back
+    /// substitution; the pivoted fallback solves after factoring.
+    fn factor_and_solve(
+        &self,
+        factor: &mut TridiagonalFactor,
+        b: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), LinearError> {
+        factor.pivoted = !factor.factor_thomas(self, Some((b, &mut *out)));
+        if factor.pivoted {
+            self.factor_pivoted_into(factor)?;
+            out.copy_from_slice(b);
+            factor.solve_in_place(out);
+        } else {
+            factor.backward(out);
+        }
+        Ok(())
+    }
+}
+
+impl TridiagonalGram {
+    /// The pivoted fallback after Thomas' algorithm failed: it fails on a non-finite entry (it
+    /// reaches a NaN or infinite minor or pivot), so the entries are checked only here.
+    fn factor_pivoted_into(&self, factor: &mut TridiagonalFactor) -> Result<(), LinearError> {
+        check_finite(&self.diag)?;
+        check_finite(&self.lower)?;
+        check_finite(&self.upper)?;
+        factor.factor_pivoted(self)
     }
 }
 

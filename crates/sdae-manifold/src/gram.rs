@@ -84,18 +84,23 @@ impl GramMatrix for TridiagonalGram {
             0.0
         }
     }
+    /// out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1}: the first and last rows apart, so
+    /// that the loop over the interior rows vectorizes.
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
         let m = self.diag.len();
-        for i in 0..m {
-            let mut s = self.diag[i] * x[i];
-            if i > 0 {
-                s += self.lower[i - 1] * x[i - 1];
+        let (x, out) = (&x[..m], &mut out[..m]);
+        if m < 2 {
+            if m == 1 {
+                out[0] = self.diag[0] * x[0];
             }
-            if i + 1 < m {
-                s += self.upper[i] * x[i + 1];
-            }
-            out[i] = s;
+            return;
         }
+        let (lower, upper) = (&self.lower[..m - 1], &self.upper[..m - 1]);
+        out[0] = self.diag[0] * x[0] + upper[0] * x[1];
+        for i in 1..m - 1 {
+            out[i] = self.diag[i] * x[i] + lower[i - 1] * x[i - 1] + upper[i] * x[i + 1];
+        }
+        out[m - 1] = self.diag[m - 1] * x[m - 1] + lower[m - 2] * x[m - 2];
     }
 }
 

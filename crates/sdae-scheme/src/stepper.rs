@@ -220,11 +220,11 @@ fn half_explicit_step<S: System>(
     };
     let eta = eta(config, v_norm2.sqrt(), a_norm2.sqrt(), local, h);
     let eta_h = eta * h;
-    let mut max_abs_y: f64 = 0.0;
     for ((yi, ri), vi) in y.iter_mut().zip(r.iter()).zip(v.iter()) {
         *yi = ri + eta_h * vi;
-        max_abs_y = max_abs_y.max(yi.abs());
     }
+    // NaN when y is (then so is g(y), and the step fails on it whatever the floor).
+    let max_abs_y = max_abs(y);
 
     let (certificate, at_y) = {
         let mut problem = KappaProblem {

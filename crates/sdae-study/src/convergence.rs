@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use sdae_model::FailureKind;
@@ -649,11 +650,16 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         .iter()
         .filter(|r| r.reference_failure.is_none())
         .collect();
-    let schemes = schemes
-        .iter()
-        .enumerate()
-        .map(|(s, name)| scheme_report((s, name), &good, &scene, &settings))
-        .collect();
+    // The schemes' statistics (bootstrap intervals, order fits) on the study's threads; each
+    // report depends only on the records.
+    let report = |(s, name): (usize, &String)| scheme_report((s, name), &good, &scene, &settings);
+    let on_threads = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads.max(1))
+        .build();
+    let schemes = match on_threads {
+        Ok(pool) => pool.install(|| schemes.par_iter().enumerate().map(report).collect()),
+        Err(_) => schemes.iter().enumerate().map(report).collect(),
+    };
     let reference = settings.reference.map(|level| ReferenceReport {
         scheme: settings.reference_scheme.name(),
         n_steps: 1 << level,

@@ -148,6 +148,7 @@ where
     let reference = reference.cloned();
     let blocks = pool.install(|| {
         mine.par_chunks(block)
+            .with_max_len(1)
             .map_init(
                 || block_ensembles(schemes, reference.as_ref(), (plan, block), start),
                 |ensembles, indices| {

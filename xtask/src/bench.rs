@@ -16,6 +16,10 @@ const ENSEMBLE_PATHS: u64 = 512;
 /// Bead counts of the `chain_step` group (as in crates/sdae-scheme/benches/step.rs).
 const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
 
+/// Bead counts and paths of the `chain_ensemble` group (as in crates/sdae-scheme/benches/step.rs).
+const CHAIN_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
+const CHAIN_ENSEMBLE_PATHS: u64 = 8;
+
 /// The benchmarked packages: every bench target of each runs.
 const PACKAGES: [&str; 2] = ["sdae-scheme", "sdae-systems"];
 
@@ -130,6 +134,21 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         per_bead.insert(beads.to_string(), json!(ns / beads as f64));
         chain_step.insert(beads.to_string(), json!(ns));
     }
+    // Criterion's time per iteration of `chain_ensemble/K` is one step of every path.
+    let mut chain_ensemble = Vec::new();
+    for beads in CHAIN_ENSEMBLE_SIZES {
+        let ns = read_mean_ns(
+            &criterion_home,
+            "chain_ensemble",
+            Some(&beads.to_string()),
+            started,
+        )?;
+        chain_ensemble.push((beads, ns / (beads * CHAIN_ENSEMBLE_PATHS) as f64));
+    }
+    let chain_ensemble_per_bead: Map<String, Value> = chain_ensemble
+        .iter()
+        .map(|&(beads, ns)| (beads.to_string(), json!(ns)))
+        .collect();
     let summary = json!({
         "pendulum_step_ns": pendulum,
         "chain_step_ns_per_bead": per_bead,
@@ -139,6 +158,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
         "pendulum_ensemble_normals_ns_per_path_step": ensemble_normals,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
+        "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
         "quick": options.quick,
         "criterion_args": criterion_args,
         "machine": machine(),
@@ -175,6 +195,10 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "  step only", ensemble_step_only, "", ensemble_one_lane
     );
     println!("{:<20} {:>14.1}", "  normals only", ensemble_normals);
+    for &(beads, ns) in &chain_ensemble {
+        let name = format!("chain_ensemble/{beads}");
+        println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
+    }
     println!("\nsummary written to {}", out.display());
     Ok(())
 }

@@ -125,6 +125,7 @@ pub fn check_len(what: &'static str, expected: usize, slice: &[f64]) -> Result<(
 }
 
 /// Checks that every entry of a slice is finite.
+#[inline]
 pub fn check_finite(what: &'static str, slice: &[f64]) -> Result<(), ManifoldError> {
     match slice.iter().position(|x| !x.is_finite()) {
         None => Ok(()),

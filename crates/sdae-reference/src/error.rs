@@ -62,11 +62,14 @@ impl From<ReferenceError> for StepFailure {
 }
 
 /// Fails with [`ReferenceError::NonFinite`] unless every entry is finite.
+#[inline]
 pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<(), ReferenceError> {
-    let size = sdae_manifold::vector::max_abs(values);
-    if size.is_finite() {
+    if values.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(ReferenceError::NonFinite { what, size })
+        Err(ReferenceError::NonFinite {
+            what,
+            size: sdae_manifold::vector::max_abs(values),
+        })
     }
 }

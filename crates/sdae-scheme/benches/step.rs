@@ -4,7 +4,14 @@
 //! - `chain_step/K`: an inextensible bead chain of K beads and length ~1 under gravity with
 //!   additive noise (3K Gaussian numbers per step); throughput is reported per bead.
 //!
-//! Both benchmarks keep stepping one state and put it back to the initial state every
+//! - `chain_ensemble/K`: the same chain, [`ENSEMBLE_PATHS`] paths of it stepped together by the
+//!   ensemble engine (`sdae_scheme::Ensemble`), each path's 3K numbers from its own stream
+//!   every step; throughput is reported per bead and path. The ensemble has no lane form for
+//!   the bead chain's Newton iteration, so it steps these paths one at a time through the
+//!   scalar stepper: this group measures what the ensemble's bookkeeping and layout cost on
+//!   top of `chain_step`.
+//!
+//! The benchmarks keep stepping one state and put it back to the initial state every
 //! [`RESET_EVERY`] steps, so that the chain does not fall (and speed up) for the whole run and
 //! the pendulum's energy does not random-walk away; the reset costs one copy of (r, v) per
 //! [`RESET_EVERY`] steps. A failed step panics with the step index and the error.
@@ -15,10 +22,11 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use sdae_manifold::{BeadChain, IdentityMass};
+use sdae_model::PathEnsemble;
 use sdae_model::{
     AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, System,
 };
-use sdae_scheme::{Stepper, StepperConfig};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
 /// Steps between resets of the state to its initial value.
@@ -29,6 +37,12 @@ const SEED: u64 = 2024;
 
 /// Bead counts of `chain_step`.
 const CHAIN_SIZES: [usize; 4] = [10, 100, 1000, 10000];
+
+/// Bead counts of `chain_ensemble`.
+const ENSEMBLE_CHAIN_SIZES: [usize; 3] = [10, 100, 1000];
+
+/// Paths of `chain_ensemble`: one AVX-512 register's width.
+const ENSEMBLE_PATHS: usize = 8;
 
 /// Step size of `chain_step`. With h = 1e-4 the 10000-bead chain (ds = 1e-4) crumples within
 /// ~150 steps (t ~ 0.015: the relative velocity of neighbouring beads grows until a segment turns
@@ -154,7 +168,8 @@ fn pendulum_bench() -> Bench<sdae_systems::Pendulum> {
     )
 }
 
-fn chain_bench(beads: usize) -> Bench<Chain> {
+/// The stepper of the K-bead chain and its initial state (a zigzag at rest).
+fn chain_stepper(beads: usize) -> (Stepper<Chain>, Vec<f64>, Vec<f64>) {
     let chain = BeadChain::new(beads, 1.0 / beads as f64).expect("chain parameters");
     let r0 = chain.zigzag(0.3);
     let v0 = vec![0.0; r0.len()];
@@ -165,7 +180,61 @@ fn chain_bench(beads: usize) -> Bench<Chain> {
     // ball is left to the solver's plausibility check.
     let config = StepperConfig::new(1.0, f64::INFINITY).expect("chain stepper config");
     let stepper = Stepper::new(system, config).expect("chain stepper");
+    (stepper, r0, v0)
+}
+
+fn chain_bench(beads: usize) -> Bench<Chain> {
+    let (stepper, r0, v0) = chain_stepper(beads);
     Bench::new(format!("chain_step/{beads}"), stepper, r0, v0, CHAIN_H)
+}
+
+/// [`ENSEMBLE_PATHS`] paths of the K-bead chain in an ensemble, each with its own stream.
+struct ChainEnsemble {
+    ensemble: Ensemble<Chain>,
+    r0: Vec<f64>,
+    v0: Vec<f64>,
+    noise: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
+    /// One path's increment, and every path's in the ensemble's layout.
+    one: Vec<f64>,
+    dw: Vec<f64>,
+    steps: u64,
+}
+
+impl ChainEnsemble {
+    fn new(beads: usize) -> Self {
+        let (stepper, r0, v0) = chain_stepper(beads);
+        let l = stepper.system().noise_dim();
+        let ensemble = Ensemble::new(stepper, ENSEMBLE_PATHS, &r0, &v0).expect("chain ensemble");
+        let stride = ensemble.stride();
+        Self {
+            ensemble,
+            r0,
+            v0,
+            noise: (0..ENSEMBLE_PATHS)
+                .map(|p| GaussianIncrements::for_path(SEED, p as u64, l))
+                .collect(),
+            one: vec![0.0; l],
+            dw: vec![0.0; l * stride],
+            steps: 0,
+        }
+    }
+
+    /// Draws every path's increment and steps every path (all restarted every RESET_EVERY
+    /// steps). Returns the number of failed paths, which must stay 0.
+    fn step(&mut self) -> usize {
+        if self.steps.is_multiple_of(RESET_EVERY) {
+            self.ensemble.restart(&self.r0, &self.v0).expect("restart");
+        }
+        self.steps += 1;
+        let stride = self.ensemble.stride();
+        for (p, source) in self.noise.iter_mut().enumerate() {
+            source.next_increment(CHAIN_H, &mut self.one);
+            for (j, x) in self.one.iter().enumerate() {
+                self.dw[j * stride + p] = *x;
+            }
+        }
+        self.ensemble.step(CHAIN_H, &self.dw).expect("step input")
+    }
 }
 
 fn bench_pendulum(c: &mut Criterion) {
@@ -187,5 +256,18 @@ fn bench_chain(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_pendulum, bench_chain);
+fn bench_chain_ensemble(c: &mut Criterion) {
+    let mut group = c.benchmark_group("chain_ensemble");
+    for beads in ENSEMBLE_CHAIN_SIZES {
+        let mut bench = ChainEnsemble::new(beads);
+        group.throughput(Throughput::Elements((beads * ENSEMBLE_PATHS) as u64));
+        group.bench_function(BenchmarkId::from_parameter(beads), |b| {
+            b.iter(|| black_box(bench.step()))
+        });
+        assert_eq!(bench.ensemble.failed_paths(), 0, "a chain path failed");
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_pendulum, bench_chain, bench_chain_ensemble);
 criterion_main!(benches);

@@ -230,66 +230,58 @@ fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>()
 }
 
-/// Compares snapshot rows 0..count of a track with the reference records (snapshot j is record
-/// `(j + 1) * per - 1`), updates residuals and kinetic energy, and checks the limits; returns
-/// the first limit broken.
+/// Compares a track's state after a step with the reference's record at the same time,
+/// updates residuals and kinetic energy, and checks the limits; returns the first limit broken.
 struct Compare<'a, S> {
     system: &'a S,
     plan: &'a PathPlan,
     dims: Dims,
-    /// Records per coarse step.
-    per: usize,
     /// Coarse step size.
     h: f64,
-    has_reference: bool,
 }
 
 impl<S: System> Compare<'_, S> {
-    /// Snapshot j is the state after step `first + j + 1`.
+    /// `snapshot` is the state (r, v, mu) after step `step` (counted from 1), `record` the
+    /// reference's state at that time (`None` without a reference).
     fn run(
         &self,
         track: &mut Track,
-        (snapshots, records): (&[f64], &[f64]),
-        (first, count): (usize, usize),
-        buffers: (&mut [f64], &mut [f64]),
+        (snapshot, record): (&[f64], Option<&[f64]>),
+        step: usize,
+        (scratch_m, scratch_n): (&mut [f64], &mut [f64]),
     ) -> Option<FailureKind> {
-        let (n, row) = (self.dims.n, self.dims.row());
-        let (scratch_m, scratch_n) = buffers;
-        for j in 0..count {
-            let snap = &snapshots[j * row..(j + 1) * row];
-            let (r, v, mu) = (&snap[..n], &snap[n..2 * n], &snap[2 * n..]);
-            let (g, dgv) = residuals(self.system.constraint(), r, v, scratch_m);
-            let o = &mut track.outcome;
-            o.max_position_residual = o.max_position_residual.max(g);
-            o.max_velocity_residual = o.max_velocity_residual.max(dgv);
-            let size = r.iter().chain(v).fold(0.0_f64, |a, x| a.max(x.abs()));
-            if !size.is_finite() {
-                return Some(FailureKind::NonFinite);
-            }
-            if size > self.plan.limits.blow_up {
-                return Some(FailureKind::BlowUp);
-            }
-            if let Some(tol) = self.plan.limits.drift_tolerance
-                && g.max(dgv) > tol
-            {
-                return Some(FailureKind::ConstraintDrift);
-            }
-            if let Some(after) = self.plan.kinetic_after
-                && (first + j + 1) as f64 * self.h >= after * (1.0 - 1e-12)
-            {
-                track.kinetic.0 += kinetic_energy(self.system.mass(), v, scratch_n);
-                track.kinetic.1 += 1;
-            }
-            if self.has_reference {
-                let rec = &records[((j + 1) * self.per - 1) * row..((j + 1) * self.per) * row];
-                let d = [
-                    squared_distance(r, &rec[..n]),
-                    squared_distance(v, &rec[n..2 * n]),
-                    squared_distance(mu, &rec[2 * n..]),
-                ];
-                for (s, x) in track.squared_sup.iter_mut().zip(d) {
-                    *s = s.max(x);
-                }
+        let n = self.dims.n;
+        let (r, v, mu) = (&snapshot[..n], &snapshot[n..2 * n], &snapshot[2 * n..]);
+        let (g, dgv) = residuals(self.system.constraint(), r, v, scratch_m);
+        let o = &mut track.outcome;
+        o.max_position_residual = o.max_position_residual.max(g);
+        o.max_velocity_residual = o.max_velocity_residual.max(dgv);
+        let size = r.iter().chain(v).fold(0.0_f64, |a, x| a.max(x.abs()));
+        if !size.is_finite() {
+            return Some(FailureKind::NonFinite);
+        }
+        if size > self.plan.limits.blow_up {
+            return Some(FailureKind::BlowUp);
+        }
+        if let Some(tol) = self.plan.limits.drift_tolerance
+            && g.max(dgv) > tol
+        {
+            return Some(FailureKind::ConstraintDrift);
+        }
+        if let Some(after) = self.plan.kinetic_after
+            && step as f64 * self.h >= after * (1.0 - 1e-12)
+        {
+            track.kinetic.0 += kinetic_energy(self.system.mass(), v, scratch_n);
+            track.kinetic.1 += 1;
+        }
+        if let Some(rec) = record {
+            let d = [
+                squared_distance(r, &rec[..n]),
+                squared_distance(v, &rec[n..2 * n]),
+                squared_distance(mu, &rec[2 * n..]),
+            ];
+            for (s, x) in track.squared_sup.iter_mut().zip(d) {
+                *s = s.max(x);
             }
         }
         None
@@ -367,10 +359,12 @@ struct Lockstep<'a> {
     record_stride: usize,
     /// pyramid[j]: sums of 2^j consecutive fine increments of the chunk (rows of l * stride).
     pyramid: Vec<Vec<f64>>,
-    /// Per path, `record_rows` rows each: the reference at the finest level's grid points of
-    /// the chunk (rows r, v, mu).
+    /// The reference at the finest level's grid points of the chunk (rows r, v, mu), time-major:
+    /// record j of path p at row `j * paths + p`, so that the comparison after a step reads the
+    /// block's records in order.
     records: Vec<f64>,
-    record_rows: usize,
+    /// Paths of the ensembles (the records' rows per time).
+    paths: usize,
     /// Per path, one row: a track's state after its last step.
     snapshot: Vec<f64>,
     /// Sums of the fine increments of the current step of each track whose steps span several
@@ -421,7 +415,7 @@ impl<'a> Lockstep<'a> {
                 .map(|j| vec![0.0; (chunk >> j) * dims.l * stride])
                 .collect(),
             records: vec![0.0; rows],
-            record_rows,
+            paths,
             snapshot: vec![0.0; dims.row() * live],
             pending: vec![vec![0.0; dims.l * stride]; tracks],
             pending_fine: vec![0; tracks],
@@ -450,7 +444,7 @@ impl<'a> Lockstep<'a> {
             if (t + 1) % every == 0 {
                 let j = (t + 1) / every - 1;
                 for p in 0..self.live {
-                    let at = (p * self.record_rows + j) * row;
+                    let at = (j * self.paths + p) * row;
                     read_row(reference, p, self.dims.n, &mut self.records[at..at + row]);
                 }
             }
@@ -546,9 +540,7 @@ impl<'a> Lockstep<'a> {
                 system: ensemble.system(),
                 plan: self.plan,
                 dims: self.dims,
-                per,
                 h,
-                has_reference,
             };
             let mut stopped = Vec::new();
             active.retain(|&p| {
@@ -566,10 +558,13 @@ impl<'a> Lockstep<'a> {
                 self.before[p] = steps;
                 let snapshot = &mut self.snapshot[p * row..(p + 1) * row];
                 read_row(ensemble, p, self.dims.n, snapshot);
-                let span = self.record_rows * row;
-                let records = &self.records[p * span + t * per * row..(p + 1) * span];
+                // The record at the end of step t: the reference's record (t + 1) per - 1.
+                let record = has_reference.then(|| {
+                    let at = (((t + 1) * per - 1) * self.paths + p) * row;
+                    &self.records[at..at + row]
+                });
                 let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
-                let checked = compare.run(track, (snapshot, records), (steps - 1, 1), scratch);
+                let checked = compare.run(track, (snapshot, record), steps, scratch);
                 track.outcome.failure = checked;
                 if checked.is_some() {
                     stopped.push(p);

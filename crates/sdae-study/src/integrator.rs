@@ -225,6 +225,7 @@ pub struct StudyScheme<S> {
     name: String,
     build: std::sync::Arc<Build<S>>,
     ensemble: std::sync::Arc<BuildEnsemble<S>>,
+    time_changed: bool,
 }
 
 impl<S: 'static> StudyScheme<S> {
@@ -253,6 +254,7 @@ impl<S: 'static> StudyScheme<S> {
             ensemble: std::sync::Arc::new(move |(paths, r0, v0)| {
                 Ok(Box::new(PathLoop::new(one()?, paths, r0, v0)?) as BoxedEnsemble<S>)
             }),
+            time_changed: false,
         }
     }
 }
@@ -261,6 +263,13 @@ impl<S> StudyScheme<S> {
     /// The name used in reports.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// Whether the scheme is a time change of an untruncated one (`half-explicit-rescaled`: a
+    /// truncated step of size h is in law an untruncated step of size eta h), so that time
+    /// averages run over its own clock sum_k eta_k h (grid time minus the clock lag).
+    pub fn time_changed(&self) -> bool {
+        self.time_changed
     }
 
     /// A new instance, or why the scheme does not apply.
@@ -290,6 +299,7 @@ impl<S: CurvedSystem + Clone + Send + Sync + 'static> StudyScheme<S> {
             ensemble: std::sync::Arc::new(move |paths| {
                 build_ensemble(kind, &for_ensemble, &constants, paths)
             }),
+            time_changed: kind == SchemeKind::HalfExplicitRescaled,
         }
     }
 }

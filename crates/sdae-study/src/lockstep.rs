@@ -63,7 +63,8 @@ pub struct PathPlan {
     pub want_mu: bool,
     /// Failure bounds.
     pub limits: Limits,
-    /// Average the kinetic energy v^T M v / 2 over the grid points with t >= this time.
+    /// Average the kinetic energy v^T M v / 2 over the grid points with t >= this time (on
+    /// the track's own clock where [`BlockEnsembles::own_clock`] says so).
     pub kinetic_after: Option<f64>,
 }
 
@@ -99,7 +100,8 @@ pub struct TrackOutcome {
     /// Largest |Dg(r_k) v_k| on the grid.
     #[serde(with = "crate::real")]
     pub max_velocity_residual: f64,
-    /// Time average of v^T M v / 2 after the plan's `kinetic_after`.
+    /// Time average of v^T M v / 2 after the plan's `kinetic_after` (over the scheme's own
+    /// clock for a time-changed scheme).
     #[serde(with = "crate::real::option", default)]
     pub kinetic_energy: Option<f64>,
 }
@@ -141,6 +143,10 @@ pub const BLOCK_PATHS: usize = 64;
 pub struct BlockEnsembles<S> {
     /// Scheme-major, one per scheme and level.
     pub tracks: Vec<BoxedEnsemble<S>>,
+    /// Per track, whether its scheme is a time change (a step of size h is in law an
+    /// untruncated step of size eta h, as with rescaled noise), so that its time averages run
+    /// over its own clock sum_k eta_k h = k h - clock lag; otherwise over the grid's time.
+    pub own_clock: Vec<bool>,
     /// The fine reference.
     pub reference: Option<BoxedEnsemble<S>>,
 }
@@ -150,7 +156,10 @@ pub struct BlockEnsembles<S> {
 struct Track {
     /// sup over the grid of |r - r_ref|^2, |v - v_ref|^2, |mu - mu_ref|^2.
     squared_sup: [f64; 3],
-    kinetic: (f64, usize),
+    /// The weighted sum of v^T M v / 2 and the sum of its weights.
+    kinetic: (f64, f64),
+    /// The track's time after its last step (its own clock or the grid's).
+    time: f64,
     outcome: TrackOutcome,
 }
 
@@ -168,8 +177,8 @@ impl Track {
         if o.failure.is_none() && has_reference {
             o.distances = Some(self.squared_sup.map(f64::sqrt));
         }
-        if self.kinetic.1 > 0 {
-            o.kinetic_energy = Some(self.kinetic.0 / self.kinetic.1 as f64);
+        if self.kinetic.1 > 0.0 {
+            o.kinetic_energy = Some(self.kinetic.0 / self.kinetic.1);
         }
         o
     }
@@ -215,12 +224,21 @@ fn read_row<S: System>(
         .expect("the block's rows fit its ensembles");
 }
 
-/// The steps path p of `ensemble` has taken.
-fn steps_of<S: System>(ensemble: &dyn PathEnsemble<System = S>, p: usize) -> usize {
-    ensemble
-        .diagnostics(p)
-        .expect("p is a path of the block")
-        .steps
+/// The diagnostics of path p of `ensemble` (its steps, its clock lag).
+fn diagnostics_of<S: System>(
+    ensemble: &dyn PathEnsemble<System = S>,
+    p: usize,
+) -> &PathDiagnostics {
+    ensemble.diagnostics(p).expect("p is a path of the block")
+}
+
+/// Where a track is in time after a step, and the step's weight in time averages.
+#[derive(Clone, Copy)]
+struct Clock {
+    /// The track's time: the grid's k h, or its own clock k h - clock lag.
+    time: f64,
+    /// 1 on the grid's clock (a plain mean over grid points), the step's eta h on its own.
+    weight: f64,
 }
 
 /// |a - b|^2 (the sup of distances is taken on squares: sqrt is monotone and correctly
@@ -236,18 +254,16 @@ struct Compare<'a, S> {
     system: &'a S,
     plan: &'a PathPlan,
     dims: Dims,
-    /// Coarse step size.
-    h: f64,
 }
 
 impl<S: System> Compare<'_, S> {
-    /// `snapshot` is the state (r, v, mu) after step `step` (counted from 1), `record` the
+    /// `snapshot` is the state (r, v, mu) after a step that ends at `clock`, `record` the
     /// reference's state at that time (`None` without a reference).
     fn run(
         &self,
         track: &mut Track,
         (snapshot, record): (&[f64], Option<&[f64]>),
-        step: usize,
+        clock: Clock,
         (scratch_m, scratch_n): (&mut [f64], &mut [f64]),
     ) -> Option<FailureKind> {
         let n = self.dims.n;
@@ -269,10 +285,10 @@ impl<S: System> Compare<'_, S> {
             return Some(FailureKind::ConstraintDrift);
         }
         if let Some(after) = self.plan.kinetic_after
-            && step as f64 * self.h >= after * (1.0 - 1e-12)
+            && clock.time >= after * (1.0 - 1e-12)
         {
-            track.kinetic.0 += kinetic_energy(self.system.mass(), v, scratch_n);
-            track.kinetic.1 += 1;
+            track.kinetic.0 += clock.weight * kinetic_energy(self.system.mass(), v, scratch_n);
+            track.kinetic.1 += clock.weight;
         }
         if let Some(rec) = record {
             let d = [
@@ -464,7 +480,7 @@ impl<'a> Lockstep<'a> {
         ensemble: &mut dyn PathEnsemble<System = S>,
         (tracks, index): (&mut [Track], usize),
         level: u32,
-        has_reference: bool,
+        (has_reference, own_clock): (bool, bool),
     ) {
         let (plan, chunk) = (self.plan, self.chunk);
         let stride = 1usize << (plan.fine - level);
@@ -500,7 +516,8 @@ impl<'a> Lockstep<'a> {
             ensemble,
             (tracks, active),
             (&rows, per),
-            (level, count, has_reference),
+            (level, count),
+            (has_reference, own_clock),
         );
         if stride <= chunk {
             self.pyramid[at] = rows;
@@ -519,12 +536,13 @@ impl<'a> Lockstep<'a> {
         ensemble: &mut dyn PathEnsemble<System = S>,
         (tracks, mut active): (&mut [Track], Vec<usize>),
         (rows, per): (&[f64], usize),
-        (level, count, has_reference): (u32, usize, bool),
+        (level, count): (u32, usize),
+        (has_reference, own_clock): (bool, bool),
     ) {
         let (row, width) = (self.dims.row(), self.dims.l * self.stride);
         let h = self.grids[level as usize].h();
         for &p in &active {
-            self.before[p] = steps_of(ensemble, p);
+            self.before[p] = diagnostics_of(ensemble, p).steps;
         }
         for t in 0..count {
             if active.is_empty() {
@@ -540,12 +558,12 @@ impl<'a> Lockstep<'a> {
                 system: ensemble.system(),
                 plan: self.plan,
                 dims: self.dims,
-                h,
             };
             let mut stopped = Vec::new();
             active.retain(|&p| {
                 tracks[p].outcome.seconds += share;
-                let steps = steps_of(ensemble, p);
+                let diagnostics = diagnostics_of(ensemble, p);
+                let steps = diagnostics.steps;
                 let track = &mut tracks[p];
                 if steps == self.before[p] {
                     // The step failed: the path has stopped at its last good state.
@@ -563,8 +581,20 @@ impl<'a> Lockstep<'a> {
                     let at = (((t + 1) * per - 1) * self.paths + p) * row;
                     &self.records[at..at + row]
                 });
+                let grid_time = steps as f64 * h;
+                let clock = if own_clock {
+                    let time = grid_time - diagnostics.clock_lag;
+                    let weight = time - track.time;
+                    Clock { time, weight }
+                } else {
+                    Clock {
+                        time: grid_time,
+                        weight: 1.0,
+                    }
+                };
+                track.time = clock.time;
                 let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
-                let checked = compare.run(track, (snapshot, record), steps, scratch);
+                let checked = compare.run(track, (snapshot, record), clock, scratch);
                 track.outcome.failure = checked;
                 if checked.is_some() {
                     stopped.push(p);
@@ -599,7 +629,11 @@ pub fn run_block<S: System>(
             tracks: Vec::new(),
         })
         .collect();
-    let BlockEnsembles { tracks, reference } = ensembles;
+    let BlockEnsembles {
+        tracks,
+        own_clock,
+        reference,
+    } = ensembles;
     let Some(first) = tracks.first().or(reference.as_ref()) else {
         return Ok(records);
     };
@@ -653,7 +687,11 @@ pub fn run_block<S: System>(
         }
         for (index, (ensemble, track)) in tracks.iter_mut().zip(&mut states).enumerate() {
             let level = plan.levels[index % levels];
-            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, has_reference);
+            let flags = (
+                has_reference,
+                own_clock.get(index).copied().unwrap_or(false),
+            );
+            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, flags);
         }
     }
     for (p, record) in records.iter_mut().enumerate() {

@@ -62,15 +62,21 @@ fn block_ensembles<S>(
     (r0, v0): (&[f64], &[f64]),
 ) -> Result<BlockEnsembles<S>, StudyError> {
     let mut tracks = Vec::with_capacity(schemes.len() * plan.levels.len());
+    let mut own_clock = Vec::with_capacity(tracks.capacity());
     for scheme in schemes {
         for _ in &plan.levels {
             tracks.push(scheme.build_ensemble(paths, r0, v0)?);
+            own_clock.push(scheme.time_changed());
         }
     }
     let reference = reference
         .map(|s| s.build_ensemble(paths, r0, v0))
         .transpose()?;
-    Ok(BlockEnsembles { tracks, reference })
+    Ok(BlockEnsembles {
+        tracks,
+        own_clock,
+        reference,
+    })
 }
 
 /// Paths per block: [`BLOCK_PATHS`], or fewer (a multiple of the lane block) so that every

@@ -4,9 +4,10 @@
 //! so far above the finest level that a chunk is shorter than one finest step; a path gives
 //! the same numbers whatever block of paths it runs in.
 
+use sdae_manifold::Mass;
 use sdae_model::{
-    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, Recorder, TimeGrid,
-    run_path,
+    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, Recorder, Scheme, System,
+    TimeGrid, run_path,
 };
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_study::integrator::{SchemeConstants, SchemeKind, build_ensemble};
@@ -57,6 +58,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
                 .iter()
                 .map(|_| build(SchemeKind::HalfExplicitPractical))
                 .collect(),
+            own_clock: vec![false; levels.len()],
             reference: Some(build(SchemeKind::HalfExplicitPractical)),
         }
     };
@@ -130,4 +132,79 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         }
         assert!(sup[0] > 0.0);
     }
+}
+
+/// The kinetic energy's time average of a time-changed scheme runs over its own clock: with
+/// weights eta_k h, from the step whose own time sum_i eta_i h reaches the burn-in; on the
+/// grid's clock it is the plain mean over the grid points from k h >= burn-in.
+#[test]
+fn a_time_changed_scheme_averages_over_its_own_clock() {
+    let system = pendulum(PendulumParams::default()).unwrap();
+    let constants = SchemeConstants {
+        theory: None,
+        practical_c_eta: 0.05,
+        c_kappa: f64::INFINITY,
+        local_c_eta: 0.5,
+    };
+    let (r0, v0) = (vec![0.0, -1.0], vec![1.5, 0.0]);
+    let (level, after, seed, index) = (4, 0.25, 5, 2);
+    let plan = PathPlan {
+        t_end: 1.0,
+        fine: level,
+        levels: vec![level],
+        want_mu: false,
+        limits: Limits::default(),
+        kinetic_after: Some(after),
+    };
+    let build = |own_clock: bool| {
+        let build = |kind| build_ensemble(kind, &system, &constants, (4, &r0[..], &v0[..]));
+        BlockEnsembles {
+            tracks: vec![build(SchemeKind::HalfExplicitRescaled).unwrap()],
+            own_clock: vec![own_clock],
+            reference: None,
+        }
+    };
+    let run = |own_clock| {
+        let mut ensembles = build(own_clock);
+        let record = run_block(&plan, &mut ensembles, (&r0, &v0), seed, &[index]).unwrap();
+        record[0].tracks[0].clone()
+    };
+    let (own, grid) = (run(true), run(false));
+
+    // Directly: the same increments through the scalar rescaled stepper.
+    let steps = 1usize << level;
+    let h = 1.0 / steps as f64;
+    let config = StepperConfig::new(0.05, f64::INFINITY).unwrap().rescaled();
+    let mut stepper = Stepper::new(system.clone(), config).unwrap();
+    let mut noise = GaussianIncrements::for_path(seed, index as u64, 2);
+    let (mut r, mut v) = (r0.clone(), v0.clone());
+    let (mut dw, mut mv) = (vec![0.0; 2], vec![0.0; 2]);
+    let (mut time, mut weighted, mut weights) = (0.0, 0.0, 0.0);
+    let (mut sum, mut count, mut truncated) = (0.0, 0.0, 0);
+    for k in 1..=steps {
+        noise.next_increment(h, &mut dw);
+        let outcome = stepper.step(&mut r, &mut v, h, &dw).unwrap();
+        truncated += usize::from(outcome.eta < 1.0);
+        system.mass().apply(&v, &mut mv);
+        let energy = 0.5 * (v[0] * mv[0] + v[1] * mv[1]);
+        time += outcome.eta * h;
+        if time >= after * (1.0 - 1e-12) {
+            weighted += outcome.eta * h * energy;
+            weights += outcome.eta * h;
+        }
+        if k as f64 * h >= after * (1.0 - 1e-12) {
+            sum += energy;
+            count += 1.0;
+        }
+    }
+    assert!(truncated > steps / 4, "the test needs truncated steps");
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+    let (own, grid) = (own.kinetic_energy.unwrap(), grid.kinetic_energy.unwrap());
+    assert!(
+        close(own, weighted / weights),
+        "{own} against {}",
+        weighted / weights
+    );
+    assert!(close(grid, sum / count), "{grid} against {}", sum / count);
+    assert!(!close(own, grid), "the clocks should differ here");
 }

@@ -363,8 +363,14 @@ pub struct SchemeReport {
     /// error; coarse levels whose local slope departs from the finer ones beyond that error
     /// (and by more than 0.05) are flagged, not fitted.
     pub observed_order: Orders,
-    /// Levels left out of the fit because their failure count differs from the finest level's.
+    /// Levels left out of the fit because their failure count differs from the finest level's
+    /// (or they lie beyond such a level).
     pub not_fitted_for_failures: Vec<usize>,
+    /// Levels left out of the fit because more than
+    /// [`TRUNCATION_DOMINATED`](sdae_model::TRUNCATION_DOMINATED) of their steps are truncated
+    /// (`stable_but_biased`): their error measures the truncation, a step of eta h, not the
+    /// order of the scheme's step.
+    pub not_fitted_truncated: Vec<usize>,
 }
 
 /// The reference solution.
@@ -552,14 +558,15 @@ fn level_report<'a>(
 }
 
 /// The levels an order is fitted over: the finest level and the coarser ones next to it with
-/// the same number of failed paths (no fit across levels whose failure counts differ).
+/// the same number of failed paths and not truncation-dominated (no fit across levels whose
+/// failure counts differ, nor over levels that measure the truncation rather than the step).
 fn fittable(levels: &[LevelReport]) -> Vec<usize> {
     let Some(finest) = levels.last() else {
         return Vec::new();
     };
     let mut fit: Vec<usize> = (0..levels.len())
         .rev()
-        .take_while(|&j| levels[j].failures == finest.failures)
+        .take_while(|&j| levels[j].failures == finest.failures && !levels[j].stable_but_biased)
         .collect();
     fit.reverse();
     fit
@@ -629,7 +636,12 @@ fn scheme_report(
             v: fit(1),
             mu: fit(2),
         },
-        not_fitted_for_failures: (0..reports.len()).filter(|j| !fitted.contains(j)).collect(),
+        not_fitted_for_failures: (0..reports.len())
+            .filter(|&j| !fitted.contains(&j) && !reports[j].stable_but_biased)
+            .collect(),
+        not_fitted_truncated: (0..reports.len())
+            .filter(|&j| !fitted.contains(&j) && reports[j].stable_but_biased)
+            .collect(),
         levels: reports,
     }
 }

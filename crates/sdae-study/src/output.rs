@@ -214,6 +214,21 @@ pub fn markdown(report: &ConvergenceReport) -> String {
             f(&o.mu)
         );
     }
+    for scheme in &report.schemes {
+        if !scheme.not_fitted_truncated.is_empty() {
+            let levels: Vec<String> = scheme
+                .not_fitted_truncated
+                .iter()
+                .map(|&j| scheme.levels[j].n_steps.to_string())
+                .collect();
+            let _ = writeln!(
+                s,
+                "\nNot fitted, truncation-dominated (stable but biased): {} at N = {}.",
+                scheme.name,
+                levels.join(", ")
+            );
+        }
+    }
     s += "\n";
     s += &fastest(report);
     s += "\n## All levels\n\n| scheme | N | h | error r | error v | error mu | us/path | failures | truncated | Newton it./step | max abs g |\n|---|---|---|---|---|---|---|---|---|---|---|\n";

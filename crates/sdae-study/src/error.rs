@@ -17,7 +17,7 @@ pub enum StudyError {
     /// The file is not valid TOML or does not fit the scene format (the message names the key).
     #[error("scene file {file}: {message}")]
     Format {
-        /// The file (or "<inline>").
+        /// The file (or `"<inline>"`).
         file: String,
         /// What is wrong, naming the key.
         message: String,

@@ -4,13 +4,14 @@
 //! The finest increments are drawn once, a chunk at a time, and summed pairwise into the
 //! increments of the coarser levels (a level of 2^k steps uses sums of 2^(fine - k) fine
 //! increments), so every level sees the same Brownian path. The reference runs first over a
-//! chunk and records its state on the finest level's grid; then each scheme and level steps
-//! through the chunk in a tight, timed loop, and its states at its grid points are compared with
-//! the reference's afterwards. Memory per path is bounded by the chunk, not by the number of
-//! fine steps.
+//! chunk and records its state on the finest level's grid; then each scheme and level steps a
+//! block of paths through the chunk, and after each step every path's state is compared with
+//! the reference's record at that time. Memory per path is bounded by the chunk, not by the
+//! number of fine steps.
 //!
-//! Every stretch of steps is taken by the one path driver of `sdae-model` ([`advance`]), with
-//! an observer that writes the states the comparison needs; any [`Scheme`] runs here.
+//! Each scheme and level steps its block of paths as one [`PathEnsemble`]: SIMD lanes where the
+//! scheme has a lane form, otherwise one path at a time through the path driver's step
+//! ([`PathLoop`](sdae_model::PathLoop)); any [`Scheme`](sdae_model::Scheme) runs here.
 
 use std::time::Instant;
 

@@ -10,7 +10,7 @@
 //! `sdae-scheme` and, since every constraint here provides D^2 g, the inherent-SDE solvers of
 //! `sdae-reference`.
 //!
-//! - [`pendulum`]: the planar or spherical pendulum with gravity, friction and additive noise
+//! - [`pendulum()`]: the planar or spherical pendulum with gravity, friction and additive noise
 //!   ([`PendulumParams`]);
 //! - [`langevin`]: [`Langevin`] (any constraint and [`Potential`]), [`chain_molecule`] and
 //!   [`rigid_triatomic`] with their parameter structs;

@@ -126,6 +126,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     let ensemble_with_normals = ensemble("with_normals")?;
     let ensemble_step_only = ensemble("step_only")?;
     let ensemble_normals = ensemble("normals_only")?;
+    let ensemble_normals_per_path = ensemble("normals_one_path_at_a_time")?;
     let ensemble_one_lane = ensemble("step_only_one_lane")?;
 
     let mut per_bead = Map::new();
@@ -157,6 +158,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_step_only_ns_per_path_step": ensemble_step_only,
         "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
         "pendulum_ensemble_normals_ns_per_path_step": ensemble_normals,
+        "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": ensemble_normals_per_path,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
         "quick": options.quick,
@@ -194,7 +196,10 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "{:<20} {:>14.1} {:>16}   (one lane: {:.1})",
         "  step only", ensemble_step_only, "", ensemble_one_lane
     );
-    println!("{:<20} {:>14.1}", "  normals only", ensemble_normals);
+    println!(
+        "{:<20} {:>14.1} {:>16}   (one path at a time: {:.1})",
+        "  normals only", ensemble_normals, "", ensemble_normals_per_path
+    );
     for &(beads, ns) in &chain_ensemble {
         let name = format!("chain_ensemble/{beads}");
         println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");

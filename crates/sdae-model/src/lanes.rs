@@ -8,8 +8,58 @@
 
 use std::ops::{Add, Div, Mul, Neg, Not, Sub};
 
-use pulp::Simd;
 use pulp::bytemuck;
+use pulp::{Simd, WithSimd};
+
+/// The instruction set, and with it the number W of paths stepped at once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LaneWidth {
+    /// The widest this processor runs: 8 with AVX-512, 4 with AVX2, else 1.
+    #[default]
+    Best,
+    /// One path at a time, in plain f64.
+    One,
+    /// Four paths (AVX2 where the processor has it, else four f64 in turn).
+    Four,
+    /// Eight paths (AVX-512 where the processor has it, else eight f64 in turn).
+    Eight,
+}
+
+impl LaneWidth {
+    /// Runs `op` with the instruction set of this width.
+    pub fn dispatch<Op: WithSimd>(self, op: Op) -> Op::Output {
+        match self {
+            LaneWidth::Best => pulp::Arch::new().dispatch(op),
+            LaneWidth::One => Simd::vectorize(pulp::Scalar, op),
+            LaneWidth::Four => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V3::try_new() {
+                    return Simd::vectorize(simd, op);
+                }
+                Simd::vectorize(pulp::Scalar256b, op)
+            }
+            LaneWidth::Eight => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V4::try_new() {
+                    return Simd::vectorize(simd, op);
+                }
+                Simd::vectorize(pulp::Scalar512b, op)
+            }
+        }
+    }
+
+    /// W: the number of paths this width steps at once on this processor.
+    pub fn lanes(self) -> usize {
+        struct Width;
+        impl WithSimd for Width {
+            type Output = usize;
+            fn with_simd<S: Simd>(self, _simd: S) -> usize {
+                S::F64_LANES
+            }
+        }
+        self.dispatch(Width)
+    }
+}
 
 /// W values, one per path, of the instruction set `S`.
 #[derive(Debug, Clone, Copy)]

@@ -77,6 +77,7 @@ mod error;
 mod grid;
 mod increments;
 pub mod lanes;
+mod normals;
 mod observer;
 mod scheme;
 mod system;
@@ -94,6 +95,7 @@ pub use grid::TimeGrid;
 pub use increments::{
     Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
 };
+pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use scheme::{Scheme, StepOutcome};
 pub use system::{

@@ -2,10 +2,13 @@
 //! lanes, per path-step (the work of one `pendulum_step` in benches/step.rs).
 //!
 //! - `pendulum_ensemble/with_normals`: each step draws every path's two Gaussian numbers from
-//!   its own stream and steps all paths at the processor's widest lane width: the same work as
-//!   `pendulum_step`, random numbers included.
-//! - `pendulum_ensemble/normals_only`: the increments alone (each path's two numbers from its
-//!   own stream, written into the ensemble's layout).
+//!   its own stream, W paths at once (`EnsembleIncrements`), and steps all paths at the
+//!   processor's widest lane width: the same work as `pendulum_step`, random numbers included.
+//! - `pendulum_ensemble/normals_only`: the increments alone (`EnsembleIncrements::fill` into
+//!   the ensemble's layout).
+//! - `pendulum_ensemble/normals_one_path_at_a_time`: the same numbers drawn path by path
+//!   (`GaussianIncrements`, rand_distr's ziggurat) and written into the layout: what the
+//!   lanes gain.
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
 //!   the lanes gain.
@@ -19,7 +22,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sdae_model::PathEnsemble;
-use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_model::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
@@ -44,7 +47,8 @@ const V0: [f64; 2] = [0.0, 1.0];
 /// An ensemble, its paths' streams and a buffer of increments.
 struct Bench {
     ensemble: Ensemble<Pendulum>,
-    noise: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
+    noise: EnsembleIncrements,
+    per_path: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
     drawn: Vec<Vec<f64>>,
     steps: usize,
 }
@@ -57,20 +61,24 @@ impl Bench {
             .expect("pendulum stepper config");
         let stepper = Stepper::new(system, config).expect("pendulum stepper");
         let ensemble = Ensemble::new(stepper, PATHS, &R0, &V0).expect("ensemble");
-        let mut noise: Vec<_> = (0..PATHS)
-            .map(|p| GaussianIncrements::for_path(SEED, p as u64, 2))
+        let indices: Vec<u64> = (0..PATHS as u64).collect();
+        let mut noise = EnsembleIncrements::for_paths(SEED, &indices, 2);
+        let per_path = indices
+            .iter()
+            .map(|&p| GaussianIncrements::for_path(SEED, p, 2))
             .collect();
         let stride = ensemble.stride();
         let drawn = (0..DRAWN_STEPS)
             .map(|_| {
                 let mut dw = vec![0.0; 2 * stride];
-                draw(&mut noise, stride, &mut dw);
+                noise.fill(H, &mut dw).expect("increments buffer");
                 dw
             })
             .collect();
         Self {
             ensemble,
             noise,
+            per_path,
             drawn,
             steps: 0,
         }
@@ -94,14 +102,14 @@ impl Bench {
     /// Draws every path's increment, then steps every path.
     fn step_with_normals(&mut self, dw: &mut [f64]) -> usize {
         self.reset_if_due();
-        draw(&mut self.noise, self.ensemble.stride(), dw);
+        self.noise.fill(H, dw).expect("increments buffer");
         self.ensemble.set_width(LaneWidth::Best);
         self.ensemble.step(H, dw).expect("step input")
     }
 }
 
-/// dw[j * stride + p] = increment j of path p, from path p's own stream.
-fn draw(
+/// dw[j * stride + p] = increment j of path p, from path p's own stream, one path at a time.
+fn draw_per_path(
     noise: &mut [GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>],
     stride: usize,
     dw: &mut [f64],
@@ -128,8 +136,14 @@ fn bench_pendulum_ensemble(c: &mut Criterion) {
     });
     group.bench_function("normals_only", |b| {
         b.iter(|| {
+            bench.noise.fill(H, &mut dw).expect("increments buffer");
+            black_box(dw[0])
+        })
+    });
+    group.bench_function("normals_one_path_at_a_time", |b| {
+        b.iter(|| {
             let stride = bench.ensemble.stride();
-            draw(&mut bench.noise, stride, &mut dw);
+            draw_per_path(&mut bench.per_path, stride, &mut dw);
             black_box(dw[0])
         })
     });

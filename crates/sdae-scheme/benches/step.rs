@@ -6,7 +6,7 @@
 //!
 //! - `chain_ensemble/K`: the same chain, [`ENSEMBLE_PATHS`] paths of it stepped together by the
 //!   ensemble engine (`sdae_scheme::Ensemble`), each path's 3K numbers from its own stream
-//!   every step; throughput is reported per bead and path. The ensemble has no lane form for
+//!   every step, W paths at once (`EnsembleIncrements`); throughput is reported per bead and path. The ensemble has no lane form for
 //!   the bead chain's Newton iteration, so it steps these paths one at a time through the
 //!   scalar stepper: this group measures what the ensemble's bookkeeping and layout cost on
 //!   top of `chain_step`.
@@ -24,7 +24,8 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use sdae_manifold::{BeadChain, IdentityMass};
 use sdae_model::PathEnsemble;
 use sdae_model::{
-    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, System,
+    AdditiveNoise, Drift, EnsembleIncrements, GaussianIncrements, IncrementSource,
+    MechanicalSystem, Scheme, System,
 };
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
@@ -193,9 +194,8 @@ struct ChainEnsemble {
     ensemble: Ensemble<Chain>,
     r0: Vec<f64>,
     v0: Vec<f64>,
-    noise: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
-    /// One path's increment, and every path's in the ensemble's layout.
-    one: Vec<f64>,
+    noise: EnsembleIncrements,
+    /// Every path's increment in the ensemble's layout.
     dw: Vec<f64>,
     steps: u64,
 }
@@ -206,14 +206,12 @@ impl ChainEnsemble {
         let l = stepper.system().noise_dim();
         let ensemble = Ensemble::new(stepper, ENSEMBLE_PATHS, &r0, &v0).expect("chain ensemble");
         let stride = ensemble.stride();
+        let indices: Vec<u64> = (0..ENSEMBLE_PATHS as u64).collect();
         Self {
             ensemble,
             r0,
             v0,
-            noise: (0..ENSEMBLE_PATHS)
-                .map(|p| GaussianIncrements::for_path(SEED, p as u64, l))
-                .collect(),
-            one: vec![0.0; l],
+            noise: EnsembleIncrements::for_paths(SEED, &indices, l),
             dw: vec![0.0; l * stride],
             steps: 0,
         }
@@ -226,13 +224,9 @@ impl ChainEnsemble {
             self.ensemble.restart(&self.r0, &self.v0).expect("restart");
         }
         self.steps += 1;
-        let stride = self.ensemble.stride();
-        for (p, source) in self.noise.iter_mut().enumerate() {
-            source.next_increment(CHAIN_H, &mut self.one);
-            for (j, x) in self.one.iter().enumerate() {
-                self.dw[j * stride + p] = *x;
-            }
-        }
+        self.noise
+            .fill(CHAIN_H, &mut self.dw)
+            .expect("increments buffer");
         self.ensemble.step(CHAIN_H, &self.dw).expect("step input")
     }
 }

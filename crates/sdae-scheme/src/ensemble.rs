@@ -14,22 +14,19 @@
 //! depend on W, on the other paths or on how paths are split across ensembles or threads.
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, IncrementSource, PathEnsemble};
-//! use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+//! use sdae_model::{EnsembleIncrements, PathEnsemble};
+//! use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 //! use sdae_systems::{PendulumParams, pendulum};
 //! let system = pendulum(PendulumParams::default())?;
 //! let config = StepperConfig::for_system(&system)?.with_c_eta(1.0)?;
 //! let mut ensemble = Ensemble::new(Stepper::new(system, config)?, 100, &[1.0, 0.0], &[0.0, 0.5])?;
-//! let mut noise: Vec<_> = (0..100).map(|p| GaussianIncrements::for_path(7, p, 2)).collect();
-//! let (h, stride) = (1e-3, ensemble.stride());
-//! let mut dw = vec![0.0; 2 * stride];
-//! let mut one = [0.0; 2];
+//! // Path p's increments from its own stream (seed 7, index p), drawn W paths at once.
+//! let indices: Vec<u64> = (0..100).collect();
+//! let mut noise = EnsembleIncrements::for_paths(7, &indices, 2);
+//! let h = 1e-3;
+//! let mut dw = vec![0.0; 2 * ensemble.stride()];
 //! for _ in 0..1000 {
-//!     for (p, source) in noise.iter_mut().enumerate() {
-//!         source.next_increment(h, &mut one);
-//!         dw[p] = one[0];
-//!         dw[stride + p] = one[1];
-//!     }
+//!     noise.fill(h, &mut dw)?;
 //!     ensemble.step(h, &dw)?;
 //! }
 //! assert_eq!(ensemble.failed_paths(), 0);
@@ -42,9 +39,9 @@
 
 mod sphere;
 
-use pulp::{Simd, WithSimd};
+use pulp::Simd;
 use sdae_manifold::Constraint;
-use sdae_model::lanes::Lanes;
+use sdae_model::lanes::{LaneWidth, Lanes};
 use sdae_model::{
     ModelError, PathDiagnostics, PathEnsemble, Scheme, StepFailure, System, check_dim, check_path,
     check_step_size, lane_stride,
@@ -52,56 +49,6 @@ use sdae_model::{
 
 use crate::error::SchemeError;
 use crate::stepper::Stepper;
-
-/// The instruction set, and with it the number W of paths stepped at once.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LaneWidth {
-    /// The widest this processor runs: 8 with AVX-512, 4 with AVX2, else 1.
-    #[default]
-    Best,
-    /// One path at a time, in plain f64.
-    One,
-    /// Four paths (AVX2 where the processor has it, else four f64 in turn).
-    Four,
-    /// Eight paths (AVX-512 where the processor has it, else eight f64 in turn).
-    Eight,
-}
-
-impl LaneWidth {
-    /// Runs `op` with the instruction set of this width.
-    fn dispatch<Op: WithSimd>(self, op: Op) -> Op::Output {
-        match self {
-            LaneWidth::Best => pulp::Arch::new().dispatch(op),
-            LaneWidth::One => Simd::vectorize(pulp::Scalar, op),
-            LaneWidth::Four => {
-                #[cfg(target_arch = "x86_64")]
-                if let Some(simd) = pulp::x86::V3::try_new() {
-                    return Simd::vectorize(simd, op);
-                }
-                Simd::vectorize(pulp::Scalar256b, op)
-            }
-            LaneWidth::Eight => {
-                #[cfg(target_arch = "x86_64")]
-                if let Some(simd) = pulp::x86::V4::try_new() {
-                    return Simd::vectorize(simd, op);
-                }
-                Simd::vectorize(pulp::Scalar512b, op)
-            }
-        }
-    }
-
-    /// W: the number of paths this width steps at once on this processor.
-    pub fn lanes(self) -> usize {
-        struct Width;
-        impl WithSimd for Width {
-            type Output = usize;
-            fn with_simd<S: Simd>(self, _simd: S) -> usize {
-                S::F64_LANES
-            }
-        }
-        self.dispatch(Width)
-    }
-}
 
 /// P paths of one system and the scalar stepper that decides what the lanes do not.
 pub struct Ensemble<S: System> {

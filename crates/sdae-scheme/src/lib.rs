@@ -40,7 +40,8 @@ mod runaway;
 mod stepper;
 
 pub use config::StepperConfig;
-pub use ensemble::{Ensemble, LaneWidth};
+pub use ensemble::Ensemble;
 pub use error::SchemeError;
 pub use runaway::runaway_bound;
+pub use sdae_model::lanes::LaneWidth;
 pub use stepper::Stepper;

@@ -18,8 +18,8 @@ use std::time::Instant;
 use sdae_manifold::vector::{dot, max_abs};
 use sdae_manifold::{Constraint, Mass};
 use sdae_model::{
-    FailureKind, GaussianIncrements, IncrementSource, ModelError, PathDiagnostics, PathEnsemble,
-    System, TimeGrid, lane_stride,
+    EnsembleIncrements, FailureKind, ModelError, PathDiagnostics, PathEnsemble, System, TimeGrid,
+    lane_stride,
 };
 
 use crate::integrator::BoxedEnsemble;
@@ -322,27 +322,16 @@ fn kinetic_energy<M: Mass>(mass: &M, v: &[f64], scratch: &mut [f64]) -> f64 {
 /// Fills the pyramid of a chunk for a block of paths (rows of l * stride, component j of path
 /// p at `j * stride + p`): level 0 from each path's own stream, level j from pairwise sums of
 /// j - 1 (the sums of a path's fine increments, whatever the block).
-fn fill_pyramid<I: IncrementSource>(
+fn fill_pyramid(
     pyramid: &mut [Vec<f64>],
-    noise: &mut [I],
+    noise: &mut EnsembleIncrements,
     h_fine: f64,
-    (l, stride): (usize, usize),
-) {
-    if l == 0 {
-        return;
+) -> Result<(), ModelError> {
+    if noise.dim() == 0 {
+        return Ok(());
     }
-    let width = l * stride;
-    let mut one = vec![0.0; l];
-    // Step by step, so that the rows being written stay in cache; each path draws from its
-    // own stream in its own order.
-    for row in pyramid[0].chunks_exact_mut(width) {
-        for (p, source) in noise.iter_mut().enumerate() {
-            source.next_increment(h_fine, &mut one);
-            for (j, x) in one.iter().enumerate() {
-                row[j * stride + p] = *x;
-            }
-        }
-    }
+    let width = noise.dim() * noise.stride();
+    noise.fill(h_fine, &mut pyramid[0])?;
     for j in 1..pyramid.len() {
         let (lower, upper) = pyramid.split_at_mut(j);
         let (below, here) = (&lower[j - 1], &mut upper[0]);
@@ -356,6 +345,7 @@ fn fill_pyramid<I: IncrementSource>(
             }
         }
     }
+    Ok(())
 }
 
 /// A block of paths in lockstep: the plan, the dimensions and the buffers reused from chunk to
@@ -659,15 +649,15 @@ pub fn run_block<S: System>(
     let mut states: Vec<Vec<Track>> = (0..tracks.len())
         .map(|_| (0..live).map(|_| Track::default()).collect())
         .collect();
-    let mut noise: Vec<_> = indices
-        .iter()
-        .map(|&i| GaussianIncrements::for_path(seed, i as u64, dims.l))
+    // Lanes beyond the block's paths repeat its first path's stream (drawn, never used).
+    let streams: Vec<u64> = (0..paths)
+        .map(|p| indices.get(p).or(indices.first()).map_or(0, |&i| i as u64))
         .collect();
+    let mut noise = EnsembleIncrements::for_paths(seed, &streams, dims.l);
     let h_fine = plan.t_end / (1usize << plan.fine) as f64;
     let has_reference = reference.is_some();
     for _ in 0..(1usize << plan.fine) / lockstep.chunk {
-        let layout = (dims.l, lockstep.stride);
-        fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine, layout);
+        fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine)?;
         if let Some(reference) = reference.as_deref_mut() {
             let clock = Instant::now();
             let failed = lockstep.reference_chunk(reference);

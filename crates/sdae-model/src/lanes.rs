@@ -14,7 +14,8 @@ use pulp::{Simd, WithSimd};
 /// The instruction set, and with it the number W of paths stepped at once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LaneWidth {
-    /// The widest this processor runs: 8 with AVX-512, 4 with AVX2, else 1.
+    /// The widest this processor runs: 8 with AVX-512, 4 with AVX2, else the processor's own
+    /// (1 on other x86-64).
     #[default]
     Best,
     /// One path at a time, in plain f64.

@@ -66,11 +66,11 @@ impl EnsembleIncrements {
     pub fn from_streams(streams: &[Xoshiro256PlusPlus], dim: usize) -> Self {
         let stride = lane_stride(streams.len());
         let mut words: [Vec<u64>; 4] = std::array::from_fn(|_| Vec::with_capacity(stride));
+        // No lanes without streams; padding lanes copy the first stream.
         for lane in 0..stride {
-            let state = streams.get(lane).or(streams.first()).map(|s| s.state());
+            let state = streams.get(lane).unwrap_or(&streams[0]).state();
             for (i, word) in words.iter_mut().enumerate() {
-                let bytes =
-                    state.map_or([0; 8], |s| s[8 * i..8 * i + 8].try_into().expect("8 bytes"));
+                let bytes = state[8 * i..8 * i + 8].try_into().expect("8 bytes");
                 word.push(u64::from_le_bytes(bytes));
             }
         }
@@ -97,8 +97,9 @@ impl EnsembleIncrements {
         self.words[0].len()
     }
 
-    /// Draws W = `width.lanes()` paths at once (default [`LaneWidth::Best`]); the numbers do
-    /// not depend on it.
+    /// Draws with the instruction set of `width` (default [`LaneWidth::Best`]): W = 8 or 4
+    /// paths at once where it has 8 or 4 lanes, else one at a time. The numbers do not depend
+    /// on it.
     pub fn with_width(mut self, width: LaneWidth) -> Self {
         self.width = width;
         self
@@ -116,8 +117,14 @@ impl EnsembleIncrements {
     /// length is not a multiple of l * stride (nothing is drawn then).
     pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, ModelError> {
         check_step_size(h)?;
-        let row = self.dim * self.stride();
-        if row == 0 {
+        let Some(row) = self.dim.checked_mul(self.stride()) else {
+            return Err(ModelError::InvalidSetting {
+                name: "dim * stride",
+                value: self.dim as f64,
+                reason: "the increments of one step overflow the address space",
+            });
+        };
+        if row == 0 || dw.is_empty() {
             return Ok(0);
         }
         if !dw.len().is_multiple_of(row) {
@@ -233,7 +240,9 @@ struct FillAll<'a> {
 impl pulp::WithSimd for FillAll<'_> {
     type Output = ();
     /// `with_simd` receives pulp's generic instruction set; the generator needs the concrete
-    /// one's 64-bit shifts, so the width picks it again (the same one `dispatch` chose).
+    /// one's 64-bit shifts, so its width picks it again: AVX-512 or AVX2 for 8 or 4 lanes
+    /// where the processor has them, the portable 8 or 4 lanes otherwise, one lane for any
+    /// other width.
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) {
         match S::F64_LANES {
@@ -268,11 +277,14 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
     let table = ZigguratTable::get();
     let (dim, w) = (increments.dim, S::F64_LANES);
     let stride = increments.words[0].len();
+    // `fill` checked that dim * stride does not overflow and that dw holds whole steps.
+    let row_len = dim * stride;
+    debug_assert!(w <= LANE_BLOCK && stride.is_multiple_of(w));
     let words = &mut increments.words;
-    for tile in dw.chunks_mut(TILE_ROWS * dim * stride) {
+    for tile in dw.chunks_mut(row_len * TILE_ROWS.min(dw.len() / row_len)) {
         for at in (0..stride).step_by(w) {
             let mut state: [S::u64s; 4] = std::array::from_fn(|i| load_words(&words[i][at..]));
-            for row in tile.chunks_exact_mut(dim * stride) {
+            for row in tile.chunks_exact_mut(row_len) {
                 for j in 0..dim {
                     let out = &mut row[j * stride + at..j * stride + at + w];
                     draw(simd, &mut state, table, scale, out);
@@ -441,27 +453,36 @@ impl ZigguratTable {
         TABLE.get_or_init(|| {
             let mut x = [0.0; 257];
             for (layer, x) in x.iter_mut().enumerate().take(256) {
-                let mut words = Words {
-                    words: [probe_word(layer), u64::MAX],
-                    next: 0,
-                };
+                let mut words = Words::new(probe_word(layer));
                 let value: f64 = words.sample(StandardNormal);
-                *x = value * 2f64.powi(51);
+                *x = value * (1u64 << 51) as f64;
             }
             Self { x }
         })
     }
 }
 
-/// The word of layer `layer` with u = 2^-51: upper 52 bits 2^51 + 1 (2 + 1 + 2^-51 - 3).
+/// The word of layer `layer` with u = 2^-51: its upper 52 bits 2^51 + 1, as the mantissa of a
+/// float with exponent 1, give 3 + 2^-51, and u is that minus 3.
 fn probe_word(layer: usize) -> u64 {
     (((1u64 << 51) | 1) << 12) | layer as u64
 }
 
-/// A generator that returns given words, then the last one again.
+/// A generator that returns a given word, then u64::MAX (a uniform just below 1 for the
+/// density test), then words that the fast path accepts (layer 1, u = 2^-51), so that every
+/// draw from it ends.
 struct Words {
-    words: [u64; 2],
+    words: [u64; 3],
     next: usize,
+}
+
+impl Words {
+    fn new(first: u64) -> Self {
+        Self {
+            words: [first, u64::MAX, probe_word(1)],
+            next: 0,
+        }
+    }
 }
 
 impl TryRng for Words {
@@ -491,6 +512,35 @@ mod tests {
         assert_eq!(x[1], 3.654_152_885_361_009);
         assert!(x.windows(2).all(|w| w[0] > w[1]), "strictly decreasing");
         assert_eq!(x[256], 0.0);
+    }
+
+    #[test]
+    fn the_fast_path_accepts_exactly_what_rand_distr_accepts_from_one_word() {
+        let table = ZigguratTable::get();
+        let mut mixer = path_rng(5, 5);
+        let mut fractions = vec![0, 1, 1 << 51, (1 << 51) + 1, (1 << 52) - 1, 1 << 50];
+        fractions.extend((0..30).map(|_| rand::Rng::next_u64(&mut mixer) >> 12));
+        for layer in 0..256u64 {
+            for &fraction in &fractions {
+                let word = (fraction << 12) | layer;
+                let (x, accepted) = table.fast_path(word);
+                let mut words = Words::new(word);
+                let z: f64 = words.sample(StandardNormal);
+                // rand_distr returns after one word exactly when its fast path accepts.
+                assert_eq!(
+                    accepted,
+                    words.next == 1,
+                    "layer {layer}, fraction {fraction}"
+                );
+                if accepted {
+                    assert_eq!(
+                        z.to_bits(),
+                        x.to_bits(),
+                        "layer {layer}, fraction {fraction}"
+                    );
+                }
+            }
+        }
     }
 
     /// Paths 0..p of seed 11 drawn `steps` times with dimension `dim` at `width`, against
@@ -526,7 +576,7 @@ mod tests {
 
     #[test]
     fn every_width_draws_each_paths_scalar_stream() {
-        // 20 000 numbers per path: ~200 rejected draws each, tail draws (layer 0) included.
+        // 20 000 numbers per path: ~300 rejected draws each, tail draws (layer 0) included.
         for width in [
             LaneWidth::One,
             LaneWidth::Four,
@@ -569,7 +619,16 @@ mod tests {
                 Err(ModelError::InvalidSetting { name: "h", .. })
             ));
         }
-        // Nothing to draw without paths or dimensions.
+        // A step too large for the address space.
+        assert!(matches!(
+            EnsembleIncrements::for_paths(1, &[0], usize::MAX / 4).fill(1.0, &mut dw),
+            Err(ModelError::InvalidSetting {
+                name: "dim * stride",
+                ..
+            })
+        ));
+        // Nothing to draw without paths, dimensions or room.
+        assert_eq!(lanes.fill(1.0, &mut []), Ok(0));
         assert_eq!(
             EnsembleIncrements::for_paths(1, &[], 2).fill(1.0, &mut []),
             Ok(0)

@@ -179,6 +179,70 @@ impl<S: Simd> Lanes<S> {
     }
 }
 
+/// The most coordinates (and noise components) a scalar function is evaluated on lane by lane
+/// ([`per_lane`]).
+pub const PER_LANE_MAX_DIM: usize = 16;
+
+/// A scalar function evaluated lane by lane: for each lane k < W, `f(inputs[0] lane k, ...,
+/// out lane k)` with every slice of `inputs` and `out` holding one [`Lanes`] per coordinate;
+/// `out` holds the lanes' values before the call (so `f` may add to them). Lane k computes
+/// exactly what `f` computes for path k alone. Returns `false`, and leaves `out` alone, if a
+/// slice is longer than [`PER_LANE_MAX_DIM`].
+#[inline(always)]
+pub fn per_lane<S: Simd, const K: usize>(
+    inputs: [&[Lanes<S>]; K],
+    out: &mut [Lanes<S>],
+    f: impl FnMut([&[f64]; K], &mut [f64]),
+) -> bool {
+    let longest = inputs.iter().map(|x| x.len()).fold(out.len(), usize::max);
+    // Buffers sized for the common small systems, so that their setup costs little.
+    if longest <= 4 {
+        per_lane_within::<S, K, 4>(inputs, out, f)
+    } else if longest <= PER_LANE_MAX_DIM {
+        per_lane_within::<S, K, PER_LANE_MAX_DIM>(inputs, out, f)
+    } else {
+        false
+    }
+}
+
+/// [`per_lane`] with buffers of `MAX` >= every slice's length coordinates.
+#[inline(always)]
+fn per_lane_within<S: Simd, const K: usize, const MAX: usize>(
+    inputs: [&[Lanes<S>]; K],
+    out: &mut [Lanes<S>],
+    mut f: impl FnMut([&[f64]; K], &mut [f64]),
+) -> bool {
+    let Some(simd) = out
+        .first()
+        .or(inputs.iter().find_map(|x| x.first()))
+        .map(|x| x.simd)
+    else {
+        return true;
+    };
+    let mut values = [[0.0; MAX]; K];
+    let mut result = [0.0; MAX];
+    let mut lanes = [[0.0; crate::LANE_BLOCK]; MAX];
+    for k in 0..Lanes::<S>::WIDTH {
+        for (value, input) in values.iter_mut().zip(&inputs) {
+            for (x, lane) in value.iter_mut().zip(input.iter()) {
+                *x = lane.lane(k);
+            }
+        }
+        for (x, lane) in result.iter_mut().zip(out.iter()) {
+            *x = lane.lane(k);
+        }
+        let args: [&[f64]; K] = std::array::from_fn(|i| &values[i][..inputs[i].len()]);
+        f(args, &mut result[..out.len()]);
+        for (row, x) in lanes.iter_mut().zip(&result[..out.len()]) {
+            row[k] = *x;
+        }
+    }
+    for (o, row) in out.iter_mut().zip(&lanes) {
+        *o = Lanes::load(simd, row);
+    }
+    true
+}
+
 impl<S: Simd> LaneMask<S> {
     /// The instruction set.
     #[inline(always)]
@@ -286,6 +350,37 @@ mod tests {
                 assert_eq!(g.to_bits(), c.to_bits(), "width {width}, lane {i}");
             }
         }
+    }
+
+    #[test]
+    fn a_scalar_function_runs_lane_by_lane() {
+        let simd = pulp::Scalar512b;
+        let row =
+            |base: f64| Lanes::load(simd, &std::array::from_fn::<f64, 8, _>(|k| base + k as f64));
+        let (r, v) = ([row(1.0), row(10.0)], [row(-3.0), row(0.5)]);
+        // out += (r0 v1, r1 - v0, r0 + r1) lane by lane, on top of 7 in every lane.
+        let mut out = [Lanes::splat(simd, 7.0); 3];
+        assert!(per_lane([&r, &v], &mut out, |[r, v], out| {
+            out[0] += r[0] * v[1];
+            out[1] += r[1] - v[0];
+            out[2] += r[0] + r[1];
+        }));
+        for k in 0..8 {
+            let (r0, r1, v0, v1) = (
+                1.0 + k as f64,
+                10.0 + k as f64,
+                -3.0 + k as f64,
+                0.5 + k as f64,
+            );
+            assert_eq!(out[0].lane(k), 7.0 + r0 * v1);
+            assert_eq!(out[1].lane(k), 7.0 + (r1 - v0));
+            assert_eq!(out[2].lane(k), 7.0 + (r0 + r1));
+        }
+        // Beyond the buffers: no lane form, `out` untouched.
+        let long = [Lanes::splat(simd, 1.0); PER_LANE_MAX_DIM + 1];
+        let mut out = [Lanes::splat(simd, 2.0); 1];
+        assert!(!per_lane([&long[..]], &mut out, |_, _| unreachable!()));
+        assert_eq!(out[0].lane(3), 2.0);
     }
 
     #[test]

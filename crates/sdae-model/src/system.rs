@@ -4,7 +4,7 @@ use pulp::Simd;
 use sdae_manifold::{Constraint, Mass};
 
 use crate::error::{ModelError, check_dim, check_step_size};
-use crate::lanes::Lanes;
+use crate::lanes::{Lanes, per_lane};
 
 /// Everything the stepper needs to know about a constrained stochastic mechanical system.
 pub trait System {
@@ -23,15 +23,16 @@ pub trait System {
     /// out += B(r, v) dw.
     fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
     /// out = a(r, v) for W paths at once: coordinate i of every path in `r[i]`, `v[i]`,
-    /// `out[i]`. Returns `false` if the system has no lane form (the default); an ensemble
-    /// then steps its paths one at a time.
+    /// `out[i]`. The default evaluates [`System::drift`] lane by lane ([`per_lane`]: the
+    /// same numbers, slower than a lane form); it returns `false` (no lane form: an ensemble
+    /// then steps its paths one at a time) beyond
+    /// [`PER_LANE_MAX_DIM`](crate::lanes::PER_LANE_MAX_DIM) coordinates.
     #[inline(always)]
     fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        let _ = (r, v, out);
-        false
+        per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))
     }
-    /// out += B(r, v) dw for W paths at once (layout of [`System::drift_lanes`]); `false` if
-    /// the system has no lane form (the default).
+    /// out += B(r, v) dw for W paths at once (layout of [`System::drift_lanes`]). The default
+    /// evaluates [`System::add_noise`] lane by lane, as [`System::drift_lanes`] does.
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
         &self,
@@ -40,8 +41,9 @@ pub trait System {
         dw: &[Lanes<S>],
         out: &mut [Lanes<S>],
     ) -> bool {
-        let _ = (r, v, dw, out);
-        false
+        per_lane([r, v, dw], out, |[r, v, dw], out| {
+            self.add_noise(r, v, dw, out)
+        })
     }
 }
 
@@ -49,12 +51,11 @@ pub trait System {
 pub trait Drift {
     /// out = a(r, v).
     fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
-    /// out = a(r, v) for W paths at once ([`System::drift_lanes`]); `false` if there is no
-    /// lane form (the default, e.g. for a closure).
+    /// out = a(r, v) for W paths at once ([`System::drift_lanes`]). The default (e.g. for a
+    /// closure) evaluates [`Drift::drift`] lane by lane ([`per_lane`]).
     #[inline(always)]
     fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        let _ = (r, v, out);
-        false
+        per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))
     }
 }
 
@@ -88,8 +89,8 @@ pub trait Noise {
     fn dim(&self) -> usize;
     /// out += B(r, v) dw.
     fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
-    /// out += B(r, v) dw for W paths at once ([`System::add_noise_lanes`]); `false` if there
-    /// is no lane form (the default, e.g. for a closure).
+    /// out += B(r, v) dw for W paths at once ([`System::add_noise_lanes`]). The default (e.g.
+    /// for a closure) evaluates [`Noise::add`] lane by lane ([`per_lane`]).
     #[inline(always)]
     fn add_lanes<S: Simd>(
         &self,
@@ -98,8 +99,7 @@ pub trait Noise {
         dw: &[Lanes<S>],
         out: &mut [Lanes<S>],
     ) -> bool {
-        let _ = (r, v, dw, out);
-        false
+        per_lane([r, v, dw], out, |[r, v, dw], out| self.add(r, v, dw, out))
     }
 }
 

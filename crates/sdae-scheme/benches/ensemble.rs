@@ -12,6 +12,9 @@
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
 //!   the lanes gain.
+//! - `pendulum_ensemble/step_only_closure_drift`: `step_only` for the same pendulum with its
+//!   drift given as a function (a user's system without a lane form): the lanes evaluate it
+//!   path by path (`sdae_model::lanes::per_lane`) and do the rest of the step in lanes.
 //!
 //! The states are put back to the initial state every [`RESET_EVERY`] steps, as in
 //! benches/step.rs. Throughput is reported per path-step (criterion's elements).
@@ -21,10 +24,11 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sdae_model::PathEnsemble;
+use sdae_manifold::{IdentityMass, Sphere};
+use sdae_model::{AdditiveNoise, MechanicalSystem, PathEnsemble, System};
 use sdae_model::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
-use sdae_systems::{Pendulum, PendulumParams, pendulum};
+use sdae_systems::{PendulumParams, pendulum};
 
 /// Paths of the ensemble: 16 KiB of state, in the first-level cache.
 const PATHS: usize = 512;
@@ -44,18 +48,32 @@ const SEED: u64 = 2024;
 const R0: [f64; 2] = [1.0, 0.0];
 const V0: [f64; 2] = [0.0, 1.0];
 
+/// The pendulum with its drift (gravity 1, no friction) given as a function: a user's system
+/// without a lane form, whose drift the ensemble evaluates lane by lane.
+type ClosurePendulum = MechanicalSystem<Sphere, IdentityMass, DriftFn, AdditiveNoise>;
+type DriftFn = fn(&[f64], &[f64], &mut [f64]);
+
+fn closure_pendulum() -> ClosurePendulum {
+    let gravity: DriftFn = |_r, _v, out| {
+        out[0] = 0.0;
+        out[1] = -1.0;
+    };
+    let sphere = Sphere::new(2, 1.0).expect("unit circle");
+    let noise = AdditiveNoise::new(1.0, 2).expect("unit noise");
+    MechanicalSystem::new(sphere, IdentityMass, gravity, noise).expect("closure pendulum")
+}
+
 /// An ensemble, its paths' streams and a buffer of increments.
-struct Bench {
-    ensemble: Ensemble<Pendulum>,
+struct Bench<S: System> {
+    ensemble: Ensemble<S>,
     noise: EnsembleIncrements,
     per_path: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
     drawn: Vec<Vec<f64>>,
     steps: usize,
 }
 
-impl Bench {
-    fn new() -> Self {
-        let system = pendulum(PendulumParams::default()).expect("pendulum parameters");
+impl<S: System<Constraint = Sphere>> Bench<S> {
+    fn new(system: S) -> Self {
         let config = StepperConfig::for_system(&system)
             .and_then(|c| c.with_c_eta(1.0))
             .expect("pendulum stepper config");
@@ -129,7 +147,8 @@ fn bench_pendulum_ensemble(c: &mut Criterion) {
     );
     let mut group = c.benchmark_group("pendulum_ensemble");
     group.throughput(Throughput::Elements(PATHS as u64));
-    let mut bench = Bench::new();
+    let pendulum = || pendulum(PendulumParams::default()).expect("pendulum parameters");
+    let mut bench = Bench::new(pendulum());
     let mut dw = vec![0.0; 2 * bench.ensemble.stride()];
     group.bench_function("with_normals", |b| {
         b.iter(|| black_box(bench.step_with_normals(&mut dw)))
@@ -147,15 +166,25 @@ fn bench_pendulum_ensemble(c: &mut Criterion) {
             black_box(dw[0])
         })
     });
-    let mut bench = Bench::new();
+    let mut bench = Bench::new(pendulum());
     group.bench_function("step_only", |b| {
         b.iter(|| black_box(bench.step_drawn(LaneWidth::Best)))
     });
-    let mut bench = Bench::new();
+    let mut bench = Bench::new(pendulum());
     group.bench_function("step_only_one_lane", |b| {
         b.iter(|| black_box(bench.step_drawn(LaneWidth::One)))
     });
+    let mut closure = Bench::new(closure_pendulum());
+    group.bench_function("step_only_closure_drift", |b| {
+        b.iter(|| black_box(closure.step_drawn(LaneWidth::Best)))
+    });
     group.finish();
+    assert_eq!(closure.ensemble.failed_paths(), 0, "a closure path failed");
+    assert_eq!(
+        closure.ensemble.scalar_steps(),
+        0,
+        "the lanes left closure steps to the scalar stepper"
+    );
     assert_eq!(bench.ensemble.failed_paths(), 0, "a pendulum path failed");
     assert_eq!(
         bench.ensemble.scalar_steps(),

@@ -3,12 +3,14 @@
 //! An [`Ensemble`] is a [`PathEnsemble`]: it holds P paths in structure-of-arrays layout
 //! (coordinate i of path p at `i * stride + p`, stride = [`lane_stride`]`(P)`) and advances W
 //! of them at once, W the width of the instruction set chosen at run time ([`LaneWidth`]): 1
-//! (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal mass and a
-//! system with a lane form ([`System::drift_lanes`], [`System::add_noise_lanes`]) the step is
-//! the closed form of [`Stepper`] written once over [`Lanes`]; a lane the closed form does not
-//! decide (no root, a root outside the ball or not contracting, a non-finite value) finishes
-//! its step through the scalar [`Stepper`], which reports the failure exactly as for one
-//! path. Any other system steps its paths one at a time through the scalar [`Stepper`].
+//! (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal
+//! mass the step is the closed form of [`Stepper`] written once over [`Lanes`], with the
+//! system's drift and noise in lanes ([`System::drift_lanes`], [`System::add_noise_lanes`]: the
+//! built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
+//! lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
+//! root outside the ball or not contracting, a non-finite value) finishes its step through the
+//! scalar [`Stepper`], which reports the failure exactly as for one path. Any other constraint
+//! steps its paths one at a time through the scalar [`Stepper`].
 //!
 //! Lane p computes exactly what a lane of any other width computes: a path's numbers do not
 //! depend on W, on the other paths or on how paths are split across ensembles or threads.

@@ -128,6 +128,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     let ensemble_normals = ensemble("normals_only")?;
     let ensemble_normals_per_path = ensemble("normals_one_path_at_a_time")?;
     let ensemble_one_lane = ensemble("step_only_one_lane")?;
+    let ensemble_closure = ensemble("step_only_closure_drift")?;
 
     let mut per_bead = Map::new();
     let mut chain_step = Map::new();
@@ -157,6 +158,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_ns_per_path_step": ensemble_with_normals,
         "pendulum_ensemble_step_only_ns_per_path_step": ensemble_step_only,
         "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
+        "pendulum_ensemble_closure_drift_ns_per_path_step": ensemble_closure,
         "pendulum_ensemble_normals_ns_per_path_step": ensemble_normals,
         "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": ensemble_normals_per_path,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
@@ -193,8 +195,8 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         pendulum / ensemble_with_normals
     );
     println!(
-        "{:<20} {:>14.1} {:>16}   (one lane: {:.1})",
-        "  step only", ensemble_step_only, "", ensemble_one_lane
+        "{:<20} {:>14.1} {:>16}   (one lane: {:.1}; closure drift: {:.1})",
+        "  step only", ensemble_step_only, "", ensemble_one_lane, ensemble_closure
     );
     println!(
         "{:<20} {:>14.1} {:>16}   (one path at a time: {:.1})",

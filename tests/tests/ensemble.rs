@@ -92,7 +92,7 @@ fn run_ensemble<S: System>(stepper: Stepper<S>, width: LaneWidth) -> (Vec<u64>, 
 }
 
 /// Steps any ensemble through [`increments`] and reads every path's (r, v, mu) as bits.
-fn run_and_read<E: PathEnsemble>(ensemble: &mut E) -> Vec<u64> {
+fn run_and_read<E: PathEnsemble + ?Sized>(ensemble: &mut E) -> Vec<u64> {
     let dim = ensemble.system().constraint_dim();
     let l = ensemble.system().noise_dim();
     for dw in increments(l, ensemble.stride()) {
@@ -294,7 +294,7 @@ fn a_closure_system_steps_in_lanes_with_the_scalar_numbers() {
 #[test]
 fn bad_input_is_a_typed_error() {
     let stepper = Stepper::new(noisy_pendulum(2), configs(&noisy_pendulum(2))[0].1).unwrap();
-    let message = |e: sdae_scheme::SchemeError| e.to_string();
+    let message = |e: sdae_model::ModelError| e.to_string();
     let e = Ensemble::new(stepper.clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
         .err()
         .unwrap();
@@ -324,7 +324,7 @@ fn bad_input_is_a_typed_error() {
     assert!(ensemble.stop(3).is_err());
     assert!(ensemble.restart(&[1.5], &[0.0, 0.0]).is_err());
     assert!(ensemble.set_state(0, &[1.0], &[0.0, 0.0]).is_err());
-    let e = PathLoop::new(ensemble.stepper().clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
+    let e = PathLoop::new(ensemble.scheme().clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
         .err()
         .unwrap();
     assert!(model(e).contains("paths"));
@@ -406,5 +406,167 @@ fn more_noise_components_than_coordinates_step_path_by_path_and_agree() {
         }
         let expected: Vec<u64> = r.iter().chain(&v).map(|x| x.to_bits()).collect();
         assert_eq!(&bits[5 * p..5 * p + 4], &expected[..], "path {p}");
+    }
+}
+
+/// The inherent-SDE solvers with a lane form, on a system of dimension `dim`.
+fn inherent_solvers<S: sdae_reference::CurvedSystem + Clone + 'static>(
+    system: &S,
+) -> Vec<(&'static str, InherentEnsemble<S>)> {
+    use sdae_reference::{
+        EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
+    };
+    let em = EulerMaruyama::new(system.clone()).unwrap();
+    // c = 0.1 at h = 0.02 truncates some steps, not all.
+    let tem = TruncatedEulerMaruyama::new(system.clone())
+        .unwrap()
+        .with_scale(0.1)
+        .unwrap();
+    let heun = StochasticHeun::new(system.clone()).unwrap();
+    let projected = system.clone();
+    vec![
+        ("euler-maruyama", Box::new(move |w| lanes_of(em.clone(), w))),
+        ("truncated", Box::new(move |w| lanes_of(tem.clone(), w))),
+        ("heun", Box::new(move |w| lanes_of(heun.clone(), w))),
+        (
+            "projected",
+            Box::new(move |w| lanes_of(ProjectedEulerMaruyama::new(projected.clone()).unwrap(), w)),
+        ),
+    ]
+}
+
+/// Builds a solver's lane ensemble at a width (`None`: its per-path loop).
+type InherentEnsemble<S> = Box<dyn Fn(Option<LaneWidth>) -> Box<dyn Spread<System = S>>>;
+
+/// An ensemble, and what its lanes left to the scalar step.
+trait Spread: PathEnsemble {
+    fn scalar_steps(&self) -> Option<usize>;
+}
+
+impl<Sch: sdae_model::LaneScheme> Spread for sdae_model::LaneEnsemble<Sch> {
+    fn scalar_steps(&self) -> Option<usize> {
+        Some(sdae_model::LaneEnsemble::scalar_steps(self))
+    }
+}
+
+impl<Sch: Scheme> Spread for PathLoop<Sch> {
+    fn scalar_steps(&self) -> Option<usize> {
+        None
+    }
+}
+
+fn lanes_of<Sch>(scheme: Sch, width: Option<LaneWidth>) -> Box<dyn Spread<System = Sch::System>>
+where
+    Sch: sdae_model::LaneScheme + 'static,
+{
+    let dim = scheme.system().constraint_dim();
+    let (r0, v0) = initial(dim);
+    let mut ensemble: Box<dyn Spread<System = Sch::System>> = match width {
+        Some(width) => Box::new(
+            sdae_model::LaneEnsemble::new(scheme, PATHS, &r0, &v0)
+                .unwrap()
+                .with_width(width),
+        ),
+        None => Box::new(PathLoop::new(scheme, PATHS, &r0, &v0).unwrap()),
+    };
+    // Paths start at different speeds so that lanes of one group truncate differently.
+    for p in 0..PATHS {
+        let mut v = v0.clone();
+        v[1] = 0.1 * p as f64;
+        ensemble.set_state(p, &r0, &v).unwrap();
+    }
+    ensemble
+}
+
+/// A spherical pendulum with a diagonal, non-identity mass.
+fn heavy_pendulum() -> impl sdae_reference::CurvedSystem + Clone + 'static {
+    MechanicalSystem::new(
+        Sphere::new(3, 1.5).unwrap(),
+        sdae_manifold::DiagonalMass::new(vec![1.0, 2.5, 0.5]).unwrap(),
+        sdae_systems::PendulumDrift {
+            gravity: 1.0,
+            friction: 0.5,
+        },
+        AdditiveNoise::new(3.0, 3).unwrap(),
+    )
+    .unwrap()
+}
+
+/// Checks every solver of `system`: its lanes at W = 1, 4, 8 give the per-path loop's bits,
+/// diagnostics and failures, and decide every step but a failing one themselves.
+fn inherent_lanes_agree<S: sdae_reference::CurvedSystem + Clone + 'static>(system: &S, what: &str) {
+    for (name, build) in inherent_solvers(system) {
+        let mut looped = build(None);
+        let expected = run_and_read(&mut *looped);
+        for width in [LaneWidth::One, LaneWidth::Four, LaneWidth::Eight] {
+            let mut lanes = build(Some(width));
+            let got = run_and_read(&mut *lanes);
+            assert!(
+                got == expected,
+                "{what}, {name}, {width:?}: lanes and loop differ"
+            );
+            for p in 0..PATHS {
+                assert_eq!(
+                    lanes.diagnostics(p).unwrap(),
+                    looped.diagnostics(p).unwrap(),
+                    "{what}, {name}, {width:?}, path {p}"
+                );
+            }
+            // Only a failing step (reported by the scalar solver) leaves the lanes, and for
+            // the projected solver a projection the closed form does not certify (Newton then
+            // decides it): fewer than 1% of the path-steps.
+            let failed = (0..PATHS)
+                .filter(|p| lanes.failure(*p).unwrap().is_some())
+                .count();
+            let scalar = lanes.scalar_steps().unwrap();
+            if name == "projected" {
+                assert!(scalar >= failed && scalar - failed < PATHS * STEPS / 100);
+            } else {
+                assert_eq!(scalar, failed, "{what}, {name}: scalar steps");
+            }
+        }
+    }
+}
+
+#[test]
+fn inherent_solvers_step_in_lanes_with_the_per_path_numbers() {
+    inherent_lanes_agree(&noisy_pendulum(2), "planar");
+    inherent_lanes_agree(&noisy_pendulum(3), "spherical");
+    inherent_lanes_agree(&heavy_pendulum(), "diagonal mass");
+    // The truncated solver truncated some steps and not others.
+    let (_, build) = inherent_solvers(&noisy_pendulum(2)).remove(1);
+    let mut lanes = build(Some(LaneWidth::Best));
+    run_and_read(&mut *lanes);
+    let truncated: usize = (0..PATHS)
+        .map(|p| lanes.diagnostics(p).unwrap().truncated_steps)
+        .sum();
+    assert!(truncated > 0 && truncated < PATHS * STEPS, "{truncated}");
+}
+
+#[test]
+fn an_inherent_lane_that_fails_stops_with_the_scalar_failure() {
+    let system = noisy_pendulum(2);
+    for (name, build) in inherent_solvers(&system) {
+        let mut runs = [build(Some(LaneWidth::Best)), build(None)];
+        for run in runs.iter_mut() {
+            // Path 3 at the centre: G_M(0) = 0, no step; path 5 so fast that its drift
+            // |v|^2 overflows.
+            run.set_state(3, &[0.0, 0.0], &[0.0, 0.7]).unwrap();
+            run.set_state(5, &[1.5, 0.0], &[0.0, 1e200]).unwrap();
+            run_and_read(&mut **run);
+        }
+        let [lanes, looped] = &runs;
+        for p in 0..PATHS {
+            let (a, b) = (lanes.failure(p).unwrap(), looped.failure(p).unwrap());
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name}, path {p}");
+            // (Other fast paths may blow up too, in both runs alike.)
+            if p == 3 || p == 5 {
+                assert!(a.is_some(), "{name}, path {p}");
+            }
+            assert_eq!(
+                lanes.diagnostics(p).unwrap(),
+                looped.diagnostics(p).unwrap()
+            );
+        }
     }
 }

@@ -1,5 +1,6 @@
-//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble)
-//! and `sdae-systems` (fiber) and summarizes the step and ensemble figures in
+//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble),
+//! `sdae-reference` (ensemble) and `sdae-systems` (fiber) and summarizes the step and ensemble
+//! figures in
 //! `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
@@ -21,7 +22,16 @@ const CHAIN_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const CHAIN_ENSEMBLE_PATHS: u64 = 8;
 
 /// The benchmarked packages: every bench target of each runs.
-const PACKAGES: [&str; 2] = ["sdae-scheme", "sdae-systems"];
+const PACKAGES: [&str; 3] = ["sdae-scheme", "sdae-reference", "sdae-systems"];
+
+/// Solvers of the `inherent_ensemble` group (as in crates/sdae-reference/benches/ensemble.rs),
+/// each with the same number of paths as `pendulum_ensemble`.
+const INHERENT_SOLVERS: [&str; 4] = [
+    "euler_maruyama",
+    "truncated_euler_maruyama",
+    "projected_euler_maruyama",
+    "stochastic_heun",
+];
 
 /// Criterion options of `--quick`.
 const QUICK_OPTIONS: [&str; 4] = ["--warm-up-time", "0.5", "--measurement-time", "1"];
@@ -130,6 +140,28 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     let ensemble_one_lane = ensemble("step_only_one_lane")?;
     let ensemble_closure = ensemble("step_only_closure_drift")?;
 
+    let mut inherent = Vec::new();
+    for solver in INHERENT_SOLVERS {
+        let per_path_step = |id: &str| -> Result<f64, TaskError> {
+            Ok(
+                read_mean_ns(&criterion_home, "inherent_ensemble", Some(id), started)?
+                    / ensemble_paths,
+            )
+        };
+        let lanes = per_path_step(solver)?;
+        let path_by_path = per_path_step(&format!("{solver}_path_by_path"))?;
+        inherent.push((solver, lanes, path_by_path));
+    }
+    let inherent_summary: Map<String, Value> = inherent
+        .iter()
+        .map(|&(solver, lanes, path_by_path)| {
+            (
+                solver.to_string(),
+                json!({ "lanes": lanes, "path_by_path": path_by_path }),
+            )
+        })
+        .collect();
+
     let mut per_bead = Map::new();
     let mut chain_step = Map::new();
     for &(beads, ns) in &per_step {
@@ -163,6 +195,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": ensemble_normals_per_path,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
+        "inherent_ensemble_ns_per_path_step": inherent_summary,
         "quick": options.quick,
         "criterion_args": criterion_args,
         "machine": machine(),
@@ -205,6 +238,13 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     for &(beads, ns) in &chain_ensemble {
         let name = format!("chain_ensemble/{beads}");
         println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
+    }
+    for &(solver, lanes, path_by_path) in &inherent {
+        println!(
+            "{solver:<25} {lanes:>9.1} {:>16}   (path by path: {path_by_path:.1}, {:.1}x)",
+            "",
+            path_by_path / lanes
+        );
     }
     println!("\nsummary written to {}", out.display());
     Ok(())

@@ -81,6 +81,9 @@ pub trait PathEnsemble {
     }
     /// Puts every path back at (r0, v0) with mu = 0, fresh diagnostics and no failure.
     fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError>;
+    /// Sets path p to (r, v) and lets it go on if it had stopped (its mu and diagnostics go on
+    /// from where they were).
+    fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError>;
     /// Advances every path that goes on by one step of size h with Brownian increments `dw`
     /// (component j of path p at `j * stride + p`, length l * stride); returns how many paths
     /// stopped in this step.
@@ -187,6 +190,17 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
             self.alive[p] = true;
             self.failures[p] = None;
         }
+        Ok(())
+    }
+
+    fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError> {
+        check_path(p, self.paths())?;
+        check_dim("position", self.r[p].len(), r.len())?;
+        check_dim("velocity", self.v[p].len(), v.len())?;
+        self.r[p].copy_from_slice(r);
+        self.v[p].copy_from_slice(v);
+        self.alive[p] = true;
+        self.failures[p] = None;
         Ok(())
     }
 

@@ -179,6 +179,18 @@ impl<S: Simd> Lanes<S> {
     }
 }
 
+/// a . b over N coordinates of W lanes, summed in order: a_0 b_0 + a_1 b_1 + ... (what
+/// `sdae_manifold::vector::dot` computes for fewer than four coordinates, up to the sign of a
+/// zero).
+#[inline(always)]
+pub fn dot<S: Simd, const N: usize>(a: &[Lanes<S>; N], b: &[Lanes<S>; N]) -> Lanes<S> {
+    let mut sum = a[0] * b[0];
+    for i in 1..N {
+        sum = sum + a[i] * b[i];
+    }
+    sum
+}
+
 /// The most coordinates (and noise components) a scalar function is evaluated on lane by lane
 /// ([`per_lane`]).
 pub const PER_LANE_MAX_DIM: usize = 16;

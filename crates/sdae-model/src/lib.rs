@@ -13,7 +13,9 @@
 //! - the one path driver [`run_path`] on a [`TimeGrid`] (and [`advance`], a stretch of a path
 //!   in progress), reporting to an [`Observer`] such as [`Recorder`] and summarized in
 //!   [`PathDiagnostics`];
-//! - many paths of one scheme at once: [`PathEnsemble`], with [`PathLoop`] for any scheme;
+//! - many paths of one scheme at once: [`PathEnsemble`], with [`LaneEnsemble`] (structure of
+//!   arrays, W paths per step in SIMD lanes where the scheme has a lane form, [`LaneScheme`],
+//!   with the kappa root of a sphere in lanes, [`SphereRoot`]) and [`PathLoop`] for any scheme;
 //! - the tangent bundle: [`project_state`], [`TangentProjector`] and the [`KappaProblem`] of
 //!   seed eq. 3.1.
 //!
@@ -76,10 +78,12 @@ mod ensemble;
 mod error;
 mod grid;
 mod increments;
+mod lane_ensemble;
 pub mod lanes;
 mod normals;
 mod observer;
 mod scheme;
+mod sphere_root;
 mod system;
 mod tangent;
 
@@ -95,9 +99,13 @@ pub use grid::TimeGrid;
 pub use increments::{
     Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
 };
+pub use lane_ensemble::{
+    LaneEnsemble, LaneKernel, LaneOutcomes, LanePaths, LaneScheme, LaneStep, lane_values,
+};
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use scheme::{Scheme, StepOutcome};
+pub use sphere_root::{RootLanes, SphereRoot};
 pub use system::{
     AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
     check_dimensions, check_step_input,

@@ -98,6 +98,11 @@ impl<G: Factorize> TangentProjector<G> {
         }
     }
 
+    /// The settings of the position projection's root solver.
+    pub fn settings(&self) -> &SolverSettings {
+        self.solver.settings()
+    }
+
     /// r <- the root of g(r + M^-1 grad g(r) gamma) = 0 (the kappa system with eta = 0 and
     /// y = r): the point of the manifold on the normal line through r. Returns the solver's
     /// certificate; r is unchanged on failure.

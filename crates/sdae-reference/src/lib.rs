@@ -9,6 +9,10 @@
 //!   [`TruncatedEulerMaruyama`] (Remark 3.3, drift of Lemma 4.2), [`ProjectedEulerMaruyama`]
 //!   (Euler-Maruyama followed by projection onto the tangent bundle) and [`StochasticHeun`]
 //!   (trapezoidal drift, diffusion at the left point: an Ito scheme).
+//! - Lane forms ([`sdae_model::LaneScheme`]) of [`EulerMaruyama`], [`TruncatedEulerMaruyama`]
+//!   and [`StochasticHeun`] for a sphere constraint (the pendulums) with a diagonal mass: a
+//!   [`sdae_model::LaneEnsemble`] of them steps W paths at once in SIMD lanes with the same
+//!   numbers as each path alone (any other system steps path by path).
 //!
 //! ```
 //! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
@@ -66,6 +70,7 @@ mod error;
 mod euler;
 mod heun;
 mod inherent;
+mod lanes;
 mod projected;
 mod truncated;
 

@@ -43,6 +43,11 @@ impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
         Ok(Self { core, projector })
     }
 
+    /// The settings of the position projection's root solver.
+    pub fn projection_settings(&self) -> &SolverSettings {
+        self.projector.settings()
+    }
+
     /// Projects the proposed state (`core.next_r`, `core.next_v`) onto the tangent bundle: r
     /// along the normal M^-1 grad g(r), then v M-orthogonally onto the tangent space at the
     /// new r. Returns the Newton iterations.

@@ -1,14 +1,15 @@
 //! The built-in schemes a study compares, each an implementation of the one step trait
 //! [`Scheme`]: the half-explicit drift-truncated Euler scheme (seed eq. 3.1-3.2) with several
 //! constants, and the solvers of the inherent SDE (seed eq. 2.4) from `sdae-reference`. Each
-//! also comes as a [`PathEnsemble`] of many paths: the half-explicit family as the SIMD
-//! [`Ensemble`], every other scheme as a [`PathLoop`].
+//! also comes as a [`PathEnsemble`] of many paths: each built-in scheme has a lane form and
+//! runs as a [`LaneEnsemble`], which steps in SIMD lanes where the system has a lane form; a
+//! user's scheme runs as a [`PathLoop`].
 
-use sdae_model::{PathEnsemble, PathLoop, Scheme};
+use sdae_model::{LaneEnsemble, LaneScheme, PathEnsemble, PathLoop, Scheme};
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
-use sdae_scheme::{Ensemble, Stepper, StepperConfig};
+use sdae_scheme::{Stepper, StepperConfig};
 use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
@@ -107,12 +108,8 @@ pub type BoxedScheme<S> = Box<dyn Scheme<System = S>>;
 /// A boxed ensemble of paths of systems of type `S`.
 pub type BoxedEnsemble<S> = Box<dyn PathEnsemble<System = S>>;
 
-/// A built-in scheme as built: the half-explicit stepper (which has an ensemble form of its
-/// own) or another scheme.
-enum Built<S: CurvedSystem> {
-    HalfExplicit(Box<Stepper<S>>),
-    Other(BoxedScheme<S>),
-}
+/// A built-in scheme as built (each has a lane form).
+type Built<S> = Box<dyn LaneScheme<System = S>>;
 
 /// Builds `kind` for `system`; fails with a reason if the scheme does not apply to it (no
 /// theory bound, a setting the solver rejects).
@@ -124,14 +121,11 @@ pub fn build_integrator<S>(
 where
     S: CurvedSystem + Clone + 'static,
 {
-    Ok(match build_kind(kind, system, constants)? {
-        Built::HalfExplicit(stepper) => stepper,
-        Built::Other(scheme) => scheme,
-    })
+    Ok(build_kind(kind, system, constants)?)
 }
 
-/// Builds `kind` for `paths` paths of `system` from (r0, v0): the half-explicit family as an
-/// [`Ensemble`] (SIMD lanes where the system has a lane form), the others as a [`PathLoop`].
+/// Builds `kind` for `paths` paths of `system` from (r0, v0) as a [`LaneEnsemble`] (SIMD lanes
+/// where the system has a lane form, else path by path).
 pub fn build_ensemble<S>(
     kind: SchemeKind,
     system: &S,
@@ -141,17 +135,8 @@ pub fn build_ensemble<S>(
 where
     S: CurvedSystem + Clone + 'static,
 {
-    Ok(match build_kind(kind, system, constants)? {
-        Built::HalfExplicit(stepper) => {
-            Box::new(Ensemble::new(*stepper, paths, r0, v0).map_err(|e| {
-                StudyError::SchemeNotApplicable {
-                    scheme: kind.name().into(),
-                    reason: e.to_string(),
-                }
-            })?)
-        }
-        Built::Other(scheme) => Box::new(PathLoop::new(scheme, paths, r0, v0)?),
-    })
+    let scheme = build_kind(kind, system, constants)?;
+    Ok(Box::new(LaneEnsemble::new(scheme, paths, r0, v0)?))
 }
 
 fn build_kind<S>(
@@ -170,7 +155,7 @@ where
         let config = config.map_err(|e| not_applicable(e.to_string()))?;
         let stepper =
             Stepper::new(system.clone(), config).map_err(|e| not_applicable(e.to_string()))?;
-        Ok::<Built<S>, StudyError>(Built::HalfExplicit(Box::new(stepper)))
+        Ok::<Built<S>, StudyError>(Box::new(stepper))
     };
     let inherent = |e: sdae_reference::ReferenceError| not_applicable(e.to_string());
     match kind {
@@ -195,18 +180,18 @@ where
         SchemeKind::HalfExplicitLocal => stepper(
             StepperConfig::new(constants.local_c_eta, constants.c_kappa).map(StepperConfig::local),
         ),
-        SchemeKind::EulerMaruyama => Ok(Built::Other(Box::new(
+        SchemeKind::EulerMaruyama => Ok(Box::new(
             EulerMaruyama::new(system.clone()).map_err(inherent)?,
-        ))),
-        SchemeKind::TruncatedEulerMaruyama => Ok(Built::Other(Box::new(
+        )),
+        SchemeKind::TruncatedEulerMaruyama => Ok(Box::new(
             TruncatedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        ))),
-        SchemeKind::ProjectedEulerMaruyama => Ok(Built::Other(Box::new(
+        )),
+        SchemeKind::ProjectedEulerMaruyama => Ok(Box::new(
             ProjectedEulerMaruyama::new(system.clone()).map_err(inherent)?,
-        ))),
-        SchemeKind::StochasticHeun => Ok(Built::Other(Box::new(
+        )),
+        SchemeKind::StochasticHeun => Ok(Box::new(
             StochasticHeun::new(system.clone()).map_err(inherent)?,
-        ))),
+        )),
     }
 }
 

@@ -10,8 +10,10 @@
 //! number of fine steps.
 //!
 //! Each scheme and level steps its block of paths as one [`PathEnsemble`]: SIMD lanes where the
-//! scheme has a lane form, otherwise one path at a time through the path driver's step
-//! ([`PathLoop`](sdae_model::PathLoop)); any [`Scheme`](sdae_model::Scheme) runs here.
+//! scheme and the system have a lane form ([`LaneEnsemble`](sdae_model::LaneEnsemble): every
+//! built-in scheme on the pendulums), otherwise one path at a time through the scheme's step
+//! (a user's scheme as a [`PathLoop`](sdae_model::PathLoop)); any
+//! [`Scheme`](sdae_model::Scheme) runs here.
 
 use std::time::Instant;
 

@@ -1,0 +1,512 @@
+//! Many paths of one scheme in structure-of-arrays layout ([`LanePaths`]), stepped W at a time
+//! in SIMD lanes where the scheme has a lane form ([`LaneScheme`]) and one at a time through
+//! its scalar [`Scheme::step`] where it has none ([`LaneEnsemble`]).
+//!
+//! A lane form computes, lane by lane, exactly what the scalar step computes for that path
+//! alone; a lane it does not decide (a failure, a case outside its closed form) finishes its
+//! step through the scalar step, which reports the failure as for one path. So a path's
+//! numbers do not depend on W, on the other paths or on how paths are grouped.
+//!
+//! ```
+//! use sdae_manifold::{IdentityMass, Sphere};
+//! use sdae_model::lanes::LaneWidth;
+//! use sdae_model::{
+//!     LaneEnsemble, LanePaths, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme,
+//!     StepFailure, StepOutcome, ZeroDrift,
+//! };
+//!
+//! // A scheme without a lane form: every path steps through `step`.
+//! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
+//! struct Drift(Circle);
+//! impl Scheme for Drift {
+//!     type System = Circle;
+//!     fn system(&self) -> &Circle {
+//!         &self.0
+//!     }
+//!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
+//!         -> Result<StepOutcome, StepFailure> {
+//!         r[0] += h * v[0];
+//!         r[1] += h * v[1];
+//!         Ok(StepOutcome::PLAIN)
+//!     }
+//!     fn multiplier_increment(&self) -> &[f64] {
+//!         &[0.5]
+//!     }
+//! }
+//! impl LaneScheme for Drift {
+//!     fn step_lanes(&mut self, _: &mut LanePaths, _: LaneWidth, _: f64, _: &[f64]) -> bool {
+//!         false
+//!     }
+//! }
+//!
+//! let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
+//! let mut paths = LaneEnsemble::new(Drift(system), 5, &[1.0, 0.0], &[0.0, 1.0])?;
+//! for _ in 0..10 {
+//!     paths.step(0.1, &[])?;
+//! }
+//! let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
+//! paths.state(4, &mut r, &mut v, &mut mu)?;
+//! assert!((r[1] - 1.0).abs() < 1e-12 && mu[0] == 5.0 && paths.scalar_steps() == 50);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use pulp::Simd;
+use sdae_manifold::Constraint;
+
+use crate::driver::PathDiagnostics;
+use crate::ensemble::{PathEnsemble, check_path, lane_stride};
+use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
+use crate::lanes::{LaneMask, LaneWidth, Lanes};
+use crate::scheme::{Scheme, StepOutcome};
+use crate::system::System;
+
+/// A [`Scheme`] that may step many paths at once: [`LaneEnsemble`] calls
+/// [`LaneScheme::step_lanes`] for every step, and steps every path through [`Scheme::step`]
+/// where it returns `false`.
+pub trait LaneScheme: Scheme {
+    /// Steps every path of `paths` that goes on by h with the increments `dw` (layout of
+    /// [`PathEnsemble::step`]) with the instruction set of `width`, usually through
+    /// [`LanePaths::step_groups`]; returns `false`, having changed nothing, where this scheme
+    /// has no lane form for its system.
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool;
+}
+
+impl<T: LaneScheme + ?Sized> LaneScheme for Box<T> {
+    #[inline]
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        (**self).step_lanes(paths, width, h, dw)
+    }
+}
+
+/// The state of P paths in structure-of-arrays layout (coordinate i of path p at
+/// `i * stride + p`, stride = [`lane_stride`]`(P)`), with each path's mu (seed eq. 1.4),
+/// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`].
+#[derive(Debug, Clone)]
+pub struct LanePaths {
+    paths: usize,
+    stride: usize,
+    /// Positions.
+    r: Vec<f64>,
+    /// Velocities.
+    v: Vec<f64>,
+    /// mu, constraint j of path p at `j * stride + p`.
+    mu: Vec<f64>,
+    /// 1 for a path that goes on, 0 for a stopped path or a padding lane.
+    alive: Vec<f64>,
+    failures: Vec<Option<StepFailure>>,
+    /// How many of `failures` are `Some`.
+    failed: usize,
+    diagnostics: Vec<PathDiagnostics>,
+    /// Path-steps taken by the scalar step.
+    scalar_steps: usize,
+    /// One path's r, v and dw for the scalar step.
+    lane_r: Vec<f64>,
+    lane_v: Vec<f64>,
+    lane_dw: Vec<f64>,
+}
+
+/// What a lane form computed for the W lanes of one group ([`LanePaths::step_groups`]) of a
+/// system with one constraint: the lanes it decided (`ok`), their (r, v) after the step, the
+/// increment of mu and each lane's [`StepOutcome`].
+pub struct LaneStep<Sd: Simd, const N: usize, O: LaneOutcomes> {
+    /// The lanes whose step the lane form decided; the others go through the scalar step.
+    pub ok: LaneMask<Sd>,
+    /// r_{k+1}.
+    pub r: [Lanes<Sd>; N],
+    /// v_{k+1}.
+    pub v: [Lanes<Sd>; N],
+    /// mu_{k+1} - mu_k.
+    pub dmu: Lanes<Sd>,
+    /// The outcome of each decided lane.
+    pub outcomes: O,
+}
+
+/// The lane form of a scheme's step for systems of N coordinates and one constraint
+/// ([`LanePaths::step_groups`]).
+pub trait LaneKernel<Sch: ?Sized, const N: usize> {
+    /// The outcomes of a group's steps.
+    type Outcomes: LaneOutcomes;
+    /// The step of W lanes from (r, v) with increments dw (l of them); `None` if this group
+    /// must go through the scalar step (say, the system has no lane form). Implementations
+    /// should be `#[inline(always)]`, so that they compile with the instruction set of `Sd`.
+    fn step<Sd: Simd>(
+        &self,
+        scheme: &Sch,
+        r: &[Lanes<Sd>; N],
+        v: &[Lanes<Sd>; N],
+        dw: &[Lanes<Sd>],
+    ) -> Option<LaneStep<Sd, N, Self::Outcomes>>;
+}
+
+/// The [`StepOutcome`] of each lane of a [`LaneStep`].
+pub trait LaneOutcomes {
+    /// The outcome of lane `lane` < W, as the scalar step reports it.
+    fn outcome(&self, lane: usize) -> StepOutcome;
+}
+
+/// A lane's values as plain f64 (the first W entries).
+#[inline(always)]
+pub fn lane_values<Sd: Simd>(x: Lanes<Sd>) -> [f64; crate::LANE_BLOCK] {
+    let mut values = [0.0; crate::LANE_BLOCK];
+    x.store(&mut values);
+    values
+}
+
+/// The lanes of a mask as booleans (the first W entries).
+#[inline(always)]
+fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; crate::LANE_BLOCK] {
+    let one = Lanes::splat(mask.simd(), 1.0);
+    lane_values(Lanes::select(mask, one, one.splat_like(0.0))).map(|x| x == 1.0)
+}
+
+impl LanePaths {
+    /// `paths` >= 1 paths of a system with n coordinates, m constraints and noise dimension
+    /// l, each at (r0, v0) with mu = 0.
+    pub fn new<S: System>(
+        system: &S,
+        paths: usize,
+        r0: &[f64],
+        v0: &[f64],
+    ) -> Result<Self, ModelError> {
+        if paths == 0 {
+            return Err(ModelError::InvalidSetting {
+                name: "paths",
+                value: 0.0,
+                reason: "an ensemble needs at least one path",
+            });
+        }
+        let c = system.constraint();
+        let (n, m, l) = (c.dim(), c.n_constraints(), system.noise_dim());
+        let stride = lane_stride(paths);
+        let mut state = Self {
+            paths,
+            stride,
+            r: vec![0.0; n * stride],
+            v: vec![0.0; n * stride],
+            mu: vec![0.0; m * stride],
+            alive: vec![0.0; stride],
+            failures: vec![None; paths],
+            failed: 0,
+            diagnostics: vec![PathDiagnostics::default(); paths],
+            scalar_steps: 0,
+            lane_r: vec![0.0; n],
+            lane_v: vec![0.0; n],
+            lane_dw: vec![0.0; l],
+        };
+        state.restart(r0, v0)?;
+        Ok(state)
+    }
+
+    /// The number P of paths.
+    pub fn paths(&self) -> usize {
+        self.paths
+    }
+
+    /// The stride of the layout, [`lane_stride`]`(P)`.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The noise dimension l.
+    pub fn noise_dim(&self) -> usize {
+        self.lane_dw.len()
+    }
+
+    /// How many path-steps went through the scalar step.
+    pub fn scalar_steps(&self) -> usize {
+        self.scalar_steps
+    }
+
+    /// How many paths have stopped on a failed step.
+    pub fn failed_paths(&self) -> usize {
+        self.failed
+    }
+
+    /// Puts every path at (r0, v0) with mu = 0, fresh diagnostics and no failure.
+    fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
+        let n = self.lane_r.len();
+        check_dim("initial position", n, r0.len())?;
+        check_dim("initial velocity", n, v0.len())?;
+        let stride = self.stride;
+        for i in 0..n {
+            // Padding lanes hold the initial state too, so that they compute finite numbers.
+            self.r[i * stride..(i + 1) * stride].fill(r0[i]);
+            self.v[i * stride..(i + 1) * stride].fill(v0[i]);
+        }
+        self.mu.fill(0.0);
+        self.alive.fill(0.0);
+        self.alive[..self.paths].fill(1.0);
+        self.failures.fill(None);
+        self.failed = 0;
+        self.diagnostics.fill(PathDiagnostics::default());
+        Ok(())
+    }
+
+    /// Sets path p to (r, v) and lets it go on (mu and diagnostics go on from where they were).
+    fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError> {
+        check_path(p, self.paths)?;
+        check_dim("position", self.lane_r.len(), r.len())?;
+        check_dim("velocity", self.lane_v.len(), v.len())?;
+        scatter(&mut self.r, self.stride, p, r);
+        scatter(&mut self.v, self.stride, p, v);
+        self.alive[p] = 1.0;
+        if self.failures[p].take().is_some() {
+            self.failed -= 1;
+        }
+        Ok(())
+    }
+
+    /// Path p's step through the scalar step of `scheme` (nothing if the path has stopped):
+    /// its (r, v), mu and diagnostics as [`PathState::step`](crate::PathState::step) updates
+    /// them, or its failure.
+    pub fn step_one<Sch: Scheme + ?Sized>(
+        &mut self,
+        scheme: &mut Sch,
+        p: usize,
+        h: f64,
+        dw: &[f64],
+    ) {
+        if self.alive[p] == 0.0 {
+            return;
+        }
+        self.scalar_steps += 1;
+        gather(&self.r, self.stride, p, &mut self.lane_r);
+        gather(&self.v, self.stride, p, &mut self.lane_v);
+        gather(dw, self.stride, p, &mut self.lane_dw);
+        match scheme.step(&mut self.lane_r, &mut self.lane_v, h, &self.lane_dw) {
+            Ok(outcome) => {
+                scatter(&mut self.r, self.stride, p, &self.lane_r);
+                scatter(&mut self.v, self.stride, p, &self.lane_v);
+                for (j, d) in scheme.multiplier_increment().iter().enumerate() {
+                    self.mu[j * self.stride + p] += d;
+                }
+                self.diagnostics[p].record(&outcome, h);
+            }
+            Err(failure) => {
+                self.alive[p] = 0.0;
+                self.failures[p] = Some(failure);
+                self.failed += 1;
+            }
+        }
+    }
+
+    /// Steps every path that goes on, W = `Sd::F64_LANES` lanes at a time, for a system of N
+    /// coordinates with one constraint: `kernel` computes a group's step from its r_k, v_k and
+    /// increments (l of them); the lanes it decides take its (r, v), mu + dmu and outcome, the
+    /// others (and all of a group for which it returns `None`) go through the scalar step.
+    /// Returns `false`, having changed nothing, unless the system has N coordinates, one
+    /// constraint and at most N noise components.
+    #[inline(always)]
+    pub fn step_groups<Sch, Sd, const N: usize, K>(
+        &mut self,
+        simd: Sd,
+        scheme: &mut Sch,
+        (h, dw): (f64, &[f64]),
+        kernel: &K,
+    ) -> bool
+    where
+        Sch: Scheme + ?Sized,
+        Sd: Simd,
+        K: LaneKernel<Sch, N>,
+    {
+        let (stride, l) = (self.stride, self.lane_dw.len());
+        if self.lane_r.len() != N || self.mu.len() != stride || l > N {
+            return false;
+        }
+        let width = Sd::F64_LANES;
+        for offset in (0..stride).step_by(width) {
+            let alive = Lanes::load(simd, &self.alive[offset..]);
+            let alive = alive.eq(alive.splat_like(1.0));
+            let r: [Lanes<Sd>; N] = load_rows(simd, &self.r, stride, offset, N);
+            let v: [Lanes<Sd>; N] = load_rows(simd, &self.v, stride, offset, N);
+            let noise: [Lanes<Sd>; N] = load_rows(simd, dw, stride, offset, l);
+            let Some(step) = kernel.step(scheme, &r, &v, &noise[..l]) else {
+                for p in offset..(offset + width).min(self.paths) {
+                    self.step_one(scheme, p, h, dw);
+                }
+                continue;
+            };
+            let done = step.ok.and(alive);
+            for i in 0..N {
+                let row = i * stride + offset;
+                Lanes::select(done, step.r[i], r[i]).store(&mut self.r[row..]);
+                Lanes::select(done, step.v[i], v[i]).store(&mut self.v[row..]);
+            }
+            let mu = Lanes::load(simd, &self.mu[offset..]);
+            Lanes::select(done, mu + step.dmu, mu).store(&mut self.mu[offset..]);
+            let (alive, done) = (mask_values(alive), mask_values(done));
+            for lane in 0..width {
+                let p = offset + lane;
+                if p >= self.paths || !alive[lane] {
+                    continue;
+                }
+                if done[lane] {
+                    self.diagnostics[p].record(&step.outcomes.outcome(lane), h);
+                } else {
+                    self.step_one(scheme, p, h, dw);
+                }
+            }
+        }
+        true
+    }
+}
+
+/// P paths of a [`LaneScheme`], stepped in SIMD lanes where it has a lane form.
+#[derive(Debug, Clone)]
+pub struct LaneEnsemble<Sch: LaneScheme> {
+    scheme: Sch,
+    paths: LanePaths,
+    /// The instruction set the steps run with.
+    width: LaneWidth,
+}
+
+impl<Sch: LaneScheme> LaneEnsemble<Sch> {
+    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) (not checked to be on the
+    /// manifold, as for one step of a scheme).
+    pub fn new(scheme: Sch, paths: usize, r0: &[f64], v0: &[f64]) -> Result<Self, ModelError> {
+        let paths = LanePaths::new(scheme.system(), paths, r0, v0)?;
+        Ok(Self {
+            scheme,
+            paths,
+            width: LaneWidth::Best,
+        })
+    }
+
+    /// The same ensemble stepping with the instruction set of `width` (default
+    /// [`LaneWidth::Best`]); the numbers do not depend on it.
+    pub fn with_width(mut self, width: LaneWidth) -> Self {
+        self.width = width;
+        self
+    }
+
+    /// Steps from now on with the instruction set of `width`.
+    pub fn set_width(&mut self, width: LaneWidth) {
+        self.width = width;
+    }
+
+    /// The scheme (system and constants).
+    pub fn scheme(&self) -> &Sch {
+        &self.scheme
+    }
+
+    /// How many path-steps went through the scalar step (all of them for a scheme or system
+    /// without a lane form, else the steps the lane form did not decide).
+    pub fn scalar_steps(&self) -> usize {
+        self.paths.scalar_steps
+    }
+
+    /// How many paths have stopped on a failed step.
+    pub fn failed_paths(&self) -> usize {
+        self.paths.failed_paths()
+    }
+}
+
+impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
+    type System = Sch::System;
+
+    fn system(&self) -> &Self::System {
+        self.scheme.system()
+    }
+
+    fn paths(&self) -> usize {
+        self.paths.paths
+    }
+
+    fn stride(&self) -> usize {
+        self.paths.stride
+    }
+
+    fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
+        self.paths.restart(r0, v0)
+    }
+
+    fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError> {
+        self.paths.set_state(p, r, v)
+    }
+
+    /// A path whose step fails keeps its state and stops; the failure is kept
+    /// ([`PathEnsemble::failure`]) and the other paths go on.
+    fn step(&mut self, h: f64, dw: &[f64]) -> Result<usize, ModelError> {
+        check_step_size(h)?;
+        let paths = &mut self.paths;
+        check_dim(
+            "increments (l * stride)",
+            paths.noise_dim() * paths.stride,
+            dw.len(),
+        )?;
+        let before = paths.failed_paths();
+        if !self.scheme.step_lanes(paths, self.width, h, dw) {
+            for p in 0..paths.paths {
+                paths.step_one(&mut self.scheme, p, h, dw);
+            }
+        }
+        Ok(paths.failed_paths() - before)
+    }
+
+    fn state(
+        &self,
+        p: usize,
+        r: &mut [f64],
+        v: &mut [f64],
+        mu: &mut [f64],
+    ) -> Result<(), ModelError> {
+        let paths = &self.paths;
+        check_path(p, paths.paths)?;
+        check_dim("position", paths.lane_r.len(), r.len())?;
+        check_dim("velocity", paths.lane_v.len(), v.len())?;
+        gather(&paths.r, paths.stride, p, r);
+        gather(&paths.v, paths.stride, p, v);
+        if !mu.is_empty() {
+            check_dim("multiplier", paths.mu.len() / paths.stride, mu.len())?;
+            gather(&paths.mu, paths.stride, p, mu);
+        }
+        Ok(())
+    }
+
+    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
+        check_path(p, self.paths.paths)?;
+        Ok(&self.paths.diagnostics[p])
+    }
+
+    fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError> {
+        check_path(p, self.paths.paths)?;
+        Ok(self.paths.failures[p].as_ref())
+    }
+
+    fn stop(&mut self, p: usize) -> Result<(), ModelError> {
+        check_path(p, self.paths.paths)?;
+        self.paths.alive[p] = 0.0;
+        Ok(())
+    }
+}
+
+/// out[i] = from[i * stride + p].
+fn gather(from: &[f64], stride: usize, p: usize, out: &mut [f64]) {
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = from[i * stride + p];
+    }
+}
+
+/// to[i * stride + p] = values[i].
+fn scatter(to: &mut [f64], stride: usize, p: usize, values: &[f64]) {
+    for (i, x) in values.iter().enumerate() {
+        to[i * stride + p] = *x;
+    }
+}
+
+/// Loads coordinate i < `rows` of the W paths from `offset` of each coordinate's row (zero
+/// beyond `rows`).
+#[inline(always)]
+fn load_rows<Sd: Simd, const N: usize>(
+    simd: Sd,
+    from: &[f64],
+    stride: usize,
+    offset: usize,
+    rows: usize,
+) -> [Lanes<Sd>; N] {
+    let mut out = [Lanes::splat(simd, 0.0); N];
+    for (i, o) in out.iter_mut().enumerate().take(rows) {
+        *o = Lanes::load(simd, &from[i * stride + offset..]);
+    }
+    out
+}

@@ -1,0 +1,150 @@
+//! The kappa root of a sphere over W lanes: the root gamma connected to 0 of
+//! R(gamma) = g(y + M^-1 grad g(r) gamma) (seed eq. 3.1 upper part, Appendix B) for a sphere
+//! with a diagonal mass, in closed form, with the floating-point operations of the ball
+//! solver's closed form (`BallSolver::solve` of `sdae-ift` with `Sphere::kappa_quadratic`).
+//! With r = y it is the projection of y onto the sphere along its own normal line
+//! ([`TangentProjector::project_position`](crate::TangentProjector::project_position)).
+//!
+//! A lane the closed form does not certify (no real root, a root outside the ball, not
+//! plausible, not contracting, a residual above the tolerance, a non-finite value) is left
+//! out of `ok`; the scalar solver decides it (Newton, the homotopy, or the error).
+
+use pulp::Simd;
+use sdae_ift::SolverSettings;
+use sdae_manifold::Sphere;
+
+use crate::lanes::{LaneMask, Lanes};
+
+/// The constants of the root: the sphere's, the diagonal of M^-1, the solver's settings and
+/// the radius of the ball the root must lie in (C_kappa, or infinite).
+#[derive(Debug, Clone, Copy)]
+pub struct SphereRoot<const N: usize> {
+    tolerance: f64,
+    plausibility_factor: f64,
+    max_contraction: f64,
+    radius: f64,
+    inv_r2: f64,
+    /// 4 eps d, the factor of the residual floor (`Sphere::roundoff`).
+    floor_factor: f64,
+    inverse_mass: [f64; N],
+}
+
+/// The root of W lanes and the numbers of its certificate.
+#[derive(Debug, Clone, Copy)]
+pub struct RootLanes<Sd: Simd, const N: usize> {
+    /// The lanes the closed form certified.
+    pub ok: LaneMask<Sd>,
+    /// gamma, the root.
+    pub gamma: Lanes<Sd>,
+    /// The root's point x = y + M^-1 grad g(r) gamma.
+    pub x: [Lanes<Sd>; N],
+    /// |gamma|.
+    pub norm: Lanes<Sd>,
+    /// |R(0) / R'(0)|, the first Newton step's length.
+    pub first_step: Lanes<Sd>,
+    /// |R''(0) gamma / R'(0)|, the contraction of the Newton map.
+    pub contraction: Lanes<Sd>,
+    /// |R(gamma)|.
+    pub residual: Lanes<Sd>,
+    /// R'(gamma) = Dg(x) M^-1 grad g(r) = x^T M^-1 r / rho^4.
+    pub gram: Lanes<Sd>,
+}
+
+impl<const N: usize> SphereRoot<N> {
+    /// The root's constants for `sphere` (of dimension N) with M^-1 = diag(`inverse_mass`).
+    pub fn new(
+        sphere: &Sphere,
+        inverse_mass: [f64; N],
+        settings: &SolverSettings,
+        radius: f64,
+    ) -> Self {
+        Self {
+            tolerance: settings.tolerance,
+            plausibility_factor: settings.plausibility_factor,
+            max_contraction: settings.max_contraction,
+            radius,
+            inv_r2: sphere.inverse_radius_squared(),
+            floor_factor: 4.0 * f64::EPSILON * (N as f64),
+            inverse_mass,
+        }
+    }
+
+    /// The radius of the ball.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// The root of R(gamma) = g(y + M^-1 grad g(r) gamma) in each lane.
+    #[inline(always)]
+    pub fn solve<Sd: Simd>(&self, r: &[Lanes<Sd>; N], y: &[Lanes<Sd>; N]) -> RootLanes<Sd, N> {
+        let zero = r[0].splat_like(0.0);
+        let one = zero.splat_like(1.0);
+        let mut max_abs_y = zero;
+        for yi in y {
+            max_abs_y = max_abs_y.max(yi.abs());
+        }
+        let floor = zero.splat_like(self.floor_factor) * max_abs_y * max_abs_y * self.inv_r2;
+        let tolerance = zero.splat_like(self.tolerance).max(floor);
+
+        // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`).
+        let (mut yy, mut yu, mut uu) = (zero, zero, zero);
+        for i in 0..N {
+            let u = r[i] * self.inverse_mass[i];
+            yy = yy + y[i] * y[i];
+            yu = yu + y[i] * u;
+            uu = uu + u * u;
+        }
+        let c = self.inv_r2;
+        let c0 = (one - yy * c) * 0.5;
+        let c1 = yu * c * c;
+        let c2 = uu * -0.5 * c * c * c;
+        let mut ok = c0
+            .is_finite()
+            .and(c1.is_finite())
+            .and(c2.is_finite())
+            .and(!c1.eq(zero));
+        // The root connected to 0 (`BallSolver::solve_quadratic`).
+        let first_step = (c0 / c1).abs();
+        let discriminant = c1 * c1 - c0 * 4.0 * c2;
+        ok = ok.and(!discriminant.lt(zero));
+        let root = discriminant.sqrt();
+        let signed_root = Lanes::select(c1.lt(zero), -root, root);
+        let gamma = Lanes::select(c0.abs().le(tolerance), zero, c0 * -2.0 / (c1 + signed_root));
+        let norm = gamma.abs();
+        ok = ok.and(norm.lt(zero.splat_like(self.radius)));
+        let bound = first_step * self.plausibility_factor;
+        let implausible = bound
+            .lt(norm)
+            .and(zero.splat_like(64.0 * f64::EPSILON).lt(norm));
+        ok = ok.and(!implausible);
+
+        // The root's point x = y + M^-1 grad g(r) gamma, its residual and J(gamma).
+        let s = -gamma * self.inv_r2;
+        let mut x = [zero; N];
+        let (mut xx, mut xr) = (zero, zero);
+        for i in 0..N {
+            let w = self.inverse_mass[i];
+            x[i] = s * r[i] * w + y[i];
+            xx = xx + x[i] * x[i];
+            xr = xr + x[i] * r[i] * w;
+        }
+        let residual = ((one - xx * self.inv_r2) * 0.5).abs();
+        ok = ok.and(residual.le(tolerance));
+        let gram = xr * self.inv_r2 * self.inv_r2;
+        ok = ok.and(gram.is_finite()).and(!gram.eq(zero));
+        let contraction = (c2 * 2.0 * gamma / c1).abs();
+        if self.radius.is_finite() {
+            ok = ok.and(contraction.lt(zero.splat_like(self.max_contraction)));
+        }
+        RootLanes {
+            ok,
+            gamma,
+            x,
+            norm,
+            first_step,
+            contraction,
+            residual,
+            gram,
+        }
+    }
+}

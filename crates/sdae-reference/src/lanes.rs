@@ -1,0 +1,435 @@
+//! The Euler-type solvers of the inherent SDE (seed eq. 2.4, multiplier eq. 2.3) for a sphere
+//! constraint with a diagonal mass, W paths at once ([`LaneScheme`]): Euler-Maruyama, its
+//! drift-truncated form (Remark 3.3), projected Euler-Maruyama (the projection's root in closed
+//! form, [`SphereRoot`]) and stochastic Heun, each with the scalar solver's
+//! floating-point operations in the same order, so that a lane computes exactly what the
+//! solver computes for that path alone. A lane whose step the formulas do not decide (a
+//! singular or non-finite Gram value, a non-finite result) finishes its step through the
+//! scalar solver, which reports the failure as for one path.
+//!
+//! For the sphere g(r) = (1 - |r|^2 / rho^2) / 2 every piece of [`InherentSde`]'s linear map
+//! is a closed form: Dg(r) u = -r.u / rho^2, D^2 g(r)(v, v) = -|v|^2 / rho^2,
+//! G_M(r) = r^T M^-1 r / rho^4 and M^-1 grad g(r) z = -z M^-1 r / rho^2.
+//!
+//! [`InherentSde`]: crate::InherentSde
+
+use pulp::{Simd, WithSimd};
+use sdae_ift::SolverSettings;
+use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
+use sdae_model::{
+    LaneKernel, LaneOutcomes, LanePaths, LaneScheme, LaneStep, Scheme, SphereRoot, StepOutcome,
+    System, lane_values,
+};
+
+use crate::euler::EulerMaruyama;
+use crate::heun::StochasticHeun;
+use crate::inherent::CurvedSystem;
+use crate::projected::ProjectedEulerMaruyama;
+use crate::truncated::TruncatedEulerMaruyama;
+
+/// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
+const MAX_DIM: usize = 3;
+
+/// Which solver's step the lanes take.
+#[derive(Debug, Clone, Copy)]
+enum Method {
+    /// Euler-Maruyama ([`EulerMaruyama`]).
+    Euler,
+    /// Truncated Euler-Maruyama with truncation scale c ([`TruncatedEulerMaruyama`]).
+    Truncated(f64),
+    /// Stochastic Heun ([`StochasticHeun`]).
+    Heun,
+    /// Projected Euler-Maruyama with the projection's root-solver settings
+    /// ([`ProjectedEulerMaruyama`]).
+    Projected(SolverSettings),
+}
+
+impl<S: CurvedSystem> LaneScheme for EulerMaruyama<S> {
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        step_lanes(self, Method::Euler, paths, width, (h, dw))
+    }
+}
+
+impl<S: CurvedSystem> LaneScheme for TruncatedEulerMaruyama<S> {
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        let method = Method::Truncated(self.scale());
+        step_lanes(self, method, paths, width, (h, dw))
+    }
+}
+
+impl<S: CurvedSystem> LaneScheme for ProjectedEulerMaruyama<S> {
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        let method = Method::Projected(*self.projection_settings());
+        step_lanes(self, method, paths, width, (h, dw))
+    }
+}
+
+impl<S: CurvedSystem> LaneScheme for StochasticHeun<S> {
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        step_lanes(self, Method::Heun, paths, width, (h, dw))
+    }
+}
+
+/// The lanes' step of `method` where the system is a sphere of dimension <= [`MAX_DIM`] with a
+/// diagonal mass and at most as many noise components; `false` otherwise.
+fn step_lanes<Sch: Scheme>(
+    scheme: &mut Sch,
+    method: Method,
+    paths: &mut LanePaths,
+    width: LaneWidth,
+    (h, dw): (f64, &[f64]),
+) -> bool {
+    let system = scheme.system();
+    let Some(sphere) = system.constraint().as_sphere().copied() else {
+        return false;
+    };
+    let diagonal = <<Sch::System as System>::Mass as Mass>::DIAGONAL;
+    if !diagonal || sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
+        return false;
+    }
+    width.dispatch(StepAll {
+        scheme,
+        method,
+        paths,
+        sphere,
+        h,
+        dw,
+    })
+}
+
+/// One step of every path.
+struct StepAll<'a, Sch: Scheme> {
+    scheme: &'a mut Sch,
+    method: Method,
+    paths: &'a mut LanePaths,
+    sphere: Sphere,
+    h: f64,
+    dw: &'a [f64],
+}
+
+impl<Sch: Scheme> WithSimd for StepAll<'_, Sch> {
+    type Output = bool;
+    #[inline(always)]
+    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
+        match self.sphere.dim() {
+            2 => self.step::<Sd, 2>(simd),
+            _ => self.step::<Sd, 3>(simd),
+        }
+    }
+}
+
+impl<Sch: Scheme> StepAll<'_, Sch> {
+    #[inline(always)]
+    fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
+        let sde = SphereSde::<N>::new(self.scheme.system(), &self.sphere);
+        let projection = match self.method {
+            Method::Projected(settings) => Some(SphereRoot::new(
+                &self.sphere,
+                sde.inverse_mass,
+                &settings,
+                f64::INFINITY,
+            )),
+            _ => None,
+        };
+        let kernel = Kernel {
+            sde,
+            method: self.method,
+            projection,
+            h: self.h,
+        };
+        self.paths
+            .step_groups(simd, self.scheme, (self.h, self.dw), &kernel)
+    }
+}
+
+/// A solver's step of W lanes.
+struct Kernel<const N: usize> {
+    sde: SphereSde<N>,
+    method: Method,
+    /// The projection onto the sphere (an unbounded ball) of projected Euler-Maruyama.
+    projection: Option<SphereRoot<N>>,
+    h: f64,
+}
+
+impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
+    type Outcomes = Outcomes;
+
+    #[inline(always)]
+    fn step<Sd: Simd>(
+        &self,
+        scheme: &Sch,
+        r: &[Lanes<Sd>; N],
+        v: &[Lanes<Sd>; N],
+        dw: &[Lanes<Sd>],
+    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+        let (system, h) = (scheme.system(), self.h);
+        match self.method {
+            Method::Euler => self.sde.euler(system, (r, v), h, dw, None),
+            Method::Truncated(scale) => self.sde.euler(system, (r, v), h, dw, Some(scale)),
+            Method::Heun => self.sde.heun(system, (r, v), h, dw),
+            Method::Projected(_) => {
+                let step = self.sde.euler(system, (r, v), h, dw, None)?;
+                self.projection.map(|root| self.sde.project(&root, step))
+            }
+        }
+    }
+}
+
+/// The outcomes of a group's steps: plain, or with each lane's truncation factor theta
+/// ([`StepOutcome::eta`]).
+enum Outcomes {
+    Plain,
+    Truncated([f64; sdae_model::LANE_BLOCK]),
+}
+
+impl LaneOutcomes for Outcomes {
+    #[inline(always)]
+    fn outcome(&self, lane: usize) -> StepOutcome {
+        match self {
+            Outcomes::Plain => StepOutcome::PLAIN,
+            Outcomes::Truncated(theta) => StepOutcome {
+                eta: theta[lane],
+                ..StepOutcome::PLAIN
+            },
+        }
+    }
+}
+
+/// The sphere's constants: 1/rho^2 and the diagonal of M^-1.
+struct SphereSde<const N: usize> {
+    inv_r2: f64,
+    inverse_mass: [f64; N],
+}
+
+/// `EulerParts` over W lanes: the coefficients of one Euler step at (r, v), and the lanes
+/// where they are defined and finite.
+struct Parts<Sd: Simd, const N: usize> {
+    ok: LaneMask<Sd>,
+    /// Velocity drift of eq. 2.4.
+    accel: [Lanes<Sd>; N],
+    /// Drift of mu, eq. 2.3.
+    mu_rate: Lanes<Sd>,
+    /// M^-1 P_M B dw.
+    noise_v: [Lanes<Sd>; N],
+    /// -G_M^-1 Dg M^-1 B dw.
+    noise_mu: Lanes<Sd>,
+}
+
+impl<const N: usize> SphereSde<N> {
+    fn new<S: System>(system: &S, sphere: &Sphere) -> Self {
+        let mass = system.mass();
+        Self {
+            inv_r2: sphere.inverse_radius_squared(),
+            inverse_mass: std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)),
+        }
+    }
+
+    /// `InherentSde::constrain_force` with the factor 1 / G_M(r) (`inverse_gram`) and the
+    /// force f: returns dv = M^-1 [f + grad g dmu] and dmu = -G_M^-1 { Dg M^-1 f + D^2 g(v, v) }
+    /// (the curvature term only with `curvature`, which is the drift's dt = 1).
+    #[inline(always)]
+    fn constrain<Sd: Simd>(
+        &self,
+        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
+        inverse_gram: Lanes<Sd>,
+        mut force: [Lanes<Sd>; N],
+        curvature: bool,
+    ) -> ([Lanes<Sd>; N], Lanes<Sd>) {
+        for (f, w) in force.iter_mut().zip(self.inverse_mass) {
+            *f = *f * w;
+        }
+        let mut dmu = -dot(r, &force) * self.inv_r2;
+        if curvature {
+            dmu = dmu + (-dot(v, v) * self.inv_r2) * 1.0;
+        }
+        let dmu = -(dmu * inverse_gram);
+        let s = -dmu * self.inv_r2;
+        let mut dv = force;
+        for ((d, ri), w) in dv.iter_mut().zip(r).zip(self.inverse_mass) {
+            *d = s * *ri * w + *d;
+        }
+        (dv, dmu)
+    }
+
+    /// `EulerParts::evaluate` at (r, v) (with the noise parts for l > 0 increments); `None` if
+    /// the system has no lane form.
+    #[inline(always)]
+    fn parts<S: System, Sd: Simd>(
+        &self,
+        system: &S,
+        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
+        dw: &[Lanes<Sd>],
+    ) -> Option<Parts<Sd, N>> {
+        let zero = r[0].splat_like(0.0);
+        // G_M(r) = r^T M^-1 r / rho^4, factored as 1 / G_M(r) where finite and nonzero.
+        let mut rr = zero;
+        for (ri, w) in r.iter().zip(self.inverse_mass) {
+            rr = rr + *ri * *ri * w;
+        }
+        let gram = rr * self.inv_r2 * self.inv_r2;
+        let mut ok = gram.is_finite().and(!gram.eq(zero));
+        let inverse_gram = zero.splat_like(1.0) / gram;
+        let mut force = [zero; N];
+        if !system.drift_lanes(r, v, &mut force) {
+            return None;
+        }
+        let (accel, mu_rate) = self.constrain((r, v), inverse_gram, force, true);
+        ok = ok.and(all_finite(&accel));
+        let (mut noise_v, mut noise_mu) = ([zero; N], zero);
+        if !dw.is_empty() {
+            let mut force = [zero; N];
+            if !system.add_noise_lanes(r, v, dw, &mut force) {
+                return None;
+            }
+            (noise_v, noise_mu) = self.constrain((r, v), inverse_gram, force, false);
+            ok = ok.and(all_finite(&noise_v));
+        }
+        Some(Parts {
+            ok,
+            accel,
+            mu_rate,
+            noise_v,
+            noise_mu,
+        })
+    }
+
+    /// One (truncated, with `Some(c)`) Euler-Maruyama step, `EulerCore::propose`: theta =
+    /// min(1, c / (|f| h)) with |f|^2 = |v|^2 + |accel|^2, r' = r + theta h v,
+    /// v' = v + theta h accel + noise_v, dmu = theta h mu_rate + noise_mu.
+    #[inline(always)]
+    fn euler<S: System, Sd: Simd>(
+        &self,
+        system: &S,
+        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
+        h: f64,
+        dw: &[Lanes<Sd>],
+        scale: Option<f64>,
+    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+        let parts = self.parts(system, (r, v), dw)?;
+        Some(Self::euler_with(&parts, (r, v), h, scale))
+    }
+
+    /// [`SphereSde::euler`] with the parts at (r, v) evaluated.
+    #[inline(always)]
+    fn euler_with<Sd: Simd>(
+        parts: &Parts<Sd, N>,
+        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
+        h: f64,
+        scale: Option<f64>,
+    ) -> LaneStep<Sd, N, Outcomes> {
+        let one = r[0].splat_like(1.0);
+        let theta = match scale {
+            None => one,
+            Some(c) => {
+                let size = (dot(v, v) + dot(&parts.accel, &parts.accel)).sqrt() * h;
+                let c = one.splat_like(c);
+                Lanes::select(c.lt(size), c / size, one)
+            }
+        };
+        let dt = theta * h;
+        let (mut next_r, mut next_v) = (*r, *v);
+        for i in 0..N {
+            next_r[i] = r[i] + dt * v[i];
+            next_v[i] = v[i] + (dt * parts.accel[i] + parts.noise_v[i]);
+        }
+        let dmu = dt * parts.mu_rate + parts.noise_mu;
+        let ok = parts
+            .ok
+            .and(all_finite(&next_v))
+            .and(all_finite(&next_r))
+            .and(dmu.is_finite());
+        let outcomes = match scale {
+            None => Outcomes::Plain,
+            Some(_) => Outcomes::Truncated(lane_values(theta)),
+        };
+        LaneStep {
+            ok,
+            r: next_r,
+            v: next_v,
+            dmu,
+            outcomes,
+        }
+    }
+
+    /// One stochastic Heun step (`StochasticHeun`): the Euler-Maruyama predictor X~, then
+    /// r' = r + h/2 (v + v~), v' = v + h/2 (accel + accel~) + noise_v,
+    /// dmu = h/2 (mu_rate + mu_rate~) + noise_mu.
+    #[inline(always)]
+    fn heun<S: System, Sd: Simd>(
+        &self,
+        system: &S,
+        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
+        h: f64,
+        dw: &[Lanes<Sd>],
+    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+        let parts = self.parts(system, (r, v), dw)?;
+        let predictor = Self::euler_with(&parts, (r, v), h, None);
+        let at_predictor = self.parts(system, (&predictor.r, &predictor.v), &[])?;
+        let half = 0.5 * h;
+        let (mut next_r, mut next_v) = (*r, *v);
+        for i in 0..N {
+            next_r[i] = r[i] + (v[i] + predictor.v[i]) * half;
+            next_v[i] = v[i] + (parts.accel[i] + at_predictor.accel[i]) * half + parts.noise_v[i];
+        }
+        let dmu = (parts.mu_rate + at_predictor.mu_rate) * half + parts.noise_mu;
+        let ok = predictor
+            .ok
+            .and(at_predictor.ok)
+            .and(all_finite(&next_v))
+            .and(all_finite(&next_r))
+            .and(dmu.is_finite());
+        Some(LaneStep {
+            ok,
+            r: next_r,
+            v: next_v,
+            dmu,
+            outcomes: Outcomes::Plain,
+        })
+    }
+}
+
+impl<const N: usize> SphereSde<N> {
+    /// `ProjectedEulerMaruyama::project_proposal` of an Euler-Maruyama step to (y, u): r' = the
+    /// root's point of the projection of y along its normal (`root`, with r = y; y itself
+    /// where gamma = 0), then v' = u - M^-1 grad g(r') G_M(r')^-1 Dg(r') u.
+    #[inline(always)]
+    fn project<Sd: Simd>(
+        &self,
+        root: &SphereRoot<N>,
+        step: LaneStep<Sd, N, Outcomes>,
+    ) -> LaneStep<Sd, N, Outcomes> {
+        let (y, u) = (step.r, step.v);
+        let position = root.solve(&y, &y);
+        let zero = y[0].splat_like(0.0);
+        let at_y = position.gamma.eq(zero);
+        let r: [Lanes<Sd>; N] = std::array::from_fn(|i| Lanes::select(at_y, y[i], position.x[i]));
+        // G_M(r') = r'^T M^-1 r' / rho^4, then lambda = G_M^-1 Dg(r') u.
+        let mut rr = zero;
+        for (ri, w) in r.iter().zip(self.inverse_mass) {
+            rr = rr + *ri * *ri * w;
+        }
+        let gram = rr * self.inv_r2 * self.inv_r2;
+        let lambda = (-dot(&r, &u) * self.inv_r2) * (zero.splat_like(1.0) / gram);
+        let s = -lambda * self.inv_r2;
+        let v: [Lanes<Sd>; N] = std::array::from_fn(|i| u[i] - s * r[i] * self.inverse_mass[i]);
+        let ok = step
+            .ok
+            .and(position.ok)
+            .and(all_finite(&r))
+            .and(gram.is_finite())
+            .and(!gram.eq(zero))
+            .and(all_finite(&v));
+        LaneStep { ok, r, v, ..step }
+    }
+}
+
+/// The lanes where every coordinate is finite.
+#[inline(always)]
+fn all_finite<Sd: Simd, const N: usize>(x: &[Lanes<Sd>; N]) -> LaneMask<Sd> {
+    let mut ok = x[0].is_finite();
+    for xi in &x[1..] {
+        ok = ok.and(xi.is_finite());
+    }
+    ok
+}

@@ -1,8 +1,8 @@
 //! The ensemble engine: W = 1, 4 and 8 lanes give bit-identical paths, which agree with the
 //! scalar stepper on the same increments; failed lanes stop and are reported as one path's
 //! failure is; a system whose drift is a closure steps in lanes through a lane-by-lane loop
-//! with the scalar stepper's numbers; the generic per-path loop gives the same numbers; bad
-//! input is a typed error.
+//! with the scalar stepper's numbers; the generic per-path loop gives the same numbers; a
+//! block read gives each path's state; bad input is a typed error.
 
 use sdae_manifold::{IdentityMass, Sphere};
 use sdae_model::{
@@ -349,6 +349,49 @@ fn the_per_path_loop_gives_the_ensembles_numbers() {
                 );
             }
         }
+    }
+}
+
+/// `read_rows` of the paths `order` (with mu or without) against one `state` call per path.
+fn rows_match_states<E: PathEnsemble + ?Sized>(ensemble: &E, order: &[usize], dim: usize) {
+    for mu_len in [0, 1] {
+        let row = 2 * dim + mu_len;
+        let mut rows = vec![f64::NAN; order.len() * row];
+        ensemble.read_rows(order, mu_len, &mut rows).unwrap();
+        for (&p, got) in order.iter().zip(rows.chunks_exact(row)) {
+            let (mut r, mut v, mut mu) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; mu_len]);
+            ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
+            let want: Vec<u64> = r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect();
+            let got: Vec<u64> = got.iter().map(|x| x.to_bits()).collect();
+            assert_eq!(got, want, "path {p}, mu of length {mu_len}");
+        }
+    }
+    let message = |e: sdae_model::ModelError| e.to_string();
+    let e = ensemble.read_rows(&[0, 1], 1, &mut [0.0; 3]).unwrap_err();
+    assert!(message(e).contains("rows"));
+    let e = ensemble
+        .read_rows(&[PATHS], 0, &mut vec![0.0; 2 * dim])
+        .unwrap_err();
+    assert!(message(e).contains("path index"));
+    let e = ensemble
+        .read_rows(&[0], 2, &mut vec![0.0; 2 * dim + 2])
+        .unwrap_err();
+    assert!(message(e).contains("multiplier"));
+}
+
+#[test]
+fn a_block_read_gives_each_paths_state() {
+    let order: Vec<usize> = (0..PATHS).rev().step_by(3).chain([5, 5, 0]).collect();
+    for dim in [2, 3] {
+        let system = noisy_pendulum(dim);
+        let stepper = Stepper::new(system.clone(), configs(&system)[0].1).unwrap();
+        let (r0, v0) = initial(dim);
+        let mut lanes = Ensemble::new(stepper.clone(), PATHS, &r0, &v0).unwrap();
+        let mut looped = PathLoop::new(stepper, PATHS, &r0, &v0).unwrap();
+        run_and_read(&mut lanes);
+        run_and_read(&mut looped);
+        rows_match_states(&lanes, &order, dim);
+        rows_match_states(&looped, &order, dim);
     }
 }
 

@@ -96,6 +96,20 @@ pub trait PathEnsemble {
         v: &mut [f64],
         mu: &mut [f64],
     ) -> Result<(), ModelError>;
+    /// Copies the (r, v, mu) of each path in `paths` into one row of `rows` (row i for
+    /// `paths[i]`, each 2n + `mu_len` long, `mu_len` either m or 0 to leave mu out): a whole
+    /// block's states in one call instead of one [`PathEnsemble::state`] call per path.
+    fn read_rows(
+        &self,
+        paths: &[usize],
+        mu_len: usize,
+        rows: &mut [f64],
+    ) -> Result<(), ModelError> {
+        let n = self.system().constraint().dim();
+        for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
+            self.state(p, r, v, mu)
+        })
+    }
     /// What path p's steps did so far.
     fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError>;
     /// Why path p stopped on a failed step, or `None`.
@@ -103,6 +117,24 @@ pub trait PathEnsemble {
     /// Stops path p (its caller found it failed, say beyond a blow-up bound): it takes no
     /// further steps until [`PathEnsemble::restart`].
     fn stop(&mut self, p: usize) -> Result<(), ModelError>;
+}
+
+/// Checks the length of the rows of [`PathEnsemble::read_rows`] (2n + `mu_len` per path) and
+/// hands `read` each listed path with the (r, v, mu) parts of its row.
+pub(crate) fn for_each_row(
+    paths: &[usize],
+    (n, mu_len): (usize, usize),
+    rows: &mut [f64],
+    mut read: impl FnMut(usize, &mut [f64], &mut [f64], &mut [f64]) -> Result<(), ModelError>,
+) -> Result<(), ModelError> {
+    let row = 2 * n + mu_len;
+    check_dim("rows ((2n + mu) per path)", paths.len() * row, rows.len())?;
+    for (&p, out) in paths.iter().zip(rows.chunks_exact_mut(row.max(1))) {
+        let (r, rest) = out.split_at_mut(n);
+        let (v, mu) = rest.split_at_mut(n);
+        read(p, r, v, mu)?;
+    }
+    Ok(())
 }
 
 /// Checks a path index against the number of paths.

@@ -54,7 +54,7 @@ use pulp::Simd;
 use sdae_manifold::Constraint;
 
 use crate::driver::PathDiagnostics;
-use crate::ensemble::{PathEnsemble, check_path, lane_stride};
+use crate::ensemble::{PathEnsemble, check_path, for_each_row, lane_stride};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
 use crate::scheme::{Scheme, StepOutcome};
@@ -463,6 +463,30 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
         Ok(())
     }
 
+    /// Reads the rows straight from the lanes: one check for the block, then a strided copy
+    /// per path.
+    fn read_rows(
+        &self,
+        paths: &[usize],
+        mu_len: usize,
+        rows: &mut [f64],
+    ) -> Result<(), ModelError> {
+        let lanes = &self.paths;
+        if mu_len != 0 {
+            check_dim("multiplier", lanes.mu.len() / lanes.stride, mu_len)?;
+        }
+        if let Some(&p) = paths.iter().find(|&&p| p >= lanes.paths) {
+            check_path(p, lanes.paths)?;
+        }
+        let n = lanes.lane_r.len();
+        for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
+            gather(&lanes.r, lanes.stride, p, r);
+            gather(&lanes.v, lanes.stride, p, v);
+            gather(&lanes.mu, lanes.stride, p, mu);
+            Ok(())
+        })
+    }
+
     fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
         check_path(p, self.paths.paths)?;
         Ok(&self.paths.diagnostics[p])
@@ -481,6 +505,7 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
 }
 
 /// out[i] = from[i * stride + p].
+#[inline(always)]
 fn gather(from: &[f64], stride: usize, p: usize, out: &mut [f64]) {
     for (i, o) in out.iter_mut().enumerate() {
         *o = from[i * stride + p];

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use crate::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
 use crate::error::StudyError;
-use crate::files::{read_json, write_json};
+use crate::files::{read_json, write_compact_json};
 use crate::parallel::Control;
 use crate::scene::Scene;
 
@@ -100,7 +100,7 @@ impl Checkpoint {
         };
         let (index, count) = shard;
         let selected = (index..settings.paths).step_by(count.max(1)).count();
-        write_json(&self.path, &run)?;
+        write_compact_json(&self.path, &run)?;
         if run.records.len() < selected {
             return Ok(Resumed::Interrupted {
                 saved: run.records.len(),

@@ -2,29 +2,60 @@
 //! temporary file in the same folder and renamed into place (a rename within one file system
 //! is atomic), so an interrupted run leaves the previous file or the new one, never a torn one.
 
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use crate::error::StudyError;
 
-/// Writes `contents` to `path` atomically, creating the folder if needed.
-pub fn write_atomically(path: &Path, contents: &str) -> Result<(), StudyError> {
+/// Writes to `path` atomically what `write` puts into the file (through a buffer, so that a
+/// large file is never held in memory whole), creating the folder if needed.
+fn write_with(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<(), StudyError> {
     let fail = |e: std::io::Error| StudyError::write(path, e);
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(fail)?;
     }
     let mut temporary = path.as_os_str().to_owned();
     temporary.push(format!(".{}.tmp", std::process::id()));
-    std::fs::write(&temporary, contents).map_err(fail)?;
-    std::fs::rename(&temporary, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temporary);
-        fail(e)
-    })
+    let written = File::create(&temporary).and_then(|file| {
+        let mut out = BufWriter::new(file);
+        write(&mut out)?;
+        out.flush()
+    });
+    written
+        .and_then(|()| std::fs::rename(&temporary, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&temporary);
+            fail(e)
+        })
+}
+
+/// Writes `contents` to `path` atomically, creating the folder if needed.
+pub fn write_atomically(path: &Path, contents: &str) -> Result<(), StudyError> {
+    write_with(path, |out| out.write_all(contents.as_bytes()))
 }
 
 /// Serializes `value` as pretty JSON (with a final newline) and writes it atomically.
 pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), StudyError> {
-    let json = serde_json::to_string_pretty(value).map_err(|e| StudyError::write(path, e))?;
-    write_atomically(path, &(json + "\n"))
+    write_with(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, value)?;
+        out.write_all(b"\n")
+    })
+}
+
+/// Serializes `value` as JSON on one line and writes it atomically: for files that programs
+/// read back, such as a checkpoint of many paths (about 60% of [`write_json`]'s bytes).
+pub fn write_compact_json<T: serde::Serialize + ?Sized>(
+    path: &Path,
+    value: &T,
+) -> Result<(), StudyError> {
+    write_with(path, |out| {
+        serde_json::to_writer(&mut *out, value)?;
+        out.write_all(b"\n")
+    })
 }
 
 /// Reads a JSON file written by [`write_json`].

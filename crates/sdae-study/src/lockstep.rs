@@ -213,26 +213,39 @@ impl Dims {
     }
 }
 
-/// Writes path p's (r, v, mu) into `row` (2n + mu long; mu left out when the row is 2n).
-fn read_row<S: System>(
-    ensemble: &dyn PathEnsemble<System = S>,
-    p: usize,
-    n: usize,
-    row: &mut [f64],
-) {
-    let (r, rest) = row.split_at_mut(n);
-    let (v, mu) = rest.split_at_mut(n);
-    ensemble
-        .state(p, r, v, mu)
-        .expect("the block's rows fit its ensembles");
-}
-
 /// The diagnostics of path p of `ensemble` (its steps, its clock lag).
 fn diagnostics_of<S: System>(
     ensemble: &dyn PathEnsemble<System = S>,
     p: usize,
 ) -> &PathDiagnostics {
     ensemble.diagnostics(p).expect("p is a path of the block")
+}
+
+/// The dimension n of the states a stretch compares: a constant for the small systems, so
+/// that the per-path loops of [`Compare`] have constant lengths, or read at run time.
+trait StateDim: Copy {
+    fn n(self, dims: Dims) -> usize;
+}
+
+/// n = N.
+#[derive(Clone, Copy)]
+struct Fixed<const N: usize>;
+
+impl<const N: usize> StateDim for Fixed<N> {
+    #[inline(always)]
+    fn n(self, _: Dims) -> usize {
+        N
+    }
+}
+
+/// n as the system gives it.
+#[derive(Clone, Copy)]
+struct RunTime;
+
+impl StateDim for RunTime {
+    fn n(self, dims: Dims) -> usize {
+        dims.n
+    }
 }
 
 /// Where a track is in time after a step, and the step's weight in time averages.
@@ -261,7 +274,9 @@ struct Compare<'a, S> {
 
 impl<S: System> Compare<'_, S> {
     /// `snapshot` is the state (r, v, mu) after a step that ends at `clock`, `record` the
-    /// reference's state at that time (`None` without a reference).
+    /// reference's state at that time (`None` without a reference). Inlined into the loop over
+    /// a block's paths, where n may be a constant.
+    #[inline(always)]
     fn run(
         &self,
         track: &mut Track,
@@ -275,12 +290,16 @@ impl<S: System> Compare<'_, S> {
         let o = &mut track.outcome;
         o.max_position_residual = o.max_position_residual.max(g);
         o.max_velocity_residual = o.max_velocity_residual.max(dgv);
-        let size = r.iter().chain(v).fold(0.0_f64, |a, x| a.max(x.abs()));
-        if !size.is_finite() {
-            return Some(FailureKind::NonFinite);
-        }
-        if size > self.plan.limits.blow_up {
-            return Some(FailureKind::BlowUp);
+        // Every |coordinate| within the blow-up bound (and finite: NaN fails the comparison),
+        // checked without a chain of maxima; which limit broke only when one did.
+        let bound = self.plan.limits.blow_up.min(f64::MAX);
+        if !r.iter().chain(v).all(|x| x.abs() <= bound) {
+            let finite = r.iter().chain(v).all(|x| x.is_finite());
+            return Some(if finite {
+                FailureKind::BlowUp
+            } else {
+                FailureKind::NonFinite
+            });
         }
         if let Some(tol) = self.plan.limits.drift_tolerance
             && g.max(dgv) > tol
@@ -374,6 +393,8 @@ struct Lockstep<'a> {
     records: Vec<f64>,
     /// Paths of the ensembles (the records' rows per time).
     paths: usize,
+    /// The block's paths 0..live.
+    block: Vec<usize>,
     /// Per path, one row: a track's state after its last step.
     snapshot: Vec<f64>,
     /// Sums of the fine increments of the current step of each track whose steps span several
@@ -425,6 +446,7 @@ impl<'a> Lockstep<'a> {
                 .collect(),
             records: vec![0.0; rows],
             paths,
+            block: (0..live).collect(),
             snapshot: vec![0.0; dims.row() * live],
             pending: vec![vec![0.0; dims.l * stride]; tracks],
             pending_fine: vec![0; tracks],
@@ -451,11 +473,16 @@ impl<'a> Lockstep<'a> {
             let dw = &self.pyramid[0][t * width..(t + 1) * width];
             any_failed |= reference.step(h, dw).expect("the block's increments fit") > 0;
             if (t + 1) % every == 0 {
+                // Record j of paths 0..live: rows j * paths + p, one after another.
                 let j = (t + 1) / every - 1;
-                for p in 0..self.live {
-                    let at = (j * self.paths + p) * row;
-                    read_row(reference, p, self.dims.n, &mut self.records[at..at + row]);
-                }
+                let at = j * self.paths * row;
+                reference
+                    .read_rows(
+                        &self.block,
+                        self.dims.mu,
+                        &mut self.records[at..at + self.live * row],
+                    )
+                    .expect("the block's rows fit its ensembles");
             }
         }
         let failed = |p: &usize| reference.failure(*p).is_ok_and(|f| f.is_some());
@@ -532,72 +559,118 @@ impl<'a> Lockstep<'a> {
         (level, count): (u32, usize),
         (has_reference, own_clock): (bool, bool),
     ) {
-        let (row, width) = (self.dims.row(), self.dims.l * self.stride);
+        let width = self.dims.l * self.stride;
         let h = self.grids[level as usize].h();
         for &p in &active {
             self.before[p] = diagnostics_of(ensemble, p).steps;
         }
+        // The run time charged to a path that took every step so far (each step's time shared
+        // by the paths that took it), added to a track when it stops or the stretch ends.
+        let mut charged = 0.0;
         for t in 0..count {
             if active.is_empty() {
-                return;
+                break;
             }
             let start = Instant::now();
-            ensemble
+            let failed = ensemble
                 .step(h, &rows[t * width..(t + 1) * width])
                 .expect("the block's increments fit");
-            // The step's time, shared by the paths that took it.
-            let share = start.elapsed().as_secs_f64() / active.len() as f64;
-            let compare = Compare {
-                system: ensemble.system(),
-                plan: self.plan,
-                dims: self.dims,
-            };
-            let mut stopped = Vec::new();
-            active.retain(|&p| {
-                tracks[p].outcome.seconds += share;
-                let diagnostics = diagnostics_of(ensemble, p);
-                let steps = diagnostics.steps;
-                let track = &mut tracks[p];
-                if steps == self.before[p] {
-                    // The step failed: the path has stopped at its last good state.
-                    track.outcome.failure = ensemble
-                        .failure(p)
-                        .expect("p is a path of the block")
-                        .map(|f| f.kind());
-                    return false;
-                }
-                self.before[p] = steps;
-                let snapshot = &mut self.snapshot[p * row..(p + 1) * row];
-                read_row(ensemble, p, self.dims.n, snapshot);
-                // The record at the end of step t: the reference's record (t + 1) per - 1.
-                let record = has_reference.then(|| {
-                    let at = (((t + 1) * per - 1) * self.paths + p) * row;
-                    &self.records[at..at + row]
-                });
-                let grid_time = steps as f64 * h;
-                let clock = if own_clock {
-                    let time = grid_time - diagnostics.clock_lag;
-                    let weight = time - track.time;
-                    Clock { time, weight }
-                } else {
-                    Clock {
-                        time: grid_time,
-                        weight: 1.0,
+            charged += start.elapsed().as_secs_f64() / active.len() as f64;
+            if failed > 0 {
+                // The paths whose step failed have stopped at their last good state.
+                active.retain(|&p| {
+                    let failure = ensemble.failure(p).expect("p is a path of the block");
+                    let outcome = &mut tracks[p].outcome;
+                    outcome.failure = failure.map(|f| f.kind());
+                    if failure.is_some() {
+                        outcome.seconds += charged;
                     }
-                };
-                track.time = clock.time;
-                let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
-                let checked = compare.run(track, (snapshot, record), clock, scratch);
-                track.outcome.failure = checked;
-                if checked.is_some() {
-                    stopped.push(p);
-                }
-                checked.is_none()
-            });
-            for p in stopped {
-                ensemble.stop(p).expect("p is a path of the block");
+                    failure.is_none()
+                });
+            }
+            let step = (t, per, h);
+            let clocks = (has_reference, own_clock);
+            let block = (&*ensemble, &mut *tracks, &active[..]);
+            // Small systems get loops of constant length.
+            let stopped = match self.dims.n {
+                2 => self.compare_step(Fixed::<2>, block, step, clocks, charged),
+                3 => self.compare_step(Fixed::<3>, block, step, clocks, charged),
+                _ => self.compare_step(RunTime, block, step, clocks, charged),
+            };
+            if stopped > 0 {
+                // The paths that broke a limit stop where they are.
+                active.retain(|&p| {
+                    let goes_on = tracks[p].outcome.failure.is_none();
+                    if !goes_on {
+                        ensemble.stop(p).expect("p is a path of the block");
+                    }
+                    goes_on
+                });
             }
         }
+        for &p in &active {
+            tracks[p].outcome.seconds += charged;
+        }
+    }
+
+    /// After step t of a stretch (its records `per` apart, of size h): reads every path that
+    /// goes on (`active`) in one call, compares each with the reference and marks the tracks
+    /// that broke a limit, charging them the stretch's time so far; returns how many did.
+    fn compare_step<S: System, D: StateDim>(
+        &mut self,
+        dim: D,
+        (ensemble, tracks, active): (&dyn PathEnsemble<System = S>, &mut [Track], &[usize]),
+        (t, per, h): (usize, usize, f64),
+        (has_reference, own_clock): (bool, bool),
+        charged: f64,
+    ) -> usize {
+        let dims = Dims {
+            n: dim.n(self.dims),
+            ..self.dims
+        };
+        let row = dims.row();
+        // Every path that goes on, one row each (in the order of `active`).
+        let snapshots = &mut self.snapshot[..active.len() * row];
+        ensemble
+            .read_rows(active, dims.mu, snapshots)
+            .expect("the block's rows fit its ensembles");
+        let compare = Compare {
+            system: ensemble.system(),
+            plan: self.plan,
+            dims,
+        };
+        let mut stopped = 0;
+        for (&p, snapshot) in active.iter().zip(snapshots.chunks_exact(row)) {
+            // A path that goes on took one more step.
+            self.before[p] += 1;
+            let steps = self.before[p];
+            debug_assert_eq!(steps, diagnostics_of(ensemble, p).steps);
+            let track = &mut tracks[p];
+            // The record at the end of step t: the reference's record (t + 1) per - 1.
+            let record = has_reference.then(|| {
+                let at = (((t + 1) * per - 1) * self.paths + p) * row;
+                &self.records[at..at + row]
+            });
+            let grid_time = steps as f64 * h;
+            let clock = if own_clock {
+                let time = grid_time - diagnostics_of(ensemble, p).clock_lag;
+                let weight = time - track.time;
+                Clock { time, weight }
+            } else {
+                Clock {
+                    time: grid_time,
+                    weight: 1.0,
+                }
+            };
+            track.time = clock.time;
+            let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
+            if let Some(kind) = compare.run(track, (snapshot, record), clock, scratch) {
+                track.outcome.failure = Some(kind);
+                track.outcome.seconds += charged;
+                stopped += 1;
+            }
+        }
+        stopped
     }
 }
 

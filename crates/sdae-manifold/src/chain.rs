@@ -49,6 +49,11 @@ impl BeadChain {
         self.segment
     }
 
+    /// 1 / ds^2, the factor of every g_i, (Dg u)_i and (grad g z)_j.
+    pub fn inverse_segment_squared(&self) -> f64 {
+        self.inv_ds2
+    }
+
     /// Positions of a straight chain starting at the origin along the unit vector of `direction`.
     pub fn straight(&self, direction: [f64; 3]) -> Result<Vec<f64>, ManifoldError> {
         let len = dot3(direction, direction).sqrt();
@@ -122,6 +127,7 @@ impl BeadChain {
 
 impl Constraint for BeadChain {
     type Gram = TridiagonalGram;
+    const BEAD_CHAIN: bool = true;
     /// G_M = Dg M^-1 grad g is tridiagonal only if M^-1 couples no two beads: a diagonal mass,
     /// or one block-diagonal with a 3 x 3 block per bead. Any other mass is refused, naming
     /// the largest entry of M^-1 that couples two beads (relative size above 1e-12).
@@ -263,6 +269,9 @@ impl Constraint for BeadChain {
     }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.segment
+    }
+    fn as_bead_chain(&self) -> Option<&BeadChain> {
+        Some(self)
     }
 }
 

@@ -100,6 +100,14 @@ pub trait Constraint {
     fn as_sphere(&self) -> Option<&crate::Sphere> {
         None
     }
+    /// Whether this constraint type is the [`BeadChain`](crate::BeadChain): code for it alone
+    /// (an ensemble's lanes) is then compiled only where it can run.
+    const BEAD_CHAIN: bool = false;
+    /// This constraint as a [`BeadChain`](crate::BeadChain), if it is one: an ensemble of
+    /// paths then steps it in SIMD lanes. `None` (the default) otherwise.
+    fn as_bead_chain(&self) -> Option<&crate::BeadChain> {
+        None
+    }
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {

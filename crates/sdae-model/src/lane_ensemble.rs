@@ -334,20 +334,170 @@ impl LanePaths {
             }
             let mu = Lanes::load(simd, &self.mu[offset..]);
             Lanes::select(done, mu + step.dmu, mu).store(&mut self.mu[offset..]);
-            let (alive, done) = (mask_values(alive), mask_values(done));
-            for lane in 0..width {
-                let p = offset + lane;
-                if p >= self.paths || !alive[lane] {
-                    continue;
-                }
-                if done[lane] {
-                    self.diagnostics[p].record(&step.outcomes.outcome(lane), h);
-                } else {
-                    self.step_one(scheme, p, h, dw);
-                }
-            }
+            self.finish_group(scheme, (h, dw), offset, (alive, done), &step.outcomes);
         }
         true
+    }
+
+    /// Steps every path that goes on, W = `Sd::F64_LANES` lanes at a time, for a system of any
+    /// size: `kernel` computes a group's step from its r_k, v_k and increments loaded into
+    /// `rows`, and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k there; the lanes it decides take
+    /// them and their outcome, the others (and all of a group for which it returns `None`) go
+    /// through the scalar step. `rows` must have the system's n, m and l
+    /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
+    #[inline(always)]
+    pub fn step_wide_groups<Sch, Sd, K>(
+        &mut self,
+        scheme: &mut Sch,
+        (h, dw): (f64, &[f64]),
+        kernel: &mut K,
+        rows: &mut LaneRows<Sd>,
+    ) where
+        Sch: Scheme + ?Sized,
+        Sd: Simd,
+        K: WideKernel<Sch, Sd>,
+    {
+        let stride = self.stride;
+        let simd = rows.simd;
+        for offset in (0..stride).step_by(Sd::F64_LANES) {
+            let alive = Lanes::load(simd, &self.alive[offset..]);
+            let alive = alive.eq(alive.splat_like(1.0));
+            if (!alive).all() {
+                continue;
+            }
+            load_into(&mut rows.r, &self.r, stride, offset);
+            load_into(&mut rows.v, &self.v, stride, offset);
+            load_into(&mut rows.dw, dw, stride, offset);
+            let Some((ok, outcomes)) = kernel.step(scheme, rows) else {
+                for p in offset..(offset + Sd::F64_LANES).min(self.paths) {
+                    self.step_one(scheme, p, h, dw);
+                }
+                continue;
+            };
+            let done = ok.and(alive);
+            store_selected(done, &rows.r, &mut self.r, stride, offset);
+            store_selected(done, &rows.v, &mut self.v, stride, offset);
+            for (j, dmu) in rows.dmu.iter_mut().enumerate() {
+                *dmu = *dmu + Lanes::load(simd, &self.mu[j * stride + offset..]);
+            }
+            store_selected(done, &rows.dmu, &mut self.mu, stride, offset);
+            self.finish_group(scheme, (h, dw), offset, (alive, done), &outcomes);
+        }
+    }
+
+    /// The diagnostics of a group's decided lanes (`done`) and the scalar step of its other
+    /// lanes that go on (`alive`).
+    #[inline(always)]
+    fn finish_group<Sch, Sd, O>(
+        &mut self,
+        scheme: &mut Sch,
+        (h, dw): (f64, &[f64]),
+        offset: usize,
+        (alive, done): (LaneMask<Sd>, LaneMask<Sd>),
+        outcomes: &O,
+    ) where
+        Sch: Scheme + ?Sized,
+        Sd: Simd,
+        O: LaneOutcomes,
+    {
+        let (alive, done) = (mask_values(alive), mask_values(done));
+        for lane in 0..Sd::F64_LANES {
+            let p = offset + lane;
+            if p >= self.paths || !alive[lane] {
+                continue;
+            }
+            if done[lane] {
+                self.diagnostics[p].record(&outcomes.outcome(lane), h);
+            } else {
+                self.step_one(scheme, p, h, dw);
+            }
+        }
+    }
+}
+
+/// One group's W lanes of a system of any size ([`LanePaths::step_wide_groups`]): r, v and
+/// the increments before the step, r, v and the increment of mu after it.
+#[derive(Debug, Clone)]
+pub struct LaneRows<Sd: Simd> {
+    simd: Sd,
+    /// r_k, then r_{k+1} (n rows).
+    pub r: Vec<Lanes<Sd>>,
+    /// v_k, then v_{k+1} (n rows).
+    pub v: Vec<Lanes<Sd>>,
+    /// The increments dw (l rows).
+    pub dw: Vec<Lanes<Sd>>,
+    /// mu_{k+1} - mu_k (m rows).
+    pub dmu: Vec<Lanes<Sd>>,
+}
+
+impl<Sd: Simd> LaneRows<Sd> {
+    /// Rows for a system with n coordinates, m constraints and l noise components.
+    pub fn new(simd: Sd, n: usize, m: usize, l: usize) -> Self {
+        let zero = Lanes::splat(simd, 0.0);
+        Self {
+            simd,
+            r: vec![zero; n],
+            v: vec![zero; n],
+            dw: vec![zero; l],
+            dmu: vec![zero; m],
+        }
+    }
+
+    /// The instruction set.
+    pub fn simd(&self) -> Sd {
+        self.simd
+    }
+}
+
+/// The lane form of a scheme's step for systems of any size ([`LanePaths::step_wide_groups`]),
+/// with buffers of its own for the instruction set `Sd`.
+pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
+    /// The outcomes of a group's steps.
+    type Outcomes: LaneOutcomes;
+    /// The step of the W lanes of `rows` (r_k, v_k, dw) into `rows` (r_{k+1}, v_{k+1} and the
+    /// increment of mu) for the lanes it decides, which it returns with their outcomes; `None`
+    /// if this group must go through the scalar step.
+    fn step(
+        &mut self,
+        scheme: &Sch,
+        rows: &mut LaneRows<Sd>,
+    ) -> Option<(LaneMask<Sd>, Self::Outcomes)>;
+}
+
+/// Buffers of a lane form kept between steps whatever their instruction set (the set is chosen
+/// at run time; one scheme keeps one set of buffers). A clone starts empty.
+#[derive(Default)]
+pub struct LaneStore(Option<Box<dyn std::any::Any + Send + Sync>>);
+
+impl LaneStore {
+    /// The buffers kept, if they have type T, else `make()`; the store is left empty until
+    /// [`LaneStore::put`].
+    pub fn take_or<T: std::any::Any + Send + Sync>(&mut self, make: impl FnOnce() -> T) -> T {
+        match self.0.take().map(|b| b.downcast::<T>()) {
+            Some(Ok(buffers)) => *buffers,
+            _ => make(),
+        }
+    }
+
+    /// Keeps `buffers` for the next step.
+    pub fn put<T: std::any::Any + Send + Sync>(&mut self, buffers: T) {
+        self.0 = Some(Box::new(buffers));
+    }
+}
+
+impl Clone for LaneStore {
+    fn clone(&self) -> Self {
+        Self(None)
+    }
+}
+
+impl std::fmt::Debug for LaneStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() {
+            "LaneStore(buffers)"
+        } else {
+            "LaneStore(empty)"
+        })
     }
 }
 
@@ -516,6 +666,42 @@ fn gather(from: &[f64], stride: usize, p: usize, out: &mut [f64]) {
 fn scatter(to: &mut [f64], stride: usize, p: usize, values: &[f64]) {
     for (i, x) in values.iter().enumerate() {
         to[i * stride + p] = *x;
+    }
+}
+
+/// rows[i] = the W paths from `offset` of row i of `from`.
+#[inline(always)]
+fn load_into<Sd: Simd>(rows: &mut [Lanes<Sd>], from: &[f64], stride: usize, offset: usize) {
+    for (i, row) in rows.iter_mut().enumerate() {
+        *row = Lanes::load(row.simd(), &from[i * stride + offset..]);
+    }
+}
+
+/// Row i of `to` from `offset` = rows[i] where `done`, unchanged elsewhere: whole rows where
+/// every lane is done (the common case; a select and store would compile to a masked store,
+/// slow on some processors), else the done lanes one by one.
+#[inline(always)]
+fn store_selected<Sd: Simd>(
+    done: LaneMask<Sd>,
+    rows: &[Lanes<Sd>],
+    to: &mut [f64],
+    stride: usize,
+    offset: usize,
+) {
+    if done.all() {
+        for (i, row) in rows.iter().enumerate() {
+            row.store(&mut to[i * stride + offset..]);
+        }
+        return;
+    }
+    let done = mask_values(done);
+    for (i, row) in rows.iter().enumerate() {
+        let values = lane_values(*row);
+        for (lane, value) in values.iter().enumerate().take(Sd::F64_LANES) {
+            if done[lane] {
+                to[i * stride + offset + lane] = *value;
+            }
+        }
     }
 }
 

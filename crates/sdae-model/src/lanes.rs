@@ -161,6 +161,12 @@ impl<S: Simd> Lanes<S> {
         if_true.with(mask.simd.select_f64s(mask.m, if_true.x, if_false.x))
     }
 
+    /// The instruction set.
+    #[inline(always)]
+    pub fn simd(self) -> S {
+        self.simd
+    }
+
     /// The value of lane `i` < W.
     #[inline(always)]
     pub fn lane(self, i: usize) -> f64 {
@@ -253,6 +259,65 @@ fn per_lane_within<S: Simd, const K: usize, const MAX: usize>(
         *o = Lanes::load(simd, row);
     }
     true
+}
+
+/// A scalar function evaluated path by path on lanes of any length (the fallback of a lane
+/// form for systems too large for [`per_lane`]): for each lane k < W, `f(inputs[0] lane k, ...,
+/// out lane k)` on contiguous copies in `scratch` (grown as needed), with `out` holding the
+/// lanes' values before the call. Lane k computes exactly what `f` computes for path k alone.
+pub fn per_path<S: Simd, const K: usize>(
+    inputs: [&[Lanes<S>]; K],
+    out: &mut [Lanes<S>],
+    scratch: &mut Vec<f64>,
+    mut f: impl FnMut([&[f64]; K], &mut [f64]),
+) {
+    let Some(simd) = out
+        .first()
+        .or(inputs.iter().find_map(|x| x.first()))
+        .map(|x| x.simd)
+    else {
+        return;
+    };
+    let width = Lanes::<S>::WIDTH;
+    let lens: [usize; K] = std::array::from_fn(|i| inputs[i].len());
+    let total = lens.iter().sum::<usize>() + out.len();
+    scratch.resize(total * width, 0.0);
+    // Lane k of slice s at `starts[s] + k * len_s`: one contiguous copy per path.
+    let (inputs_area, out_area) = scratch.split_at_mut(width * (total - out.len()));
+    let mut start = 0;
+    let mut starts = [0; K];
+    for (s, input) in inputs.iter().enumerate() {
+        starts[s] = start;
+        transpose_into(input, &mut inputs_area[start..start + width * input.len()]);
+        start += width * input.len();
+    }
+    transpose_into(out, out_area);
+    let out_len = out.len();
+    for k in 0..width {
+        let args: [&[f64]; K] =
+            std::array::from_fn(|s| &inputs_area[starts[s] + k * lens[s]..][..lens[s]]);
+        f(args, &mut out_area[k * out_len..(k + 1) * out_len]);
+    }
+    for (i, o) in out.iter_mut().enumerate() {
+        let mut row = [0.0; crate::LANE_BLOCK];
+        for (k, x) in row.iter_mut().enumerate().take(width) {
+            *x = out_area[k * out_len + i];
+        }
+        *o = Lanes::load(simd, &row);
+    }
+}
+
+/// to[k * len + i] = lane k of from[i].
+#[inline(always)]
+fn transpose_into<S: Simd>(from: &[Lanes<S>], to: &mut [f64]) {
+    let len = from.len();
+    for (i, x) in from.iter().enumerate() {
+        let mut row = [0.0; crate::LANE_BLOCK];
+        x.store(&mut row);
+        for (k, value) in row.iter().enumerate().take(Lanes::<S>::WIDTH) {
+            to[k * len + i] = *value;
+        }
+    }
 }
 
 impl<S: Simd> LaneMask<S> {

@@ -100,7 +100,8 @@ pub use increments::{
     Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
 };
 pub use lane_ensemble::{
-    LaneEnsemble, LaneKernel, LaneOutcomes, LanePaths, LaneScheme, LaneStep, lane_values,
+    LaneEnsemble, LaneKernel, LaneOutcomes, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore,
+    WideKernel, lane_values,
 };
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};

@@ -6,10 +6,9 @@
 //!
 //! - `chain_ensemble/K`: the same chain, [`ENSEMBLE_PATHS`] paths of it stepped together by the
 //!   ensemble engine (`sdae_scheme::Ensemble`), each path's 3K numbers from its own stream
-//!   every step, W paths at once (`EnsembleIncrements`); throughput is reported per bead and path. The ensemble has no lane form for
-//!   the bead chain's Newton iteration, so it steps these paths one at a time through the
-//!   scalar stepper: this group measures what the ensemble's bookkeeping and layout cost on
-//!   top of `chain_step`.
+//!   every step, W paths at once (`EnsembleIncrements`), the chain's step (Newton for kappa,
+//!   the tridiagonal solves, gravity and the additive noise) in W lanes; throughput is
+//!   reported per bead and path.
 //!
 //! The benchmarks keep stepping one state and put it back to the initial state every
 //! [`RESET_EVERY`] steps, so that the chain does not fall (and speed up) for the whole run and
@@ -23,6 +22,7 @@ use std::hint::black_box;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use sdae_manifold::{BeadChain, IdentityMass};
 use sdae_model::PathEnsemble;
+use sdae_model::lanes::Lanes;
 use sdae_model::{
     AdditiveNoise, Drift, EnsembleIncrements, GaussianIncrements, IncrementSource,
     MechanicalSystem, Scheme, System,
@@ -66,6 +66,22 @@ impl Drift for Gravity {
             bead[1] = 0.0;
             bead[2] = -1.0;
         }
+    }
+    /// The same in W lanes, for a chain of any length.
+    #[inline(always)]
+    fn drift_lanes<S: pulp::Simd>(
+        &self,
+        _r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        let (zero, down) = (v[0].splat_like(0.0), v[0].splat_like(-1.0));
+        for bead in out.chunks_exact_mut(3) {
+            bead[0] = zero;
+            bead[1] = zero;
+            bead[2] = down;
+        }
+        true
     }
 }
 
@@ -259,6 +275,11 @@ fn bench_chain_ensemble(c: &mut Criterion) {
             b.iter(|| black_box(bench.step()))
         });
         assert_eq!(bench.ensemble.failed_paths(), 0, "a chain path failed");
+        println!(
+            "chain_ensemble/{beads}: {} of {} path-steps through the scalar stepper",
+            bench.ensemble.scalar_steps(),
+            bench.steps as usize * ENSEMBLE_PATHS
+        );
     }
     group.finish();
 }

@@ -11,8 +11,15 @@
 //! built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
 //! lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
 //! root outside the ball or not contracting, a non-finite value) finishes its step through the
-//! scalar [`Stepper`], which reports the failure exactly as for one path. Any other constraint
-//! steps its paths one at a time through the scalar [`Stepper`].
+//! scalar [`Stepper`], which reports the failure exactly as for one path. For a bead chain
+//! ([`BeadChain`](sdae_manifold::BeadChain): the chain molecule, the fiber) with a diagonal
+//! mass the step is Newton for kappa with a convergence mask per lane, Thomas' algorithm for the
+//! tridiagonal systems and the solver's certificate, over lanes of any length; a lane Newton
+//! does not decide (no convergence, a pivot that needs row interchanges, a root the
+//! certificate rejects, a non-finite value) finishes its step through the scalar [`Stepper`],
+//! with its homotopy fallback. A decided lane's numbers are the scalar step's, bit for bit.
+//! Any other constraint (or mass) steps its paths one at a time through the scalar
+//! [`Stepper`].
 //!
 //! Lane p computes exactly what a lane of any other width computes: a path's numbers do not
 //! depend on W, on the other paths or on how paths are split across ensembles or threads.
@@ -40,10 +47,44 @@
 //! assert_eq!(ensemble.diagnostics(17)?.steps, 1000);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! Sixteen chain molecules (8 atoms, 7 rigid bonds) under Langevin dynamics, stepped in lanes:
+//!
+//! ```
+//! use sdae_manifold::{Constraint, Mass};
+//! use sdae_model::{EnsembleIncrements, PathEnsemble, System};
+//! use sdae_scheme::{Ensemble, Stepper, StepperConfig};
+//! use sdae_systems::{ChainMoleculeParams, chain_molecule};
+//! let molecule = chain_molecule(&ChainMoleculeParams::default())?;
+//! let (r0, v0) = molecule.initial_state();
+//! let l = molecule.noise_dim();
+//! let config = StepperConfig::for_system(&molecule)?
+//!     .with_c_eta(1.0)?
+//!     .with_c_kappa(f64::INFINITY)?;
+//! let mut ensemble = Ensemble::new(Stepper::new(molecule, config)?, 16, &r0, &v0)?;
+//! let indices: Vec<u64> = (0..16).collect();
+//! let mut noise = EnsembleIncrements::for_paths(3, &indices, l);
+//! let (h, mut dw) = (1e-3, vec![0.0; l * ensemble.stride()]);
+//! for _ in 0..200 {
+//!     noise.fill(h, &mut dw)?;
+//!     ensemble.step(h, &dw)?;
+//! }
+//! // Every step decided in lanes, every bond still of length 1.
+//! assert_eq!((ensemble.failed_paths(), ensemble.scalar_steps()), (0, 0));
+//! let (mut r, mut v, mut mu) = (vec![0.0; 24], vec![0.0; 24], vec![0.0; 7]);
+//! ensemble.state(9, &mut r, &mut v, &mut mu)?;
+//! let mut g = vec![0.0; 7];
+//! ensemble.system().constraint().value(&r, &mut g);
+//! assert!(g.iter().all(|gi| gi.abs() < 1e-12));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
+mod chain;
+mod outcome;
 mod sphere;
+mod tridiagonal;
 
-use sdae_manifold::Constraint;
+use sdae_manifold::{Constraint, Mass};
 use sdae_model::lanes::LaneWidth;
 use sdae_model::{LaneEnsemble, LanePaths, LaneScheme, Scheme, System};
 
@@ -52,11 +93,27 @@ use crate::stepper::Stepper;
 /// P paths of one system and the scalar stepper that decides what the lanes do not.
 pub type Ensemble<S> = LaneEnsemble<Stepper<S>>;
 
-/// The closed form of a sphere with a diagonal mass in lanes (module documentation); `false`
-/// (every path through the scalar step) for any other constraint or mass.
+/// The closed form of a sphere, or Newton for a bead chain, with a diagonal mass in lanes
+/// (module documentation); `false` (every path through the scalar step) for any other
+/// constraint or mass.
 impl<S: System> LaneScheme for Stepper<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        let Some(sphere) = self.system().constraint().as_sphere().copied() else {
+        let constraint = self.system().constraint();
+        // Constants of the types: the chain's lanes are compiled only for a chain with a
+        // diagonal mass.
+        if <S::Constraint as Constraint>::BEAD_CHAIN
+            && <S::Mass as Mass>::DIAGONAL
+            && let Some(chain) = constraint.as_bead_chain().copied()
+        {
+            return width.dispatch(chain::StepAll {
+                stepper: self,
+                paths,
+                chain,
+                h,
+                dw,
+            });
+        }
+        let Some(sphere) = constraint.as_sphere().copied() else {
             return false;
         };
         // The lanes hold at most MAX_DIM coordinates and as many noise components.

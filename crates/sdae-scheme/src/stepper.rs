@@ -4,7 +4,8 @@ use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::{
-    KappaProblem, Scheme, StepFailure, StepOutcome, System, check_dimensions, check_step_input,
+    KappaProblem, LaneStore, Scheme, StepFailure, StepOutcome, System, check_dimensions,
+    check_step_input,
 };
 
 use crate::config::StepperConfig;
@@ -24,6 +25,8 @@ pub struct Stepper<S: System> {
     /// Dg(r') v' when monitored.
     tangency: Vec<f64>,
     scratch: Vec<f64>,
+    /// The buffers of the lane form of an ensemble's step ([`crate::Ensemble`]).
+    pub(crate) lanes: LaneStore,
 }
 
 impl<S: System> Stepper<S> {
@@ -42,6 +45,7 @@ impl<S: System> Stepper<S> {
             lambda: vec![0.0; m],
             tangency: vec![0.0; m],
             scratch: vec![0.0; scratch_len(n, m)],
+            lanes: LaneStore::default(),
             system,
             config,
         })
@@ -139,6 +143,7 @@ impl<S: System> Scheme for Stepper<S> {
             lambda,
             tangency,
             scratch,
+            ..
         } = self;
         let buffers = Buffers {
             drift,

@@ -5,14 +5,14 @@
 //! scalar stepper's, with the same floating-point operations in the same order.
 
 use pulp::{Simd, WithSimd};
-use sdae_ift::{Certificate, Method};
+use sdae_ift::Method;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::lanes::{Lanes, dot};
 use sdae_model::{
-    LaneKernel, LaneOutcomes, LanePaths, LaneStep, RootLanes, Scheme, SphereRoot, StepOutcome,
-    System, lane_values,
+    LANE_BLOCK, LaneKernel, LanePaths, LaneStep, RootLanes, Scheme, SphereRoot, System, lane_values,
 };
 
+use super::outcome::LaneCertificates;
 use crate::stepper::Stepper;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
@@ -50,9 +50,6 @@ impl<S: System> StepAll<'_, S> {
     }
 }
 
-/// The widest W.
-const LANES_MAX: usize = sdae_model::LANE_BLOCK;
-
 /// The constants of one step: the scheme's and the sphere's.
 struct Kernel<const N: usize> {
     h: f64,
@@ -67,43 +64,6 @@ struct Kernel<const N: usize> {
     inv_r2: f64,
     /// (M^-1)_ii.
     inverse_mass: [f64; N],
-}
-
-/// The numbers of a closed-form step's outcome, per lane.
-struct DecidedValues {
-    radius: f64,
-    monitor_velocity: bool,
-    eta: [f64; LANES_MAX],
-    residual: [f64; LANES_MAX],
-    velocity_residual: [f64; LANES_MAX],
-    norm: [f64; LANES_MAX],
-    first_step: [f64; LANES_MAX],
-    contraction: [f64; LANES_MAX],
-}
-
-impl LaneOutcomes for DecidedValues {
-    /// The scalar stepper's outcome of a closed-form step of lane `lane`.
-    #[inline(always)]
-    fn outcome(&self, lane: usize) -> StepOutcome {
-        let residual = self.residual[lane];
-        StepOutcome {
-            eta: self.eta[lane],
-            newton_iterations: 0,
-            position_residual: Some(residual),
-            certificate: Some(Certificate {
-                iterations: 0,
-                homotopy_steps: 0,
-                method: Method::ClosedForm,
-                residual,
-                norm: self.norm[lane],
-                radius: self.radius,
-                first_step: self.first_step[lane],
-                contraction: self.contraction[lane],
-                rounding: 0.0,
-            }),
-            velocity_residual: self.monitor_velocity.then(|| self.velocity_residual[lane]),
-        }
-    }
 }
 
 impl<const N: usize> Kernel<N> {
@@ -133,7 +93,7 @@ impl<const N: usize> Kernel<N> {
 }
 
 impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
-    type Outcomes = DecidedValues;
+    type Outcomes = LaneCertificates;
 
     /// The step of W lanes from (r, v) with increments dw; `None` if the system has no lane
     /// form.
@@ -144,7 +104,7 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         r: &[Lanes<Sd>; N],
         v: &[Lanes<Sd>; N],
         dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N, DecidedValues>> {
+    ) -> Option<LaneStep<Sd, N, LaneCertificates>> {
         let system = stepper.system();
         let zero = r[0].splat_like(0.0);
         let one = zero.splat_like(1.0);
@@ -227,8 +187,10 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
             r: x,
             v: v_new,
             dmu: lambda,
-            outcomes: DecidedValues {
+            outcomes: LaneCertificates {
+                method: Method::ClosedForm,
                 radius: self.root.radius(),
+                iterations: [0.0; LANE_BLOCK],
                 monitor_velocity: self.monitor_velocity,
                 eta: lane_values(eta),
                 residual: lane_values(residual),

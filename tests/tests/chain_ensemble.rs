@@ -1,0 +1,278 @@
+//! The ensemble engine on bead chains (the chain molecule, the fiber, a chain under gravity):
+//! each lane's step is the scalar stepper's, bit for bit (state, mu, diagnostics, and the
+//! failure of a path that stops), at W = 1, 4 and 8, with the drift and noise of a system
+//! without lane forms evaluated path by path and those of one with lane forms in lanes.
+
+use sdae_manifold::{BeadChain, IdentityMass};
+use sdae_model::{
+    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble,
+    PathState, Scheme, StepFailure, System, lanes::Lanes,
+};
+use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_systems::{ChainMoleculeParams, Fiber, FiberParams, chain_molecule};
+
+const PATHS: usize = 11;
+const STEPS: usize = 150;
+
+/// The last path's alternating bead speed ([`start`]).
+const KICK: f64 = 60.0;
+
+/// Gravity (0, 0, -1) on every bead, with a lane form of any size.
+#[derive(Debug, Clone, Copy)]
+struct Gravity;
+
+impl Drift for Gravity {
+    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
+        for bead in out.chunks_exact_mut(3) {
+            bead.copy_from_slice(&[0.0, 0.0, -1.0]);
+        }
+    }
+    fn drift_lanes<S: pulp::Simd>(
+        &self,
+        _r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = v[0].splat_like(if k % 3 == 2 { -1.0 } else { 0.0 });
+        }
+        true
+    }
+}
+
+/// Gravity as a closure: no lane form, evaluated path by path.
+fn closure_gravity(_r: &[f64], _v: &[f64], out: &mut [f64]) {
+    Gravity.drift(_r, _v, out)
+}
+
+/// Each path's final (r, v, mu) as bits, its diagnostics' counts and its failure.
+#[derive(Debug, PartialEq)]
+struct Outcome {
+    bits: Vec<u64>,
+    steps: usize,
+    newton_iterations: usize,
+    truncated: usize,
+    contraction: u64,
+    clock_lag: u64,
+    failure: Option<StepFailure>,
+}
+
+/// The paths' initial velocities: v0 plus the rigid translation (0, 0.2 p, 0.1 p) per bead;
+/// the last path's beads also move up and down in turn at speed [`KICK`], so fast that an
+/// untruncated step's Newton iteration for kappa fails.
+fn start(v0: &[f64], p: usize) -> Vec<f64> {
+    let mut v = v0.to_vec();
+    for (j, bead) in v.chunks_exact_mut(3).enumerate() {
+        bead[1] += 0.2 * p as f64;
+        bead[2] += 0.1 * p as f64;
+        if p == PATHS - 1 {
+            bead[2] += if j % 2 == 0 { KICK } else { -KICK };
+        }
+    }
+    v
+}
+
+/// Path p's increment of step k, the same for the ensemble and the scalar stepper.
+fn increments(l: usize, h: f64) -> Vec<Vec<f64>> {
+    let mut sources: Vec<_> = (0..PATHS)
+        .map(|p| GaussianIncrements::for_path(5, p as u64, l))
+        .collect();
+    let mut all = vec![vec![0.0; l * PATHS]; STEPS];
+    for step in &mut all {
+        for (p, source) in sources.iter_mut().enumerate() {
+            source.next_increment(h, &mut step[p * l..(p + 1) * l]);
+        }
+    }
+    all
+}
+
+fn run_ensemble<S: System>(
+    stepper: &Stepper<S>,
+    width: LaneWidth,
+    (r0, v0): (&[f64], &[f64]),
+    h: f64,
+) -> (Vec<Outcome>, usize)
+where
+    Stepper<S>: Clone,
+{
+    let mut ensemble = Ensemble::new(stepper.clone(), PATHS, r0, v0)
+        .unwrap()
+        .with_width(width);
+    for p in 0..PATHS {
+        ensemble.set_state(p, r0, &start(v0, p)).unwrap();
+    }
+    let (n, l, stride) = (r0.len(), stepper.system().noise_dim(), ensemble.stride());
+    let mut dw = vec![0.0; l * stride];
+    for step in increments(l, h) {
+        for p in 0..PATHS {
+            for j in 0..l {
+                dw[j * stride + p] = step[p * l + j];
+            }
+        }
+        ensemble.step(h, &dw).unwrap();
+    }
+    let m = n / 3 - 1;
+    let outcomes = (0..PATHS)
+        .map(|p| {
+            let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
+            ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
+            let d = ensemble.diagnostics(p).unwrap();
+            Outcome {
+                bits: r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect(),
+                steps: d.steps,
+                newton_iterations: d.newton_iterations,
+                truncated: d.truncated_steps,
+                contraction: d.max_contraction.to_bits(),
+                clock_lag: d.clock_lag.to_bits(),
+                failure: ensemble.failure(p).unwrap().cloned(),
+            }
+        })
+        .collect();
+    (outcomes, ensemble.scalar_steps())
+}
+
+fn run_scalar<S: System>(stepper: &Stepper<S>, (r0, v0): (&[f64], &[f64]), h: f64) -> Vec<Outcome>
+where
+    Stepper<S>: Clone,
+{
+    let (n, l) = (r0.len(), stepper.system().noise_dim());
+    let all = increments(l, h);
+    (0..PATHS)
+        .map(|p| {
+            let mut scheme = stepper.clone();
+            let (mut r, mut v) = (r0.to_vec(), start(v0, p));
+            let mut path = PathState::new(n / 3 - 1, true, false);
+            let mut failure = None;
+            for step in &all {
+                if let Err(e) = path.step(&mut scheme, &mut r, &mut v, h, &step[p * l..(p + 1) * l])
+                {
+                    failure = Some(e);
+                    break;
+                }
+            }
+            let d = path.diagnostics;
+            Outcome {
+                bits: r
+                    .iter()
+                    .chain(&v)
+                    .chain(&path.mu)
+                    .map(|x| x.to_bits())
+                    .collect(),
+                steps: d.steps,
+                newton_iterations: d.newton_iterations,
+                truncated: d.truncated_steps,
+                contraction: d.max_contraction.to_bits(),
+                clock_lag: d.clock_lag.to_bits(),
+                failure,
+            }
+        })
+        .collect()
+}
+
+/// Every width against the scalar stepper; returns (truncated steps, failed paths, steps the
+/// lanes left to the scalar stepper) of the widest.
+fn check<S: System>(
+    what: &str,
+    stepper: &Stepper<S>,
+    state: (&[f64], &[f64]),
+    h: f64,
+) -> (usize, usize, usize)
+where
+    Stepper<S>: Clone,
+{
+    let scalar = run_scalar(stepper, state, h);
+    let mut summary = (0, 0, 0);
+    for width in [
+        LaneWidth::One,
+        LaneWidth::Four,
+        LaneWidth::Eight,
+        LaneWidth::Best,
+    ] {
+        let (lanes, scalar_steps) = run_ensemble(stepper, width, state, h);
+        for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
+            assert_eq!(a, b, "{what}, {width:?}, path {p}");
+        }
+        summary = (
+            lanes.iter().map(|o| o.truncated).sum(),
+            lanes.iter().filter(|o| o.failure.is_some()).count(),
+            scalar_steps,
+        );
+    }
+    summary
+}
+
+fn configs<S: System>(system: &S) -> Vec<(&'static str, StepperConfig)>
+where
+    S::Constraint: sdae_manifold::TheoryBound,
+{
+    let practical = StepperConfig::for_system(system)
+        .unwrap()
+        .with_c_eta(0.05)
+        .unwrap()
+        .with_c_kappa(f64::INFINITY)
+        .unwrap();
+    vec![
+        ("practical", practical),
+        ("rescaled", practical.rescaled()),
+        ("local", practical.local()),
+        ("finite ball", practical.with_c_kappa(0.05).unwrap()),
+        ("theory", StepperConfig::for_system(system).unwrap()),
+        ("untruncated", practical.untruncated()),
+    ]
+}
+
+#[test]
+fn a_gravity_chain_steps_in_lanes_with_the_scalar_numbers() {
+    let chain = BeadChain::new(12, 1.0 / 11.0).unwrap();
+    let r0 = chain.zigzag(0.3);
+    let v0 = vec![0.0; r0.len()];
+    let noise = AdditiveNoise::new(0.3, r0.len()).unwrap();
+    let lanes = MechanicalSystem::new(chain, IdentityMass, Gravity, noise).unwrap();
+    let closure = MechanicalSystem::new(chain, IdentityMass, closure_gravity, noise).unwrap();
+    for (name, config) in configs(&lanes) {
+        let (truncated, failed, scalar_steps) = check(
+            name,
+            &Stepper::new(lanes.clone(), config).unwrap(),
+            (&r0, &v0),
+            2e-3,
+        );
+        if name == "practical" {
+            assert!(truncated > 0, "eta < 1 untested");
+            assert_eq!(failed, 0);
+            assert!(scalar_steps < PATHS * STEPS / 100, "{scalar_steps}");
+        }
+        if name == "untruncated" {
+            // The kicked path stops with the scalar failure; the others go on in lanes.
+            assert_eq!(failed, 1, "the kicked path");
+        }
+        check(
+            name,
+            &Stepper::new(closure.clone(), config).unwrap(),
+            (&r0, &v0),
+            2e-3,
+        );
+    }
+}
+
+#[test]
+fn the_chain_molecule_and_the_fiber_step_in_lanes_with_the_scalar_numbers() {
+    let molecule = chain_molecule(&ChainMoleculeParams::default()).unwrap();
+    let (r0, v0) = molecule.initial_state();
+    for (name, config) in configs(&molecule) {
+        let stepper = Stepper::new(molecule.clone(), config).unwrap();
+        let (_, _, scalar_steps) = check(name, &stepper, (&r0, &v0), 5e-3);
+        if name == "practical" {
+            assert!(scalar_steps < PATHS * STEPS / 100, "{scalar_steps}");
+        }
+    }
+    let params = FiberParams::default();
+    let fiber = Fiber::new(&params).unwrap();
+    let r0 = BeadChain::new(params.beads, params.segment)
+        .unwrap()
+        .zigzag(0.2);
+    let v0 = vec![0.0; r0.len()];
+    for (name, config) in configs(&fiber) {
+        let stepper = Stepper::new(fiber.clone(), config).unwrap();
+        check(name, &stepper, (&r0, &v0), 1e-3);
+    }
+}

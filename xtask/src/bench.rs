@@ -1,5 +1,6 @@
 //! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble),
-//! `sdae-reference` (ensemble) and `sdae-systems` (fiber) and summarizes the step and ensemble
+//! `sdae-reference` (ensemble) and `sdae-systems` (fiber, molecule) and summarizes the step and
+//! ensemble
 //! figures in
 //! `target/bench/summary.json`.
 
@@ -20,6 +21,13 @@ const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
 /// Bead counts and paths of the `chain_ensemble` group (as in crates/sdae-scheme/benches/step.rs).
 const CHAIN_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const CHAIN_ENSEMBLE_PATHS: u64 = 8;
+
+/// Bead counts and paths of the `fiber_ensemble` groups (as in crates/sdae-systems/benches/fiber.rs).
+const FIBER_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
+const FIBER_ENSEMBLE_PATHS: u64 = 8;
+
+/// Paths of the `molecule_ensemble` groups (as in crates/sdae-systems/benches/molecule.rs).
+const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarked packages: every bench target of each runs.
 const PACKAGES: [&str; 3] = ["sdae-scheme", "sdae-reference", "sdae-systems"];
@@ -183,6 +191,40 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         .iter()
         .map(|&(beads, ns)| (beads.to_string(), json!(ns)))
         .collect();
+    // The fiber in lanes with its lane forms and with its forces path by path, per bead and
+    // path, against one path of `fiber_step`.
+    let mut fiber = Vec::new();
+    for beads in FIBER_ENSEMBLE_SIZES {
+        let id = beads.to_string();
+        let per_bead_path = |group: &str| -> Result<f64, TaskError> {
+            Ok(read_mean_ns(&criterion_home, group, Some(&id), started)?
+                / (beads * FIBER_ENSEMBLE_PATHS) as f64)
+        };
+        let step = read_mean_ns(&criterion_home, "fiber_step", Some(&id), started)? / beads as f64;
+        let lanes = per_bead_path("fiber_ensemble")?;
+        let path_by_path = per_bead_path("fiber_ensemble_path_by_path")?;
+        fiber.push((beads, step, lanes, path_by_path));
+    }
+    let fiber_summary: Map<String, Value> = fiber
+        .iter()
+        .map(|&(beads, step, lanes, path_by_path)| {
+            (
+                beads.to_string(),
+                json!({ "fiber_step": step, "lanes": lanes, "path_by_path": path_by_path }),
+            )
+        })
+        .collect();
+    let molecule_step = read_mean_ns(&criterion_home, "molecule_step", None, started)?;
+    let molecule = |group: &str| -> Result<f64, TaskError> {
+        Ok(
+            read_mean_ns(&criterion_home, group, Some("default"), started)?
+                / MOLECULE_ENSEMBLE_PATHS as f64,
+        )
+    };
+    let (molecule_lanes, molecule_path_by_path) = (
+        molecule("molecule_ensemble")?,
+        molecule("molecule_ensemble_path_by_path")?,
+    );
     let summary = json!({
         "pendulum_step_ns": pendulum,
         "chain_step_ns_per_bead": per_bead,
@@ -196,6 +238,12 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
         "inherent_ensemble_ns_per_path_step": inherent_summary,
+        "fiber_ensemble_ns_per_bead_path_step": fiber_summary,
+        "molecule_ensemble_ns_per_path_step": {
+            "molecule_step": molecule_step,
+            "lanes": molecule_lanes,
+            "path_by_path": molecule_path_by_path,
+        },
         "quick": options.quick,
         "criterion_args": criterion_args,
         "machine": machine(),
@@ -239,6 +287,17 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         let name = format!("chain_ensemble/{beads}");
         println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
     }
+    for &(beads, step, lanes, path_by_path) in &fiber {
+        let name = format!("fiber_ensemble/{beads}");
+        println!(
+            "{name:<20} {:>14} {lanes:>16.2}   (per bead and path; path by path: {path_by_path:.2}; fiber_step: {step:.2})",
+            ""
+        );
+    }
+    println!(
+        "{:<20} {molecule_lanes:>14.1} {:>16}   (per path; path by path: {molecule_path_by_path:.1}; molecule_step: {molecule_step:.1})",
+        "molecule_ensemble", ""
+    );
     for &(solver, lanes, path_by_path) in &inherent {
         println!(
             "{solver:<25} {lanes:>9.1} {:>16}   (path by path: {path_by_path:.1}, {:.1}x)",

@@ -161,6 +161,31 @@ impl<S: Simd> Lanes<S> {
         if_true.with(mask.simd.select_f64s(mask.m, if_true.x, if_false.x))
     }
 
+    /// `f` of each lane (a scalar function such as a transcendental of the standard library,
+    /// which has no lane form): lane i is `f(self.lane(i))`, bit for bit.
+    #[inline(always)]
+    pub fn map_each(self, mut f: impl FnMut(f64) -> f64) -> Self {
+        let mut values = [0.0; crate::LANE_BLOCK];
+        self.store(&mut values);
+        for x in values.iter_mut().take(Self::WIDTH) {
+            *x = f(*x);
+        }
+        Self::load(self.simd, &values)
+    }
+
+    /// `f` of each pair of lanes: lane i is `f(self.lane(i), other.lane(i))`, bit for bit
+    /// (e.g. `f64::atan2`).
+    #[inline(always)]
+    pub fn zip_map_each(self, other: Self, mut f: impl FnMut(f64, f64) -> f64) -> Self {
+        let (mut values, mut others) = ([0.0; crate::LANE_BLOCK], [0.0; crate::LANE_BLOCK]);
+        self.store(&mut values);
+        other.store(&mut others);
+        for (x, y) in values.iter_mut().zip(others).take(Self::WIDTH) {
+            *x = f(*x, y);
+        }
+        Self::load(self.simd, &values)
+    }
+
     /// The instruction set.
     #[inline(always)]
     pub fn simd(self) -> S {
@@ -458,6 +483,22 @@ mod tests {
         let mut out = [Lanes::splat(simd, 2.0); 1];
         assert!(!per_lane([&long[..]], &mut out, |_, _| unreachable!()));
         assert_eq!(out[0].lane(3), 2.0);
+    }
+
+    #[test]
+    fn scalar_functions_map_lane_by_lane() {
+        let simd = pulp::Scalar256b;
+        let a = Lanes::load(simd, &[0.5, -2.0, 3.0, f64::NAN]);
+        let b = Lanes::load(simd, &[1.0, 0.25, -4.0, 1.0]);
+        let (sines, angles) = (a.map_each(f64::sin), a.zip_map_each(b, f64::atan2));
+        for i in 0..3 {
+            assert_eq!(sines.lane(i).to_bits(), a.lane(i).sin().to_bits());
+            assert_eq!(
+                angles.lane(i).to_bits(),
+                a.lane(i).atan2(b.lane(i)).to_bits()
+            );
+        }
+        assert!(sines.lane(3).is_nan() && angles.lane(3).is_nan());
     }
 
     #[test]

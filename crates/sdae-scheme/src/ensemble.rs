@@ -14,7 +14,8 @@
 //! scalar [`Stepper`], which reports the failure exactly as for one path. For a bead chain
 //! ([`BeadChain`](sdae_manifold::BeadChain): the chain molecule, the fiber) with a diagonal
 //! mass the step is Newton for kappa with a convergence mask per lane, Thomas' algorithm for the
-//! tridiagonal systems and the solver's certificate, over lanes of any length; a lane Newton
+//! tridiagonal systems and the solver's certificate, over lanes of any length (the fiber's and
+//! the Langevin molecules' forces and noise have lane forms too); a lane Newton
 //! does not decide (no convergence, a pivot that needs row interchanges, a root the
 //! certificate rejects, a non-finite value) finishes its step through the scalar [`Stepper`],
 //! with its homotopy fallback. A decided lane's numbers are the scalar step's, bit for bit.

@@ -4,7 +4,13 @@
 //! Throughput is reported per bead: a flat time per bead shows the O(K) cost.
 //!
 //! - `fiber_step/K`: draw 3K normals and take one step;
-//! - `fiber_forces/K`: the fiber's own share of it, one drift a(r, v) and one B(r, v) dw.
+//! - `fiber_forces/K`: the fiber's own share of it, one drift a(r, v) and one B(r, v) dw;
+//! - `fiber_ensemble/K` (K <= 1000): [`ENSEMBLE_PATHS`] fibers stepped together by the ensemble
+//!   engine (`sdae_scheme::Ensemble`, W paths in SIMD lanes), each path's 3K numbers from its
+//!   own stream, the forces and the turbulence from the fiber's lane forms; throughput per
+//!   bead and path;
+//! - `fiber_ensemble_path_by_path/K`: the same with the fiber's forces evaluated path by path
+//!   inside the lanes (a system without lane forms, as a user's system is), for comparison.
 //!
 //! Every K has the same bead physics (segment 0.01, bead mass 0.01, the same coefficients), so
 //! only the length of the fiber changes. The state is put back to the initial zigzag every
@@ -20,6 +26,9 @@ use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 
+mod common;
+use common::{EnsembleBench, PathByPath};
+
 /// Steps between resets of the state to its initial value.
 const RESET_EVERY: u64 = 1000;
 
@@ -28,6 +37,12 @@ const SEED: u64 = 2025;
 
 /// Bead counts.
 const SIZES: [usize; 4] = [10, 100, 1000, 10_000];
+
+/// Bead counts of `fiber_ensemble`.
+const ENSEMBLE_SIZES: [usize; 3] = [10, 100, 1000];
+
+/// Paths of `fiber_ensemble`: one AVX-512 register's width.
+const ENSEMBLE_PATHS: usize = 8;
 
 /// Step size: the stiffest bending mode (omega^2 ~ 16 EI / (m ds^4) = 1.6e6) turns by
 /// omega h ~ 0.013 per step.
@@ -61,8 +76,9 @@ impl<I: IncrementSource> Bench<I> {
     }
 }
 
-fn fiber_bench(beads: usize) -> Bench<impl IncrementSource> {
-    let fiber = Fiber::new(&FiberParams {
+/// The benchmarks' fiber of `beads` beads.
+fn fiber(beads: usize) -> Fiber {
+    Fiber::new(&FiberParams {
         beads,
         segment: 0.01,
         masses: Masses::Uniform(0.01),
@@ -77,7 +93,11 @@ fn fiber_bench(beads: usize) -> Bench<impl IncrementSource> {
         turbulence: 0.002,
         turbulence_gain: 1.5,
     })
-    .expect("fiber parameters");
+    .expect("fiber parameters")
+}
+
+fn fiber_bench(beads: usize) -> Bench<impl IncrementSource> {
+    let fiber = fiber(beads);
     let (r0, v) = fiber.zigzag(0.2);
     let l = fiber.noise_dim();
     let config = StepperConfig::new(1.0, f64::INFINITY).expect("stepper config");
@@ -128,5 +148,26 @@ fn bench_forces(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_fiber, bench_forces);
+fn bench_ensemble<S: System>(c: &mut Criterion, name: &str, system: impl Fn(Fiber) -> S) {
+    let mut group = c.benchmark_group(name);
+    for beads in ENSEMBLE_SIZES {
+        let fiber = fiber(beads);
+        let (r0, v0) = fiber.zigzag(0.2);
+        let config = StepperConfig::new(1.0, f64::INFINITY).expect("stepper config");
+        let mut bench = EnsembleBench::new(system(fiber), config, ENSEMBLE_PATHS, (r0, v0), H);
+        group.throughput(Throughput::Elements((beads * ENSEMBLE_PATHS) as u64));
+        group.bench_function(BenchmarkId::from_parameter(beads), |b| {
+            b.iter(|| black_box(bench.step()))
+        });
+        bench.report(&format!("{name}/{beads}"));
+    }
+    group.finish();
+}
+
+fn bench_fiber_ensemble(c: &mut Criterion) {
+    bench_ensemble(c, "fiber_ensemble", |fiber| fiber);
+    bench_ensemble(c, "fiber_ensemble_path_by_path", PathByPath);
+}
+
+criterion_group!(benches, bench_fiber, bench_forces, bench_fiber_ensemble);
 criterion_main!(benches);

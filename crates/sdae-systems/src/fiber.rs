@@ -60,11 +60,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use pulp::Simd;
 use sdae_manifold::{BeadChain, DiagonalMass};
 use sdae_model::System;
+use sdae_model::lanes::Lanes;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, at_least, finite_entries, non_negative, positive};
+use crate::lanes3::{self, Vec3};
 use crate::masses::Masses;
 
 /// The air velocity field u(x) = u_0 + S x (serde: `wind`, `shear`).
@@ -87,6 +90,18 @@ impl AirFlow {
     pub fn velocity(&self, x: [f64; 3]) -> [f64; 3] {
         let s = &self.shear;
         [0, 1, 2].map(|k| self.wind[k] + s[k][0] * x[0] + s[k][1] * x[1] + s[k][2] * x[2])
+    }
+
+    /// v - u(x) in W lanes, with the operations of [`AirFlow::velocity`].
+    #[inline(always)]
+    fn relative_velocity_lanes<S: Simd>(&self, x: Vec3<S>, v: Vec3<S>) -> Vec3<S> {
+        let s = &self.shear;
+        let mut w = v;
+        for k in 0..3 {
+            let u = x[0] * s[k][0] + self.wind[k] + x[1] * s[k][1] + x[2] * s[k][2];
+            w[k] = v[k] - u;
+        }
+        w
     }
 }
 
@@ -278,6 +293,21 @@ impl Fiber {
         let p = &x[3 * i - 3..3 * i + 6];
         [0, 1, 2].map(|k| p[k + 6] - 2.0 * p[k + 3] + p[k])
     }
+
+    /// [`Fiber::second_difference`] in W lanes.
+    #[inline(always)]
+    fn second_difference_lanes<S: Simd>(&self, x: &[Lanes<S>], i: usize) -> Vec3<S> {
+        let zero = x[0].splat_like(0.0);
+        if i == 0 || i + 1 >= self.chain.beads() {
+            return [zero; 3];
+        }
+        let p = &x[3 * i - 3..3 * i + 6];
+        let mut d = [zero; 3];
+        for k in 0..3 {
+            d[k] = p[k + 6] - p[k + 3] * 2.0 + p[k];
+        }
+        d
+    }
 }
 
 impl System for Fiber {
@@ -328,6 +358,54 @@ impl System for Fiber {
             }
         }
     }
+    /// [`System::drift`] in W lanes, with the same operations in the same order.
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        let (c1, c2) = (self.params.linear_drag, self.params.quadratic_drag);
+        let zero = [r[0].splat_like(0.0); 3];
+        let (mut previous, mut current) = (zero, zero);
+        for (j, (o, weight)) in out
+            .chunks_exact_mut(3)
+            .zip(self.weight.chunks_exact(3))
+            .enumerate()
+        {
+            let next = self.second_difference_lanes(r, j + 1);
+            let w = self
+                .params
+                .air
+                .relative_velocity_lanes(lanes3::atom(r, j), lanes3::atom(v, j));
+            let drag = lanes3::dot(w, w).sqrt() * c2 + c1;
+            for k in 0..3 {
+                let bend = previous[k] - current[k] * 2.0 + next[k];
+                o[k] = r[0].splat_like(weight[k]) - bend * self.bending - drag * w[k];
+            }
+            previous = current;
+            current = next;
+        }
+        true
+    }
+    /// [`System::add_noise`] in W lanes, with the same operations in the same order.
+    #[inline(always)]
+    fn add_noise_lanes<S: Simd>(
+        &self,
+        r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        let (sigma, alpha) = (self.params.turbulence, self.params.turbulence_gain);
+        for (j, (o, d)) in out.chunks_exact_mut(3).zip(dw.chunks_exact(3)).enumerate() {
+            let w = self
+                .params
+                .air
+                .relative_velocity_lanes(lanes3::atom(r, j), lanes3::atom(v, j));
+            let s = (lanes3::dot(w, w).sqrt() * alpha + 1.0) * sigma;
+            for k in 0..3 {
+                o[k] = o[k] + s * d[k];
+            }
+        }
+        true
+    }
 }
 
 #[cfg(test)]
@@ -349,6 +427,23 @@ mod tests {
         (0..3 * beads)
             .map(|k| 0.05 * (k / 3) as f64 + 0.03 * (k as f64 * 1.9).sin())
             .collect()
+    }
+
+    #[test]
+    fn lane_forms_are_the_scalar_forces_bit_for_bit() {
+        use crate::lanes3::check::{lane_forms_match_scalar, states_near};
+        let fiber = Fiber::new(&FiberParams {
+            air: AirFlow {
+                wind: [1.0, -0.5, 0.25],
+                shear: [[0.1, 0.0, 0.5], [0.0, -0.2, 0.0], [0.3, 0.0, 0.05]],
+            },
+            ..still_air(13)
+        })
+        .unwrap();
+        lane_forms_match_scalar(&fiber, &states_near(&crumpled(13), 10));
+        // Two beads: no bending term at all.
+        let short = Fiber::new(&still_air(2)).unwrap();
+        lane_forms_match_scalar(&short, &states_near(&crumpled(2), 5));
     }
 
     #[test]

@@ -34,8 +34,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use pulp::Simd;
 use sdae_manifold::{BeadChain, Constraint, DiagonalMass, Mass, RigidBonds};
-use sdae_model::System;
+use sdae_model::lanes::Lanes;
+use sdae_model::{AdditiveNoise, Noise, System};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, at_least, non_negative, positive};
@@ -54,13 +56,14 @@ pub struct Langevin<C, P> {
     potential: P,
     friction: f64,
     temperature: f64,
-    sigma: f64,
+    /// sigma I_n with sigma = sqrt(2 gamma kT).
+    noise: AdditiveNoise,
 }
 
 impl<C: Constraint, P: Potential> Langevin<C, P> {
     /// Checks friction gamma >= 0 (unit: mass / time) and temperature kT >= 0 (unit: energy),
-    /// both finite, that the mass has order n and that the potential acts only on atoms of the
-    /// system.
+    /// both finite, with a finite noise amplitude sqrt(2 gamma kT), that the mass has order n
+    /// and that the potential acts only on atoms of the system.
     pub fn new(
         constraint: C,
         mass: DiagonalMass,
@@ -85,7 +88,7 @@ impl<C: Constraint, P: Potential> Langevin<C, P> {
             potential,
             friction,
             temperature,
-            sigma: (2.0 * friction * temperature).sqrt(),
+            noise: AdditiveNoise::new((2.0 * friction * temperature).sqrt(), n)?,
         })
     }
 
@@ -106,16 +109,12 @@ impl<C: Constraint, P: Potential> Langevin<C, P> {
 
     /// The noise amplitude sigma = sqrt(2 gamma kT).
     pub fn noise_amplitude(&self) -> f64 {
-        self.sigma
+        self.noise.sigma()
     }
 
     /// The dimension l of the Brownian motion: n, or 0 without noise.
     pub fn noise_dimension(&self) -> usize {
-        if self.sigma > 0.0 {
-            self.constraint.dim()
-        } else {
-            0
-        }
+        self.noise.dim()
     }
 
     /// The number n - m of free directions.
@@ -161,10 +160,28 @@ impl<C: Constraint, P: Potential> System for Langevin<C, P> {
     }
     /// out += sigma dw.
     #[inline]
-    fn add_noise(&self, _r: &[f64], _v: &[f64], dw: &[f64], out: &mut [f64]) {
-        for (o, w) in out.iter_mut().zip(dw) {
-            *o += self.sigma * w;
+    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
+        self.noise.add(r, v, dw, out);
+    }
+    /// a(r, v) = -grad V(r) - gamma v in W lanes: the friction in lanes, the force from the
+    /// potential's lane form ([`Potential::add_force_lanes`]; `false` where it has none).
+    #[inline(always)]
+    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+        for (o, &vi) in out.iter_mut().zip(v) {
+            *o = vi * -self.friction;
         }
+        self.potential.add_force_lanes(r, out)
+    }
+    /// out += sigma dw in W lanes.
+    #[inline(always)]
+    fn add_noise_lanes<S: Simd>(
+        &self,
+        r: &[Lanes<S>],
+        v: &[Lanes<S>],
+        dw: &[Lanes<S>],
+        out: &mut [Lanes<S>],
+    ) -> bool {
+        self.noise.add_lanes(r, v, dw, out)
     }
 }
 
@@ -399,6 +416,23 @@ mod tests {
     }
 
     #[test]
+    fn lane_forms_are_the_scalar_forces_bit_for_bit() {
+        use crate::lanes3::check::{lane_forms_match_scalar, states_near};
+        let chain = chain_molecule(&ChainMoleculeParams::default()).unwrap();
+        let (r0, _) = chain.initial_state();
+        let mut states = states_near(&r0, 11);
+        // Path 3: atoms 0, 1, 2 collinear and atom 3 beyond them (no bending plane: the angle
+        // at atom 1 and the first torsion add no force).
+        for a in 0..4 {
+            states[3][0][3 * a..3 * a + 3].copy_from_slice(&[a as f64, 0.0, 0.0]);
+        }
+        lane_forms_match_scalar(&chain, &states);
+        let molecule = rigid_triatomic(&RigidTriatomicParams::default()).unwrap();
+        let (r0, _) = molecule.initial_state();
+        lane_forms_match_scalar(&molecule, &states_near(&r0, 9));
+    }
+
+    #[test]
     fn zero_stiffness_terms_are_absent_and_zero_noise_draws_nothing() {
         let params = ChainMoleculeParams {
             angle: AngleParams::default(),
@@ -446,6 +480,12 @@ mod tests {
             ..ChainMoleculeParams::default()
         });
         assert_eq!(e.parameter(), Some("friction"), "{e}");
+        let e = chain(ChainMoleculeParams {
+            friction: 1e300,
+            temperature: 1e300,
+            ..ChainMoleculeParams::default()
+        });
+        assert!(matches!(e, SystemError::Model(_)), "sigma overflows: {e}");
         let e = chain(ChainMoleculeParams {
             bond_length: 0.0,
             ..ChainMoleculeParams::default()

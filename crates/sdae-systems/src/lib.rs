@@ -18,6 +18,12 @@
 //!   turbulent forcing ([`FiberParams`]);
 //! - [`potential`]: [`BondAngles`], [`Torsions`], [`HarmonicTrap`], composable as tuples.
 //!
+//! Every built-in system also evaluates its drift and noise for W paths at once, in SIMD lanes
+//! ([`System::drift_lanes`](sdae_model::System::drift_lanes),
+//! [`System::add_noise_lanes`](sdae_model::System::add_noise_lanes)), lane i computing exactly
+//! what the scalar functions compute for path i: the ensemble engine of `sdae-scheme` steps many
+//! paths with them.
+//!
 //! Parameter structs derive serde (unknown and missing fields are errors that name the field;
 //! only switched-off extras such as potentials and shear are optional),
 //! and every constructor checks its parameters, failing with a [`SystemError`] that names the
@@ -31,6 +37,7 @@
 
 mod error;
 pub mod fiber;
+mod lanes3;
 pub mod langevin;
 mod masses;
 pub mod pendulum;

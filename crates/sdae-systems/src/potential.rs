@@ -3,10 +3,17 @@
 //!
 //! Terms compose: `(A, B)` is the sum of two potentials, `Option<P>` is P or nothing (and
 //! `None` costs nothing), `()` is V = 0. Every term is O(number of atoms it acts on).
+//!
+//! Every built-in term also adds its force for W paths at once
+//! ([`Potential::add_force_lanes`]), lane i computing exactly what [`Potential::add_force`]
+//! computes for path i; the sines and arc tangents are taken lane by lane.
 
+use pulp::Simd;
+use sdae_model::lanes::{Lanes, per_lane};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite, finite_entries, non_negative};
+use crate::lanes3;
 
 /// A potential energy V(x) and its force -grad V(x).
 pub trait Potential {
@@ -14,6 +21,14 @@ pub trait Potential {
     fn energy(&self, x: &[f64]) -> f64;
     /// force += -grad V(x).
     fn add_force(&self, x: &[f64], force: &mut [f64]);
+    /// force += -grad V(x) for W paths at once: coordinate i of every path in `x[i]` and
+    /// `force[i]`. The default evaluates [`Potential::add_force`] lane by lane ([`per_lane`]);
+    /// it returns `false` (no lane form: `force` is then to be recomputed path by path) beyond
+    /// [`PER_LANE_MAX_DIM`](sdae_model::lanes::PER_LANE_MAX_DIM) coordinates.
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        per_lane([x], force, |[x], force| self.add_force(x, force))
+    }
     /// The smallest configuration dimension n the term can act on (3 x (largest atom index +
     /// 1)); 0 if it fits any.
     fn min_dim(&self) -> usize {
@@ -28,6 +43,10 @@ impl Potential for () {
     }
     #[inline(always)]
     fn add_force(&self, _x: &[f64], _force: &mut [f64]) {}
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, _x: &[Lanes<S>], _force: &mut [Lanes<S>]) -> bool {
+        true
+    }
 }
 
 impl<P: Potential> Potential for Option<P> {
@@ -40,6 +59,10 @@ impl<P: Potential> Potential for Option<P> {
         if let Some(p) = self {
             p.add_force(x, force);
         }
+    }
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        self.as_ref().is_none_or(|p| p.add_force_lanes(x, force))
     }
     fn min_dim(&self) -> usize {
         self.as_ref().map_or(0, P::min_dim)
@@ -55,6 +78,10 @@ impl<A: Potential, B: Potential> Potential for (A, B) {
     fn add_force(&self, x: &[f64], force: &mut [f64]) {
         self.0.add_force(x, force);
         self.1.add_force(x, force);
+    }
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        self.0.add_force_lanes(x, force) && self.1.add_force_lanes(x, force)
     }
     fn min_dim(&self) -> usize {
         self.0.min_dim().max(self.1.min_dim())
@@ -238,6 +265,38 @@ impl Potential for BondAngles {
         }
     }
 
+    /// [`Potential::add_force`]'s operations in W lanes (the arc tangent lane by lane).
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        use lanes3::{add_to, atom, cross, dot, scaled, sub};
+        let AngleParams {
+            stiffness,
+            equilibrium,
+        } = self.params;
+        for &[a, b, c] in &self.triples {
+            let xb = atom(x, b);
+            let (u, w) = (sub(atom(x, a), xb), sub(atom(x, c), xb));
+            let n = cross(u, w);
+            let s = dot(n, n).sqrt();
+            let skip = s.eq(s.splat_like(0.0));
+            let theta = s.zip_map_each(dot(u, w), f64::atan2);
+            let scale = (theta - equilibrium) * stiffness / s;
+            let (nu, nw) = (cross(n, u), cross(n, w));
+            let (uu, ww) = (dot(u, u), dot(w, w));
+            let fa = [nu[0] * scale / uu, nu[1] * scale / uu, nu[2] * scale / uu];
+            let fc = [
+                -nw[0] * scale / ww,
+                -nw[1] * scale / ww,
+                -nw[2] * scale / ww,
+            ];
+            add_to(force, a, fa, skip);
+            add_to(force, c, fc, skip);
+            let fb = [fa[0] + fc[0], fa[1] + fc[1], fa[2] + fc[2]];
+            add_to(force, b, scaled(fb, s.splat_like(-1.0)), skip);
+        }
+        true
+    }
+
     fn min_dim(&self) -> usize {
         self.min_dim
     }
@@ -388,6 +447,53 @@ impl Potential for Torsions {
         }
     }
 
+    /// [`Potential::add_force`]'s operations in W lanes (the arc tangent and the sine lane by
+    /// lane).
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        use lanes3::{add_to, atom, cross, dot, sub};
+        let TorsionParams {
+            stiffness,
+            multiplicity,
+            phase,
+        } = self.params;
+        let n = f64::from(multiplicity);
+        for &[a, b, c, d] in &self.quadruples {
+            let (b1, b2, b3) = (
+                sub(atom(x, b), atom(x, a)),
+                sub(atom(x, c), atom(x, b)),
+                sub(atom(x, d), atom(x, c)),
+            );
+            let (n1, n2) = (cross(b1, b2), cross(b2, b3));
+            let (nn1, nn2, bb2) = (dot(n1, n1), dot(n2, n2), dot(b2, b2));
+            let zero = bb2.splat_like(0.0);
+            let skip = nn1.eq(zero).or(nn2.eq(zero));
+            let len2 = bb2.sqrt();
+            let phi = (len2 * dot(b1, n2)).zip_map_each(dot(n1, n2), f64::atan2);
+            let torque = (phi * n - phase).map_each(f64::sin) * (stiffness * n);
+            let (ta, td) = (-torque * len2, torque * len2);
+            let fa = [ta * n1[0] / nn1, ta * n1[1] / nn1, ta * n1[2] / nn1];
+            let fd = [td * n2[0] / nn2, td * n2[1] / nn2, td * n2[2] / nn2];
+            let (p, q) = (dot(b1, b2) / bb2, dot(b3, b2) / bb2);
+            let (p1, q1) = (p + 1.0, q + 1.0);
+            let fb = [
+                q * fd[0] - p1 * fa[0],
+                q * fd[1] - p1 * fa[1],
+                q * fd[2] - p1 * fa[2],
+            ];
+            let fc = [
+                p * fa[0] - q1 * fd[0],
+                p * fa[1] - q1 * fd[1],
+                p * fa[2] - q1 * fd[2],
+            ];
+            add_to(force, a, fa, skip);
+            add_to(force, b, fb, skip);
+            add_to(force, c, fc, skip);
+            add_to(force, d, fd, skip);
+        }
+        true
+    }
+
     fn min_dim(&self) -> usize {
         self.min_dim
     }
@@ -454,6 +560,18 @@ impl Potential for HarmonicTrap {
                 f[k] -= stiffness * (p[k] - center[k]);
             }
         }
+    }
+
+    /// [`Potential::add_force`]'s operations in W lanes.
+    #[inline(always)]
+    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+        let TrapParams { stiffness, center } = self.params;
+        for (f, p) in force.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
+            for k in 0..3 {
+                f[k] = f[k] - (p[k] - center[k]) * stiffness;
+            }
+        }
+        true
     }
 }
 

@@ -210,6 +210,103 @@ impl<S: Simd> Lanes<S> {
     }
 }
 
+/// A number of one path (`f64`) or of W paths ([`Lanes`]): a formula written once over `Real`
+/// runs on both, lane i of the [`Lanes`] form computing exactly what the `f64` form computes
+/// for path i (the systems of `sdae-systems` write their forces this way).
+pub trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+{
+    /// A boolean per path (`bool`, or [`LaneMask`]).
+    type Mask: Copy;
+    /// x in every path, of the kind of `self`.
+    fn splat_like(self, x: f64) -> Self;
+    /// The square root.
+    fn sqrt(self) -> Self;
+    /// `self == other` per path.
+    fn equal(self, other: Self) -> Self::Mask;
+    /// a or b per path.
+    fn either(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `if_true` where `mask` holds, `if_false` elsewhere.
+    fn select(mask: Self::Mask, if_true: Self, if_false: Self) -> Self;
+    /// `f` of each path's value ([`Lanes::map_each`]).
+    fn map_each(self, f: impl FnMut(f64) -> f64) -> Self;
+    /// `f` of each path's pair of values ([`Lanes::zip_map_each`]).
+    fn zip_map_each(self, other: Self, f: impl FnMut(f64, f64) -> f64) -> Self;
+}
+
+impl Real for f64 {
+    type Mask = bool;
+    #[inline(always)]
+    fn splat_like(self, x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn equal(self, other: Self) -> bool {
+        self == other
+    }
+    #[inline(always)]
+    fn either(a: bool, b: bool) -> bool {
+        a || b
+    }
+    #[inline(always)]
+    fn select(mask: bool, if_true: Self, if_false: Self) -> Self {
+        if mask { if_true } else { if_false }
+    }
+    #[inline(always)]
+    fn map_each(self, mut f: impl FnMut(f64) -> f64) -> Self {
+        f(self)
+    }
+    #[inline(always)]
+    fn zip_map_each(self, other: Self, mut f: impl FnMut(f64, f64) -> f64) -> Self {
+        f(self, other)
+    }
+}
+
+impl<S: Simd> Real for Lanes<S> {
+    type Mask = LaneMask<S>;
+    #[inline(always)]
+    fn splat_like(self, x: f64) -> Self {
+        Lanes::splat_like(self, x)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Lanes::sqrt(self)
+    }
+    #[inline(always)]
+    fn equal(self, other: Self) -> LaneMask<S> {
+        Lanes::eq(self, other)
+    }
+    #[inline(always)]
+    fn either(a: LaneMask<S>, b: LaneMask<S>) -> LaneMask<S> {
+        a.or(b)
+    }
+    #[inline(always)]
+    fn select(mask: LaneMask<S>, if_true: Self, if_false: Self) -> Self {
+        Lanes::select(mask, if_true, if_false)
+    }
+    #[inline(always)]
+    fn map_each(self, f: impl FnMut(f64) -> f64) -> Self {
+        Lanes::map_each(self, f)
+    }
+    #[inline(always)]
+    fn zip_map_each(self, other: Self, f: impl FnMut(f64, f64) -> f64) -> Self {
+        Lanes::zip_map_each(self, other, f)
+    }
+}
+
 /// a . b over N coordinates of W lanes, summed in order: a_0 b_0 + a_1 b_1 + ... (what
 /// `sdae_manifold::vector::dot` computes for fewer than four coordinates, up to the sign of a
 /// zero).

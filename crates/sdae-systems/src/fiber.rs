@@ -63,12 +63,12 @@
 use pulp::Simd;
 use sdae_manifold::{BeadChain, DiagonalMass};
 use sdae_model::System;
-use sdae_model::lanes::Lanes;
+use sdae_model::lanes::{Lanes, Real};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, at_least, finite_entries, non_negative, positive};
-use crate::lanes3::{self, Vec3};
 use crate::masses::Masses;
+use crate::vec3::{Vec3, atom, dot};
 
 /// The air velocity field u(x) = u_0 + S x (serde: `wind`, `shear`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -88,20 +88,25 @@ impl AirFlow {
     /// u(x).
     #[inline(always)]
     pub fn velocity(&self, x: [f64; 3]) -> [f64; 3] {
-        let s = &self.shear;
-        [0, 1, 2].map(|k| self.wind[k] + s[k][0] * x[0] + s[k][1] * x[1] + s[k][2] * x[2])
+        self.velocity_at(x)
     }
 
-    /// v - u(x) in W lanes, with the operations of [`AirFlow::velocity`].
+    /// u(x) for one path (`f64`) or W paths ([`Lanes`]).
     #[inline(always)]
-    fn relative_velocity_lanes<S: Simd>(&self, x: Vec3<S>, v: Vec3<S>) -> Vec3<S> {
+    fn velocity_at<T: Real>(&self, x: Vec3<T>) -> Vec3<T> {
         let s = &self.shear;
-        let mut w = v;
+        let mut u = x;
         for k in 0..3 {
-            let u = x[0] * s[k][0] + self.wind[k] + x[1] * s[k][1] + x[2] * s[k][2];
-            w[k] = v[k] - u;
+            u[k] = x[0] * s[k][0] + self.wind[k] + x[1] * s[k][1] + x[2] * s[k][2];
         }
-        w
+        u
+    }
+
+    /// The velocity v - u(x) relative to the air.
+    #[inline(always)]
+    fn relative_velocity<T: Real>(&self, x: Vec3<T>, v: Vec3<T>) -> Vec3<T> {
+        let u = self.velocity_at(x);
+        [v[0] - u[0], v[1] - u[1], v[2] - u[2]]
     }
 }
 
@@ -168,16 +173,6 @@ pub struct Fiber {
     bending: f64,
     /// m_j g_vec, per coordinate.
     weight: Vec<f64>,
-}
-
-#[inline(always)]
-fn bead(x: &[f64], j: usize) -> [f64; 3] {
-    [x[3 * j], x[3 * j + 1], x[3 * j + 2]]
-}
-
-#[inline(always)]
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 impl Fiber {
@@ -266,7 +261,11 @@ impl Fiber {
     /// origin, at rest.
     pub fn hanging(&self) -> (Vec<f64>, Vec<f64>) {
         let g = self.params.gravity;
-        let direction = if norm(g) > 0.0 { g } else { [0.0, 0.0, -1.0] };
+        let direction = if dot(g, g).sqrt() > 0.0 {
+            g
+        } else {
+            [0.0, 0.0, -1.0]
+        };
         let r = self
             .chain
             .straight(direction)
@@ -286,17 +285,7 @@ impl Fiber {
 
     /// D_i = x_{i+1} - 2 x_i + x_{i-1} for 1 <= i <= K - 2, else 0.
     #[inline(always)]
-    fn second_difference(&self, x: &[f64], i: usize) -> [f64; 3] {
-        if i == 0 || i + 1 >= self.chain.beads() {
-            return [0.0; 3];
-        }
-        let p = &x[3 * i - 3..3 * i + 6];
-        [0, 1, 2].map(|k| p[k + 6] - 2.0 * p[k + 3] + p[k])
-    }
-
-    /// [`Fiber::second_difference`] in W lanes.
-    #[inline(always)]
-    fn second_difference_lanes<S: Simd>(&self, x: &[Lanes<S>], i: usize) -> Vec3<S> {
+    fn second_difference<T: Real>(&self, x: &[T], i: usize) -> Vec3<T> {
         let zero = x[0].splat_like(0.0);
         if i == 0 || i + 1 >= self.chain.beads() {
             return [zero; 3];
@@ -307,6 +296,43 @@ impl Fiber {
             d[k] = p[k + 6] - p[k + 3] * 2.0 + p[k];
         }
         d
+    }
+
+    /// out = a(r, v) (see [`System::drift`]), for one path (`f64`) or W paths ([`Lanes`]).
+    #[inline(always)]
+    fn forces<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) {
+        let (c1, c2) = (self.params.linear_drag, self.params.quadratic_drag);
+        let zero = [r[0].splat_like(0.0); 3];
+        let (mut previous, mut current) = (zero, zero);
+        for (j, (o, weight)) in out
+            .chunks_exact_mut(3)
+            .zip(self.weight.chunks_exact(3))
+            .enumerate()
+        {
+            let next = self.second_difference(r, j + 1);
+            let w = self.params.air.relative_velocity(atom(r, j), atom(v, j));
+            let drag = dot(w, w).sqrt() * c2 + c1;
+            for k in 0..3 {
+                let bend = previous[k] - current[k] * 2.0 + next[k];
+                o[k] = r[0].splat_like(weight[k]) - bend * self.bending - drag * w[k];
+            }
+            previous = current;
+            current = next;
+        }
+    }
+
+    /// out += B(r, v) dw (see [`System::add_noise`]), for one path (`f64`) or W paths
+    /// ([`Lanes`]).
+    #[inline(always)]
+    fn turbulence<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) {
+        let (sigma, alpha) = (self.params.turbulence, self.params.turbulence_gain);
+        for (j, (o, d)) in out.chunks_exact_mut(3).zip(dw.chunks_exact(3)).enumerate() {
+            let w = self.params.air.relative_velocity(atom(r, j), atom(v, j));
+            let s = (dot(w, w).sqrt() * alpha + 1.0) * sigma;
+            for k in 0..3 {
+                o[k] = o[k] + s * d[k];
+            }
+        }
     }
 }
 
@@ -321,70 +347,22 @@ impl System for Fiber {
     }
     /// a_j = -(EI / ds^3)(D_{j-1} - 2 D_j + D_{j+1}) + m_j g_vec - (c1 + c2 |w_j|) w_j, one pass.
     fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
-        let (c1, c2) = (self.params.linear_drag, self.params.quadratic_drag);
-        let air = self.params.air;
-        let mut previous = [0.0; 3];
-        let mut current = [0.0; 3];
-        for ((j, o), weight) in out
-            .chunks_exact_mut(3)
-            .enumerate()
-            .zip(self.weight.chunks_exact(3))
-        {
-            let next = self.second_difference(r, j + 1);
-            let u = air.velocity(bead(r, j));
-            let w = [0, 1, 2].map(|k| v[3 * j + k] - u[k]);
-            let drag = c1 + c2 * norm(w);
-            for k in 0..3 {
-                let bend = previous[k] - 2.0 * current[k] + next[k];
-                o[k] = weight[k] - self.bending * bend - drag * w[k];
-            }
-            previous = current;
-            current = next;
-        }
+        self.forces(r, v, out);
     }
     fn noise_dim(&self) -> usize {
         self.noise_dimension()
     }
     /// out_j += sigma_0 (1 + alpha |v_j - u(x_j)|) dw_j.
     fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
-        let (sigma, alpha) = (self.params.turbulence, self.params.turbulence_gain);
-        let air = self.params.air;
-        for (j, (o, d)) in out.chunks_exact_mut(3).zip(dw.chunks_exact(3)).enumerate() {
-            let u = air.velocity(bead(r, j));
-            let w = [0, 1, 2].map(|k| v[3 * j + k] - u[k]);
-            let s = sigma * (1.0 + alpha * norm(w));
-            for k in 0..3 {
-                o[k] += s * d[k];
-            }
-        }
+        self.turbulence(r, v, dw, out);
     }
-    /// [`System::drift`] in W lanes, with the same operations in the same order.
+    /// [`System::drift`] in W lanes.
     #[inline(always)]
     fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        let (c1, c2) = (self.params.linear_drag, self.params.quadratic_drag);
-        let zero = [r[0].splat_like(0.0); 3];
-        let (mut previous, mut current) = (zero, zero);
-        for (j, (o, weight)) in out
-            .chunks_exact_mut(3)
-            .zip(self.weight.chunks_exact(3))
-            .enumerate()
-        {
-            let next = self.second_difference_lanes(r, j + 1);
-            let w = self
-                .params
-                .air
-                .relative_velocity_lanes(lanes3::atom(r, j), lanes3::atom(v, j));
-            let drag = lanes3::dot(w, w).sqrt() * c2 + c1;
-            for k in 0..3 {
-                let bend = previous[k] - current[k] * 2.0 + next[k];
-                o[k] = r[0].splat_like(weight[k]) - bend * self.bending - drag * w[k];
-            }
-            previous = current;
-            current = next;
-        }
+        self.forces(r, v, out);
         true
     }
-    /// [`System::add_noise`] in W lanes, with the same operations in the same order.
+    /// [`System::add_noise`] in W lanes.
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
         &self,
@@ -393,17 +371,7 @@ impl System for Fiber {
         dw: &[Lanes<S>],
         out: &mut [Lanes<S>],
     ) -> bool {
-        let (sigma, alpha) = (self.params.turbulence, self.params.turbulence_gain);
-        for (j, (o, d)) in out.chunks_exact_mut(3).zip(dw.chunks_exact(3)).enumerate() {
-            let w = self
-                .params
-                .air
-                .relative_velocity_lanes(lanes3::atom(r, j), lanes3::atom(v, j));
-            let s = (lanes3::dot(w, w).sqrt() * alpha + 1.0) * sigma;
-            for k in 0..3 {
-                o[k] = o[k] + s * d[k];
-            }
-        }
+        self.turbulence(r, v, dw, out);
         true
     }
 }
@@ -431,7 +399,7 @@ mod tests {
 
     #[test]
     fn lane_forms_are_the_scalar_forces_bit_for_bit() {
-        use crate::lanes3::check::{lane_forms_match_scalar, states_near};
+        use crate::vec3::check::{lane_forms_match_scalar, states_near};
         let fiber = Fiber::new(&FiberParams {
             air: AirFlow {
                 wind: [1.0, -0.5, 0.25],

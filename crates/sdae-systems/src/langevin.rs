@@ -417,7 +417,7 @@ mod tests {
 
     #[test]
     fn lane_forms_are_the_scalar_forces_bit_for_bit() {
-        use crate::lanes3::check::{lane_forms_match_scalar, states_near};
+        use crate::vec3::check::{lane_forms_match_scalar, states_near};
         let chain = chain_molecule(&ChainMoleculeParams::default()).unwrap();
         let (r0, _) = chain.initial_state();
         let mut states = states_near(&r0, 11);

@@ -37,11 +37,11 @@
 
 mod error;
 pub mod fiber;
-mod lanes3;
 pub mod langevin;
 mod masses;
 pub mod pendulum;
 pub mod potential;
+mod vec3;
 
 pub use error::SystemError;
 pub use fiber::{AirFlow, Fiber, FiberParams};

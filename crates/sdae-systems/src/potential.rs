@@ -9,11 +9,11 @@
 //! computes for path i; the sines and arc tangents are taken lane by lane.
 
 use pulp::Simd;
-use sdae_model::lanes::{Lanes, per_lane};
+use sdae_model::lanes::{Lanes, Real, per_lane};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite, finite_entries, non_negative};
-use crate::lanes3;
+use crate::vec3::{Vec3, add_to, atom, cross, dot, sub};
 
 /// A potential energy V(x) and its force -grad V(x).
 pub trait Potential {
@@ -88,35 +88,21 @@ impl<A: Potential, B: Potential> Potential for (A, B) {
     }
 }
 
-#[inline(always)]
-fn atom(x: &[f64], a: usize) -> [f64; 3] {
-    [x[3 * a], x[3 * a + 1], x[3 * a + 2]]
-}
+/// `add_force` and `add_force_lanes` of a term whose force is written once over [`Real`] as
+/// `fn force<T: Real>(&self, x: &[T], force: &mut [T])`.
+macro_rules! forces_written_once {
+    () => {
+        #[inline]
+        fn add_force(&self, x: &[f64], force: &mut [f64]) {
+            self.force(x, force);
+        }
 
-#[inline(always)]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline(always)]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline(always)]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-#[inline(always)]
-fn add_to(force: &mut [f64], a: usize, f: [f64; 3], scale: f64) {
-    for (o, fc) in force[3 * a..3 * a + 3].iter_mut().zip(f) {
-        *o += scale * fc;
-    }
+        #[inline(always)]
+        fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
+            self.force(x, force);
+            true
+        }
+    };
 }
 
 /// Checks that the atoms of one term are distinct; returns 3 (largest index + 1).
@@ -218,6 +204,46 @@ impl BondAngles {
     }
 }
 
+impl BondAngles {
+    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`]; the arc tangent lane
+    /// by lane).
+    #[inline(always)]
+    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
+        let AngleParams {
+            stiffness,
+            equilibrium,
+        } = self.params;
+        for &[a, b, c] in &self.triples {
+            let xb = atom(x, b);
+            let (u, w) = (sub(atom(x, a), xb), sub(atom(x, c), xb));
+            let n = cross(u, w);
+            let s = dot(n, n).sqrt();
+            // No bending plane: the term adds no force.
+            let skip = s.equal(s.splat_like(0.0));
+            let theta = s.zip_map_each(dot(u, w), f64::atan2);
+            let scale = (theta - equilibrium) * stiffness / s;
+            // F_a = -k (theta - theta_0) dtheta/du = k (theta - theta_0) (n x u) / (|u|^2 |n|),
+            // F_c = -k (theta - theta_0) (n x w) / (|w|^2 |n|), F_b = -(F_a + F_c).
+            let (nu, nw) = (cross(n, u), cross(n, w));
+            let (uu, ww) = (dot(u, u), dot(w, w));
+            let fa = [nu[0] * scale / uu, nu[1] * scale / uu, nu[2] * scale / uu];
+            let fc: Vec3<T> = [
+                -nw[0] * scale / ww,
+                -nw[1] * scale / ww,
+                -nw[2] * scale / ww,
+            ];
+            add_to(force, a, fa, skip);
+            add_to(force, c, fc, skip);
+            let fb = [
+                (fa[0] + fc[0]) * -1.0,
+                (fa[1] + fc[1]) * -1.0,
+                (fa[2] + fc[2]) * -1.0,
+            ];
+            add_to(force, b, fb, skip);
+        }
+    }
+}
+
 impl Potential for BondAngles {
     fn energy(&self, x: &[f64]) -> f64 {
         let AngleParams {
@@ -235,67 +261,7 @@ impl Potential for BondAngles {
             .sum()
     }
 
-    fn add_force(&self, x: &[f64], force: &mut [f64]) {
-        let AngleParams {
-            stiffness,
-            equilibrium,
-        } = self.params;
-        for &[a, b, c] in &self.triples {
-            let xb = atom(x, b);
-            let (u, w) = (sub(atom(x, a), xb), sub(atom(x, c), xb));
-            let n = cross(u, w);
-            let s = dot(n, n).sqrt();
-            if s == 0.0 {
-                continue;
-            }
-            let theta = s.atan2(dot(u, w));
-            let scale = stiffness * (theta - equilibrium) / s;
-            // F_a = -k (theta - theta_0) dtheta/du = k (theta - theta_0) (n x u) / (|u|^2 |n|),
-            // F_c = -k (theta - theta_0) (n x w) / (|w|^2 |n|), F_b = -(F_a + F_c).
-            let fa = cross(n, u).map(|v| v * scale / dot(u, u));
-            let fc = cross(n, w).map(|v| -v * scale / dot(w, w));
-            add_to(force, a, fa, 1.0);
-            add_to(force, c, fc, 1.0);
-            add_to(
-                force,
-                b,
-                [fa[0] + fc[0], fa[1] + fc[1], fa[2] + fc[2]],
-                -1.0,
-            );
-        }
-    }
-
-    /// [`Potential::add_force`]'s operations in W lanes (the arc tangent lane by lane).
-    #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        use lanes3::{add_to, atom, cross, dot, scaled, sub};
-        let AngleParams {
-            stiffness,
-            equilibrium,
-        } = self.params;
-        for &[a, b, c] in &self.triples {
-            let xb = atom(x, b);
-            let (u, w) = (sub(atom(x, a), xb), sub(atom(x, c), xb));
-            let n = cross(u, w);
-            let s = dot(n, n).sqrt();
-            let skip = s.eq(s.splat_like(0.0));
-            let theta = s.zip_map_each(dot(u, w), f64::atan2);
-            let scale = (theta - equilibrium) * stiffness / s;
-            let (nu, nw) = (cross(n, u), cross(n, w));
-            let (uu, ww) = (dot(u, u), dot(w, w));
-            let fa = [nu[0] * scale / uu, nu[1] * scale / uu, nu[2] * scale / uu];
-            let fc = [
-                -nw[0] * scale / ww,
-                -nw[1] * scale / ww,
-                -nw[2] * scale / ww,
-            ];
-            add_to(force, a, fa, skip);
-            add_to(force, c, fc, skip);
-            let fb = [fa[0] + fc[0], fa[1] + fc[1], fa[2] + fc[2]];
-            add_to(force, b, scaled(fb, s.splat_like(-1.0)), skip);
-        }
-        true
-    }
+    forces_written_once!();
 
     fn min_dim(&self) -> usize {
         self.min_dim
@@ -395,63 +361,11 @@ impl Torsions {
     }
 }
 
-impl Potential for Torsions {
-    fn energy(&self, x: &[f64]) -> f64 {
-        let TorsionParams {
-            stiffness,
-            multiplicity,
-            phase,
-        } = self.params;
-        self.quadruples
-            .iter()
-            .map(|&q| {
-                let phi = Self::dihedral(x, q);
-                stiffness * (1.0 + (f64::from(multiplicity) * phi - phase).cos())
-            })
-            .sum()
-    }
-
-    fn add_force(&self, x: &[f64], force: &mut [f64]) {
-        let TorsionParams {
-            stiffness,
-            multiplicity,
-            phase,
-        } = self.params;
-        let n = f64::from(multiplicity);
-        for &[a, b, c, d] in &self.quadruples {
-            let (b1, b2, b3) = (
-                sub(atom(x, b), atom(x, a)),
-                sub(atom(x, c), atom(x, b)),
-                sub(atom(x, d), atom(x, c)),
-            );
-            let (n1, n2) = (cross(b1, b2), cross(b2, b3));
-            let (nn1, nn2, bb2) = (dot(n1, n1), dot(n2, n2), dot(b2, b2));
-            if nn1 == 0.0 || nn2 == 0.0 {
-                continue;
-            }
-            let len2 = bb2.sqrt();
-            let phi = (len2 * dot(b1, n2)).atan2(dot(n1, n2));
-            // F = -dV/dphi dphi/dx, dV/dphi = -k n sin(n phi - delta).
-            let torque = stiffness * n * (n * phi - phase).sin();
-            let fa = n1.map(|v| -torque * len2 * v / nn1);
-            let fd = n2.map(|v| torque * len2 * v / nn2);
-            let (p, q) = (dot(b1, b2) / bb2, dot(b3, b2) / bb2);
-            // dphi/dx_b = -(1 + p) dphi/dx_a + q dphi/dx_d,
-            // dphi/dx_c = p dphi/dx_a - (1 + q) dphi/dx_d.
-            let fb = [0, 1, 2].map(|k| q * fd[k] - (1.0 + p) * fa[k]);
-            let fc = [0, 1, 2].map(|k| p * fa[k] - (1.0 + q) * fd[k]);
-            add_to(force, a, fa, 1.0);
-            add_to(force, b, fb, 1.0);
-            add_to(force, c, fc, 1.0);
-            add_to(force, d, fd, 1.0);
-        }
-    }
-
-    /// [`Potential::add_force`]'s operations in W lanes (the arc tangent and the sine lane by
-    /// lane).
+impl Torsions {
+    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`]; the arc tangent and
+    /// the sine lane by lane).
     #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        use lanes3::{add_to, atom, cross, dot, sub};
+    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
         let TorsionParams {
             stiffness,
             multiplicity,
@@ -466,15 +380,19 @@ impl Potential for Torsions {
             );
             let (n1, n2) = (cross(b1, b2), cross(b2, b3));
             let (nn1, nn2, bb2) = (dot(n1, n1), dot(n2, n2), dot(b2, b2));
+            // Three collinear atoms: phi is undefined and the term adds no force.
             let zero = bb2.splat_like(0.0);
-            let skip = nn1.eq(zero).or(nn2.eq(zero));
+            let skip = T::either(nn1.equal(zero), nn2.equal(zero));
             let len2 = bb2.sqrt();
             let phi = (len2 * dot(b1, n2)).zip_map_each(dot(n1, n2), f64::atan2);
+            // F = -dV/dphi dphi/dx, dV/dphi = -k n sin(n phi - delta).
             let torque = (phi * n - phase).map_each(f64::sin) * (stiffness * n);
             let (ta, td) = (-torque * len2, torque * len2);
             let fa = [ta * n1[0] / nn1, ta * n1[1] / nn1, ta * n1[2] / nn1];
             let fd = [td * n2[0] / nn2, td * n2[1] / nn2, td * n2[2] / nn2];
             let (p, q) = (dot(b1, b2) / bb2, dot(b3, b2) / bb2);
+            // dphi/dx_b = -(1 + p) dphi/dx_a + q dphi/dx_d,
+            // dphi/dx_c = p dphi/dx_a - (1 + q) dphi/dx_d.
             let (p1, q1) = (p + 1.0, q + 1.0);
             let fb = [
                 q * fd[0] - p1 * fa[0],
@@ -491,8 +409,26 @@ impl Potential for Torsions {
             add_to(force, c, fc, skip);
             add_to(force, d, fd, skip);
         }
-        true
     }
+}
+
+impl Potential for Torsions {
+    fn energy(&self, x: &[f64]) -> f64 {
+        let TorsionParams {
+            stiffness,
+            multiplicity,
+            phase,
+        } = self.params;
+        self.quadruples
+            .iter()
+            .map(|&q| {
+                let phi = Self::dihedral(x, q);
+                stiffness * (1.0 + (f64::from(multiplicity) * phi - phase).cos())
+            })
+            .sum()
+    }
+
+    forces_written_once!();
 
     fn min_dim(&self) -> usize {
         self.min_dim
@@ -540,6 +476,19 @@ impl HarmonicTrap {
     }
 }
 
+impl HarmonicTrap {
+    /// force_a += -k (x_a - c), for one path (`f64`) or W paths ([`Lanes`]).
+    #[inline(always)]
+    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
+        let TrapParams { stiffness, center } = self.params;
+        for (f, p) in force.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
+            for k in 0..3 {
+                f[k] = f[k] - (p[k] - center[k]) * stiffness;
+            }
+        }
+    }
+}
+
 impl Potential for HarmonicTrap {
     fn energy(&self, x: &[f64]) -> f64 {
         let TrapParams { stiffness, center } = self.params;
@@ -552,27 +501,7 @@ impl Potential for HarmonicTrap {
                 .sum::<f64>()
     }
 
-    #[inline]
-    fn add_force(&self, x: &[f64], force: &mut [f64]) {
-        let TrapParams { stiffness, center } = self.params;
-        for (f, p) in force.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
-            for k in 0..3 {
-                f[k] -= stiffness * (p[k] - center[k]);
-            }
-        }
-    }
-
-    /// [`Potential::add_force`]'s operations in W lanes.
-    #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        let TrapParams { stiffness, center } = self.params;
-        for (f, p) in force.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
-            for k in 0..3 {
-                f[k] = f[k] - (p[k] - center[k]) * stiffness;
-            }
-        }
-        true
-    }
+    forces_written_once!();
 }
 
 #[cfg(test)]

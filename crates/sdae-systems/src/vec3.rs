@@ -1,38 +1,38 @@
-//! Vectors of R^3 for W paths at once: coordinate k of atom (or bead) a of every path in the
-//! [`Lanes`] `x[3a + k]`, the layout of [`System::drift_lanes`](sdae_model::System::drift_lanes).
+//! Vectors of R^3 of one path or of W paths: coordinate k of atom (or bead) a in `x[3a + k]`,
+//! an `f64` for one path, a [`Lanes`](sdae_model::lanes::Lanes) for W paths (the layout of
+//! [`System::drift_lanes`](sdae_model::System::drift_lanes)).
 //!
-//! Each function performs the floating-point operations of its scalar twin in the same order,
-//! so that lane i of a lane form is the scalar formula for path i, bit for bit. The loops are
-//! written out (no closures or array `map`): a closure does not inherit the instruction set of
-//! the lane code that calls it.
+//! The systems write their forces once over [`Real`], so that lane i of the lane form performs
+//! the scalar form's floating-point operations for path i in the same order, bit for bit. The
+//! loops are written out (no closures or array `map`): a closure does not inherit the
+//! instruction set of the lane code that calls it.
 
-use pulp::Simd;
-use sdae_model::lanes::{LaneMask, Lanes};
+use sdae_model::lanes::Real;
 
-/// A vector of R^3 in W lanes.
-pub(crate) type Vec3<S> = [Lanes<S>; 3];
+/// A vector of R^3.
+pub(crate) type Vec3<T> = [T; 3];
 
 /// Atom `a` of `x`.
 #[inline(always)]
-pub(crate) fn atom<S: Simd>(x: &[Lanes<S>], a: usize) -> Vec3<S> {
+pub(crate) fn atom<T: Real>(x: &[T], a: usize) -> Vec3<T> {
     [x[3 * a], x[3 * a + 1], x[3 * a + 2]]
 }
 
 /// a - b.
 #[inline(always)]
-pub(crate) fn sub<S: Simd>(a: Vec3<S>, b: Vec3<S>) -> Vec3<S> {
+pub(crate) fn sub<T: Real>(a: Vec3<T>, b: Vec3<T>) -> Vec3<T> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// a . b = a_0 b_0 + a_1 b_1 + a_2 b_2, summed in that order.
 #[inline(always)]
-pub(crate) fn dot<S: Simd>(a: Vec3<S>, b: Vec3<S>) -> Lanes<S> {
+pub(crate) fn dot<T: Real>(a: Vec3<T>, b: Vec3<T>) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// a x b.
 #[inline(always)]
-pub(crate) fn cross<S: Simd>(a: Vec3<S>, b: Vec3<S>) -> Vec3<S> {
+pub(crate) fn cross<T: Real>(a: Vec3<T>, b: Vec3<T>) -> Vec3<T> {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -40,18 +40,12 @@ pub(crate) fn cross<S: Simd>(a: Vec3<S>, b: Vec3<S>) -> Vec3<S> {
     ]
 }
 
-/// a scale, each coordinate `a_k * scale`.
-#[inline(always)]
-pub(crate) fn scaled<S: Simd>(a: Vec3<S>, scale: Lanes<S>) -> Vec3<S> {
-    [a[0] * scale, a[1] * scale, a[2] * scale]
-}
-
-/// force_a += f, except in the lanes of `skip` (which keep their force unchanged, as a scalar
+/// force_a += f, except in the paths of `skip` (which keep their force unchanged, as for a
 /// term that adds nothing there).
 #[inline(always)]
-pub(crate) fn add_to<S: Simd>(force: &mut [Lanes<S>], a: usize, f: Vec3<S>, skip: LaneMask<S>) {
+pub(crate) fn add_to<T: Real>(force: &mut [T], a: usize, f: Vec3<T>, skip: T::Mask) {
     for (o, fk) in force[3 * a..3 * a + 3].iter_mut().zip(f) {
-        *o = Lanes::select(skip, *o, *o + fk);
+        *o = T::select(skip, *o, *o + fk);
     }
 }
 

@@ -145,12 +145,17 @@ impl EnsembleIncrements {
 
 /// The 64-bit lane operations of xoshiro256++ that pulp's generic [`Simd`] does not have.
 trait WordLanes: Simd {
+    fn shr12(self, a: Self::u64s) -> Self::u64s;
     fn shl17(self, a: Self::u64s) -> Self::u64s;
     fn rotl23(self, a: Self::u64s) -> Self::u64s;
     fn rotl45(self, a: Self::u64s) -> Self::u64s;
 }
 
 impl WordLanes for pulp::Scalar {
+    #[inline(always)]
+    fn shr12(self, a: u64) -> u64 {
+        a >> 12
+    }
     #[inline(always)]
     fn shl17(self, a: u64) -> u64 {
         a << 17
@@ -170,6 +175,10 @@ impl WordLanes for pulp::Scalar {
 macro_rules! portable_word_lanes {
     ($simd:ty) => {
         impl WordLanes for $simd {
+            #[inline(always)]
+            fn shr12(self, a: Self::u64s) -> Self::u64s {
+                each_word(a, |x| x >> 12)
+            }
             #[inline(always)]
             fn shl17(self, a: Self::u64s) -> Self::u64s {
                 each_word(a, |x| x << 17)
@@ -201,6 +210,10 @@ fn each_word<V: bytemuck::Pod>(mut a: V, op: impl Fn(u64) -> u64) -> V {
 #[cfg(target_arch = "x86_64")]
 impl WordLanes for pulp::x86::V3 {
     #[inline(always)]
+    fn shr12(self, a: Self::u64s) -> Self::u64s {
+        self.shr_const_u64x4::<12>(a)
+    }
+    #[inline(always)]
     fn shl17(self, a: Self::u64s) -> Self::u64s {
         self.shl_const_u64x4::<17>(a)
     }
@@ -216,6 +229,10 @@ impl WordLanes for pulp::x86::V3 {
 
 #[cfg(target_arch = "x86_64")]
 impl WordLanes for pulp::x86::V4 {
+    #[inline(always)]
+    fn shr12(self, a: Self::u64s) -> Self::u64s {
+        self.shr_const_u64x8::<12>(a)
+    }
     #[inline(always)]
     fn shl17(self, a: Self::u64s) -> Self::u64s {
         self.shl_const_u64x8::<17>(a)
@@ -304,7 +321,8 @@ const TILE_ROWS: usize = 32;
 /// out[lane] = scale z for one standard normal z per lane (rand_distr's ziggurat, symmetric,
 /// 256 layers): the next word b of each lane's xoshiro256++, layer i = b & 0xff, u in [-1, 1)
 /// from b's upper 52 bits, z = u x_i if |u x_i| < x_{i+1}; a lane that is not accepted is
-/// drawn again by rand_distr from its state before the draw.
+/// drawn again by rand_distr from its state before the draw. The arithmetic runs on all lanes
+/// at once; only x_i and x_{i+1} are read lane by lane.
 #[inline(always)]
 fn draw<S: WordLanes>(
     simd: S,
@@ -315,14 +333,22 @@ fn draw<S: WordLanes>(
 ) {
     let before = *state;
     let bits = next_words(simd, state);
+    // u in [-1, 1) of every lane at once; only the two table entries are read lane by lane.
+    let mantissa = simd.or_u64s(simd.shr12(bits), simd.splat_u64s(U_EXPONENT));
+    let u = simd.sub_f64s(bytemuck::cast(mantissa), simd.splat_f64s(3.0));
     let mut lane_bits = [0u64; LANE_BLOCK];
     store_words::<S>(bits, &mut lane_bits);
-    let mut rejected = false;
-    for (o, &b) in out.iter_mut().zip(&lane_bits) {
-        let (x, accepted) = table.fast_path(b);
-        rejected |= !accepted;
-        *o = scale * x;
+    let (mut x_layer, mut x_above) = ([0.0; LANE_BLOCK], [0.0; LANE_BLOCK]);
+    for ((b, lo), hi) in lane_bits.iter().zip(&mut x_layer).zip(&mut x_above) {
+        let layer = (b & 0xff) as usize;
+        (*lo, *hi) = (table.x[layer], table.x[layer + 1]);
     }
+    let x = simd.mul_f64s(u, load_words(bytemuck::cast_slice(&x_layer)));
+    let accepted =
+        simd.less_than_f64s(simd.abs_f64s(x), load_words(bytemuck::cast_slice(&x_above)));
+    let z = simd.mul_f64s(simd.splat_f64s(scale), x);
+    store_f64s::<S>(z, out);
+    let rejected = simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES;
     if rejected {
         // Only here do the states leave the registers.
         let mut lanes_before = [[0u64; LANE_BLOCK]; 4];
@@ -420,6 +446,12 @@ const U_EXPONENT: u64 = (1023 + 1) << 52;
 fn load_words<V: bytemuck::Pod>(from: &[u64]) -> V {
     let n = size_of::<V>() / 8;
     bytemuck::pod_read_unaligned(bytemuck::cast_slice(&from[..n]))
+}
+
+#[inline(always)]
+fn store_f64s<S: Simd>(v: S::f64s, to: &mut [f64]) {
+    let values: &[f64] = bytemuck::cast_slice(std::slice::from_ref(&v));
+    to[..values.len()].copy_from_slice(values);
 }
 
 #[inline(always)]

@@ -82,9 +82,13 @@ impl<S: System> EnsembleBench<S> {
         self.ensemble.step(self.h, &self.dw).expect("step input")
     }
 
-    /// Panics if a path failed; prints how many path-steps the scalar stepper took.
+    /// Panics if a path failed; prints how many path-steps the scalar stepper took (nothing
+    /// when a filter left the benchmark out).
     pub fn report(&self, name: &str) {
         assert_eq!(self.ensemble.failed_paths(), 0, "{name}: a path failed");
+        if self.steps == 0 {
+            return;
+        }
         println!(
             "{name}: {} of {} path-steps through the scalar stepper",
             self.ensemble.scalar_steps(),

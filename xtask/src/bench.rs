@@ -26,7 +26,9 @@ const CHAIN_ENSEMBLE_PATHS: u64 = 8;
 const FIBER_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const FIBER_ENSEMBLE_PATHS: u64 = 8;
 
-/// Paths of the `molecule_ensemble` groups (as in crates/sdae-systems/benches/molecule.rs).
+/// The molecules of crates/sdae-systems/benches/molecule.rs (groups `<molecule>_step`,
+/// `<molecule>_ensemble`, `<molecule>_ensemble_path_by_path`) and the paths of their ensembles.
+const MOLECULES: [&str; 2] = ["molecule", "triatomic"];
 const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarked packages: every bench target of each runs.
@@ -214,18 +216,22 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
             )
         })
         .collect();
-    let molecule_step = read_mean_ns(&criterion_home, "molecule_step", None, started)?;
-    let molecule = |group: &str| -> Result<f64, TaskError> {
-        Ok(
-            read_mean_ns(&criterion_home, group, Some("default"), started)?
-                / MOLECULE_ENSEMBLE_PATHS as f64,
-        )
-    };
-    let (molecule_lanes, molecule_path_by_path) = (
-        molecule("molecule_ensemble")?,
-        molecule("molecule_ensemble_path_by_path")?,
-    );
-    let summary = json!({
+    // (molecule, its scalar step, the ensemble in lanes, the ensemble path by path), ns per
+    // path-step.
+    let mut molecules = Vec::new();
+    for molecule in MOLECULES {
+        let step = read_mean_ns(&criterion_home, &format!("{molecule}_step"), None, started)?;
+        let per_path = |group: String| -> Result<f64, TaskError> {
+            Ok(
+                read_mean_ns(&criterion_home, &group, Some("default"), started)?
+                    / MOLECULE_ENSEMBLE_PATHS as f64,
+            )
+        };
+        let lanes = per_path(format!("{molecule}_ensemble"))?;
+        let path_by_path = per_path(format!("{molecule}_ensemble_path_by_path"))?;
+        molecules.push((molecule, step, lanes, path_by_path));
+    }
+    let mut summary = json!({
         "pendulum_step_ns": pendulum,
         "chain_step_ns_per_bead": per_bead,
         "chain_step_ns": chain_step,
@@ -239,15 +245,18 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
         "inherent_ensemble_ns_per_path_step": inherent_summary,
         "fiber_ensemble_ns_per_bead_path_step": fiber_summary,
-        "molecule_ensemble_ns_per_path_step": {
-            "molecule_step": molecule_step,
-            "lanes": molecule_lanes,
-            "path_by_path": molecule_path_by_path,
-        },
         "quick": options.quick,
         "criterion_args": criterion_args,
         "machine": machine(),
     });
+
+    for &(molecule, step, lanes, path_by_path) in &molecules {
+        summary[format!("{molecule}_ensemble_ns_per_path_step")] = json!({
+            format!("{molecule}_step"): step,
+            "lanes": lanes,
+            "path_by_path": path_by_path,
+        });
+    }
 
     let out_dir = target.join("bench");
     std::fs::create_dir_all(&out_dir)
@@ -294,10 +303,13 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
             ""
         );
     }
-    println!(
-        "{:<20} {molecule_lanes:>14.1} {:>16}   (per path; path by path: {molecule_path_by_path:.1}; molecule_step: {molecule_step:.1})",
-        "molecule_ensemble", ""
-    );
+    for &(molecule, step, lanes, path_by_path) in &molecules {
+        let name = format!("{molecule}_ensemble");
+        println!(
+            "{name:<20} {lanes:>14.1} {:>16}   (per path; path by path: {path_by_path:.1}; {molecule}_step: {step:.1})",
+            ""
+        );
+    }
     for &(solver, lanes, path_by_path) in &inherent {
         println!(
             "{solver:<25} {lanes:>9.1} {:>16}   (path by path: {path_by_path:.1}, {:.1}x)",

@@ -163,9 +163,22 @@ impl RigidBonds {
             .map(|k| self.pairs[k].2)
     }
 
-    /// The bonds at atom a as (bond, sign); see the field `incidence`.
-    fn incident(&self, atom: usize) -> &[(usize, f64)] {
+    /// The bonds at atom `atom` as (bond, sign), in the order of the bonds: the sign is +1 if
+    /// the atom is the bond's first atom and -1 if it is the second, so that grad g_b has
+    /// sign (x_j - x_i) / L_b^2 at the atom.
+    pub fn incident(&self, atom: usize) -> &[(usize, f64)] {
         &self.incidence[self.start[atom]..self.start[atom + 1]]
+    }
+
+    /// 1 / L_b^2 for every bond b, in the order of the bonds.
+    pub fn inverse_lengths_squared(&self) -> &[f64] {
+        &self.inv_l2
+    }
+
+    /// The shortest bond length: the length scale of [`Constraint::value_roundoff`] and of
+    /// the force term of [`Constraint::local_motion`].
+    pub fn shortest(&self) -> f64 {
+        self.shortest
     }
 
     /// The other atom of bond b.
@@ -292,6 +305,10 @@ impl Constraint for RigidBonds {
     }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.shortest
+    }
+    const RIGID_BONDS: bool = true;
+    fn as_rigid_bonds(&self) -> Option<&RigidBonds> {
+        Some(self)
     }
 }
 

@@ -108,6 +108,14 @@ pub trait Constraint {
     fn as_bead_chain(&self) -> Option<&crate::BeadChain> {
         None
     }
+    /// Whether this constraint type is [`RigidBonds`](crate::RigidBonds): code for it alone
+    /// (an ensemble's lanes) is then compiled only where it can run.
+    const RIGID_BONDS: bool = false;
+    /// This constraint as [`RigidBonds`](crate::RigidBonds), if it is: an ensemble of paths
+    /// then steps it in SIMD lanes. `None` (the default) otherwise.
+    fn as_rigid_bonds(&self) -> Option<&crate::RigidBonds> {
+        None
+    }
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {

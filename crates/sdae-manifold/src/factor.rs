@@ -11,8 +11,9 @@ use faer::linalg::solvers::Solve as _;
 /// which does not allocate.
 pub const DENSE_FAER_THRESHOLD: usize = 32;
 
-/// Relative size below which a pivot counts as zero.
-const PIVOT_TOLERANCE: f64 = 1e-14;
+/// Relative size below which a pivot of a dense LU factorization counts as zero: a pivot p
+/// is rejected when |p| <= `PIVOT_TOLERANCE` x max_ij |A_ij|.
+pub const PIVOT_TOLERANCE: f64 = 1e-14;
 
 /// A matrix storage that can be factored for repeated solves.
 pub trait Factorize: GramMatrix {

@@ -43,7 +43,8 @@ pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
 };
 pub use factor::{
-    DENSE_FAER_THRESHOLD, DenseFactor, Factorize, ScalarFactor, Solve, TridiagonalFactor,
+    DENSE_FAER_THRESHOLD, DenseFactor, Factorize, PIVOT_TOLERANCE, ScalarFactor, Solve,
+    TridiagonalFactor,
 };
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};

@@ -470,13 +470,10 @@ pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
 pub struct LaneStore(Option<Box<dyn std::any::Any + Send + Sync>>);
 
 impl LaneStore {
-    /// The buffers kept, if they have type T, else `make()`; the store is left empty until
+    /// The buffers kept, if they have type T; the store is left empty until
     /// [`LaneStore::put`].
-    pub fn take_or<T: std::any::Any + Send + Sync>(&mut self, make: impl FnOnce() -> T) -> T {
-        match self.0.take().map(|b| b.downcast::<T>()) {
-            Some(Ok(buffers)) => *buffers,
-            _ => make(),
-        }
+    pub fn take<T: std::any::Any + Send + Sync>(&mut self) -> Option<T> {
+        self.0.take()?.downcast::<T>().ok().map(|buffers| *buffers)
     }
 
     /// Keeps `buffers` for the next step.

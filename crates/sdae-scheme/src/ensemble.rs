@@ -12,15 +12,18 @@
 //! lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
 //! root outside the ball or not contracting, a non-finite value) finishes its step through the
 //! scalar [`Stepper`], which reports the failure exactly as for one path. For a bead chain
-//! ([`BeadChain`](sdae_manifold::BeadChain): the chain molecule, the fiber) with a diagonal
-//! mass the step is Newton for kappa with a convergence mask per lane, Thomas' algorithm for the
-//! tridiagonal systems and the solver's certificate, over lanes of any length (the fiber's and
-//! the Langevin molecules' forces and noise have lane forms too); a lane Newton
-//! does not decide (no convergence, a pivot that needs row interchanges, a root the
-//! certificate rejects, a non-finite value) finishes its step through the scalar [`Stepper`],
-//! with its homotopy fallback. A decided lane's numbers are the scalar step's, bit for bit.
-//! Any other constraint (or mass) steps its paths one at a time through the scalar
-//! [`Stepper`].
+//! ([`BeadChain`](sdae_manifold::BeadChain): the chain molecule, the fiber) and for rigid
+//! bonds ([`RigidBonds`](sdae_manifold::RigidBonds) of up to
+//! [`DENSE_FAER_THRESHOLD`](sdae_manifold::DENSE_FAER_THRESHOLD) bonds: the rigid triatomic,
+//! any bond network) with a diagonal mass the step is Newton for kappa with a convergence mask
+//! per lane and the solver's certificate, written once for both, over lanes of any length:
+//! Thomas' algorithm for the chain's tridiagonal Newton matrix, an LU factorization with
+//! partial pivoting per lane for the bonds' dense one (the fiber's and the Langevin molecules'
+//! forces and noise have lane forms too). A lane Newton does not decide (no convergence, a
+//! pivot the factorization rejects, a root the certificate rejects, a non-finite value)
+//! finishes its step through the scalar [`Stepper`], with its homotopy fallback. A decided
+//! lane's numbers are the scalar step's, bit for bit. Any other constraint (or mass) steps its
+//! paths one at a time through the scalar [`Stepper`].
 //!
 //! Lane p computes exactly what a lane of any other width computes: a path's numbers do not
 //! depend on W, on the other paths or on how paths are split across ensembles or threads.
@@ -80,7 +83,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod bonds;
 mod chain;
+mod dense;
+mod newton;
 mod outcome;
 mod sphere;
 mod tridiagonal;
@@ -94,27 +100,26 @@ use crate::stepper::Stepper;
 /// P paths of one system and the scalar stepper that decides what the lanes do not.
 pub type Ensemble<S> = LaneEnsemble<Stepper<S>>;
 
-/// The closed form of a sphere, or Newton for a bead chain, with a diagonal mass in lanes
-/// (module documentation); `false` (every path through the scalar step) for any other
+/// The closed form of a sphere, or Newton for a bead chain or rigid bonds, with a diagonal mass
+/// in lanes (module documentation); `false` (every path through the scalar step) for any other
 /// constraint or mass.
 impl<S: System> LaneScheme for Stepper<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        let constraint = self.system().constraint();
-        // Constants of the types: the chain's lanes are compiled only for a chain with a
-        // diagonal mass.
-        if <S::Constraint as Constraint>::BEAD_CHAIN
-            && <S::Mass as Mass>::DIAGONAL
-            && let Some(chain) = constraint.as_bead_chain().copied()
-        {
-            return width.dispatch(chain::StepAll {
-                stepper: self,
-                paths,
-                chain,
-                h,
-                dw,
-            });
+        // Constants of the types: the Newton lanes are compiled only for a constraint that
+        // has them, with a diagonal mass.
+        if <S::Mass as Mass>::DIAGONAL {
+            if <S::Constraint as Constraint>::BEAD_CHAIN {
+                return width.dispatch(newton::StepAll::<S, chain::ChainLanes>::new(
+                    self, paths, h, dw,
+                ));
+            }
+            if <S::Constraint as Constraint>::RIGID_BONDS {
+                return width.dispatch(newton::StepAll::<S, bonds::BondLanes>::new(
+                    self, paths, h, dw,
+                ));
+            }
         }
-        let Some(sphere) = constraint.as_sphere().copied() else {
+        let Some(sphere) = self.system().constraint().as_sphere().copied() else {
             return false;
         };
         // The lanes hold at most MAX_DIM coordinates and as many noise components.

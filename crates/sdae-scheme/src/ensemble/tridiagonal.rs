@@ -6,8 +6,7 @@
 use pulp::Simd;
 use sdae_model::lanes::{LaneMask, Lanes};
 
-/// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
-pub(super) type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
+use super::newton::{FactorLanes, MatrixLanes, RightHandSide};
 
 /// A tridiagonal matrix of order m in each lane: `lower[i] = A[i+1][i]`, `diag[i] = A[i][i]`,
 /// `upper[i] = A[i][i+1]`.
@@ -27,9 +26,8 @@ pub(super) struct ThomasLanes<Sd: Simd> {
     upper: Vec<Lanes<Sd>>,
 }
 
-impl<Sd: Simd> TridiagonalLanes<Sd> {
-    /// Zeros of order m >= 1.
-    pub(super) fn zeros(simd: Sd, m: usize) -> Self {
+impl<Sd: Simd> MatrixLanes<Sd> for TridiagonalLanes<Sd> {
+    fn zeros(simd: Sd, m: usize) -> Self {
         let zero = Lanes::splat(simd, 0.0);
         Self {
             lower: vec![zero; m - 1],
@@ -40,7 +38,7 @@ impl<Sd: Simd> TridiagonalLanes<Sd> {
 
     /// out = A x: out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1}.
     #[inline(always)]
-    pub(super) fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
         let m = self.diag.len();
         if m == 1 {
             out[0] = self.diag[0] * x[0];
@@ -54,9 +52,10 @@ impl<Sd: Simd> TridiagonalLanes<Sd> {
     }
 }
 
-impl<Sd: Simd> ThomasLanes<Sd> {
-    /// Storage for the factors of order m >= 1.
-    pub(super) fn zeros(simd: Sd, m: usize) -> Self {
+impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
+    type Matrix = TridiagonalLanes<Sd>;
+
+    fn zeros(simd: Sd, m: usize) -> Self {
         let zero = Lanes::splat(simd, 0.0);
         Self {
             lower: vec![zero; m - 1],
@@ -69,11 +68,7 @@ impl<Sd: Simd> ThomasLanes<Sd> {
     /// where every pivot passed (|p_i| > 1e-8 x row scale, finite). The pivots are the ratios
     /// of leading principal minors, rescaled by powers of two, as in the scalar factor.
     #[inline(always)]
-    pub(super) fn factor(
-        &mut self,
-        a: &TridiagonalLanes<Sd>,
-        mut rhs: RightHandSide<'_, Sd>,
-    ) -> LaneMask<Sd> {
+    fn factor(&mut self, a: &TridiagonalLanes<Sd>, mut rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd> {
         const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
         const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
@@ -129,6 +124,20 @@ impl<Sd: Simd> ThomasLanes<Sd> {
         ok
     }
 
+    /// b <- A^-1 b.
+    #[inline(always)]
+    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
+        let mut previous = b[0] * self.inverse_pivot[0];
+        b[0] = previous;
+        for (i, bi) in b.iter_mut().enumerate().skip(1) {
+            previous = *bi * self.inverse_pivot[i] - self.lower[i - 1] * previous;
+            *bi = previous;
+        }
+        self.backward(b);
+    }
+}
+
+impl<Sd: Simd> ThomasLanes<Sd> {
     /// The back substitution: b_i <- b_i - (u_i / p_i) b_{i+1}.
     #[inline(always)]
     fn backward(&self, b: &mut [Lanes<Sd>]) {
@@ -138,17 +147,5 @@ impl<Sd: Simd> ThomasLanes<Sd> {
             next = b[i] - self.upper[i] * next;
             b[i] = next;
         }
-    }
-
-    /// b <- A^-1 b.
-    #[inline(always)]
-    pub(super) fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
-        let mut previous = b[0] * self.inverse_pivot[0];
-        b[0] = previous;
-        for (i, bi) in b.iter_mut().enumerate().skip(1) {
-            previous = *bi * self.inverse_pivot[i] - self.lower[i - 1] * previous;
-            *bi = previous;
-        }
-        self.backward(b);
     }
 }

@@ -1,0 +1,180 @@
+//! The lane form of rigid bonds ([`RigidBonds`](sdae_manifold::RigidBonds) with a diagonal
+//! mass: the rigid triatomic, any bond network of up to `DENSE_FAER_THRESHOLD` bonds) for the
+//! Newton step of `super::newton`: g_b = 1/2 - |x_j - x_i|^2 / (2 L_b^2), the Newton matrix in
+//! closed form from the bonds that meet at each atom, the displacement and Dg u over W lanes,
+//! with the floating-point operations of `RigidBonds`' methods (and of the default
+//! `Constraint::displace`) in the same order, and the dense LU factorization with partial
+//! pivoting of `super::dense`.
+
+use pulp::Simd;
+use sdae_manifold::{Bond, Constraint, DENSE_FAER_THRESHOLD, Mass};
+use sdae_model::System;
+use sdae_model::lanes::Lanes;
+
+use super::dense::{DenseLanes, LuLanes};
+use super::newton::{ConstraintLanes, dot3};
+
+/// The bond network's constants for a diagonal mass.
+pub(super) struct BondLanes {
+    atoms: usize,
+    bonds: Vec<Bond>,
+    /// 1 / L_b^2.
+    inv_l2: Vec<f64>,
+    /// The bonds at each atom as (bond, sign): `incidence[start[a]..start[a + 1]]`
+    /// (`RigidBonds::incident`).
+    start: Vec<usize>,
+    incidence: Vec<(usize, f64)>,
+    shortest: f64,
+    /// (M^-1)_kk.
+    inverse_mass: Vec<f64>,
+}
+
+impl BondLanes {
+    /// The bonds at atom `atom` as (bond, sign).
+    #[inline(always)]
+    fn incident(&self, atom: usize) -> &[(usize, f64)] {
+        &self.incidence[self.start[atom]..self.start[atom + 1]]
+    }
+}
+
+impl ConstraintLanes for BondLanes {
+    type Factor<Sd: Simd> = LuLanes<Sd>;
+
+    /// The bonds of a system whose constraint is [`RigidBonds`](sdae_manifold::RigidBonds)
+    /// with at most `DENSE_FAER_THRESHOLD` bonds (larger networks are factored by faer, path
+    /// by path) and whose mass is diagonal.
+    fn for_system<S: System>(system: &S) -> Option<Self> {
+        let network = system.constraint().as_rigid_bonds()?;
+        let mass = system.mass();
+        if !<S::Mass as Mass>::DIAGONAL || network.n_constraints() > DENSE_FAER_THRESHOLD {
+            return None;
+        }
+        let mut start = vec![0];
+        let mut incidence = Vec::with_capacity(2 * network.n_constraints());
+        for atom in 0..network.atoms() {
+            incidence.extend_from_slice(network.incident(atom));
+            start.push(incidence.len());
+        }
+        Some(Self {
+            atoms: network.atoms(),
+            bonds: network.bonds().to_vec(),
+            inv_l2: network.inverse_lengths_squared().to_vec(),
+            start,
+            incidence,
+            shortest: network.shortest(),
+            inverse_mass: (0..network.dim())
+                .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
+                .collect(),
+        })
+    }
+
+    fn dims(&self) -> (usize, usize) {
+        (3 * self.atoms, self.bonds.len())
+    }
+
+    fn roundoff_length(&self) -> f64 {
+        self.shortest
+    }
+
+    fn inverse_mass(&self) -> &[f64] {
+        &self.inverse_mass
+    }
+
+    /// g_b(x1) = 1/2 - |d_b(x1)|^2 / (2 L_b^2) (`RigidBonds::value`), then entry (a, b) of
+    /// Dg(x1) M^-1 grad g(r): over the atoms c that bonds a and b share, sign_a sign_b
+    /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
+    #[inline(always)]
+    fn value_and_cross_gram<Sd: Simd>(
+        &self,
+        x1: &[Lanes<Sd>],
+        r: &[Lanes<Sd>],
+        values: &mut [Lanes<Sd>],
+        jacobian: &mut DenseLanes<Sd>,
+    ) {
+        let half = x1[0].splat_like(0.5);
+        for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
+            let d = bond_vector(x1, bond);
+            *value = half - dot3(&d, &d) * 0.5 * *s;
+        }
+        let m = self.bonds.len();
+        let zero = x1[0].splat_like(0.0);
+        for a in 0..m {
+            for b in 0..m {
+                jacobian.set(a, b, zero);
+            }
+        }
+        for c in 0..self.atoms {
+            let w = &self.inverse_mass[3 * c..3 * c + 3];
+            for &(a, sa) in self.incident(c) {
+                let da = bond_vector(x1, &self.bonds[a]);
+                let wa = [da[0] * w[0], da[1] * w[1], da[2] * w[2]];
+                for &(b, sb) in self.incident(c) {
+                    let db = bond_vector(r, &self.bonds[b]);
+                    let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
+                    jacobian.set(a, b, jacobian.entry(a, b) + term);
+                }
+            }
+        }
+    }
+
+    /// out = base + M^-1 grad g(r) z, with (grad g(r) z)_a = sum over the bonds b at atom a
+    /// of sign z_b d_b(r) / L_b^2 accumulated bond by bond from 0
+    /// (`RigidBonds::jacobian_transpose_mul`, then the mass and the sum of
+    /// `Constraint::displace`).
+    #[inline(always)]
+    fn displace<Sd: Simd>(
+        &self,
+        r: &[Lanes<Sd>],
+        z: &[Lanes<Sd>],
+        base: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    ) {
+        let zero = r[0].splat_like(0.0);
+        for o in out.iter_mut() {
+            *o = zero;
+        }
+        for ((bond, s), zb) in self.bonds.iter().zip(&self.inv_l2).zip(z) {
+            let d = bond_vector(r, bond);
+            for c in 0..3 {
+                let f = d[c] * *zb * *s;
+                out[3 * bond.i + c] = out[3 * bond.i + c] + f;
+                out[3 * bond.j + c] = out[3 * bond.j + c] - f;
+            }
+        }
+        for ((o, w), y) in out.iter_mut().zip(&self.inverse_mass).zip(base) {
+            *o = *o * *w + *y;
+        }
+    }
+
+    /// (Dg(x) u)_b = -d_b(x).(u_j - u_i) / L_b^2 (`RigidBonds::jacobian_mul`).
+    #[inline(always)]
+    fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
+            *o = -dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * *s;
+        }
+    }
+
+    /// max(w, w^2, alpha) with w = max_b |v_j - v_i| / L_b and alpha = max_i |a_i| / (the
+    /// shortest bond) (`RigidBonds::local_motion`).
+    #[inline(always)]
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd> {
+        let zero = v[0].splat_like(0.0);
+        let mut w = zero;
+        for (bond, s) in self.bonds.iter().zip(&self.inv_l2) {
+            let d = bond_vector(v, bond);
+            w = w.max((dot3(&d, &d) * *s).sqrt());
+        }
+        let mut a2 = zero;
+        for f in a.chunks_exact(3) {
+            a2 = a2.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+        }
+        w.max(w * w).max(a2.sqrt() / self.shortest)
+    }
+}
+
+/// d_b = x_j - x_i of bond b = (i, j).
+#[inline(always)]
+fn bond_vector<Sd: Simd>(x: &[Lanes<Sd>], bond: &Bond) -> [Lanes<Sd>; 3] {
+    let (a, b) = (3 * bond.i, 3 * bond.j);
+    [x[b] - x[a], x[b + 1] - x[a + 1], x[b + 2] - x[a + 2]]
+}

@@ -1,0 +1,264 @@
+//! Dense m x m matrices of W lanes and their LU factors with partial pivoting: the operations
+//! of `sdae_manifold`'s `DenseGram::mul_vec` and of the hand-written `DenseFactor` (orders up
+//! to `DENSE_FAER_THRESHOLD`), lane by lane, with the same floating-point operations in the
+//! same order. Each lane picks its own pivot rows (the last largest |entry| of the column, as
+//! `Iterator::max_by` does), so the row interchanges are selects. A lane whose matrix has a
+//! non-finite entry or a pivot the scalar factorization rejects (|p| <= `PIVOT_TOLERANCE` x
+//! max |A_ij|) is reported, so that its step goes through the scalar path.
+
+use pulp::Simd;
+use sdae_manifold::PIVOT_TOLERANCE;
+use sdae_model::lanes::{LaneMask, Lanes};
+
+use super::newton::{FactorLanes, MatrixLanes, RightHandSide, active_any};
+
+/// A dense matrix of order m in each lane, row-major.
+#[derive(Debug, Clone)]
+pub(super) struct DenseLanes<Sd: Simd> {
+    order: usize,
+    entries: Vec<Lanes<Sd>>,
+}
+
+impl<Sd: Simd> DenseLanes<Sd> {
+    /// Entry (i, j).
+    #[inline(always)]
+    pub(super) fn entry(&self, i: usize, j: usize) -> Lanes<Sd> {
+        self.entries[i * self.order + j]
+    }
+
+    /// Sets entry (i, j).
+    #[inline(always)]
+    pub(super) fn set(&mut self, i: usize, j: usize, value: Lanes<Sd>) {
+        self.entries[i * self.order + j] = value;
+    }
+}
+
+impl<Sd: Simd> MatrixLanes<Sd> for DenseLanes<Sd> {
+    fn zeros(simd: Sd, m: usize) -> Self {
+        Self {
+            order: m,
+            entries: vec![Lanes::splat(simd, 0.0); m * m],
+        }
+    }
+
+    /// out_i = sum_j A_ij x_j, summed in order from -0 (the standard library's `sum`).
+    #[inline(always)]
+    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+        let m = self.order;
+        for (row, o) in self.entries.chunks_exact(m).zip(out.iter_mut()) {
+            let mut sum = x[0].splat_like(-0.0);
+            for (a, xj) in row.iter().zip(x) {
+                sum = sum + *a * *xj;
+            }
+            *o = sum;
+        }
+    }
+}
+
+/// The LU factors of a [`DenseLanes`] with partial pivoting: L (unit, below the diagonal) and
+/// U packed row-major, and the pivot row of each elimination step (as a lane value).
+#[derive(Debug, Clone)]
+pub(super) struct LuLanes<Sd: Simd> {
+    order: usize,
+    lu: Vec<Lanes<Sd>>,
+    perm: Vec<Lanes<Sd>>,
+}
+
+impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
+    type Matrix = DenseLanes<Sd>;
+
+    fn zeros(simd: Sd, m: usize) -> Self {
+        let zero = Lanes::splat(simd, 0.0);
+        Self {
+            order: m,
+            lu: vec![zero; m * m],
+            perm: vec![zero; m],
+        }
+    }
+
+    /// `DenseGram::factor_into` (and the solve of `factor_and_solve`) lane by lane.
+    #[inline(always)]
+    fn factor(&mut self, a: &DenseLanes<Sd>, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd> {
+        let m = self.order;
+        let zero = a.entries[0].splat_like(0.0);
+        let mut ok = zero.eq(zero);
+        let mut scale = zero;
+        for entry in &a.entries {
+            ok = ok.and(entry.is_finite());
+            scale = scale.max(entry.abs());
+        }
+        let tolerance = scale * PIVOT_TOLERANCE;
+        self.lu.copy_from_slice(&a.entries);
+        let lu = &mut self.lu;
+        for k in 0..m {
+            // The pivot row: the last row i >= k with the largest |A_ik|.
+            let mut largest = lu[k * m + k].abs();
+            let mut pivot_row = zero.splat_like(k as f64);
+            for i in k + 1..m {
+                let candidate = lu[i * m + k].abs();
+                let later = largest.le(candidate);
+                largest = Lanes::select(later, candidate, largest);
+                pivot_row = Lanes::select(later, zero.splat_like(i as f64), pivot_row);
+            }
+            self.perm[k] = pivot_row;
+            for i in k + 1..m {
+                let swap = pivot_row.eq(zero.splat_like(i as f64));
+                if active_any(swap) {
+                    for j in 0..m {
+                        let (upper, lower) = (lu[k * m + j], lu[i * m + j]);
+                        lu[k * m + j] = Lanes::select(swap, lower, upper);
+                        lu[i * m + j] = Lanes::select(swap, upper, lower);
+                    }
+                }
+            }
+            let pivot = lu[k * m + k];
+            ok = ok.and(!pivot.abs().le(tolerance).or(pivot.eq(zero)));
+            for i in k + 1..m {
+                let f = lu[i * m + k] / pivot;
+                lu[i * m + k] = f;
+                for j in k + 1..m {
+                    lu[i * m + j] = lu[i * m + j] - f * lu[k * m + j];
+                }
+            }
+        }
+        if let Some((b, out)) = rhs {
+            out.copy_from_slice(b);
+            self.solve_in_place(out);
+        }
+        ok
+    }
+
+    /// `DenseFactor::solve_in_place`: the row interchanges in elimination order, then the
+    /// forward and back substitutions with their sums from -0.
+    #[inline(always)]
+    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
+        let m = self.order;
+        let lu = &self.lu;
+        let minus_zero = b[0].splat_like(-0.0);
+        for k in 0..m {
+            for i in k + 1..m {
+                let swap = self.perm[k].eq(b[0].splat_like(i as f64));
+                if active_any(swap) {
+                    let (upper, lower) = (b[k], b[i]);
+                    b[k] = Lanes::select(swap, lower, upper);
+                    b[i] = Lanes::select(swap, upper, lower);
+                }
+            }
+        }
+        for i in 0..m {
+            let mut s = minus_zero;
+            for j in 0..i {
+                s = s + lu[i * m + j] * b[j];
+            }
+            b[i] = b[i] - s;
+        }
+        for i in (0..m).rev() {
+            let mut s = minus_zero;
+            for j in i + 1..m {
+                s = s + lu[i * m + j] * b[j];
+            }
+            b[i] = (b[i] - s) / lu[i * m + i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pulp::WithSimd;
+    use sdae_manifold::{DenseGram, Factorize, GramMatrix, Solve};
+    use sdae_model::lanes::LaneWidth;
+
+    /// Matrices of order `m`, one per lane, whose pivot rows differ from lane to lane (a
+    /// permuted diagonally weak matrix, ties included) and one singular matrix (lane 2).
+    fn matrix(m: usize, lane: usize) -> DenseGram {
+        let mut a = DenseGram::zeros(m);
+        for i in 0..m {
+            for j in 0..m {
+                let value = ((i * 7 + j * 3 + lane * 5) % 11) as f64 - 5.0
+                    + if (i + lane) % m == j { 0.25 } else { 0.0 };
+                a.set(i, j, if lane == 2 { 1.0 } else { value });
+            }
+        }
+        a
+    }
+
+    /// Each lane's factor, solve and product against the scalar `DenseGram` and `DenseFactor`,
+    /// bit for bit, and the lanes the scalar factorization rejects.
+    struct Check {
+        m: usize,
+    }
+
+    impl WithSimd for Check {
+        type Output = ();
+        fn with_simd<S: Simd>(self, simd: S) {
+            let m = self.m;
+            let width = Lanes::<S>::WIDTH;
+            let lanes_of = |values: &dyn Fn(usize) -> f64| {
+                let per_lane: Vec<f64> = (0..width).map(values).collect();
+                Lanes::load(simd, &per_lane)
+            };
+            let scalar: Vec<DenseGram> = (0..width).map(|lane| matrix(m, lane)).collect();
+            let mut a = DenseLanes::zeros(simd, m);
+            for i in 0..m {
+                for j in 0..m {
+                    a.set(i, j, lanes_of(&|lane| scalar[lane].entry(i, j)));
+                }
+            }
+            let b_of = |lane: usize, i: usize| (i as f64 + 0.5 * lane as f64).sin();
+            let b: Vec<Lanes<S>> = (0..m).map(|i| lanes_of(&|lane| b_of(lane, i))).collect();
+            let mut x = vec![Lanes::splat(simd, 0.0); m];
+            let mut factor = LuLanes::zeros(simd, m);
+            let ok = factor.factor(&a, Some((&b, &mut x)));
+            let mut product = vec![Lanes::splat(simd, 0.0); m];
+            a.mul_vec(&b, &mut product);
+            for (lane, gram) in scalar.iter().enumerate() {
+                let mut expected_product = vec![0.0; m];
+                let b_lane: Vec<f64> = (0..m).map(|i| b_of(lane, i)).collect();
+                gram.mul_vec(&b_lane, &mut expected_product);
+                for i in 0..m {
+                    assert_eq!(
+                        product[i].lane(lane).to_bits(),
+                        expected_product[i].to_bits()
+                    );
+                }
+                let mut scalar_factor = gram.new_factor();
+                let factored = gram.factor_into(&mut scalar_factor);
+                assert_eq!(ok.lane(lane), factored.is_ok(), "m = {m}, lane {lane}");
+                if factored.is_ok() {
+                    let mut expected = b_lane.clone();
+                    scalar_factor.solve_in_place(&mut expected);
+                    for i in 0..m {
+                        assert_eq!(
+                            x[i].lane(lane).to_bits(),
+                            expected[i].to_bits(),
+                            "m = {m}, lane {lane}, entry {i}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_factor_and_solve_as_the_scalar_lu_bit_for_bit() {
+        for m in 1..=6 {
+            for width in [
+                LaneWidth::One,
+                LaneWidth::Four,
+                LaneWidth::Eight,
+                LaneWidth::Best,
+            ] {
+                width.dispatch(Check { m });
+            }
+        }
+    }
+
+    #[test]
+    fn the_test_matrices_need_row_interchanges() {
+        // The eliminations above pivot: some lane's first pivot row is not row 0.
+        let a = matrix(4, 0);
+        let first_column: Vec<f64> = (0..4).map(|i| a.entry(i, 0).abs()).collect();
+        assert!(first_column[1..].iter().any(|&c| c >= first_column[0]));
+    }
+}

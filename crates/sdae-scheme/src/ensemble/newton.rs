@@ -1,0 +1,651 @@
+//! The step of [`Stepper`](crate::Stepper) over W lanes for a constraint whose kappa system is
+//! solved by Newton's method, with a diagonal mass: eq. 3.2 for eta, Newton from kappa = 0 for
+//! the kappa system (seed eq. 3.1 upper part) with a convergence mask per lane, the solver's
+//! certificate (ball, plausibility, contraction probes), and the velocity update with lambda
+//! from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower part), whose matrix is the
+//! Newton matrix at the root. The step is written once here; a constraint brings its formulas
+//! over lanes ([`ConstraintLanes`]: g, the Newton matrix, the displacement, Dg u, the local
+//! measure of the motion) and the factorization of its Newton matrix ([`FactorLanes`]): the
+//! bead chain's tridiagonal one (`super::chain`), rigid bonds' dense one (`super::bonds`).
+//!
+//! Each formula is the scalar stepper's, with the same floating-point operations in the same
+//! order, so that a decided lane is the scalar step of its path. A lane Newton does not decide
+//! (no convergence within the iteration limit, a pivot the lane factorization rejects, a root
+//! outside the ball, implausible or not contracting, a non-finite value) finishes its step
+//! through the scalar stepper, with its homotopy fallback and its failures.
+//!
+//! The system's drift and noise come from [`System::drift_lanes`] and
+//! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
+//! scalar functions path by path ([`per_path`]).
+
+use std::marker::PhantomData;
+
+use pulp::{Simd, WithSimd};
+use sdae_ift::Method;
+use sdae_model::lanes::{LaneMask, Lanes, per_path};
+use sdae_model::{LanePaths, LaneRows, Scheme, System, WideKernel, lane_values};
+
+use super::outcome::LaneCertificates;
+use crate::config::StepperConfig;
+use crate::stepper::Stepper;
+
+/// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
+pub(super) type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
+
+/// An m x m matrix of W lanes (the Newton matrix Dg(x) M^-1 grad g(r)).
+pub(super) trait MatrixLanes<Sd: Simd>: Send + Sync + 'static {
+    /// Zeros of order m >= 1.
+    fn zeros(simd: Sd, m: usize) -> Self;
+    /// out = A x, with the scalar storage's `GramMatrix::mul_vec` operations.
+    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
+}
+
+/// The factorization of a [`MatrixLanes`], with the scalar factorization's operations.
+pub(super) trait FactorLanes<Sd: Simd>: Send + Sync + 'static {
+    /// The matrix it factors.
+    type Matrix: MatrixLanes<Sd>;
+    /// Storage for the factors of order m >= 1.
+    fn zeros(simd: Sd, m: usize) -> Self;
+    /// Factors `a`, and with `rhs` = (b, out) solves A out = b; the lanes whose factorization
+    /// the scalar one would accept (the others go through the scalar step).
+    fn factor(&mut self, a: &Self::Matrix, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd>;
+    /// b <- A^-1 b.
+    fn solve_in_place(&self, b: &mut [Lanes<Sd>]);
+}
+
+/// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
+/// operations of the scalar `Constraint` method it names.
+pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
+    /// The factorization of the Newton matrix.
+    type Factor<Sd: Simd>: FactorLanes<Sd>;
+    /// The lane form of the system's constraint, or `None` if it has none (every path then
+    /// steps through the scalar stepper). Asked once, when an ensemble first steps.
+    fn for_system<S: System>(system: &S) -> Option<Self>;
+    /// (n, m).
+    fn dims(&self) -> (usize, usize);
+    /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
+    fn roundoff_length(&self) -> f64;
+    /// (M^-1)_kk.
+    fn inverse_mass(&self) -> &[f64];
+    /// g(x1) into `values` and Dg(x1) M^-1 grad g(r) into `jacobian`
+    /// (`Constraint::value_and_cross_gram`).
+    fn value_and_cross_gram<Sd: Simd>(
+        &self,
+        x1: &[Lanes<Sd>],
+        r: &[Lanes<Sd>],
+        values: &mut [Lanes<Sd>],
+        jacobian: &mut Jacobian<Sd, Self>,
+    );
+    /// out = base + M^-1 grad g(r) z (`Constraint::displace`).
+    fn displace<Sd: Simd>(
+        &self,
+        r: &[Lanes<Sd>],
+        z: &[Lanes<Sd>],
+        base: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    );
+    /// out = Dg(x) u (`Constraint::jacobian_mul`).
+    fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
+    /// The local measure of the motion (`Constraint::local_motion`).
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
+}
+
+/// The Newton matrix of constraint C over lanes of Sd.
+pub(super) type Jacobian<Sd, C> = <<C as ConstraintLanes>::Factor<Sd> as FactorLanes<Sd>>::Matrix;
+
+/// One step of every path of an ensemble whose constraint has the lane form C.
+pub(super) struct StepAll<'a, S: System, C> {
+    stepper: &'a mut Stepper<S>,
+    paths: &'a mut LanePaths,
+    h: f64,
+    dw: &'a [f64],
+    constraint: PhantomData<C>,
+}
+
+impl<'a, S: System, C: ConstraintLanes> StepAll<'a, S, C> {
+    pub(super) fn new(
+        stepper: &'a mut Stepper<S>,
+        paths: &'a mut LanePaths,
+        h: f64,
+        dw: &'a [f64],
+    ) -> Self {
+        Self {
+            stepper,
+            paths,
+            h,
+            dw,
+            constraint: PhantomData,
+        }
+    }
+}
+
+impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
+    type Output = bool;
+    /// `false` if the constraint has no lane form ([`ConstraintLanes::for_system`]).
+    #[inline(always)]
+    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
+        let mut store = std::mem::take(&mut self.stepper.lanes);
+        let kept = store.take::<(Kernel<Sd, C>, LaneRows<Sd>)>().or_else(|| {
+            let system = self.stepper.system();
+            let constraint = C::for_system(system)?;
+            let (n, m) = constraint.dims();
+            let rows = LaneRows::new(simd, n, m, system.noise_dim());
+            Some((Kernel::new(simd, constraint), rows))
+        });
+        let Some((mut kernel, mut rows)) = kept else {
+            self.stepper.lanes = store;
+            return false;
+        };
+        kernel.h = self.h;
+        self.paths
+            .step_wide_groups(self.stepper, (self.h, self.dw), &mut kernel, &mut rows);
+        store.put((kernel, rows));
+        self.stepper.lanes = store;
+        true
+    }
+}
+
+/// The constraint's lane form and the buffers of one group's step.
+struct Kernel<Sd: Simd, C: ConstraintLanes> {
+    simd: Sd,
+    h: f64,
+    constraint: C,
+    /// The drift a(r_k, v_k).
+    a: Vec<Lanes<Sd>>,
+    /// The force, then v~.
+    force: Vec<Lanes<Sd>>,
+    y: Vec<Lanes<Sd>>,
+    x: Vec<Lanes<Sd>>,
+    /// R(0) and R(gamma) of the kappa system.
+    residual_at_zero: Vec<Lanes<Sd>>,
+    residual: Vec<Lanes<Sd>>,
+    /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
+    jacobian: Jacobian<Sd, C>,
+    factor_at_zero: C::Factor<Sd>,
+    factor: C::Factor<Sd>,
+    gamma: Vec<Lanes<Sd>>,
+    step: Vec<Lanes<Sd>>,
+    probe: Vec<Lanes<Sd>>,
+    /// Path-by-path buffers of a system without lane forms of this size.
+    scratch: Vec<f64>,
+}
+
+impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
+    fn new(simd: Sd, constraint: C) -> Self {
+        let (n, m) = constraint.dims();
+        let zero = Lanes::splat(simd, 0.0);
+        Self {
+            simd,
+            h: 0.0,
+            constraint,
+            a: vec![zero; n],
+            force: vec![zero; n],
+            y: vec![zero; n],
+            x: vec![zero; n],
+            residual_at_zero: vec![zero; m],
+            residual: vec![zero; m],
+            jacobian: MatrixLanes::zeros(simd, m),
+            factor_at_zero: FactorLanes::zeros(simd, m),
+            factor: FactorLanes::zeros(simd, m),
+            gamma: vec![zero; m],
+            step: vec![zero; m],
+            probe: vec![zero; m],
+            scratch: Vec::new(),
+        }
+    }
+
+    #[inline(always)]
+    fn splat(&self, x: f64) -> Lanes<Sd> {
+        Lanes::splat(self.simd, x)
+    }
+
+    /// The kappa root's Newton iteration from 0 and its certificate (`BallSolver::solve` on
+    /// the general path, without the homotopy): the lanes it decides, with r_{k+1} in `x`
+    /// (or `y` where the root is 0), the Jacobian at the root factored in `factor` (or
+    /// `factor_at_zero`, `true` in the returned flag's lanes) and the certificate's numbers.
+    #[inline(always)]
+    fn kappa_root_lanes(&mut self, config: &StepperConfig, r: &[Lanes<Sd>]) -> KappaLanes<Sd> {
+        let settings = &config.solver;
+        let zero = self.splat(0.0);
+        let one = self.splat(1.0);
+        // The residual floor of g near y (`Constraint::value_roundoff`) and the tolerance.
+        let mut max_abs_y = zero;
+        for yi in &self.y {
+            max_abs_y = max_abs_y.max(yi.abs());
+        }
+        let floor = self.splat(4.0 * f64::EPSILON) * max_abs_y / self.constraint.roundoff_length();
+        let tolerance = self.splat(settings.tolerance).max(floor);
+
+        // R(0), J(0) at x = y and the first Newton step.
+        self.constraint.value_and_cross_gram(
+            &self.y,
+            r,
+            &mut self.residual_at_zero,
+            &mut self.jacobian,
+        );
+        let mut ok = finite_sum(&self.residual_at_zero);
+        let mut step = std::mem::take(&mut self.step);
+        ok = ok.and(
+            self.factor_at_zero
+                .factor(&self.jacobian, Some((&self.residual_at_zero, &mut step))),
+        );
+        let first_step = sum_squares(&step).sqrt();
+        let residual_at_zero = max_abs(&self.residual_at_zero);
+        let at_zero = residual_at_zero.le(tolerance);
+        for (g, s) in self.gamma.iter_mut().zip(&step) {
+            *g = Lanes::select(at_zero, zero, zero - *s);
+        }
+        let mut iterations = zero;
+        let mut residual = residual_at_zero;
+        let mut active = ok.and(!at_zero);
+        let mut previous = residual_at_zero;
+        let mut iterated = false;
+        let stagnation = self.splat(settings.stagnation_tolerance);
+        let max_iterations = settings.max_iterations;
+        for k in 1..=max_iterations {
+            if !active_any(active) {
+                break;
+            }
+            iterated = true;
+            self.constraint
+                .displace(r, &self.gamma, &self.y, &mut self.x);
+            self.constraint.value_and_cross_gram(
+                &self.x,
+                r,
+                &mut self.residual,
+                &mut self.jacobian,
+            );
+            let r_k = max_abs(&self.residual);
+            let finite = finite_sum(&self.residual);
+            let stagnated = (previous * 0.5).lt(r_k).and(r_k.le(stagnation));
+            let mut converged = r_k.le(tolerance);
+            if k < max_iterations {
+                converged = converged.or(stagnated);
+            }
+            let factored = self
+                .factor
+                .factor(&self.jacobian, Some((&self.residual, &mut step)));
+            // A lane that fails now (no finite residual, a rejected pivot, the last
+            // iteration without convergence) goes through the scalar step.
+            let fails = (!finite).or(!factored).or(if k == max_iterations {
+                !converged
+            } else {
+                !one.eq(one)
+            });
+            ok = ok.and(!active.and(fails));
+            let finished = active.and(converged).and(!fails);
+            let k_lanes = self.splat(k as f64);
+            iterations = Lanes::select(finished, k_lanes, iterations);
+            residual = Lanes::select(finished, r_k, residual);
+            active = active.and(!converged).and(!fails);
+            previous = Lanes::select(active, r_k, previous);
+            if active.all() {
+                for (g, s) in self.gamma.iter_mut().zip(&step) {
+                    *g = *g - *s;
+                }
+            } else {
+                for (g, s) in self.gamma.iter_mut().zip(&step) {
+                    *g = *g - Lanes::select(active, *s, zero);
+                }
+            }
+        }
+        self.step = step;
+
+        // The certificate: the ball, the plausibility bound and the contraction estimate.
+        let norm = sum_squares(&self.gamma).sqrt();
+        let radius = config.c_kappa;
+        ok = ok.and(norm.lt(self.splat(radius)));
+        let bound = first_step * settings.plausibility_factor;
+        let implausible = bound.lt(norm).and(self.splat(64.0 * f64::EPSILON).lt(norm));
+        ok = ok.and(!implausible);
+        let contraction = self.contraction_estimate(radius, settings.contraction_probes, norm);
+        if radius.is_finite() {
+            // NaN (no probes) passes, as in the scalar check.
+            ok = ok.and(!self.splat(settings.max_contraction).le(contraction));
+        }
+        KappaLanes {
+            ok,
+            iterated,
+            at_zero: iterations.eq(zero),
+            iterations,
+            residual,
+            norm,
+            first_step,
+            contraction,
+        }
+    }
+
+    /// Power iteration on J(0)^-1 J(gamma*) - I started along gamma* (`BallSolver`'s
+    /// contraction estimate): one probe where the radius is infinite, `probes` otherwise; NaN
+    /// without probes, 0 at gamma* = 0.
+    #[inline(always)]
+    fn contraction_estimate(&mut self, radius: f64, probes: usize, norm: Lanes<Sd>) -> Lanes<Sd> {
+        let zero = self.splat(0.0);
+        let probes = if radius.is_finite() {
+            probes
+        } else {
+            probes.min(1)
+        };
+        if probes == 0 {
+            return self.splat(f64::NAN);
+        }
+        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
+            *p = *g / norm;
+        }
+        let mut estimate = zero;
+        let mut stopped = !zero.eq(zero);
+        let mut image = std::mem::take(&mut self.step);
+        for _ in 0..probes {
+            self.jacobian.mul_vec(&self.probe, &mut image);
+            self.factor_at_zero.solve_in_place(&mut image);
+            for (s, p) in image.iter_mut().zip(&self.probe) {
+                *s = *s - *p;
+            }
+            let next = sum_squares(&image).sqrt();
+            estimate = Lanes::select(stopped, estimate, next);
+            stopped = stopped.or(estimate.eq(zero));
+            for (p, s) in self.probe.iter_mut().zip(&image) {
+                *p = *s / estimate;
+            }
+        }
+        self.step = image;
+        Lanes::select(norm.eq(zero), zero, estimate)
+    }
+
+    /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw in `force`
+    /// (rescaled by sqrt(eta) where asked), and the group's outcomes.
+    #[inline(always)]
+    fn velocity_lanes(
+        &mut self,
+        config: &StepperConfig,
+        Velocity {
+            mut ok,
+            eta,
+            rescaled: (rescaled, scale),
+            root,
+        }: Velocity<Sd>,
+        (r, v, dmu): GroupRows<'_, Sd>,
+    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+        let zero = self.splat(0.0);
+        let mut force = std::mem::take(&mut self.force);
+        for ((f, vi), w) in force
+            .iter_mut()
+            .zip(v.iter())
+            .zip(self.constraint.inverse_mass())
+        {
+            *f = Lanes::select(rescaled, *f * scale, *f) * *w + *vi;
+        }
+        // lambda = -Dg(r') v~ solved with the Newton matrix at the root.
+        self.constraint.jacobian_mul(&self.x, &force, dmu);
+        for l in dmu.iter_mut() {
+            *l = -*l;
+        }
+        if root.iterated {
+            // Lanes whose root is 0 were evaluated again at 0: their factor is J(0)'s.
+            self.factor.solve_in_place(dmu);
+        } else {
+            self.factor_at_zero.solve_in_place(dmu);
+        }
+        // v' = v~ + M^-1 grad g(r) lambda.
+        self.constraint.displace(r, dmu, &force, v);
+        self.force = force;
+        ok = ok.and(sum_squares(v).is_finite());
+        let velocity_residual = if config.monitor_velocity_constraint {
+            self.constraint.jacobian_mul(&self.x, v, &mut self.residual);
+            max_abs(&self.residual)
+        } else {
+            zero
+        };
+        r.copy_from_slice(&self.x);
+        Some((
+            ok,
+            LaneCertificates {
+                method: Method::Newton,
+                radius: config.c_kappa,
+                monitor_velocity: config.monitor_velocity_constraint,
+                eta: lane_values(eta),
+                iterations: lane_values(root.iterations),
+                residual: lane_values(root.residual),
+                velocity_residual: lane_values(velocity_residual),
+                norm: lane_values(root.norm),
+                first_step: lane_values(root.first_step),
+                contraction: lane_values(root.contraction),
+            },
+        ))
+    }
+
+    /// [`Kernel::kappa_root_lanes`] compiled once per instruction set and constraint, not once
+    /// per system.
+    #[inline(never)]
+    fn kappa_root(&mut self, config: &StepperConfig, r: &[Lanes<Sd>]) -> KappaLanes<Sd> {
+        let simd = self.simd;
+        simd.vectorize(KappaRootOp {
+            kernel: self,
+            config,
+            r,
+        })
+    }
+
+    /// [`Kernel::velocity_lanes`] compiled once per instruction set and constraint, not once
+    /// per system.
+    #[inline(never)]
+    fn velocity(
+        &mut self,
+        config: &StepperConfig,
+        state: Velocity<Sd>,
+        rows: GroupRows<'_, Sd>,
+    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+        let simd = self.simd;
+        simd.vectorize(VelocityOp {
+            kernel: self,
+            config,
+            state,
+            rows,
+        })
+    }
+}
+
+/// [`Kernel::kappa_root_lanes`] as an operation `Simd::vectorize` compiles as a function of
+/// its own with the caller's instruction set (a closure would not inherit it).
+struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
+    kernel: &'a mut Kernel<Sd, C>,
+    config: &'a StepperConfig,
+    r: &'a [Lanes<Sd>],
+}
+
+impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
+    type Output = KappaLanes<Sd>;
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> KappaLanes<Sd> {
+        self.kernel.kappa_root_lanes(self.config, self.r)
+    }
+}
+
+/// [`Kernel::velocity_lanes`] as an operation of its own ([`KappaRootOp`]).
+struct VelocityOp<'a, Sd: Simd, C: ConstraintLanes> {
+    kernel: &'a mut Kernel<Sd, C>,
+    config: &'a StepperConfig,
+    state: Velocity<Sd>,
+    rows: GroupRows<'a, Sd>,
+}
+
+impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
+    type Output = Option<(LaneMask<Sd>, LaneCertificates)>;
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> Self::Output {
+        self.kernel
+            .velocity_lanes(self.config, self.state, self.rows)
+    }
+}
+
+/// r, v and the increment of mu of a group ([`LaneRows`]).
+type GroupRows<'a, Sd> = (
+    &'a mut [Lanes<Sd>],
+    &'a mut [Lanes<Sd>],
+    &'a mut [Lanes<Sd>],
+);
+
+/// What the velocity update needs of the step so far, per lane.
+struct Velocity<Sd: Simd> {
+    ok: LaneMask<Sd>,
+    eta: Lanes<Sd>,
+    /// The lanes whose noise is rescaled, and the factor sqrt(eta) (1 elsewhere).
+    rescaled: (LaneMask<Sd>, Lanes<Sd>),
+    root: KappaLanes<Sd>,
+}
+
+/// What the kappa root's Newton iteration decided, per lane.
+struct KappaLanes<Sd: Simd> {
+    ok: LaneMask<Sd>,
+    /// Whether any Newton iteration ran (then `factor` holds every lane's Jacobian at its root).
+    iterated: bool,
+    /// The lanes whose root is 0 (R(0) within the tolerance): r_{k+1} = y.
+    at_zero: LaneMask<Sd>,
+    iterations: Lanes<Sd>,
+    residual: Lanes<Sd>,
+    norm: Lanes<Sd>,
+    first_step: Lanes<Sd>,
+    contraction: Lanes<Sd>,
+}
+
+impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
+    type Outcomes = LaneCertificates;
+
+    /// Seed eq. 3.1-3.2 for the W lanes of `rows` (module documentation).
+    #[inline(always)]
+    fn step(
+        &mut self,
+        stepper: &Stepper<S>,
+        rows: &mut LaneRows<Sd>,
+    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+        let system = stepper.system();
+        let config = stepper.config();
+        let h = self.h;
+        let one = self.splat(1.0);
+        let LaneRows { r, v, dw, dmu, .. } = rows;
+        let v_norm2 = sum_squares(v);
+        let mut a = std::mem::take(&mut self.a);
+        if !system.drift_lanes(r, v, &mut a) {
+            per_path(
+                [&r[..], &v[..]],
+                &mut a,
+                &mut self.scratch,
+                |[r, v], out| system.drift(r, v, out),
+            );
+        }
+        self.a = a;
+        let a_norm2 = sum_squares(&self.a);
+        let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
+
+        // eta of eq. 3.2, or with the constraint's local measure of the motion.
+        let eta = match config.c_eta {
+            None => one,
+            Some(c_eta) => {
+                let motion = if config.local_size {
+                    self.constraint.local_motion(v, &self.a)
+                } else {
+                    let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
+                    speed.max(speed * speed).max(force)
+                };
+                let size = motion * h;
+                let c = self.splat(c_eta);
+                Lanes::select(c.lt(size), c / size, one)
+            }
+        };
+        let eta_h = eta * h;
+        for ((y, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
+            *y = *ri + eta_h * *vi;
+        }
+        let root = self.kappa_root(config, r);
+        ok = ok.and(root.ok);
+        // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
+        if active_any(root.at_zero) {
+            for (x, y) in self.x.iter_mut().zip(&self.y) {
+                *x = Lanes::select(root.at_zero, *y, *x);
+            }
+        }
+
+        // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled.
+        let rescaled = if config.rescale_noise {
+            eta.lt(one)
+        } else {
+            !one.eq(one)
+        };
+        let scale = Lanes::select(rescaled, eta.sqrt(), one);
+        let drift_h = Lanes::select(rescaled, scale * h, eta_h);
+        for (f, ai) in self.force.iter_mut().zip(&self.a) {
+            *f = drift_h * *ai;
+        }
+        let mut force = std::mem::take(&mut self.force);
+        if !system.add_noise_lanes(r, v, dw, &mut force) {
+            per_path(
+                [&r[..], &v[..], &dw[..]],
+                &mut force,
+                &mut self.scratch,
+                |[r, v, dw], out| system.add_noise(r, v, dw, out),
+            );
+        }
+        self.force = force;
+        self.velocity(
+            config,
+            Velocity {
+                ok,
+                eta,
+                rescaled: (rescaled, scale),
+                root,
+            },
+            (r, v, dmu),
+        )
+    }
+}
+
+/// Whether any lane of `mask` holds.
+#[inline(always)]
+pub(super) fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
+    !(!mask).all()
+}
+
+/// a . b of three coordinates, in order.
+#[inline(always)]
+pub(super) fn dot3<Sd: Simd>(a: &[Lanes<Sd>; 3], b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// |x|^2 with the four partial sums of `sdae_manifold::vector::dot`.
+#[inline(always)]
+fn sum_squares<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
+    let zero = x[0].splat_like(0.0);
+    let mut acc = [zero; 4];
+    let chunks = x.chunks_exact(4);
+    let mut tail = zero;
+    for xi in chunks.remainder() {
+        tail = tail + *xi * *xi;
+    }
+    for c in chunks {
+        for k in 0..4 {
+            acc[k] = acc[k] + c[k] * c[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// max_i |x_i| of finite entries (`sdae_manifold::vector::max_abs`).
+#[inline(always)]
+fn max_abs<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
+    let mut largest = x[0].splat_like(0.0);
+    for xi in x {
+        largest = largest.max(xi.abs());
+    }
+    largest
+}
+
+/// The lanes where every entry of x is finite (their sum is finite; an overflowing sum of
+/// finite entries counts as not finite, which sends the lane to the scalar step).
+#[inline(always)]
+fn finite_sum<Sd: Simd>(x: &[Lanes<Sd>]) -> LaneMask<Sd> {
+    let mut sum = x[0].splat_like(0.0);
+    for xi in x {
+        sum = sum + *xi;
+    }
+    sum.is_finite()
+}

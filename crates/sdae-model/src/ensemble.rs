@@ -111,7 +111,7 @@ pub trait PathEnsemble {
         })
     }
     /// What path p's steps did so far.
-    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError>;
+    fn diagnostics(&self, p: usize) -> Result<PathDiagnostics, ModelError>;
     /// Why path p stopped on a failed step, or `None`.
     fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError>;
     /// Stops path p (its caller found it failed, say beyond a blow-up bound): it takes no
@@ -283,9 +283,9 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
         Ok(())
     }
 
-    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
+    fn diagnostics(&self, p: usize) -> Result<PathDiagnostics, ModelError> {
         check_path(p, self.paths())?;
-        Ok(&self.states[p].diagnostics)
+        Ok(self.states[p].diagnostics.clone())
     }
 
     fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError> {

@@ -56,8 +56,9 @@ use sdae_manifold::Constraint;
 use crate::driver::PathDiagnostics;
 use crate::ensemble::{PathEnsemble, check_path, for_each_row, lane_stride};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
+use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
-use crate::scheme::{Scheme, StepOutcome};
+use crate::scheme::Scheme;
 use crate::system::System;
 
 /// A [`Scheme`] that may step many paths at once: [`LaneEnsemble`] calls
@@ -96,7 +97,7 @@ pub struct LanePaths {
     failures: Vec<Option<StepFailure>>,
     /// How many of `failures` are `Some`.
     failed: usize,
-    diagnostics: Vec<PathDiagnostics>,
+    diagnostics: DiagnosticsColumns,
     /// Path-steps taken by the scalar step.
     scalar_steps: usize,
     /// One path's r, v and dw for the scalar step.
@@ -107,8 +108,8 @@ pub struct LanePaths {
 
 /// What a lane form computed for the W lanes of one group ([`LanePaths::step_groups`]) of a
 /// system with one constraint: the lanes it decided (`ok`), their (r, v) after the step, the
-/// increment of mu and each lane's [`StepOutcome`].
-pub struct LaneStep<Sd: Simd, const N: usize, O: LaneOutcomes> {
+/// increment of mu and what each lane's step outcome adds to its diagnostics.
+pub struct LaneStep<Sd: Simd, const N: usize> {
     /// The lanes whose step the lane form decided; the others go through the scalar step.
     pub ok: LaneMask<Sd>,
     /// r_{k+1}.
@@ -117,15 +118,13 @@ pub struct LaneStep<Sd: Simd, const N: usize, O: LaneOutcomes> {
     pub v: [Lanes<Sd>; N],
     /// mu_{k+1} - mu_k.
     pub dmu: Lanes<Sd>,
-    /// The outcome of each decided lane.
-    pub outcomes: O,
+    /// What each decided lane's step adds to its path's diagnostics.
+    pub record: LaneRecord<Sd>,
 }
 
 /// The lane form of a scheme's step for systems of N coordinates and one constraint
 /// ([`LanePaths::step_groups`]).
 pub trait LaneKernel<Sch: ?Sized, const N: usize> {
-    /// The outcomes of a group's steps.
-    type Outcomes: LaneOutcomes;
     /// The step of W lanes from (r, v) with increments dw (l of them); `None` if this group
     /// must go through the scalar step (say, the system has no lane form). Implementations
     /// should be `#[inline(always)]`, so that they compile with the instruction set of `Sd`.
@@ -135,28 +134,7 @@ pub trait LaneKernel<Sch: ?Sized, const N: usize> {
         r: &[Lanes<Sd>; N],
         v: &[Lanes<Sd>; N],
         dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N, Self::Outcomes>>;
-}
-
-/// The [`StepOutcome`] of each lane of a [`LaneStep`].
-pub trait LaneOutcomes {
-    /// The outcome of lane `lane` < W, as the scalar step reports it.
-    fn outcome(&self, lane: usize) -> StepOutcome;
-}
-
-/// A lane's values as plain f64 (the first W entries).
-#[inline(always)]
-pub fn lane_values<Sd: Simd>(x: Lanes<Sd>) -> [f64; crate::LANE_BLOCK] {
-    let mut values = [0.0; crate::LANE_BLOCK];
-    x.store(&mut values);
-    values
-}
-
-/// The lanes of a mask as booleans (the first W entries).
-#[inline(always)]
-fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; crate::LANE_BLOCK] {
-    let one = Lanes::splat(mask.simd(), 1.0);
-    lane_values(Lanes::select(mask, one, one.splat_like(0.0))).map(|x| x == 1.0)
+    ) -> Option<LaneStep<Sd, N>>;
 }
 
 impl LanePaths {
@@ -187,7 +165,7 @@ impl LanePaths {
             alive: vec![0.0; stride],
             failures: vec![None; paths],
             failed: 0,
-            diagnostics: vec![PathDiagnostics::default(); paths],
+            diagnostics: DiagnosticsColumns::new(stride),
             scalar_steps: 0,
             lane_r: vec![0.0; n],
             lane_v: vec![0.0; n],
@@ -238,7 +216,7 @@ impl LanePaths {
         self.alive[..self.paths].fill(1.0);
         self.failures.fill(None);
         self.failed = 0;
-        self.diagnostics.fill(PathDiagnostics::default());
+        self.diagnostics = DiagnosticsColumns::new(stride);
         Ok(())
     }
 
@@ -280,7 +258,7 @@ impl LanePaths {
                 for (j, d) in scheme.multiplier_increment().iter().enumerate() {
                     self.mu[j * self.stride + p] += d;
                 }
-                self.diagnostics[p].record(&outcome, h);
+                self.diagnostics.record(p, &outcome, h);
             }
             Err(failure) => {
                 self.alive[p] = 0.0;
@@ -334,7 +312,7 @@ impl LanePaths {
             }
             let mu = Lanes::load(simd, &self.mu[offset..]);
             Lanes::select(done, mu + step.dmu, mu).store(&mut self.mu[offset..]);
-            self.finish_group(scheme, (h, dw), offset, (alive, done), &step.outcomes);
+            self.finish_group(scheme, (h, dw), offset, (alive, done), &step.record);
         }
         true
     }
@@ -368,7 +346,7 @@ impl LanePaths {
             load_into(&mut rows.r, &self.r, stride, offset);
             load_into(&mut rows.v, &self.v, stride, offset);
             load_into(&mut rows.dw, dw, stride, offset);
-            let Some((ok, outcomes)) = kernel.step(scheme, rows) else {
+            let Some((ok, record)) = kernel.step(scheme, rows) else {
                 for p in offset..(offset + Sd::F64_LANES).min(self.paths) {
                     self.step_one(scheme, p, h, dw);
                 }
@@ -381,35 +359,32 @@ impl LanePaths {
                 *dmu = *dmu + Lanes::load(simd, &self.mu[j * stride + offset..]);
             }
             store_selected(done, &rows.dmu, &mut self.mu, stride, offset);
-            self.finish_group(scheme, (h, dw), offset, (alive, done), &outcomes);
+            self.finish_group(scheme, (h, dw), offset, (alive, done), &record);
         }
     }
 
     /// The diagnostics of a group's decided lanes (`done`) and the scalar step of its other
     /// lanes that go on (`alive`).
     #[inline(always)]
-    fn finish_group<Sch, Sd, O>(
+    fn finish_group<Sch, Sd>(
         &mut self,
         scheme: &mut Sch,
         (h, dw): (f64, &[f64]),
         offset: usize,
         (alive, done): (LaneMask<Sd>, LaneMask<Sd>),
-        outcomes: &O,
+        record: &LaneRecord<Sd>,
     ) where
         Sch: Scheme + ?Sized,
         Sd: Simd,
-        O: LaneOutcomes,
     {
-        let (alive, done) = (mask_values(alive), mask_values(done));
+        self.diagnostics.record_lanes(offset, done, record, h);
+        let undecided = alive.and(!done);
+        if (!undecided).all() {
+            return;
+        }
         for lane in 0..Sd::F64_LANES {
-            let p = offset + lane;
-            if p >= self.paths || !alive[lane] {
-                continue;
-            }
-            if done[lane] {
-                self.diagnostics[p].record(&outcomes.outcome(lane), h);
-            } else {
-                self.step_one(scheme, p, h, dw);
+            if undecided.lane(lane) {
+                self.step_one(scheme, offset + lane, h, dw);
             }
         }
     }
@@ -452,16 +427,14 @@ impl<Sd: Simd> LaneRows<Sd> {
 /// The lane form of a scheme's step for systems of any size ([`LanePaths::step_wide_groups`]),
 /// with buffers of its own for the instruction set `Sd`.
 pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
-    /// The outcomes of a group's steps.
-    type Outcomes: LaneOutcomes;
     /// The step of the W lanes of `rows` (r_k, v_k, dw) into `rows` (r_{k+1}, v_{k+1} and the
-    /// increment of mu) for the lanes it decides, which it returns with their outcomes; `None`
-    /// if this group must go through the scalar step.
+    /// increment of mu) for the lanes it decides, which it returns with what their steps add
+    /// to their diagnostics; `None` if this group must go through the scalar step.
     fn step(
         &mut self,
         scheme: &Sch,
         rows: &mut LaneRows<Sd>,
-    ) -> Option<(LaneMask<Sd>, Self::Outcomes)>;
+    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
 }
 
 /// Buffers of a lane form kept between steps whatever their instruction set (the set is chosen
@@ -634,9 +607,9 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
         })
     }
 
-    fn diagnostics(&self, p: usize) -> Result<&PathDiagnostics, ModelError> {
+    fn diagnostics(&self, p: usize) -> Result<PathDiagnostics, ModelError> {
         check_path(p, self.paths.paths)?;
-        Ok(&self.paths.diagnostics[p])
+        Ok(self.paths.diagnostics.get(p))
     }
 
     fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError> {
@@ -672,6 +645,21 @@ fn load_into<Sd: Simd>(rows: &mut [Lanes<Sd>], from: &[f64], stride: usize, offs
     for (i, row) in rows.iter_mut().enumerate() {
         *row = Lanes::load(row.simd(), &from[i * stride + offset..]);
     }
+}
+
+/// A lane's values as plain f64 (the first W entries).
+#[inline(always)]
+fn lane_values<Sd: Simd>(x: Lanes<Sd>) -> [f64; crate::LANE_BLOCK] {
+    let mut values = [0.0; crate::LANE_BLOCK];
+    x.store(&mut values);
+    values
+}
+
+/// The lanes of a mask as booleans (the first W entries).
+#[inline(always)]
+fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; crate::LANE_BLOCK] {
+    let one = Lanes::splat(mask.simd(), 1.0);
+    lane_values(Lanes::select(mask, one, one.splat_like(0.0))).map(|x| x == 1.0)
 }
 
 /// Row i of `to` from `offset` = rows[i] where `done`, unchanged elsewhere: whole rows where

@@ -78,6 +78,7 @@ mod ensemble;
 mod error;
 mod grid;
 mod increments;
+mod lane_diagnostics;
 mod lane_ensemble;
 pub mod lanes;
 mod normals;
@@ -99,9 +100,9 @@ pub use grid::TimeGrid;
 pub use increments::{
     Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
 };
+pub use lane_diagnostics::LaneRecord;
 pub use lane_ensemble::{
-    LaneEnsemble, LaneKernel, LaneOutcomes, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore,
-    WideKernel, lane_values,
+    LaneEnsemble, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore, WideKernel,
 };
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};

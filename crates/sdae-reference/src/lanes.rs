@@ -18,8 +18,7 @@ use sdae_ift::SolverSettings;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_model::{
-    LaneKernel, LaneOutcomes, LanePaths, LaneScheme, LaneStep, Scheme, SphereRoot, StepOutcome,
-    System, lane_values,
+    LaneKernel, LanePaths, LaneRecord, LaneScheme, LaneStep, Scheme, SphereRoot, System,
 };
 
 use crate::euler::EulerMaruyama;
@@ -153,8 +152,6 @@ struct Kernel<const N: usize> {
 }
 
 impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
-    type Outcomes = Outcomes;
-
     #[inline(always)]
     fn step<Sd: Simd>(
         &self,
@@ -162,7 +159,7 @@ impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
         r: &[Lanes<Sd>; N],
         v: &[Lanes<Sd>; N],
         dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+    ) -> Option<LaneStep<Sd, N>> {
         let (system, h) = (scheme.system(), self.h);
         match self.method {
             Method::Euler => self.sde.euler(system, (r, v), h, dw, None),
@@ -172,26 +169,6 @@ impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
                 let step = self.sde.euler(system, (r, v), h, dw, None)?;
                 self.projection.map(|root| self.sde.project(&root, step))
             }
-        }
-    }
-}
-
-/// The outcomes of a group's steps: plain, or with each lane's truncation factor theta
-/// ([`StepOutcome::eta`]).
-enum Outcomes {
-    Plain,
-    Truncated([f64; sdae_model::LANE_BLOCK]),
-}
-
-impl LaneOutcomes for Outcomes {
-    #[inline(always)]
-    fn outcome(&self, lane: usize) -> StepOutcome {
-        match self {
-            Outcomes::Plain => StepOutcome::PLAIN,
-            Outcomes::Truncated(theta) => StepOutcome {
-                eta: theta[lane],
-                ..StepOutcome::PLAIN
-            },
         }
     }
 }
@@ -305,7 +282,7 @@ impl<const N: usize> SphereSde<N> {
         h: f64,
         dw: &[Lanes<Sd>],
         scale: Option<f64>,
-    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+    ) -> Option<LaneStep<Sd, N>> {
         let parts = self.parts(system, (r, v), dw)?;
         Some(Self::euler_with(&parts, (r, v), h, scale))
     }
@@ -317,7 +294,7 @@ impl<const N: usize> SphereSde<N> {
         (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
         h: f64,
         scale: Option<f64>,
-    ) -> LaneStep<Sd, N, Outcomes> {
+    ) -> LaneStep<Sd, N> {
         let one = r[0].splat_like(1.0);
         let theta = match scale {
             None => one,
@@ -339,16 +316,13 @@ impl<const N: usize> SphereSde<N> {
             .and(all_finite(&next_v))
             .and(all_finite(&next_r))
             .and(dmu.is_finite());
-        let outcomes = match scale {
-            None => Outcomes::Plain,
-            Some(_) => Outcomes::Truncated(lane_values(theta)),
-        };
+        // A plain step, with the truncation factor theta where truncated (`StepOutcome::eta`).
         LaneStep {
             ok,
             r: next_r,
             v: next_v,
             dmu,
-            outcomes,
+            record: LaneRecord::plain(theta),
         }
     }
 
@@ -362,7 +336,7 @@ impl<const N: usize> SphereSde<N> {
         (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
         h: f64,
         dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N, Outcomes>> {
+    ) -> Option<LaneStep<Sd, N>> {
         let parts = self.parts(system, (r, v), dw)?;
         let predictor = Self::euler_with(&parts, (r, v), h, None);
         let at_predictor = self.parts(system, (&predictor.r, &predictor.v), &[])?;
@@ -384,7 +358,7 @@ impl<const N: usize> SphereSde<N> {
             r: next_r,
             v: next_v,
             dmu,
-            outcomes: Outcomes::Plain,
+            record: LaneRecord::plain(r[0].splat_like(1.0)),
         })
     }
 }
@@ -394,11 +368,7 @@ impl<const N: usize> SphereSde<N> {
     /// root's point of the projection of y along its normal (`root`, with r = y; y itself
     /// where gamma = 0), then v' = u - M^-1 grad g(r') G_M(r')^-1 Dg(r') u.
     #[inline(always)]
-    fn project<Sd: Simd>(
-        &self,
-        root: &SphereRoot<N>,
-        step: LaneStep<Sd, N, Outcomes>,
-    ) -> LaneStep<Sd, N, Outcomes> {
+    fn project<Sd: Simd>(&self, root: &SphereRoot<N>, step: LaneStep<Sd, N>) -> LaneStep<Sd, N> {
         let (y, u) = (step.r, step.v);
         let position = root.solve(&y, &y);
         let zero = y[0].splat_like(0.0);

@@ -87,7 +87,6 @@ mod bonds;
 mod chain;
 mod dense;
 mod newton;
-mod outcome;
 mod sphere;
 mod tridiagonal;
 

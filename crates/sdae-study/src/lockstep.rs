@@ -214,10 +214,7 @@ impl Dims {
 }
 
 /// The diagnostics of path p of `ensemble` (its steps, its clock lag).
-fn diagnostics_of<S: System>(
-    ensemble: &dyn PathEnsemble<System = S>,
-    p: usize,
-) -> &PathDiagnostics {
+fn diagnostics_of<S: System>(ensemble: &dyn PathEnsemble<System = S>, p: usize) -> PathDiagnostics {
     ensemble.diagnostics(p).expect("p is a path of the block")
 }
 
@@ -769,7 +766,7 @@ pub fn run_block<S: System>(
             .zip(&mut states)
             .map(|(ensemble, track)| {
                 let diagnostics = ensemble.diagnostics(p).expect("p is a path of the block");
-                std::mem::take(&mut track[p]).finish(diagnostics, has_reference)
+                std::mem::take(&mut track[p]).finish(&diagnostics, has_reference)
             })
             .collect();
     }

@@ -21,11 +21,9 @@
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
-use sdae_ift::Method;
 use sdae_model::lanes::{LaneMask, Lanes, per_path};
-use sdae_model::{LanePaths, LaneRows, Scheme, System, WideKernel, lane_values};
+use sdae_model::{LanePaths, LaneRecord, LaneRows, Scheme, System, WideKernel};
 
-use super::outcome::LaneCertificates;
 use crate::config::StepperConfig;
 use crate::stepper::Stepper;
 
@@ -310,7 +308,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             iterations,
             residual,
             norm,
-            first_step,
             contraction,
         }
     }
@@ -365,7 +362,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             root,
         }: Velocity<Sd>,
         (r, v, dmu): GroupRows<'_, Sd>,
-    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let zero = self.splat(0.0);
         let mut force = std::mem::take(&mut self.force);
         for ((f, vi), w) in force
@@ -399,17 +396,14 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         r.copy_from_slice(&self.x);
         Some((
             ok,
-            LaneCertificates {
-                method: Method::Newton,
-                radius: config.c_kappa,
-                monitor_velocity: config.monitor_velocity_constraint,
-                eta: lane_values(eta),
-                iterations: lane_values(root.iterations),
-                residual: lane_values(root.residual),
-                velocity_residual: lane_values(velocity_residual),
-                norm: lane_values(root.norm),
-                first_step: lane_values(root.first_step),
-                contraction: lane_values(root.contraction),
+            LaneRecord {
+                eta,
+                newton_iterations: root.iterations,
+                position_residual: Some(root.residual),
+                velocity_residual: config
+                    .monitor_velocity_constraint
+                    .then_some(velocity_residual),
+                certificate: Some((root.contraction, kappa_ratio(root.norm, config.c_kappa))),
             },
         ))
     }
@@ -434,7 +428,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         config: &StepperConfig,
         state: Velocity<Sd>,
         rows: GroupRows<'_, Sd>,
-    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let simd = self.simd;
         simd.vectorize(VelocityOp {
             kernel: self,
@@ -470,7 +464,7 @@ struct VelocityOp<'a, Sd: Simd, C: ConstraintLanes> {
 }
 
 impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
-    type Output = Option<(LaneMask<Sd>, LaneCertificates)>;
+    type Output = Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> Self::Output {
         self.kernel
@@ -504,20 +498,17 @@ struct KappaLanes<Sd: Simd> {
     iterations: Lanes<Sd>,
     residual: Lanes<Sd>,
     norm: Lanes<Sd>,
-    first_step: Lanes<Sd>,
     contraction: Lanes<Sd>,
 }
 
 impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
-    type Outcomes = LaneCertificates;
-
     /// Seed eq. 3.1-3.2 for the W lanes of `rows` (module documentation).
     #[inline(always)]
     fn step(
         &mut self,
         stepper: &Stepper<S>,
         rows: &mut LaneRows<Sd>,
-    ) -> Option<(LaneMask<Sd>, LaneCertificates)> {
+    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let system = stepper.system();
         let config = stepper.config();
         let h = self.h;
@@ -597,6 +588,13 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             (r, v, dmu),
         )
     }
+}
+
+/// |kappa| / C_kappa of the certificate where the ball's radius C_kappa is finite
+/// (`PathDiagnostics::max_kappa_ratio`).
+#[inline(always)]
+pub(super) fn kappa_ratio<Sd: Simd>(norm: Lanes<Sd>, radius: f64) -> Option<Lanes<Sd>> {
+    radius.is_finite().then(|| norm / radius)
 }
 
 /// Whether any lane of `mask` holds.

@@ -5,14 +5,13 @@
 //! scalar stepper's, with the same floating-point operations in the same order.
 
 use pulp::{Simd, WithSimd};
-use sdae_ift::Method;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::lanes::{Lanes, dot};
 use sdae_model::{
-    LANE_BLOCK, LaneKernel, LanePaths, LaneStep, RootLanes, Scheme, SphereRoot, System, lane_values,
+    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, Scheme, SphereRoot, System,
 };
 
-use super::outcome::LaneCertificates;
+use super::newton::kappa_ratio;
 use crate::stepper::Stepper;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
@@ -93,8 +92,6 @@ impl<const N: usize> Kernel<N> {
 }
 
 impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
-    type Outcomes = LaneCertificates;
-
     /// The step of W lanes from (r, v) with increments dw; `None` if the system has no lane
     /// form.
     #[inline(always)]
@@ -104,7 +101,7 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         r: &[Lanes<Sd>; N],
         v: &[Lanes<Sd>; N],
         dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N, LaneCertificates>> {
+    ) -> Option<LaneStep<Sd, N>> {
         let system = stepper.system();
         let zero = r[0].splat_like(0.0);
         let one = zero.splat_like(1.0);
@@ -142,7 +139,6 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         let RootLanes {
             x,
             norm,
-            first_step,
             contraction,
             residual,
             gram,
@@ -187,17 +183,12 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
             r: x,
             v: v_new,
             dmu: lambda,
-            outcomes: LaneCertificates {
-                method: Method::ClosedForm,
-                radius: self.root.radius(),
-                iterations: [0.0; LANE_BLOCK],
-                monitor_velocity: self.monitor_velocity,
-                eta: lane_values(eta),
-                residual: lane_values(residual),
-                velocity_residual: lane_values(velocity_residual),
-                norm: lane_values(norm),
-                first_step: lane_values(first_step),
-                contraction: lane_values(contraction),
+            record: LaneRecord {
+                eta,
+                newton_iterations: zero,
+                position_residual: Some(residual),
+                velocity_residual: self.monitor_velocity.then_some(velocity_residual),
+                certificate: Some((contraction, kappa_ratio(norm, self.root.radius()))),
             },
         })
     }

@@ -12,7 +12,7 @@ use sdae_model::System;
 use sdae_model::lanes::Lanes;
 
 use super::dense::{DenseLanes, LuLanes};
-use super::newton::{ConstraintLanes, dot3};
+use super::newton::{ConstraintLanes, InverseMass, dot3};
 
 /// The bond network's constants for a diagonal mass.
 pub(super) struct BondLanes {
@@ -25,8 +25,7 @@ pub(super) struct BondLanes {
     start: Vec<usize>,
     incidence: Vec<(usize, f64)>,
     shortest: f64,
-    /// (M^-1)_kk.
-    inverse_mass: Vec<f64>,
+    inverse_mass: InverseMass,
 }
 
 impl BondLanes {
@@ -62,9 +61,7 @@ impl ConstraintLanes for BondLanes {
             start,
             incidence,
             shortest: network.shortest(),
-            inverse_mass: (0..network.dim())
-                .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
-                .collect(),
+            inverse_mass: InverseMass::of(mass, network.dim()),
         })
     }
 
@@ -76,7 +73,7 @@ impl ConstraintLanes for BondLanes {
         self.shortest
     }
 
-    fn inverse_mass(&self) -> &[f64] {
+    fn inverse_mass(&self) -> &InverseMass {
         &self.inverse_mass
     }
 
@@ -104,10 +101,14 @@ impl ConstraintLanes for BondLanes {
             }
         }
         for c in 0..self.atoms {
-            let w = &self.inverse_mass[3 * c..3 * c + 3];
+            let (w, k) = (&self.inverse_mass, 3 * c);
             for &(a, sa) in self.incident(c) {
                 let da = bond_vector(x1, &self.bonds[a]);
-                let wa = [da[0] * w[0], da[1] * w[1], da[2] * w[2]];
+                let wa = [
+                    w.apply(k, da[0]),
+                    w.apply(k + 1, da[1]),
+                    w.apply(k + 2, da[2]),
+                ];
                 for &(b, sb) in self.incident(c) {
                     let db = bond_vector(r, &self.bonds[b]);
                     let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
@@ -141,8 +142,8 @@ impl ConstraintLanes for BondLanes {
                 out[3 * bond.j + c] = out[3 * bond.j + c] - f;
             }
         }
-        for ((o, w), y) in out.iter_mut().zip(&self.inverse_mass).zip(base) {
-            *o = *o * *w + *y;
+        for (k, (o, y)) in out.iter_mut().zip(base).enumerate() {
+            *o = self.inverse_mass.apply(k, *o) + *y;
         }
     }
 

@@ -8,7 +8,7 @@ use sdae_manifold::{Constraint, Mass};
 use sdae_model::System;
 use sdae_model::lanes::Lanes;
 
-use super::newton::{ConstraintLanes, dot3};
+use super::newton::{ConstraintLanes, InverseMass, dot3};
 use super::tridiagonal::{ThomasLanes, TridiagonalLanes};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
@@ -16,16 +16,16 @@ pub(super) struct ChainLanes {
     beads: usize,
     segment: f64,
     inv_ds2: f64,
-    /// (M^-1)_kk.
-    inverse_mass: Vec<f64>,
+    inverse_mass: InverseMass,
 }
 
 impl ChainLanes {
     /// (M^-1)_kk a_k b_k summed over bead j's three coordinates, in the scalar order.
     #[inline(always)]
     fn weighted<Sd: Simd>(&self, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
-        let w = &self.inverse_mass[3 * bead..3 * bead + 3];
-        a[0] * w[0] * b[0] + a[1] * w[1] * b[1] + a[2] * w[2] * b[2]
+        let w = &self.inverse_mass;
+        let k = 3 * bead;
+        w.apply(k, a[0]) * b[0] + w.apply(k + 1, a[1]) * b[1] + w.apply(k + 2, a[2]) * b[2]
     }
 }
 
@@ -44,9 +44,7 @@ impl ConstraintLanes for ChainLanes {
             beads: chain.beads(),
             segment: chain.segment(),
             inv_ds2: chain.inverse_segment_squared(),
-            inverse_mass: (0..chain.dim())
-                .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
-                .collect(),
+            inverse_mass: InverseMass::of(mass, chain.dim()),
         })
     }
 
@@ -58,7 +56,7 @@ impl ConstraintLanes for ChainLanes {
         self.segment
     }
 
-    fn inverse_mass(&self) -> &[f64] {
+    fn inverse_mass(&self) -> &InverseMass {
         &self.inverse_mass
     }
 
@@ -112,13 +110,13 @@ impl ConstraintLanes for ChainLanes {
             ];
             for c in 0..3 {
                 let k = 3 * i + c;
-                out[k] = base[k] + (current[c] - previous[c]) * w[k];
+                out[k] = base[k] + w.apply(k, current[c] - previous[c]);
             }
             previous = current;
         }
         let last = 3 * (self.beads - 1);
         for c in 0..3 {
-            out[last + c] = base[last + c] + (-previous[c]) * w[last + c];
+            out[last + c] = base[last + c] + w.apply(last + c, -previous[c]);
         }
     }
 

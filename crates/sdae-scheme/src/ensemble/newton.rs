@@ -21,6 +21,7 @@
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
+use sdae_manifold::Mass;
 use sdae_model::lanes::{LaneMask, Lanes, per_path};
 use sdae_model::{LanePaths, LaneRecord, LaneRows, Scheme, System, WideKernel};
 
@@ -63,8 +64,8 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
     fn dims(&self) -> (usize, usize);
     /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
     fn roundoff_length(&self) -> f64;
-    /// (M^-1)_kk.
-    fn inverse_mass(&self) -> &[f64];
+    /// M^-1.
+    fn inverse_mass(&self) -> &InverseMass;
     /// g(x1) into `values` and Dg(x1) M^-1 grad g(r) into `jacobian`
     /// (`Constraint::value_and_cross_gram`).
     fn value_and_cross_gram<Sd: Simd>(
@@ -86,6 +87,30 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
     fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
     /// The local measure of the motion (`Constraint::local_motion`).
     fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
+}
+
+/// A diagonal M^-1 applied to lanes: x (M^-1)_kk, or x itself where M^-1 = I (every entry 1:
+/// x * 1 = x exactly, so leaving out the products changes no bit of the scalar step's).
+pub(super) struct InverseMass {
+    entries: Vec<f64>,
+    unit: bool,
+}
+
+impl InverseMass {
+    /// The diagonal (M^-1)_kk of `mass`, k < n.
+    pub(super) fn of<M: Mass>(mass: &M, n: usize) -> Self {
+        let entries: Vec<f64> = (0..n)
+            .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
+            .collect();
+        let unit = entries.iter().all(|&w| w == 1.0);
+        Self { entries, unit }
+    }
+
+    /// x (M^-1)_kk.
+    #[inline(always)]
+    pub(super) fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
+        if self.unit { x } else { x * self.entries[k] }
+    }
 }
 
 /// The Newton matrix of constraint C over lanes of Sd.
@@ -332,7 +357,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let mut estimate = zero;
         let mut stopped = !zero.eq(zero);
         let mut image = std::mem::take(&mut self.step);
-        for _ in 0..probes {
+        for probe in 0..probes {
             self.jacobian.mul_vec(&self.probe, &mut image);
             self.factor_at_zero.solve_in_place(&mut image);
             for (s, p) in image.iter_mut().zip(&self.probe) {
@@ -341,8 +366,10 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             let next = sum_squares(&image).sqrt();
             estimate = Lanes::select(stopped, estimate, next);
             stopped = stopped.or(estimate.eq(zero));
-            for (p, s) in self.probe.iter_mut().zip(&image) {
-                *p = *s / estimate;
+            if probe + 1 < probes {
+                for (p, s) in self.probe.iter_mut().zip(&image) {
+                    *p = *s / estimate;
+                }
             }
         }
         self.step = image;
@@ -365,12 +392,9 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let zero = self.splat(0.0);
         let mut force = std::mem::take(&mut self.force);
-        for ((f, vi), w) in force
-            .iter_mut()
-            .zip(v.iter())
-            .zip(self.constraint.inverse_mass())
-        {
-            *f = Lanes::select(rescaled, *f * scale, *f) * *w + *vi;
+        let inverse_mass = self.constraint.inverse_mass();
+        for (k, (f, vi)) in force.iter_mut().zip(v.iter()).enumerate() {
+            *f = inverse_mass.apply(k, Lanes::select(rescaled, *f * scale, *f)) + *vi;
         }
         // lambda = -Dg(r') v~ solved with the Newton matrix at the root.
         self.constraint.jacobian_mul(&self.x, &force, dmu);

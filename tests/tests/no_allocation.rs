@@ -1,6 +1,7 @@
 //! No scheme allocates per step: all buffers are created with it. Every scheme on the pendulum
 //! (scalar Gram matrix) and on bead chains (tridiagonal Gram matrix, m > 1), and the one-shot
-//! evaluations of the inherent SDE.
+//! evaluations of the inherent SDE; and an ensemble's step in SIMD lanes (sphere, bead chain,
+//! rigid bonds) once its first step has made the lanes' buffers.
 
 mod common;
 
@@ -9,14 +10,15 @@ use std::cell::Cell;
 
 use sdae_manifold::{BeadChain, IdentityMass};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, System, ZeroDrift,
+    AdditiveNoise, EnsembleIncrements, GaussianIncrements, IncrementSource, MechanicalSystem,
+    PathEnsemble, Scheme, System, ZeroDrift,
 };
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, InherentSde, ProjectedEulerMaruyama, StochasticHeun,
     TruncatedEulerMaruyama,
 };
-use sdae_scheme::{Stepper, StepperConfig};
-use sdae_systems::{PendulumParams, pendulum};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
+use sdae_systems::{PendulumParams, RigidTriatomicParams, pendulum, rigid_triatomic};
 
 struct Counting;
 
@@ -152,4 +154,70 @@ fn steps_do_not_allocate() {
     let probe = std::hint::black_box(vec![1.0_f64; 4]);
     assert_eq!(allocations() - before, 1);
     drop(probe);
+}
+
+/// Allocations made by the ensemble steps of 11 paths of `system` from `state`, after the first
+/// step (which makes the lanes' buffers); panics unless every path-step was decided in lanes.
+fn allocations_of_ensemble_steps<S: System>(
+    system: S,
+    config: StepperConfig,
+    (r, v): (&[f64], &[f64]),
+    h: f64,
+) -> usize {
+    const PATHS: usize = 11;
+    let l = system.noise_dim();
+    let mut ensemble = Ensemble::new(Stepper::new(system, config).unwrap(), PATHS, r, v).unwrap();
+    let indices: Vec<u64> = (0..PATHS as u64).collect();
+    let mut noise = EnsembleIncrements::for_paths(3, &indices, l);
+    let mut dw = vec![0.0; l * ensemble.stride()];
+    let mut count = 0;
+    for step in 0..200 {
+        noise.fill(h, &mut dw).unwrap();
+        let before = allocations();
+        ensemble.step(h, &dw).unwrap();
+        if step > 0 {
+            count += allocations() - before;
+        }
+    }
+    assert_eq!((ensemble.failed_paths(), ensemble.scalar_steps()), (0, 0));
+    count
+}
+
+#[test]
+fn ensemble_steps_in_lanes_do_not_allocate() {
+    let system = pendulum(PendulumParams::default()).unwrap();
+    let config = StepperConfig::for_system(&system)
+        .unwrap()
+        .with_c_eta(1.0)
+        .unwrap();
+    let state = (&[1.0, 0.0][..], &[0.0, 1.0][..]);
+    assert_eq!(
+        allocations_of_ensemble_steps(system, config, state, 1e-3),
+        0,
+        "pendulum"
+    );
+
+    let system = common::chain_system(50, 1.0);
+    let chain = *system.constraint();
+    let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
+    let state = (&chain.zigzag(0.5)[..], &vec![0.0; 150][..]);
+    assert_eq!(
+        allocations_of_ensemble_steps(system, config, state, 1e-4),
+        0,
+        "50-bead chain"
+    );
+
+    let molecule = rigid_triatomic(&RigidTriatomicParams::default()).unwrap();
+    let config = StepperConfig::for_system(&molecule)
+        .unwrap()
+        .with_c_eta(1.0)
+        .unwrap()
+        .with_c_kappa(f64::INFINITY)
+        .unwrap();
+    let (r, v) = molecule.initial_state();
+    assert_eq!(
+        allocations_of_ensemble_steps(molecule, config, (&r, &v), 1e-3),
+        0,
+        "rigid triatomic"
+    );
 }

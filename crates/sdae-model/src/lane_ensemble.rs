@@ -445,13 +445,14 @@ pub struct LaneStore(Option<Box<dyn std::any::Any + Send + Sync>>);
 impl LaneStore {
     /// The buffers kept, if they have type T; the store is left empty until
     /// [`LaneStore::put`].
-    pub fn take<T: std::any::Any + Send + Sync>(&mut self) -> Option<T> {
-        self.0.take()?.downcast::<T>().ok().map(|buffers| *buffers)
+    pub fn take<T: std::any::Any + Send + Sync>(&mut self) -> Option<Box<T>> {
+        self.0.take()?.downcast::<T>().ok()
     }
 
-    /// Keeps `buffers` for the next step.
-    pub fn put<T: std::any::Any + Send + Sync>(&mut self, buffers: T) {
-        self.0 = Some(Box::new(buffers));
+    /// Keeps `buffers` for the next step (the box taken back, so that a step allocates
+    /// nothing).
+    pub fn put<T: std::any::Any + Send + Sync>(&mut self, buffers: Box<T>) {
+        self.0 = Some(buffers);
     }
 }
 

@@ -153,16 +153,17 @@ impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
             let constraint = C::for_system(system)?;
             let (n, m) = constraint.dims();
             let rows = LaneRows::new(simd, n, m, system.noise_dim());
-            Some((Kernel::new(simd, constraint), rows))
+            Some(Box::new((Kernel::new(simd, constraint), rows)))
         });
-        let Some((mut kernel, mut rows)) = kept else {
+        let Some(mut buffers) = kept else {
             self.stepper.lanes = store;
             return false;
         };
+        let (kernel, rows) = &mut *buffers;
         kernel.h = self.h;
         self.paths
-            .step_wide_groups(self.stepper, (self.h, self.dw), &mut kernel, &mut rows);
-        store.put((kernel, rows));
+            .step_wide_groups(self.stepper, (self.h, self.dw), kernel, rows);
+        store.put(buffers);
         self.stepper.lanes = store;
         true
     }

@@ -143,43 +143,32 @@ impl DiagnosticsColumns {
         let simd = done.simd();
         let zero = Lanes::splat(simd, 0.0);
         let one = zero.splat_like(1.0);
-        let counted = Lanes::select(done, one, zero);
-        let at = offset..;
-        let add = |column: &mut [f64], x: Lanes<Sd>| {
-            (Lanes::load(simd, &column[at.clone()]) + x).store(&mut column[at.clone()]);
-        };
-        // The largest of a column and x in the lanes of `done` where x is larger (f64::max,
-        // which passes over a NaN x).
-        let raise = |column: &mut [f64], x: Lanes<Sd>| {
-            let old = Lanes::load(simd, &column[at.clone()]);
-            Lanes::select(done.and(old.lt(x)), x, old).store(&mut column[at.clone()]);
-        };
-        add(&mut self.steps, counted);
+        add(&mut self.steps[offset..], Lanes::select(done, one, zero));
         let lag = Lanes::load(simd, &self.clock_lag[offset..]);
         Lanes::select(done, lag + (one - record.eta) * h, lag).store(&mut self.clock_lag[offset..]);
         add(
-            &mut self.truncated_steps,
+            &mut self.truncated_steps[offset..],
             Lanes::select(done.and(record.eta.lt(one)), one, zero),
         );
         let min_eta = Lanes::load(simd, &self.min_eta[offset..]);
         Lanes::select(done.and(record.eta.lt(min_eta)), record.eta, min_eta)
             .store(&mut self.min_eta[offset..]);
         add(
-            &mut self.newton_iterations,
+            &mut self.newton_iterations[offset..],
             Lanes::select(done, record.newton_iterations, zero),
         );
         self.count_iterations(offset, done, record.newton_iterations);
         if let Some(residual) = record.position_residual {
-            raise(&mut self.max_position_residual, residual);
+            raise(&mut self.max_position_residual[offset..], done, residual);
         }
         if let Some(residual) = record.velocity_residual {
-            raise(&mut self.max_velocity_residual, residual);
+            raise(&mut self.max_velocity_residual[offset..], done, residual);
         }
         if let Some((contraction, kappa_ratio)) = record.certificate {
             if let Some(ratio) = kappa_ratio {
-                raise(&mut self.max_kappa_ratio, ratio);
+                raise(&mut self.max_kappa_ratio[offset..], done, ratio);
             }
-            raise(&mut self.max_contraction, contraction);
+            raise(&mut self.max_contraction[offset..], done, contraction);
         }
     }
 
@@ -200,7 +189,7 @@ impl DiagnosticsColumns {
             let column = &mut self.iteration_histogram[at..];
             let counted =
                 Lanes::select(done, iterations.splat_like(1.0), iterations.splat_like(0.0));
-            (Lanes::load(done.simd(), column) + counted).store(column);
+            add(column, counted);
             return;
         }
         for lane in 0..Sd::F64_LANES {
@@ -210,6 +199,20 @@ impl DiagnosticsColumns {
             }
         }
     }
+}
+
+/// column[..W] += x. A function, not a closure: it inherits the caller's instruction set.
+#[inline(always)]
+fn add<Sd: Simd>(column: &mut [f64], x: Lanes<Sd>) {
+    (Lanes::load(x.simd(), column) + x).store(column);
+}
+
+/// column[..W] = x in the lanes of `done` where x is larger (f64::max, which passes over a NaN
+/// x).
+#[inline(always)]
+fn raise<Sd: Simd>(column: &mut [f64], done: LaneMask<Sd>, x: Lanes<Sd>) {
+    let old = Lanes::load(x.simd(), column);
+    Lanes::select(done.and(old.lt(x)), x, old).store(column);
 }
 
 #[cfg(test)]

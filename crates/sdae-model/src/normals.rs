@@ -333,9 +333,37 @@ fn draw<S: WordLanes>(
 ) {
     let before = *state;
     let bits = next_words(simd, state);
-    // u in [-1, 1) of every lane at once; only the two table entries are read lane by lane.
+    let (x, accepted) = fast_path(simd, table, bits);
+    let z = simd.mul_f64s(simd.splat_f64s(scale), x);
+    store_f64s::<S>(z, out);
+    let rejected = simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES;
+    if rejected {
+        // Only here do the states and the acceptance leave the registers.
+        let mut lanes_before = [[0u64; LANE_BLOCK]; 4];
+        let mut lanes_after = [[0u64; LANE_BLOCK]; 4];
+        for i in 0..4 {
+            store_words::<S>(before[i], &mut lanes_before[i]);
+            store_words::<S>(state[i], &mut lanes_after[i]);
+        }
+        let one = simd.splat_f64s(1.0);
+        let mut accepted_lanes = [0.0; LANE_BLOCK];
+        store_f64s::<S>(
+            simd.select_f64s(accepted, one, simd.splat_f64s(0.0)),
+            &mut accepted_lanes,
+        );
+        let lanes = (&lanes_before, &mut lanes_after);
+        redraw_rejected(lanes, &accepted_lanes, scale, out);
+        *state = std::array::from_fn(|i| load_words(&lanes_after[i]));
+    }
+}
+
+/// The ziggurat's fast path for the words b of every lane: (u x_i, whether |u x_i| < x_{i+1}),
+/// with layer i = b & 0xff and u in [-1, 1) from b's upper 52 bits.
+#[inline(always)]
+fn fast_path<S: WordLanes>(simd: S, table: &ZigguratTable, bits: S::u64s) -> (S::f64s, S::m64s) {
     let mantissa = simd.or_u64s(simd.shr12(bits), simd.splat_u64s(U_EXPONENT));
     let u = simd.sub_f64s(bytemuck::cast(mantissa), simd.splat_f64s(3.0));
+    // Only the two table entries are read lane by lane (gathers measured slower).
     let mut lane_bits = [0u64; LANE_BLOCK];
     store_words::<S>(bits, &mut lane_bits);
     let (mut x_layer, mut x_above) = ([0.0; LANE_BLOCK], [0.0; LANE_BLOCK]);
@@ -344,38 +372,23 @@ fn draw<S: WordLanes>(
         (*lo, *hi) = (table.x[layer], table.x[layer + 1]);
     }
     let x = simd.mul_f64s(u, load_words(bytemuck::cast_slice(&x_layer)));
-    let accepted =
-        simd.less_than_f64s(simd.abs_f64s(x), load_words(bytemuck::cast_slice(&x_above)));
-    let z = simd.mul_f64s(simd.splat_f64s(scale), x);
-    store_f64s::<S>(z, out);
-    let rejected = simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES;
-    if rejected {
-        // Only here do the states leave the registers.
-        let mut lanes_before = [[0u64; LANE_BLOCK]; 4];
-        let mut lanes_after = [[0u64; LANE_BLOCK]; 4];
-        for i in 0..4 {
-            store_words::<S>(before[i], &mut lanes_before[i]);
-            store_words::<S>(state[i], &mut lanes_after[i]);
-        }
-        let lanes = (&lanes_before, &mut lanes_after);
-        redraw_rejected(lanes, table, (&lane_bits, scale), out);
-        *state = std::array::from_fn(|i| load_words(&lanes_after[i]));
-    }
+    let above = load_words(bytemuck::cast_slice(&x_above));
+    (x, simd.less_than_f64s(simd.abs_f64s(x), above))
 }
 
-/// The lanes the fast path did not accept, drawn again by rand_distr's `StandardNormal` from
-/// the lane's state before the draw (`before`); their state after (`after`) becomes the one
-/// rand_distr leaves. Lanes that were accepted are left alone.
+/// The lanes the fast path did not accept (`accepted` 0), drawn again by rand_distr's
+/// `StandardNormal` from the lane's state before the draw (`before`); their state after
+/// (`after`) becomes the one rand_distr leaves. Lanes that were accepted are left alone.
 #[cold]
 #[inline(never)]
 fn redraw_rejected(
     (before, after): (&[[u64; LANE_BLOCK]; 4], &mut [[u64; LANE_BLOCK]; 4]),
-    table: &ZigguratTable,
-    (lane_bits, scale): (&[u64; LANE_BLOCK], f64),
+    accepted: &[f64; LANE_BLOCK],
+    scale: f64,
     out: &mut [f64],
 ) {
     for (lane, o) in out.iter_mut().enumerate() {
-        if table.fast_path(lane_bits[lane]).1 {
+        if accepted[lane] == 1.0 {
             continue;
         }
         let mut rng = LaneRng(std::array::from_fn(|i| before[i][lane]));
@@ -467,15 +480,6 @@ struct ZigguratTable {
 }
 
 impl ZigguratTable {
-    /// The ziggurat's fast path for the word b: (u x_i, whether |u x_i| < x_{i+1}).
-    #[inline(always)]
-    fn fast_path(&self, b: u64) -> (f64, bool) {
-        let layer = (b & 0xff) as usize;
-        let u = f64::from_bits((b >> 12) | U_EXPONENT) - 3.0;
-        let x = u * self.x[layer];
-        (x, x.abs() < self.x[layer + 1])
-    }
-
     /// The table, read once from rand_distr's sampler: the word whose layer is i and whose
     /// u is 2^-51 makes it return 2^-51 x_i exactly (at once for i < 255, where
     /// 2^-51 x_i < x_{i+1}; through the density test with a uniform just below 1 for
@@ -555,7 +559,7 @@ mod tests {
         for layer in 0..256u64 {
             for &fraction in &fractions {
                 let word = (fraction << 12) | layer;
-                let (x, accepted) = table.fast_path(word);
+                let (x, accepted) = fast_path(pulp::Scalar, table, word);
                 let mut words = Words::new(word);
                 let z: f64 = words.sample(StandardNormal);
                 // rand_distr returns after one word exactly when its fast path accepts.

@@ -87,7 +87,7 @@ mod bonds;
 mod chain;
 mod dense;
 mod newton;
-mod sphere;
+pub(crate) mod sphere;
 mod tridiagonal;
 
 use sdae_manifold::{Constraint, Mass};

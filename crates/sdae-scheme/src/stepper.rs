@@ -9,6 +9,7 @@ use sdae_model::{
 };
 
 use crate::config::StepperConfig;
+use crate::ensemble::sphere;
 use crate::error::SchemeError;
 
 /// The stepper: a system, the scheme's constants and all buffers of one path.
@@ -25,6 +26,8 @@ pub struct Stepper<S: System> {
     /// Dg(r') v' when monitored.
     tangency: Vec<f64>,
     scratch: Vec<f64>,
+    /// kappa_{k+1} when the last step was decided in one lane (else the solver holds it).
+    lane_root: Option<[f64; 1]>,
     /// The buffers of the lane form of an ensemble's step ([`crate::Ensemble`]).
     pub(crate) lanes: LaneStore,
 }
@@ -45,6 +48,7 @@ impl<S: System> Stepper<S> {
             lambda: vec![0.0; m],
             tangency: vec![0.0; m],
             scratch: vec![0.0; scratch_len(n, m)],
+            lane_root: None,
             lanes: LaneStore::default(),
             system,
             config,
@@ -58,7 +62,33 @@ impl<S: System> Stepper<S> {
 
     /// kappa_{k+1} of the last successful step.
     pub fn kappa(&self) -> &[f64] {
-        self.solver.root()
+        match &self.lane_root {
+            Some(kappa) => kappa,
+            None => self.solver.root(),
+        }
+    }
+
+    /// Whether the last successful step was decided by the lane form at W = 1 ([`Scheme::step`]
+    /// on a sphere with a diagonal mass), not by the general path.
+    pub fn last_step_in_one_lane(&self) -> bool {
+        self.lane_root.is_some()
+    }
+
+    /// One step through the general path, which every system can take: the ball solver
+    /// (closed form, Newton, the homotopy fallback) on the system's constraint, mass, drift
+    /// and noise as traits. [`Scheme::step`] takes it wherever the lane form (the code the
+    /// [`Ensemble`](crate::Ensemble) runs W paths at a time, here at W = 1) does not apply or
+    /// does not decide the step; where the lane form decides, both give the same numbers bit
+    /// for bit (tests/tests/one_lane.rs). For cross-checks.
+    pub fn step_general(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepOutcome, StepFailure> {
+        check_step_input(&self.system, r, v, h, dw)?;
+        self.general_step(r, v, h, dw)
     }
 
     /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
@@ -115,6 +145,10 @@ impl<S: System> Scheme for Stepper<S> {
     /// v' = v + M^-1 [eta a(r, v) h + B(r, v) dw + grad g(r) lambda], Dg(r') v' = 0
     ///
     /// On failure (r, v) are left unchanged.
+    ///
+    /// A sphere with a diagonal mass (the pendulums) steps through the lane form at W = 1 (the
+    /// ensemble's code in plain f64); what it does not decide, and every other system, goes
+    /// through the general path ([`Stepper::step_general`]).
     fn step(
         &mut self,
         r: &mut [f64],
@@ -123,6 +157,44 @@ impl<S: System> Scheme for Stepper<S> {
         dw: &[f64],
     ) -> Result<StepOutcome, StepFailure> {
         check_step_input(&self.system, r, v, h, dw)?;
+        if let Some(step) = sphere::step_one_lane(self, r, v, h, dw) {
+            self.lane_root = Some([step.kappa]);
+            self.lambda[0] = step.lambda;
+            return Ok(step.outcome);
+        }
+        self.general_step(r, v, h, dw)
+    }
+
+    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.4).
+    fn multiplier_increment(&self) -> &[f64] {
+        &self.lambda
+    }
+}
+
+impl<S: System> Stepper<S> {
+    /// The general path after the input checks.
+    fn general_step(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepOutcome, StepFailure> {
+        let outcome = self.solve_general(r, v, h, dw)?;
+        // The solver holds this step's root.
+        self.lane_root = None;
+        Ok(outcome)
+    }
+
+    /// [`Stepper::general_step`]'s solve: fixed-size buffers for one constraint in the plane
+    /// or in space, the stepper's buffers otherwise.
+    fn solve_general(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepOutcome, StepFailure> {
         if <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar {
             // One constraint in the plane or in space (the pendulums): buffers of a size known
             // at compile time, so that every pass over a vector is unrolled.
@@ -155,11 +227,6 @@ impl<S: System> Scheme for Stepper<S> {
             scratch,
         };
         half_explicit_step(system, config, solver, buffers, r, v, h, dw)
-    }
-
-    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.4).
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.lambda
     }
 }
 

@@ -2,13 +2,18 @@
 //! lanes: eq. 3.2 for eta, the closed-form kappa root of the quadratic kappa system (seed eq.
 //! 3.1 upper part, the root connected to 0 of Appendix B), and the velocity update with lambda
 //! from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower part). Each formula is the
-//! scalar stepper's, with the same floating-point operations in the same order.
+//! general path's (the ball solver's closed form), with the same floating-point operations in
+//! the same order.
+//!
+//! The ensemble runs it W paths at a time; [`Stepper`]'s own step of one path runs the same
+//! code at W = 1, in plain f64 ([`step_one_lane`]).
 
 use pulp::{Simd, WithSimd};
+use sdae_ift::{Certificate, Method};
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::lanes::{Lanes, dot};
 use sdae_model::{
-    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, Scheme, SphereRoot, System,
+    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, Scheme, SphereRoot, StepOutcome, System,
 };
 
 use super::newton::kappa_ratio;
@@ -102,6 +107,26 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         v: &[Lanes<Sd>; N],
         dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
+        self.step_with_root(stepper, r, v, dw).map(|(step, _)| step)
+    }
+}
+
+/// The kappa root of W lanes and the first Newton step's length (for the certificate).
+struct KappaRoot<Sd: Simd> {
+    gamma: Lanes<Sd>,
+    first_step: Lanes<Sd>,
+}
+
+impl<const N: usize> Kernel<N> {
+    /// [`LaneKernel::step`], with the kappa root.
+    #[inline(always)]
+    fn step_with_root<S: System, Sd: Simd>(
+        &self,
+        stepper: &Stepper<S>,
+        r: &[Lanes<Sd>; N],
+        v: &[Lanes<Sd>; N],
+        dw: &[Lanes<Sd>],
+    ) -> Option<(LaneStep<Sd, N>, KappaRoot<Sd>)> {
         let system = stepper.system();
         let zero = r[0].splat_like(0.0);
         let one = zero.splat_like(1.0);
@@ -138,7 +163,9 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         ok = ok.and(root.ok);
         let RootLanes {
             x,
+            gamma,
             norm,
+            first_step,
             contraction,
             residual,
             gram,
@@ -178,7 +205,7 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
         }
         ok = ok.and(dot(&v_new, &v_new).is_finite());
         let velocity_residual = (-dot(&x, &v_new) * self.inv_r2).abs();
-        Some(LaneStep {
+        let step = LaneStep {
             ok,
             r: x,
             v: v_new,
@@ -190,6 +217,92 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
                 velocity_residual: self.monitor_velocity.then_some(velocity_residual),
                 certificate: Some((contraction, kappa_ratio(norm, self.root.radius()))),
             },
-        })
+        };
+        Some((step, KappaRoot { gamma, first_step }))
     }
+}
+
+/// One path's step decided by the lane form at W = 1 ([`step_one_lane`]).
+pub(crate) struct OneLane {
+    pub(crate) outcome: StepOutcome,
+    /// kappa_{k+1}.
+    pub(crate) kappa: f64,
+    /// lambda_{k+1}.
+    pub(crate) lambda: f64,
+}
+
+/// [`Stepper`]'s step of one path (checked input) for a sphere of dimension 2 or 3 with a
+/// diagonal mass: this module's step at W = 1, in plain f64, with the certificate of the
+/// ball solver's closed form (no iterations, no rounding correction: a decided root lies in
+/// the ball). `None` where the lane form does not apply (another constraint or mass, more
+/// noise components than coordinates) or does not decide the step; (r, v) are then
+/// unchanged and the general path decides, with its errors.
+#[inline]
+pub(crate) fn step_one_lane<S: System>(
+    stepper: &Stepper<S>,
+    r: &mut [f64],
+    v: &mut [f64],
+    h: f64,
+    dw: &[f64],
+) -> Option<OneLane> {
+    if !<S::Mass as Mass>::DIAGONAL {
+        return None;
+    }
+    let sphere = stepper.system().constraint().as_sphere()?;
+    match (sphere.dim(), dw.len() <= sphere.dim()) {
+        (2, true) => one_lane::<S, 2>(stepper, sphere, r, v, h, dw),
+        (3, true) => one_lane::<S, 3>(stepper, sphere, r, v, h, dw),
+        _ => None,
+    }
+}
+
+#[inline(always)]
+fn one_lane<S: System, const N: usize>(
+    stepper: &Stepper<S>,
+    sphere: &Sphere,
+    r: &mut [f64],
+    v: &mut [f64],
+    h: f64,
+    dw: &[f64],
+) -> Option<OneLane> {
+    let simd = pulp::Scalar;
+    let kernel = Kernel::<N>::new(stepper, sphere, h)?;
+    let lanes = |x: &[f64]| -> [Lanes<pulp::Scalar>; N] {
+        std::array::from_fn(|i| Lanes::splat(simd, x.get(i).copied().unwrap_or(0.0)))
+    };
+    let (r_lanes, v_lanes, dw_lanes) = (lanes(r), lanes(v), lanes(dw));
+    let (step, root) = kernel.step_with_root(stepper, &r_lanes, &v_lanes, &dw_lanes[..dw.len()])?;
+    if !step.ok.lane(0) {
+        return None;
+    }
+    for i in 0..N {
+        r[i] = step.r[i].lane(0);
+        v[i] = step.v[i].lane(0);
+    }
+    let record = step.record;
+    let norm = root.gamma.lane(0).abs();
+    let residual = record.position_residual.map(|x| x.lane(0));
+    let (contraction, _) = record.certificate?;
+    let certificate = Certificate {
+        iterations: 0,
+        homotopy_steps: 0,
+        method: Method::ClosedForm,
+        residual: residual?,
+        norm,
+        radius: kernel.root.radius(),
+        first_step: root.first_step.lane(0),
+        contraction: contraction.lane(0),
+        rounding: 0.0,
+    };
+    Some(OneLane {
+        outcome: StepOutcome {
+            eta: record.eta.lane(0),
+            newton_iterations: 0,
+            certificate: Some(certificate),
+            position_residual: residual,
+            velocity_residual: record.velocity_residual.map(|x| x.lane(0)),
+        },
+        kappa: root.gamma.lane(0),
+        lambda: step.dmu.lane(0),
+    })
 }

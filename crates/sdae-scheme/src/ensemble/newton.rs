@@ -223,20 +223,22 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         Lanes::splat(self.simd, x)
     }
 
-    /// The kappa root's Newton iteration from 0 and its certificate (`BallSolver::solve` on
+    /// The kappa root's Newton iteration from 0 and its certificate, with max_i |y_i| for the
+    /// residual floor (`BallSolver::solve` on
     /// the general path, without the homotopy): the lanes it decides, with r_{k+1} in `x`
     /// (or `y` where the root is 0), the Jacobian at the root factored in `factor` (or
     /// `factor_at_zero`, `true` in the returned flag's lanes) and the certificate's numbers.
     #[inline(always)]
-    fn kappa_root_lanes(&mut self, config: &StepperConfig, r: &[Lanes<Sd>]) -> KappaLanes<Sd> {
+    fn kappa_root_lanes(
+        &mut self,
+        config: &StepperConfig,
+        r: &[Lanes<Sd>],
+        max_abs_y: Lanes<Sd>,
+    ) -> KappaLanes<Sd> {
         let settings = &config.solver;
         let zero = self.splat(0.0);
         let one = self.splat(1.0);
         // The residual floor of g near y (`Constraint::value_roundoff`) and the tolerance.
-        let mut max_abs_y = zero;
-        for yi in &self.y {
-            max_abs_y = max_abs_y.max(yi.abs());
-        }
         let floor = self.splat(4.0 * f64::EPSILON) * max_abs_y / self.constraint.roundoff_length();
         let tolerance = self.splat(settings.tolerance).max(floor);
 
@@ -247,14 +249,13 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             &mut self.residual_at_zero,
             &mut self.jacobian,
         );
-        let mut ok = finite_sum(&self.residual_at_zero);
+        let (residual_at_zero, mut ok) = max_abs_and_finite(&self.residual_at_zero);
         let mut step = std::mem::take(&mut self.step);
         ok = ok.and(
             self.factor_at_zero
                 .factor(&self.jacobian, Some((&self.residual_at_zero, &mut step))),
         );
         let first_step = sum_squares(&step).sqrt();
-        let residual_at_zero = max_abs(&self.residual_at_zero);
         let at_zero = residual_at_zero.le(tolerance);
         for (g, s) in self.gamma.iter_mut().zip(&step) {
             *g = Lanes::select(at_zero, zero, zero - *s);
@@ -279,8 +280,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 &mut self.residual,
                 &mut self.jacobian,
             );
-            let r_k = max_abs(&self.residual);
-            let finite = finite_sum(&self.residual);
+            let (r_k, finite) = max_abs_and_finite(&self.residual);
             let stagnated = (previous * 0.5).lt(r_k).and(r_k.le(stagnation));
             let mut converged = r_k.le(tolerance);
             if k < max_iterations {
@@ -307,7 +307,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 for (g, s) in self.gamma.iter_mut().zip(&step) {
                     *g = *g - *s;
                 }
-            } else {
+            } else if active_any(active) {
                 for (g, s) in self.gamma.iter_mut().zip(&step) {
                     *g = *g - Lanes::select(active, *s, zero);
                 }
@@ -394,8 +394,13 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let zero = self.splat(0.0);
         let mut force = std::mem::take(&mut self.force);
         let inverse_mass = self.constraint.inverse_mass();
+        if active_any(rescaled) {
+            for f in force.iter_mut() {
+                *f = Lanes::select(rescaled, *f * scale, *f);
+            }
+        }
         for (k, (f, vi)) in force.iter_mut().zip(v.iter()).enumerate() {
-            *f = inverse_mass.apply(k, Lanes::select(rescaled, *f * scale, *f)) + *vi;
+            *f = inverse_mass.apply(k, *f) + *vi;
         }
         // lambda = -Dg(r') v~ solved with the Newton matrix at the root.
         self.constraint.jacobian_mul(&self.x, &force, dmu);
@@ -418,7 +423,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         } else {
             zero
         };
-        r.copy_from_slice(&self.x);
         Some((
             ok,
             LaneRecord {
@@ -436,12 +440,18 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// [`Kernel::kappa_root_lanes`] compiled once per instruction set and constraint, not once
     /// per system.
     #[inline(never)]
-    fn kappa_root(&mut self, config: &StepperConfig, r: &[Lanes<Sd>]) -> KappaLanes<Sd> {
+    fn kappa_root(
+        &mut self,
+        config: &StepperConfig,
+        r: &[Lanes<Sd>],
+        max_abs_y: Lanes<Sd>,
+    ) -> KappaLanes<Sd> {
         let simd = self.simd;
         simd.vectorize(KappaRootOp {
             kernel: self,
             config,
             r,
+            max_abs_y,
         })
     }
 
@@ -470,13 +480,15 @@ struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
     kernel: &'a mut Kernel<Sd, C>,
     config: &'a StepperConfig,
     r: &'a [Lanes<Sd>],
+    max_abs_y: Lanes<Sd>,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
     type Output = KappaLanes<Sd>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> KappaLanes<Sd> {
-        self.kernel.kappa_root_lanes(self.config, self.r)
+        self.kernel
+            .kappa_root_lanes(self.config, self.r, self.max_abs_y)
     }
 }
 
@@ -569,10 +581,12 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             }
         };
         let eta_h = eta * h;
+        let mut max_abs_y = self.splat(0.0);
         for ((y, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
             *y = *ri + eta_h * *vi;
+            max_abs_y = max_abs_y.max(y.abs());
         }
-        let root = self.kappa_root(config, r);
+        let root = self.kappa_root(config, r, max_abs_y);
         ok = ok.and(root.ok);
         // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
         if active_any(root.at_zero) {
@@ -602,7 +616,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             );
         }
         self.force = force;
-        self.velocity(
+        let outcomes = self.velocity(
             config,
             Velocity {
                 ok,
@@ -611,7 +625,10 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
                 root,
             },
             (r, v, dmu),
-        )
+        );
+        // r_{k+1} is in `x`: the rows take it, `x` takes the rows' r_k (overwritten next step).
+        std::mem::swap(r, &mut self.x);
+        outcomes
     }
 }
 
@@ -662,13 +679,16 @@ fn max_abs<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
     largest
 }
 
-/// The lanes where every entry of x is finite (their sum is finite; an overflowing sum of
-/// finite entries counts as not finite, which sends the lane to the scalar step).
+/// [`max_abs`] of x, and in the same pass the lanes where every entry of x is finite (their
+/// sum is finite; an overflowing sum of finite entries counts as not finite, which sends the
+/// lane to the scalar step).
 #[inline(always)]
-fn finite_sum<Sd: Simd>(x: &[Lanes<Sd>]) -> LaneMask<Sd> {
-    let mut sum = x[0].splat_like(0.0);
+fn max_abs_and_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> (Lanes<Sd>, LaneMask<Sd>) {
+    let mut largest = x[0].splat_like(0.0);
+    let mut sum = largest;
     for xi in x {
+        largest = largest.max(xi.abs());
         sum = sum + *xi;
     }
-    sum.is_finite()
+    (largest, sum.is_finite())
 }

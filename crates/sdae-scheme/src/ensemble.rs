@@ -6,7 +6,8 @@
 //! [`lane_stride`](sdae_model::lane_stride)`(P)`) and advances W
 //! of them at once, W the width of the instruction set chosen at run time ([`LaneWidth`]): 1
 //! (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal
-//! mass the step is the closed form of [`Stepper`] written once over [`Lanes`], with the
+//! mass the step is the closed form of [`Stepper`] written once over [`Lanes`] (which
+//! [`Stepper`]'s own step of one path runs at W = 1), with the
 //! system's drift and noise in lanes ([`System::drift_lanes`], [`System::add_noise_lanes`]: the
 //! built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
 //! lanes, which gives the same numbers); a lane the closed form does not decide (no root, a

@@ -4,6 +4,9 @@
 //! of a path that stops), at W = 1, 4 and 8, with the drift and noise of a system without lane
 //! forms evaluated path by path and those of one with lane forms in lanes.
 
+mod common;
+
+use common::lane_configs;
 use sdae_manifold::{
     BeadChain, Constraint, DiagonalMass, IdentityMass, Mass, RigidBonds, TheoryBound,
 };
@@ -207,24 +210,17 @@ where
     summary
 }
 
+/// The lane tests' four ([`lane_configs`]), a finite ball with the practical C_eta, and no
+/// truncation.
 fn configs<S: System>(system: &S) -> Vec<(&'static str, StepperConfig)>
 where
     S::Constraint: sdae_manifold::TheoryBound,
 {
-    let practical = StepperConfig::for_system(system)
-        .unwrap()
-        .with_c_eta(0.05)
-        .unwrap()
-        .with_c_kappa(f64::INFINITY)
-        .unwrap();
-    vec![
-        ("practical", practical),
-        ("rescaled", practical.rescaled()),
-        ("local", practical.local()),
-        ("finite ball", practical.with_c_kappa(0.05).unwrap()),
-        ("theory", StepperConfig::for_system(system).unwrap()),
-        ("untruncated", practical.untruncated()),
-    ]
+    let mut configs = lane_configs(system);
+    let practical = configs[0].1;
+    configs.push(("finite ball", practical.with_c_kappa(0.05).unwrap()));
+    configs.push(("untruncated", practical.untruncated()));
+    configs
 }
 
 /// Every configuration of a system under [`Gravity`] with additive noise, with its lane form

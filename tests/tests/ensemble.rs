@@ -4,46 +4,26 @@
 //! with the scalar stepper's numbers; the generic per-path loop gives the same numbers; a
 //! block read gives each path's state; bad input is a typed error.
 
+mod common;
+
+use common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{IdentityMass, Sphere};
 use sdae_model::{
     AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble, PathLoop,
     PathState, Scheme, StepFailure, System,
 };
 use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
-use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
 const PATHS: usize = 37;
 const STEPS: usize = 400;
 const H: f64 = 0.02;
 
-fn noisy_pendulum(dim: usize) -> Pendulum {
-    pendulum(PendulumParams {
-        dim,
-        length: 1.5,
-        gravity: 1.0,
-        noise: 3.0,
-        friction: 0.5,
-    })
-    .unwrap()
-}
-
-/// Truncated often enough that both branches of eta are taken.
+/// The lane tests' configurations ([`lane_configs`]).
 fn configs<S: System>(system: &S) -> Vec<(&'static str, StepperConfig)>
 where
     S::Constraint: sdae_manifold::TheoryBound,
 {
-    let practical = StepperConfig::for_system(system)
-        .unwrap()
-        .with_c_eta(0.05)
-        .unwrap()
-        .with_c_kappa(f64::INFINITY)
-        .unwrap();
-    vec![
-        ("practical", practical),
-        ("rescaled", practical.rescaled()),
-        ("local", practical.local()),
-        ("theory", StepperConfig::for_system(system).unwrap()),
-    ]
+    lane_configs(system)
 }
 
 /// Increments of every path for every step, in the ensemble's layout.

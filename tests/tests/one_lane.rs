@@ -4,37 +4,30 @@
 //! with its certificate, kappa and lambda, the failures, and the steps the lane form leaves to
 //! the general path (a root outside the theory's ball, a quadratic without a real root).
 
+mod common;
+
+use common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{DiagonalMass, IdentityMass, Sphere};
 use sdae_model::{
     AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, StepFailure,
     StepOutcome, System,
 };
 use sdae_scheme::{Stepper, StepperConfig};
-use sdae_systems::{PendulumParams, pendulum};
 
 const STEPS: usize = 3000;
 
-/// A configuration per branch of the step: eta < 1 and = 1, rescaled noise, the local measure,
-/// the theory's finite ball (which rejects some roots: the general path then decides), no
-/// truncation, the velocity monitor off.
+/// A configuration per branch of the step: the lane tests' four ([`lane_configs`]: eta < 1
+/// and = 1, rescaled noise, the local measure, the theory's finite ball, which rejects some
+/// roots: the general path then decides), no truncation, the velocity monitor off.
 fn configs<S: System>(system: &S) -> Vec<(&'static str, StepperConfig)>
 where
     S::Constraint: sdae_manifold::TheoryBound,
 {
-    let practical = StepperConfig::for_system(system)
-        .unwrap()
-        .with_c_eta(0.05)
-        .unwrap()
-        .with_c_kappa(f64::INFINITY)
-        .unwrap();
-    vec![
-        ("practical", practical),
-        ("rescaled", practical.rescaled()),
-        ("local", practical.local()),
-        ("theory", StepperConfig::for_system(system).unwrap()),
-        ("untruncated", practical.untruncated()),
-        ("unmonitored", practical.with_velocity_monitor(false)),
-    ]
+    let mut configs = lane_configs(system);
+    let practical = configs[0].1;
+    configs.push(("untruncated", practical.untruncated()));
+    configs.push(("unmonitored", practical.with_velocity_monitor(false)));
+    configs
 }
 
 /// What a step leaves: the state, the outcome, kappa and lambda, or the failure, written with
@@ -105,17 +98,6 @@ impl<S: System> ConstraintDim for S {
     fn constraint_dim(&self) -> usize {
         sdae_manifold::Constraint::dim(self.constraint())
     }
-}
-
-fn noisy_pendulum(dim: usize) -> sdae_systems::Pendulum {
-    pendulum(PendulumParams {
-        dim,
-        length: 1.5,
-        gravity: 1.0,
-        noise: 3.0,
-        friction: 0.5,
-    })
-    .unwrap()
 }
 
 /// The lane form decides every step, except where roots leave the theory's ball (small at

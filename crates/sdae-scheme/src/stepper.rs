@@ -91,6 +91,52 @@ impl<S: System> Stepper<S> {
         self.general_step(r, v, h, dw)
     }
 
+    /// The general path after the input checks: fixed-size buffers for one constraint in the
+    /// plane or in space (the pendulums; every pass over a vector unrolled), the stepper's
+    /// buffers otherwise.
+    fn general_step(
+        &mut self,
+        r: &mut [f64],
+        v: &mut [f64],
+        h: f64,
+        dw: &[f64],
+    ) -> Result<StepOutcome, StepFailure> {
+        let scalar_gram =
+            <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar;
+        let outcome = match (scalar_gram, r.len()) {
+            (true, 2) => self.step_sized::<2>(r, v, h, dw),
+            (true, 3) => self.step_sized::<3>(r, v, h, dw),
+            _ => {
+                let Self {
+                    system,
+                    config,
+                    solver,
+                    drift,
+                    y,
+                    x,
+                    force,
+                    lambda,
+                    tangency,
+                    scratch,
+                    ..
+                } = self;
+                let buffers = Buffers {
+                    drift,
+                    y,
+                    x,
+                    force,
+                    lambda,
+                    tangency,
+                    scratch,
+                };
+                half_explicit_step(system, config, solver, buffers, r, v, h, dw)
+            }
+        }?;
+        // The solver holds this step's root.
+        self.lane_root = None;
+        Ok(outcome)
+    }
+
     /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
     pub fn eta(&self, v_norm: f64, a_norm: f64, h: f64) -> f64 {
         eta(&self.config, v_norm, a_norm, None, h)
@@ -168,65 +214,6 @@ impl<S: System> Scheme for Stepper<S> {
     /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.4).
     fn multiplier_increment(&self) -> &[f64] {
         &self.lambda
-    }
-}
-
-impl<S: System> Stepper<S> {
-    /// The general path after the input checks.
-    fn general_step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
-        let outcome = self.solve_general(r, v, h, dw)?;
-        // The solver holds this step's root.
-        self.lane_root = None;
-        Ok(outcome)
-    }
-
-    /// [`Stepper::general_step`]'s solve: fixed-size buffers for one constraint in the plane
-    /// or in space, the stepper's buffers otherwise.
-    fn solve_general(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
-        if <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar {
-            // One constraint in the plane or in space (the pendulums): buffers of a size known
-            // at compile time, so that every pass over a vector is unrolled.
-            match r.len() {
-                2 => return self.step_sized::<2>(r, v, h, dw),
-                3 => return self.step_sized::<3>(r, v, h, dw),
-                _ => {}
-            }
-        }
-        let Self {
-            system,
-            config,
-            solver,
-            drift,
-            y,
-            x,
-            force,
-            lambda,
-            tangency,
-            scratch,
-            ..
-        } = self;
-        let buffers = Buffers {
-            drift,
-            y,
-            x,
-            force,
-            lambda,
-            tangency,
-            scratch,
-        };
-        half_explicit_step(system, config, solver, buffers, r, v, h, dw)
     }
 }
 

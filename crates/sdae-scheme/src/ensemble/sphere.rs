@@ -204,7 +204,12 @@ impl<const N: usize> Kernel<N> {
             v_new[i] = t * r[i] * self.inverse_mass[i] + force[i];
         }
         ok = ok.and(dot(&v_new, &v_new).is_finite());
-        let velocity_residual = (-dot(&x, &v_new) * self.inv_r2).abs();
+        // Written out, not `then`: a closure would not inherit the instruction set.
+        let velocity_residual = if self.monitor_velocity {
+            Some((-dot(&x, &v_new) * self.inv_r2).abs())
+        } else {
+            None
+        };
         let step = LaneStep {
             ok,
             r: x,
@@ -214,7 +219,7 @@ impl<const N: usize> Kernel<N> {
                 eta,
                 newton_iterations: zero,
                 position_residual: Some(residual),
-                velocity_residual: self.monitor_velocity.then_some(velocity_residual),
+                velocity_residual,
                 certificate: Some((contraction, kappa_ratio(norm, self.root.radius()))),
             },
         };

@@ -111,10 +111,12 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
     }
 }
 
-/// The kappa root of W lanes and the first Newton step's length (for the certificate).
+/// The kappa root of W lanes and the numbers of its certificate.
 struct KappaRoot<Sd: Simd> {
     gamma: Lanes<Sd>,
     first_step: Lanes<Sd>,
+    contraction: Lanes<Sd>,
+    residual: Lanes<Sd>,
 }
 
 impl<const N: usize> Kernel<N> {
@@ -223,7 +225,13 @@ impl<const N: usize> Kernel<N> {
                 certificate: Some((contraction, kappa_ratio(norm, self.root.radius()))),
             },
         };
-        Some((step, KappaRoot { gamma, first_step }))
+        let root = KappaRoot {
+            gamma,
+            first_step,
+            contraction,
+            residual,
+        };
+        Some((step, root))
     }
 }
 
@@ -284,28 +292,25 @@ fn one_lane<S: System, const N: usize>(
         r[i] = step.r[i].lane(0);
         v[i] = step.v[i].lane(0);
     }
-    let record = step.record;
-    let norm = root.gamma.lane(0).abs();
-    let residual = record.position_residual.map(|x| x.lane(0));
-    let (contraction, _) = record.certificate?;
+    let residual = root.residual.lane(0);
     let certificate = Certificate {
         iterations: 0,
         homotopy_steps: 0,
         method: Method::ClosedForm,
-        residual: residual?,
-        norm,
+        residual,
+        norm: root.gamma.lane(0).abs(),
         radius: kernel.root.radius(),
         first_step: root.first_step.lane(0),
-        contraction: contraction.lane(0),
+        contraction: root.contraction.lane(0),
         rounding: 0.0,
     };
     Some(OneLane {
         outcome: StepOutcome {
-            eta: record.eta.lane(0),
+            eta: step.record.eta.lane(0),
             newton_iterations: 0,
             certificate: Some(certificate),
-            position_residual: residual,
-            velocity_residual: record.velocity_residual.map(|x| x.lane(0)),
+            position_residual: Some(residual),
+            velocity_residual: step.record.velocity_residual.map(|x| x.lane(0)),
         },
         kappa: root.gamma.lane(0),
         lambda: step.dmu.lane(0),

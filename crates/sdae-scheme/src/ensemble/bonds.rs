@@ -12,7 +12,9 @@ use sdae_model::System;
 use sdae_model::lanes::Lanes;
 
 use super::dense::{DenseLanes, LuLanes};
-use super::newton::{ConstraintLanes, InverseMass, dot3};
+use super::newton::{
+    ConstraintLanes, Evaluation, FactorLanes, InverseMass, dot3, max_abs_and_finite,
+};
 
 /// The bond network's constants for a diagonal mass.
 pub(super) struct BondLanes {
@@ -33,6 +35,47 @@ impl BondLanes {
     #[inline(always)]
     fn incident(&self, atom: usize) -> &[(usize, f64)] {
         &self.incidence[self.start[atom]..self.start[atom + 1]]
+    }
+
+    /// g_b(x1) = 1/2 - |d_b(x1)|^2 / (2 L_b^2) (`RigidBonds::value`), then entry (a, b) of
+    /// Dg(x1) M^-1 grad g(r): over the atoms c that bonds a and b share, sign_a sign_b
+    /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
+    #[inline(always)]
+    fn value_and_cross_gram<Sd: Simd>(
+        &self,
+        x1: &[Lanes<Sd>],
+        r: &[Lanes<Sd>],
+        values: &mut [Lanes<Sd>],
+        jacobian: &mut DenseLanes<Sd>,
+    ) {
+        let half = x1[0].splat_like(0.5);
+        for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
+            let d = bond_vector(x1, bond);
+            *value = half - dot3(&d, &d) * 0.5 * *s;
+        }
+        let m = self.bonds.len();
+        let zero = x1[0].splat_like(0.0);
+        for a in 0..m {
+            for b in 0..m {
+                jacobian.set(a, b, zero);
+            }
+        }
+        for c in 0..self.atoms {
+            let (w, k) = (&self.inverse_mass, 3 * c);
+            for &(a, sa) in self.incident(c) {
+                let da = bond_vector(x1, &self.bonds[a]);
+                let wa = [
+                    w.apply(k, da[0]),
+                    w.apply(k + 1, da[1]),
+                    w.apply(k + 2, da[2]),
+                ];
+                for &(b, sb) in self.incident(c) {
+                    let db = bond_vector(r, &self.bonds[b]);
+                    let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
+                    jacobian.set(a, b, jacobian.entry(a, b) + term);
+                }
+            }
+        }
     }
 }
 
@@ -77,44 +120,23 @@ impl ConstraintLanes for BondLanes {
         &self.inverse_mass
     }
 
-    /// g_b(x1) = 1/2 - |d_b(x1)|^2 / (2 L_b^2) (`RigidBonds::value`), then entry (a, b) of
-    /// Dg(x1) M^-1 grad g(r): over the atoms c that bonds a and b share, sign_a sign_b
-    /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
+    /// g(x1) and the dense Newton matrix ([`BondLanes::value_and_cross_gram`]), then the
+    /// largest |g_b| and the LU factorization, each in a pass of its own.
     #[inline(always)]
-    fn value_and_cross_gram<Sd: Simd>(
+    fn evaluate_and_factor<Sd: Simd>(
         &self,
-        x1: &[Lanes<Sd>],
-        r: &[Lanes<Sd>],
+        (x1, r): (&[Lanes<Sd>], &[Lanes<Sd>]),
         values: &mut [Lanes<Sd>],
         jacobian: &mut DenseLanes<Sd>,
-    ) {
-        let half = x1[0].splat_like(0.5);
-        for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            let d = bond_vector(x1, bond);
-            *value = half - dot3(&d, &d) * 0.5 * *s;
-        }
-        let m = self.bonds.len();
-        let zero = x1[0].splat_like(0.0);
-        for a in 0..m {
-            for b in 0..m {
-                jacobian.set(a, b, zero);
-            }
-        }
-        for c in 0..self.atoms {
-            let (w, k) = (&self.inverse_mass, 3 * c);
-            for &(a, sa) in self.incident(c) {
-                let da = bond_vector(x1, &self.bonds[a]);
-                let wa = [
-                    w.apply(k, da[0]),
-                    w.apply(k + 1, da[1]),
-                    w.apply(k + 2, da[2]),
-                ];
-                for &(b, sb) in self.incident(c) {
-                    let db = bond_vector(r, &self.bonds[b]);
-                    let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
-                    jacobian.set(a, b, jacobian.entry(a, b) + term);
-                }
-            }
+        factor: &mut LuLanes<Sd>,
+        step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd> {
+        self.value_and_cross_gram(x1, r, values, jacobian);
+        let (largest, finite) = max_abs_and_finite(values);
+        let factored = factor.factor(jacobian, Some((values, step)));
+        Evaluation {
+            largest,
+            ok: finite.and(factored),
         }
     }
 
@@ -147,11 +169,16 @@ impl ConstraintLanes for BondLanes {
         }
     }
 
-    /// (Dg(x) u)_b = -d_b(x).(u_j - u_i) / L_b^2 (`RigidBonds::jacobian_mul`).
+    /// -(Dg(x) u)_b = d_b(x).(u_j - u_i) / L_b^2 (the negation of `RigidBonds::jacobian_mul`).
     #[inline(always)]
-    fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+    fn negated_jacobian_mul<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        u: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    ) {
         for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            *o = -dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * *s;
+            *o = dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * *s;
         }
     }
 

@@ -8,8 +8,8 @@ use sdae_manifold::{Constraint, Mass};
 use sdae_model::System;
 use sdae_model::lanes::Lanes;
 
-use super::newton::{ConstraintLanes, InverseMass, dot3};
-use super::tridiagonal::{ThomasLanes, TridiagonalLanes};
+use super::newton::{ConstraintLanes, Evaluation, InverseMass, dot3};
+use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
 pub(super) struct ChainLanes {
@@ -60,31 +60,91 @@ impl ConstraintLanes for ChainLanes {
         &self.inverse_mass
     }
 
-    /// g(x1) into `value` and Dg(x1) M^-1 grad g(x2) into the Jacobian, in one pass over the
-    /// segments (`BeadChain::value_and_cross_gram` for a diagonal mass).
+    /// g(x1) and Dg(x1) M^-1 grad g(r), with e = segments of x1 and f = segments of r:
+    /// g_i = 1/2 - |e_i|^2 / (2 ds^2) and the tridiagonal matrix scaled by 1 / ds^4
+    /// (`BeadChain::value_and_cross_gram` for a diagonal mass). Each row is factored as soon
+    /// as it is formed ([`ThomasSweep::row`], forward substitution on g into `step`), with
+    /// `max_abs_and_finite`'s reduction of g in its order, so g and the matrix are not read
+    /// back (`values` is not used).
     #[inline(always)]
-    fn value_and_cross_gram<Sd: Simd>(
+    fn evaluate_and_factor<Sd: Simd>(
         &self,
-        x1: &[Lanes<Sd>],
-        r: &[Lanes<Sd>],
-        values: &mut [Lanes<Sd>],
+        (x1, r): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        _values: &mut [Lanes<Sd>],
         jacobian: &mut TridiagonalLanes<Sd>,
-    ) {
+        factor: &mut ThomasLanes<Sd>,
+        step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd> {
         let s = self.inv_ds2 * self.inv_ds2;
         let m = self.beads - 1;
         let mut e_next = segment(x1, 0);
         let mut f_next = segment(r, 0);
         let half = r[0].splat_like(0.5);
-        for (i, value) in values.iter_mut().enumerate().take(m) {
+        let mut largest = half.splat_like(0.0);
+        let mut sum = largest;
+        let mut sweep = ThomasSweep::new(half);
+        for (i, out) in step.iter_mut().enumerate().take(m) {
             let (e, f) = (e_next, f_next);
-            *value = half - dot3(&e, &e) * 0.5 * self.inv_ds2;
-            jacobian.diag[i] = (self.weighted(&e, i, &f) + self.weighted(&e, i + 1, &f)) * s;
-            if i + 1 < m {
+            let value = half - dot3(&e, &e) * 0.5 * self.inv_ds2;
+            let diag = (self.weighted(&e, i, &f) + self.weighted(&e, i + 1, &f)) * s;
+            jacobian.diag[i] = diag;
+            let off_diagonal = if i + 1 < m {
                 e_next = segment(x1, i + 1);
                 f_next = segment(r, i + 1);
-                jacobian.upper[i] = -self.weighted(&e, i + 1, &f_next) * s;
-                jacobian.lower[i] = -self.weighted(&e_next, i + 1, &f) * s;
+                let upper = -self.weighted(&e, i + 1, &f_next) * s;
+                let lower = -self.weighted(&e_next, i + 1, &f) * s;
+                jacobian.upper[i] = upper;
+                jacobian.lower[i] = lower;
+                Some((upper, lower))
+            } else {
+                None
+            };
+            largest = largest.max(value.abs());
+            sum = sum + value;
+            if let Some(forward) = sweep.row(factor, i, diag, off_diagonal, Some(value)) {
+                *out = forward;
             }
+        }
+        Evaluation {
+            largest,
+            ok: sum.is_finite().and(sweep.ok),
+        }
+    }
+
+    /// v~ = M^-1 force + v bead by bead into `force`, and in the same pass lambda's right-hand
+    /// side -(Dg(x) v~)_i = d_i.(v~_{i+1} - v~_i) / ds^2 through the forward substitution
+    /// (the default's three passes in one).
+    #[inline(always)]
+    fn velocity_right_hand_side<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
+        factor: &ThomasLanes<Sd>,
+        out: &mut [Lanes<Sd>],
+    ) {
+        let w = &self.inverse_mass;
+        let mut previous = [x[0]; 3];
+        for c in 0..3 {
+            force[c] = w.apply(c, force[c]) + v[c];
+            previous[c] = force[c];
+        }
+        let mut forward = x[0].splat_like(0.0);
+        for (i, o) in out.iter_mut().enumerate() {
+            let k = 3 * (i + 1);
+            let mut next = previous;
+            for c in 0..3 {
+                force[k + c] = w.apply(k + c, force[k + c]) + v[k + c];
+                next[c] = force[k + c];
+            }
+            let du = [
+                next[0] - previous[0],
+                next[1] - previous[1],
+                next[2] - previous[2],
+            ];
+            let value = dot3(&segment(x, i), &du) * self.inv_ds2;
+            forward = factor.forward_row(i, value, forward);
+            *o = forward;
+            previous = next;
         }
     }
 
@@ -120,11 +180,16 @@ impl ConstraintLanes for ChainLanes {
         }
     }
 
-    /// out_i = (Dg(x) u)_i = -d_i.(u_{i+1} - u_i) / ds^2.
+    /// out_i = -(Dg(x) u)_i = d_i.(u_{i+1} - u_i) / ds^2.
     #[inline(always)]
-    fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+    fn negated_jacobian_mul<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        u: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    ) {
         for (i, o) in out.iter_mut().enumerate() {
-            *o = -dot3(&segment(x, i), &segment(u, i)) * self.inv_ds2;
+            *o = dot3(&segment(x, i), &segment(u, i)) * self.inv_ds2;
         }
     }
 

@@ -123,15 +123,30 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
         }
         if let Some((b, out)) = rhs {
             out.copy_from_slice(b);
-            self.solve_in_place(out);
+            self.forward_in_place(out);
         }
         ok
     }
 
-    /// `DenseFactor::solve_in_place`: the row interchanges in elimination order, then the
-    /// forward and back substitutions with their sums from -0.
+    /// The back substitution of `DenseFactor::solve_in_place`, its sums from -0.
     #[inline(always)]
-    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
+    fn back_substitute(&self, b: &mut [Lanes<Sd>]) {
+        let m = self.order;
+        let lu = &self.lu;
+        let minus_zero = b[0].splat_like(-0.0);
+        for i in (0..m).rev() {
+            let mut s = minus_zero;
+            for j in i + 1..m {
+                s = s + lu[i * m + j] * b[j];
+            }
+            b[i] = (b[i] - s) / lu[i * m + i];
+        }
+    }
+
+    /// The first half of `DenseFactor::solve_in_place`: the row interchanges in elimination
+    /// order and the forward substitution, its sums from -0.
+    #[inline(always)]
+    fn forward_in_place(&self, b: &mut [Lanes<Sd>]) {
         let m = self.order;
         let lu = &self.lu;
         let minus_zero = b[0].splat_like(-0.0);
@@ -151,13 +166,6 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
                 s = s + lu[i * m + j] * b[j];
             }
             b[i] = b[i] - s;
-        }
-        for i in (0..m).rev() {
-            let mut s = minus_zero;
-            for j in i + 1..m {
-                s = s + lu[i * m + j] * b[j];
-            }
-            b[i] = (b[i] - s) / lu[i * m + i];
         }
     }
 }
@@ -210,6 +218,7 @@ mod tests {
             let mut x = vec![Lanes::splat(simd, 0.0); m];
             let mut factor = LuLanes::zeros(simd, m);
             let ok = factor.factor(&a, Some((&b, &mut x)));
+            factor.back_substitute(&mut x);
             let mut product = vec![Lanes::splat(simd, 0.0); m];
             a.mul_vec(&b, &mut product);
             for (lane, gram) in scalar.iter().enumerate() {

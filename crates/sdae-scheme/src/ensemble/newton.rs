@@ -45,11 +45,21 @@ pub(super) trait FactorLanes<Sd: Simd>: Send + Sync + 'static {
     type Matrix: MatrixLanes<Sd>;
     /// Storage for the factors of order m >= 1.
     fn zeros(simd: Sd, m: usize) -> Self;
-    /// Factors `a`, and with `rhs` = (b, out) solves A out = b; the lanes whose factorization
-    /// the scalar one would accept (the others go through the scalar step).
+    /// Factors `a`, and with `rhs` = (b, out) runs the first half of the solve A out = b into
+    /// `out` ([`FactorLanes::back_substitute`] finishes it); the lanes whose factorization the
+    /// scalar one would accept (the others go through the scalar step).
     fn factor(&mut self, a: &Self::Matrix, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd>;
+    /// The first half of b <- A^-1 b (the forward substitution).
+    fn forward_in_place(&self, b: &mut [Lanes<Sd>]);
+    /// The second half of a solve whose first half [`FactorLanes::factor`] or
+    /// [`FactorLanes::forward_in_place`] ran.
+    fn back_substitute(&self, out: &mut [Lanes<Sd>]);
     /// b <- A^-1 b.
-    fn solve_in_place(&self, b: &mut [Lanes<Sd>]);
+    #[inline(always)]
+    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
+        self.forward_in_place(b);
+        self.back_substitute(b);
+    }
 }
 
 /// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
@@ -66,15 +76,37 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
     fn roundoff_length(&self) -> f64;
     /// M^-1.
     fn inverse_mass(&self) -> &InverseMass;
-    /// g(x1) into `values` and Dg(x1) M^-1 grad g(r) into `jacobian`
-    /// (`Constraint::value_and_cross_gram`).
-    fn value_and_cross_gram<Sd: Simd>(
+    /// One evaluation of the kappa system at `points` = (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
+    /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
+    /// factored into `factor` with the first half of J^-1 g(x1) into `step`
+    /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
+    /// factorization runs row by row does it all in one pass over the rows.
+    fn evaluate_and_factor<Sd: Simd>(
         &self,
-        x1: &[Lanes<Sd>],
-        r: &[Lanes<Sd>],
+        points: (&[Lanes<Sd>], &[Lanes<Sd>]),
         values: &mut [Lanes<Sd>],
         jacobian: &mut Jacobian<Sd, Self>,
-    );
+        factor: &mut Self::Factor<Sd>,
+        step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd>;
+    /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
+    /// half ([`FactorLanes::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
+    /// default takes three passes; a constraint can fuse them.
+    #[inline(always)]
+    fn velocity_right_hand_side<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
+        factor: &Self::Factor<Sd>,
+        out: &mut [Lanes<Sd>],
+    ) {
+        let inverse_mass = self.inverse_mass();
+        for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
+            *f = inverse_mass.apply(k, *f) + *vi;
+        }
+        self.negated_jacobian_mul(x, force, out);
+        factor.forward_in_place(out);
+    }
     /// out = base + M^-1 grad g(r) z (`Constraint::displace`).
     fn displace<Sd: Simd>(
         &self,
@@ -83,8 +115,15 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
         base: &[Lanes<Sd>],
         out: &mut [Lanes<Sd>],
     );
-    /// out = Dg(x) u (`Constraint::jacobian_mul`).
-    fn jacobian_mul<Sd: Simd>(&self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
+    /// out = -Dg(x) u, the negation of `Constraint::jacobian_mul` (bit for bit: negation is
+    /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of its
+    /// own.
+    fn negated_jacobian_mul<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        u: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    );
     /// The local measure of the motion (`Constraint::local_motion`).
     fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
 }
@@ -111,6 +150,14 @@ impl InverseMass {
     pub(super) fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
         if self.unit { x } else { x * self.entries[k] }
     }
+}
+
+/// What [`ConstraintLanes::evaluate_and_factor`] found, per lane.
+pub(super) struct Evaluation<Sd: Simd> {
+    /// max_i |g_i(x1)|.
+    pub(super) largest: Lanes<Sd>,
+    /// The lanes where g(x1) is finite and the factorization passed.
+    pub(super) ok: LaneMask<Sd>,
 }
 
 /// The Newton matrix of constraint C over lanes of Sd.
@@ -180,8 +227,7 @@ struct Kernel<Sd: Simd, C: ConstraintLanes> {
     force: Vec<Lanes<Sd>>,
     y: Vec<Lanes<Sd>>,
     x: Vec<Lanes<Sd>>,
-    /// R(0) and R(gamma) of the kappa system.
-    residual_at_zero: Vec<Lanes<Sd>>,
+    /// Scratch for R(gamma) of the kappa system.
     residual: Vec<Lanes<Sd>>,
     /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
     jacobian: Jacobian<Sd, C>,
@@ -206,7 +252,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             force: vec![zero; n],
             y: vec![zero; n],
             x: vec![zero; n],
-            residual_at_zero: vec![zero; m],
             residual: vec![zero; m],
             jacobian: MatrixLanes::zeros(simd, m),
             factor_at_zero: FactorLanes::zeros(simd, m),
@@ -243,18 +288,16 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let tolerance = self.splat(settings.tolerance).max(floor);
 
         // R(0), J(0) at x = y and the first Newton step.
-        self.constraint.value_and_cross_gram(
-            &self.y,
-            r,
-            &mut self.residual_at_zero,
-            &mut self.jacobian,
-        );
-        let (residual_at_zero, mut ok) = max_abs_and_finite(&self.residual_at_zero);
         let mut step = std::mem::take(&mut self.step);
-        ok = ok.and(
-            self.factor_at_zero
-                .factor(&self.jacobian, Some((&self.residual_at_zero, &mut step))),
+        let at_y = self.constraint.evaluate_and_factor(
+            (&self.y, r),
+            &mut self.residual,
+            &mut self.jacobian,
+            &mut self.factor_at_zero,
+            &mut step,
         );
+        self.factor_at_zero.back_substitute(&mut step);
+        let (residual_at_zero, mut ok) = (at_y.largest, at_y.ok);
         let first_step = sum_squares(&step).sqrt();
         let at_zero = residual_at_zero.le(tolerance);
         for (g, s) in self.gamma.iter_mut().zip(&step) {
@@ -274,24 +317,27 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             iterated = true;
             self.constraint
                 .displace(r, &self.gamma, &self.y, &mut self.x);
-            self.constraint.value_and_cross_gram(
-                &self.x,
-                r,
+            let at_x = self.constraint.evaluate_and_factor(
+                (&self.x, r),
                 &mut self.residual,
                 &mut self.jacobian,
+                &mut self.factor,
+                &mut step,
             );
-            let (r_k, finite) = max_abs_and_finite(&self.residual);
+            let r_k = at_x.largest;
             let stagnated = (previous * 0.5).lt(r_k).and(r_k.le(stagnation));
             let mut converged = r_k.le(tolerance);
             if k < max_iterations {
                 converged = converged.or(stagnated);
             }
-            let factored = self
-                .factor
-                .factor(&self.jacobian, Some((&self.residual, &mut step)));
+            // The next Newton step only if a lane goes on (most often none does: one
+            // iteration converges); the factors at the root are kept for the velocity either way.
+            if active_any(active.and(!converged)) {
+                self.factor.back_substitute(&mut step);
+            }
             // A lane that fails now (no finite residual, a rejected pivot, the last
             // iteration without convergence) goes through the scalar step.
-            let fails = (!finite).or(!factored).or(if k == max_iterations {
+            let fails = (!at_x.ok).or(if k == max_iterations {
                 !converged
             } else {
                 !one.eq(one)
@@ -393,32 +439,29 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let zero = self.splat(0.0);
         let mut force = std::mem::take(&mut self.force);
-        let inverse_mass = self.constraint.inverse_mass();
         if active_any(rescaled) {
             for f in force.iter_mut() {
                 *f = Lanes::select(rescaled, *f * scale, *f);
             }
         }
-        for (k, (f, vi)) in force.iter_mut().zip(v.iter()).enumerate() {
-            *f = inverse_mass.apply(k, *f) + *vi;
-        }
-        // lambda = -Dg(r') v~ solved with the Newton matrix at the root.
-        self.constraint.jacobian_mul(&self.x, &force, dmu);
-        for l in dmu.iter_mut() {
-            *l = -*l;
-        }
-        if root.iterated {
-            // Lanes whose root is 0 were evaluated again at 0: their factor is J(0)'s.
-            self.factor.solve_in_place(dmu);
+        // lambda = -Dg(r') v~ solved with the Newton matrix at the root. Lanes whose root is 0
+        // were evaluated again at 0 if any lane iterated: then `factor` holds every lane's.
+        let factor = if root.iterated {
+            &self.factor
         } else {
-            self.factor_at_zero.solve_in_place(dmu);
-        }
+            &self.factor_at_zero
+        };
+        self.constraint
+            .velocity_right_hand_side(&self.x, (&mut force, v), factor, dmu);
+        factor.back_substitute(dmu);
         // v' = v~ + M^-1 grad g(r) lambda.
         self.constraint.displace(r, dmu, &force, v);
         self.force = force;
         ok = ok.and(sum_squares(v).is_finite());
         let velocity_residual = if config.monitor_velocity_constraint {
-            self.constraint.jacobian_mul(&self.x, v, &mut self.residual);
+            // max_i |-(Dg(r') v')_i| = max_i |(Dg(r') v')_i|.
+            self.constraint
+                .negated_jacobian_mul(&self.x, v, &mut self.residual);
             max_abs(&self.residual)
         } else {
             zero
@@ -683,7 +726,7 @@ fn max_abs<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
 /// sum is finite; an overflowing sum of finite entries counts as not finite, which sends the
 /// lane to the scalar step).
 #[inline(always)]
-fn max_abs_and_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> (Lanes<Sd>, LaneMask<Sd>) {
+pub(super) fn max_abs_and_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> (Lanes<Sd>, LaneMask<Sd>) {
     let mut largest = x[0].splat_like(0.0);
     let mut sum = largest;
     for xi in x {

@@ -64,83 +64,154 @@ impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
         }
     }
 
-    /// Factors `a`, and with `rhs` = (b, out) solves A out = b in the same pass; the lanes
-    /// where every pivot passed (|p_i| > 1e-8 x row scale, finite). The pivots are the ratios
-    /// of leading principal minors, rescaled by powers of two, as in the scalar factor.
+    /// Factors `a`, and with `rhs` = (b, out) runs the forward substitution in the same pass;
+    /// the lanes where every pivot passed ([`ThomasSweep::row`]).
     #[inline(always)]
     fn factor(&mut self, a: &TridiagonalLanes<Sd>, mut rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd> {
-        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
-        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
-        let off = m - 1;
-        let zero = a.diag[0].splat_like(0.0);
-        let one = zero.splat_like(1.0);
-        let (big, small) = (zero.splat_like(BIG), zero.splat_like(SMALL));
-        let (mut s_prev2, mut s_prev) = (zero, one);
-        let (mut l, mut coupling, mut forward) = (zero, zero, zero);
-        let mut ok = one.eq(one);
+        let mut sweep = ThomasSweep::new(a.diag[0]);
         for i in 0..m {
-            let d = a.diag[i];
-            let u = if i < off { a.upper[i] } else { zero };
-            let mut s_i = d * s_prev - coupling * s_prev2;
-            let magnitude = s_i.abs();
-            let in_range = small.le(magnitude).and(magnitude.le(big));
-            if !in_range.all() {
-                // Out of range: rescale by 2^-256 or 2^256; 0 or not finite: the lane fails.
-                let degenerate = magnitude.eq(zero).or(!magnitude.is_finite());
-                ok = ok.and(!(!in_range).and(degenerate));
-                let scale = Lanes::select(big.lt(magnitude), small, big);
-                let scale = Lanes::select(in_range, one, scale);
-                s_i = s_i * scale;
-                s_prev = s_prev * scale;
+            let upper = if i + 1 < m {
+                Some((a.upper[i], a.lower[i]))
+            } else {
+                None
+            };
+            let b = rhs.as_ref().map(|(b, _)| b[i]);
+            if let Some(forward) = sweep.row(self, i, a.diag[i], upper, b)
+                && let Some((_, out)) = rhs.as_mut()
+            {
+                out[i] = forward;
             }
-            let inv = s_prev / s_i;
-            let scale = l.abs() + d.abs() + u.abs();
-            let rejected = (!inv.eq(inv)).or(one.le(inv.abs() * 1e-8 * scale));
-            ok = ok.and(!rejected);
-            self.inverse_pivot[i] = inv;
-            if i > 0 {
-                let multiplier = l * inv;
-                self.lower[i - 1] = multiplier;
-                if let Some((b, out)) = rhs.as_mut() {
-                    forward = b[i] * inv - multiplier * forward;
-                    out[i] = forward;
-                }
-            } else if let Some((b, out)) = rhs.as_mut() {
-                forward = b[0] * inv;
-                out[0] = forward;
-            }
-            if i < off {
-                self.upper[i] = u * inv;
-                l = a.lower[i];
-                coupling = l * u;
-            }
-            s_prev2 = s_prev;
-            s_prev = s_i;
         }
-        if let Some((_, out)) = rhs {
-            self.backward(out);
-        }
-        ok
+        sweep.ok
     }
 
-    /// b <- A^-1 b.
     #[inline(always)]
-    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
-        let mut previous = b[0] * self.inverse_pivot[0];
-        b[0] = previous;
-        for (i, bi) in b.iter_mut().enumerate().skip(1) {
-            previous = *bi * self.inverse_pivot[i] - self.lower[i - 1] * previous;
+    fn back_substitute(&self, out: &mut [Lanes<Sd>]) {
+        self.backward(out);
+    }
+
+    #[inline(always)]
+    fn forward_in_place(&self, b: &mut [Lanes<Sd>]) {
+        let mut previous = b[0];
+        for (i, bi) in b.iter_mut().enumerate() {
+            previous = self.forward_row(i, *bi, previous);
             *bi = previous;
         }
-        self.backward(b);
+    }
+}
+
+/// Thomas' factorization row by row, for a caller that forms the rows as it goes (the chain's
+/// Newton matrix, `super::chain`): the state carried from row to row.
+pub(super) struct ThomasSweep<Sd: Simd> {
+    s_prev2: Lanes<Sd>,
+    s_prev: Lanes<Sd>,
+    /// l_{i-1} = A[i][i-1] and l_{i-1} u_{i-1} of the previous row.
+    lower: Lanes<Sd>,
+    coupling: Lanes<Sd>,
+    /// The forward substitution's last value.
+    forward: Lanes<Sd>,
+    /// The lanes where every pivot so far passed.
+    pub(super) ok: LaneMask<Sd>,
+}
+
+impl<Sd: Simd> ThomasSweep<Sd> {
+    /// Before row 0 (`like` gives the instruction set).
+    #[inline(always)]
+    pub(super) fn new(like: Lanes<Sd>) -> Self {
+        let zero = like.splat_like(0.0);
+        let one = zero.splat_like(1.0);
+        Self {
+            s_prev2: zero,
+            s_prev: one,
+            lower: zero,
+            coupling: zero,
+            forward: zero,
+            ok: one.eq(one),
+        }
+    }
+
+    /// Row i of the factorization into `factor`: the diagonal d_i, with (u_i, l_i) = (A[i][i+1],
+    /// A[i+1][i]) unless i is the last row, and with b_i the forward substitution's value at
+    /// row i. A pivot passes if |p_i| > 1e-8 x row scale and finite. The pivots are the ratios
+    /// of leading principal minors, rescaled by powers of two, as in the scalar factor.
+    #[inline(always)]
+    pub(super) fn row(
+        &mut self,
+        factor: &mut ThomasLanes<Sd>,
+        i: usize,
+        d: Lanes<Sd>,
+        upper: Option<(Lanes<Sd>, Lanes<Sd>)>,
+        b: Option<Lanes<Sd>>,
+    ) -> Option<Lanes<Sd>> {
+        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
+        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
+        let zero = d.splat_like(0.0);
+        let one = zero.splat_like(1.0);
+        let (big, small) = (zero.splat_like(BIG), zero.splat_like(SMALL));
+        let l = self.lower;
+        let u = match upper {
+            Some((u, _)) => u,
+            None => zero,
+        };
+        let mut s_i = d * self.s_prev - self.coupling * self.s_prev2;
+        let magnitude = s_i.abs();
+        let in_range = small.le(magnitude).and(magnitude.le(big));
+        if !in_range.all() {
+            // Out of range: rescale by 2^-256 or 2^256; 0 or not finite: the lane fails.
+            let degenerate = magnitude.eq(zero).or(!magnitude.is_finite());
+            self.ok = self.ok.and(!(!in_range).and(degenerate));
+            let scale = Lanes::select(big.lt(magnitude), small, big);
+            let scale = Lanes::select(in_range, one, scale);
+            s_i = s_i * scale;
+            self.s_prev = self.s_prev * scale;
+        }
+        let inv = self.s_prev / s_i;
+        let scale = l.abs() + d.abs() + u.abs();
+        let rejected = (!inv.eq(inv)).or(one.le(inv.abs() * 1e-8 * scale));
+        self.ok = self.ok.and(!rejected);
+        factor.inverse_pivot[i] = inv;
+        let multiplier = l * inv;
+        if i > 0 {
+            factor.lower[i - 1] = multiplier;
+        }
+        // Written out: a closure (Option::map) would not inherit the instruction set.
+        let forward = if let Some(b) = b {
+            self.forward = if i > 0 {
+                b * inv - multiplier * self.forward
+            } else {
+                b * inv
+            };
+            Some(self.forward)
+        } else {
+            None
+        };
+        if let Some((u, l_next)) = upper {
+            factor.upper[i] = u * inv;
+            self.lower = l_next;
+            self.coupling = l_next * u;
+        }
+        self.s_prev2 = self.s_prev;
+        self.s_prev = s_i;
+        forward
     }
 }
 
 impl<Sd: Simd> ThomasLanes<Sd> {
+    /// Row i of the forward substitution: b_0 / p_0 for i = 0, else b_i / p_i - (l_{i-1} /
+    /// p_i) y_{i-1} with y_{i-1} the previous row's value (`previous`).
+    #[inline(always)]
+    pub(super) fn forward_row(&self, i: usize, b: Lanes<Sd>, previous: Lanes<Sd>) -> Lanes<Sd> {
+        if i == 0 {
+            b * self.inverse_pivot[0]
+        } else {
+            b * self.inverse_pivot[i] - self.lower[i - 1] * previous
+        }
+    }
+
     /// The back substitution: b_i <- b_i - (u_i / p_i) b_{i+1}.
     #[inline(always)]
-    fn backward(&self, b: &mut [Lanes<Sd>]) {
+    pub(super) fn backward(&self, b: &mut [Lanes<Sd>]) {
         let off = self.upper.len();
         let mut next = b[off];
         for i in (0..off).rev() {

@@ -221,9 +221,7 @@ struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     h: f64,
     constraint: C,
-    /// The drift a(r_k, v_k).
-    a: Vec<Lanes<Sd>>,
-    /// The force, then v~.
+    /// The drift a(r_k, v_k), then the force eta a h + B dw, then v~.
     force: Vec<Lanes<Sd>>,
     y: Vec<Lanes<Sd>>,
     x: Vec<Lanes<Sd>>,
@@ -248,7 +246,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             simd,
             h: 0.0,
             constraint,
-            a: vec![zero; n],
             force: vec![zero; n],
             y: vec![zero; n],
             x: vec![zero; n],
@@ -437,7 +434,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         }: Velocity<Sd>,
         (r, v, dmu): GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
-        let zero = self.splat(0.0);
         let mut force = std::mem::take(&mut self.force);
         if active_any(rescaled) {
             for f in force.iter_mut() {
@@ -464,7 +460,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 .negated_jacobian_mul(&self.x, v, &mut self.residual);
             max_abs(&self.residual)
         } else {
-            zero
+            self.splat(0.0)
         };
         Some((
             ok,
@@ -595,17 +591,17 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let one = self.splat(1.0);
         let LaneRows { r, v, dw, dmu, .. } = rows;
         let v_norm2 = sum_squares(v);
-        let mut a = std::mem::take(&mut self.a);
-        if !system.drift_lanes(r, v, &mut a) {
+        // a(r_k, v_k) into `force`, which becomes the force in the pass that forms y.
+        let mut force = std::mem::take(&mut self.force);
+        if !system.drift_lanes(r, v, &mut force) {
             per_path(
                 [&r[..], &v[..]],
-                &mut a,
+                &mut force,
                 &mut self.scratch,
                 |[r, v], out| system.drift(r, v, out),
             );
         }
-        self.a = a;
-        let a_norm2 = sum_squares(&self.a);
+        let a_norm2 = sum_squares(&force);
         let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
 
         // eta of eq. 3.2, or with the constraint's local measure of the motion.
@@ -613,7 +609,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             None => one,
             Some(c_eta) => {
                 let motion = if config.local_size {
-                    self.constraint.local_motion(v, &self.a)
+                    self.constraint.local_motion(v, &force)
                 } else {
                     let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
                     speed.max(speed * speed).max(force)
@@ -624,21 +620,8 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             }
         };
         let eta_h = eta * h;
-        let mut max_abs_y = self.splat(0.0);
-        for ((y, ri), vi) in self.y.iter_mut().zip(r.iter()).zip(v.iter()) {
-            *y = *ri + eta_h * *vi;
-            max_abs_y = max_abs_y.max(y.abs());
-        }
-        let root = self.kappa_root(config, r, max_abs_y);
-        ok = ok.and(root.ok);
-        // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
-        if active_any(root.at_zero) {
-            for (x, y) in self.x.iter_mut().zip(&self.y) {
-                *x = Lanes::select(root.at_zero, *y, *x);
-            }
-        }
-
-        // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled.
+        // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
+        // the force here, v~ in the velocity update.
         let rescaled = if config.rescale_noise {
             eta.lt(one)
         } else {
@@ -646,10 +629,18 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         };
         let scale = Lanes::select(rescaled, eta.sqrt(), one);
         let drift_h = Lanes::select(rescaled, scale * h, eta_h);
-        for (f, ai) in self.force.iter_mut().zip(&self.a) {
-            *f = drift_h * *ai;
+        let mut max_abs_y = self.splat(0.0);
+        for (((y, f), ri), vi) in self
+            .y
+            .iter_mut()
+            .zip(&mut force)
+            .zip(r.iter())
+            .zip(v.iter())
+        {
+            *y = *ri + eta_h * *vi;
+            max_abs_y = max_abs_y.max(y.abs());
+            *f = drift_h * *f;
         }
-        let mut force = std::mem::take(&mut self.force);
         if !system.add_noise_lanes(r, v, dw, &mut force) {
             per_path(
                 [&r[..], &v[..], &dw[..]],
@@ -659,6 +650,15 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             );
         }
         self.force = force;
+        let root = self.kappa_root(config, r, max_abs_y);
+        ok = ok.and(root.ok);
+        // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
+        if active_any(root.at_zero) {
+            for (x, y) in self.x.iter_mut().zip(&self.y) {
+                *x = Lanes::select(root.at_zero, *y, *x);
+            }
+        }
+
         let outcomes = self.velocity(
             config,
             Velocity {

@@ -50,11 +50,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use std::mem::take;
+
 use pulp::Simd;
 use sdae_manifold::Constraint;
 
 use crate::driver::PathDiagnostics;
-use crate::ensemble::{PathEnsemble, check_path, for_each_row, lane_stride};
+use crate::ensemble::{LANE_BLOCK, PathEnsemble, check_path, for_each_row, lane_stride};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
@@ -79,16 +81,19 @@ impl<T: LaneScheme + ?Sized> LaneScheme for Box<T> {
     }
 }
 
-/// The state of P paths in structure-of-arrays layout (coordinate i of path p at
-/// `i * stride + p`, stride = [`lane_stride`]`(P)`), with each path's mu (seed eq. 1.4),
-/// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`].
+/// The state of P paths in structure-of-arrays layout, block by block of [`LANE_BLOCK`] paths
+/// (coordinate i of path p at [`LanePaths::lane_base`]`(p) + i * LANE_BLOCK`: a block's n rows
+/// of LANE_BLOCK lanes are contiguous, so that a group of W = LANE_BLOCK lanes is stepped where
+/// it lies), with each path's mu (seed eq. 1.4, constraint j of path p at `j * stride + p`,
+/// stride = [`lane_stride`]`(P)`), [`PathDiagnostics`] and, once a step has failed, its
+/// [`StepFailure`].
 #[derive(Debug, Clone)]
 pub struct LanePaths {
     paths: usize,
     stride: usize,
-    /// Positions.
+    /// Positions, block by block.
     r: Vec<f64>,
-    /// Velocities.
+    /// Velocities, block by block.
     v: Vec<f64>,
     /// mu, constraint j of path p at `j * stride + p`.
     mu: Vec<f64>,
@@ -185,6 +190,12 @@ impl LanePaths {
         self.stride
     }
 
+    /// Where coordinate 0 of path (or lane) p lies in the positions and the velocities: in
+    /// block p / LANE_BLOCK of n rows, at lane p % LANE_BLOCK.
+    fn lane_base(&self, p: usize) -> usize {
+        (p / LANE_BLOCK) * self.lane_r.len() * LANE_BLOCK + p % LANE_BLOCK
+    }
+
     /// The noise dimension l.
     pub fn noise_dim(&self) -> usize {
         self.lane_dw.len()
@@ -206,10 +217,17 @@ impl LanePaths {
         check_dim("initial position", n, r0.len())?;
         check_dim("initial velocity", n, v0.len())?;
         let stride = self.stride;
-        for i in 0..n {
-            // Padding lanes hold the initial state too, so that they compute finite numbers.
-            self.r[i * stride..(i + 1) * stride].fill(r0[i]);
-            self.v[i * stride..(i + 1) * stride].fill(v0[i]);
+        // Padding lanes hold the initial state too, so that they compute finite numbers.
+        let block = n * LANE_BLOCK;
+        for (r, v) in self
+            .r
+            .chunks_exact_mut(block)
+            .zip(self.v.chunks_exact_mut(block))
+        {
+            for i in 0..n {
+                r[i * LANE_BLOCK..(i + 1) * LANE_BLOCK].fill(r0[i]);
+                v[i * LANE_BLOCK..(i + 1) * LANE_BLOCK].fill(v0[i]);
+            }
         }
         self.mu.fill(0.0);
         self.alive.fill(0.0);
@@ -225,8 +243,9 @@ impl LanePaths {
         check_path(p, self.paths)?;
         check_dim("position", self.lane_r.len(), r.len())?;
         check_dim("velocity", self.lane_v.len(), v.len())?;
-        scatter(&mut self.r, self.stride, p, r);
-        scatter(&mut self.v, self.stride, p, v);
+        let base = self.lane_base(p);
+        scatter(&mut self.r, LANE_BLOCK, base, r);
+        scatter(&mut self.v, LANE_BLOCK, base, v);
         self.alive[p] = 1.0;
         if self.failures[p].take().is_some() {
             self.failed -= 1;
@@ -248,13 +267,14 @@ impl LanePaths {
             return;
         }
         self.scalar_steps += 1;
-        gather(&self.r, self.stride, p, &mut self.lane_r);
-        gather(&self.v, self.stride, p, &mut self.lane_v);
+        let base = self.lane_base(p);
+        gather(&self.r, LANE_BLOCK, base, &mut self.lane_r);
+        gather(&self.v, LANE_BLOCK, base, &mut self.lane_v);
         gather(dw, self.stride, p, &mut self.lane_dw);
         match scheme.step(&mut self.lane_r, &mut self.lane_v, h, &self.lane_dw) {
             Ok(outcome) => {
-                scatter(&mut self.r, self.stride, p, &self.lane_r);
-                scatter(&mut self.v, self.stride, p, &self.lane_v);
+                scatter(&mut self.r, LANE_BLOCK, base, &self.lane_r);
+                scatter(&mut self.v, LANE_BLOCK, base, &self.lane_v);
                 for (j, d) in scheme.multiplier_increment().iter().enumerate() {
                     self.mu[j * self.stride + p] += d;
                 }
@@ -295,8 +315,9 @@ impl LanePaths {
         for offset in (0..stride).step_by(width) {
             let alive = Lanes::load(simd, &self.alive[offset..]);
             let alive = alive.eq(alive.splat_like(1.0));
-            let r: [Lanes<Sd>; N] = load_rows(simd, &self.r, stride, offset, N);
-            let v: [Lanes<Sd>; N] = load_rows(simd, &self.v, stride, offset, N);
+            let base = self.lane_base(offset);
+            let r: [Lanes<Sd>; N] = load_rows(simd, &self.r, LANE_BLOCK, base, N);
+            let v: [Lanes<Sd>; N] = load_rows(simd, &self.v, LANE_BLOCK, base, N);
             let noise: [Lanes<Sd>; N] = load_rows(simd, dw, stride, offset, l);
             let Some(step) = kernel.step(scheme, &r, &v, &noise[..l]) else {
                 for p in offset..(offset + width).min(self.paths) {
@@ -306,7 +327,7 @@ impl LanePaths {
             };
             let done = step.ok.and(alive);
             for i in 0..N {
-                let row = i * stride + offset;
+                let row = base + i * LANE_BLOCK;
                 Lanes::select(done, step.r[i], r[i]).store(&mut self.r[row..]);
                 Lanes::select(done, step.v[i], v[i]).store(&mut self.v[row..]);
             }
@@ -318,10 +339,11 @@ impl LanePaths {
     }
 
     /// Steps every path that goes on, W = `Sd::F64_LANES` lanes at a time, for a system of any
-    /// size: `kernel` computes a group's step from its r_k, v_k and increments loaded into
-    /// `rows`, and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k there; the lanes it decides take
-    /// them and their outcome, the others (and all of a group for which it returns `None`) go
-    /// through the scalar step. `rows` must have the system's n, m and l
+    /// size: `kernel` computes a group's step from its r_k and v_k (read where they lie when
+    /// the group is a whole block, W = [`LANE_BLOCK`], else copied) and the increments loaded
+    /// into `rows`, and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k in `rows`; the lanes it
+    /// decides take them and their outcome, the others (and all of a group for which it returns
+    /// `None`) go through the scalar step from r_k and v_k. `rows` must have the system's n, m and l
     /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
     #[inline(always)]
     pub fn step_wide_groups<Sch, Sd, K>(
@@ -343,18 +365,35 @@ impl LanePaths {
             if (!alive).all() {
                 continue;
             }
-            load_into(&mut rows.r, &self.r, stride, offset);
-            load_into(&mut rows.v, &self.v, stride, offset);
             load_into(&mut rows.dw, dw, stride, offset);
-            let Some((ok, record)) = kernel.step(scheme, rows) else {
+            let base = self.lane_base(offset);
+            // r_k and v_k where they lie if the group is a whole block, else copied.
+            let (mut r_copy, mut v_copy) = (take(&mut rows.r_copy), take(&mut rows.v_copy));
+            let whole_block = if Sd::F64_LANES == LANE_BLOCK {
+                let block = base..base + r_copy.len() * LANE_BLOCK;
+                Lanes::rows(simd, &self.r[block.clone()]).zip(Lanes::rows(simd, &self.v[block]))
+            } else {
+                None
+            };
+            let state = match whole_block {
+                Some(state) => state,
+                None => {
+                    load_into(&mut r_copy, &self.r, LANE_BLOCK, base);
+                    load_into(&mut v_copy, &self.v, LANE_BLOCK, base);
+                    (&r_copy[..], &v_copy[..])
+                }
+            };
+            let stepped = kernel.step(scheme, state, rows);
+            (rows.r_copy, rows.v_copy) = (r_copy, v_copy);
+            let Some((ok, record)) = stepped else {
                 for p in offset..(offset + Sd::F64_LANES).min(self.paths) {
                     self.step_one(scheme, p, h, dw);
                 }
                 continue;
             };
             let done = ok.and(alive);
-            store_selected(done, &rows.r, &mut self.r, stride, offset);
-            store_selected(done, &rows.v, &mut self.v, stride, offset);
+            store_selected(done, &rows.r, &mut self.r, LANE_BLOCK, base);
+            store_selected(done, &rows.v, &mut self.v, LANE_BLOCK, base);
             for (j, dmu) in rows.dmu.iter_mut().enumerate() {
                 *dmu = *dmu + Lanes::load(simd, &self.mu[j * stride + offset..]);
             }
@@ -390,19 +429,23 @@ impl LanePaths {
     }
 }
 
-/// One group's W lanes of a system of any size ([`LanePaths::step_wide_groups`]): r, v and
-/// the increments before the step, r, v and the increment of mu after it.
+/// One group's W lanes of a system of any size ([`LanePaths::step_wide_groups`]): the
+/// increments of the step, and r, v and the increment of mu after it (r_k and v_k are the
+/// kernel's input, where they lie in the ensemble's state when they can be).
 #[derive(Debug, Clone)]
 pub struct LaneRows<Sd: Simd> {
     simd: Sd,
-    /// r_k, then r_{k+1} (n rows).
+    /// r_{k+1} (n rows).
     pub r: Vec<Lanes<Sd>>,
-    /// v_k, then v_{k+1} (n rows).
+    /// v_{k+1} (n rows).
     pub v: Vec<Lanes<Sd>>,
     /// The increments dw (l rows).
     pub dw: Vec<Lanes<Sd>>,
     /// mu_{k+1} - mu_k (m rows).
     pub dmu: Vec<Lanes<Sd>>,
+    /// r_k and v_k copied, for a group narrower than a block.
+    r_copy: Vec<Lanes<Sd>>,
+    v_copy: Vec<Lanes<Sd>>,
 }
 
 impl<Sd: Simd> LaneRows<Sd> {
@@ -415,6 +458,8 @@ impl<Sd: Simd> LaneRows<Sd> {
             v: vec![zero; n],
             dw: vec![zero; l],
             dmu: vec![zero; m],
+            r_copy: vec![zero; n],
+            v_copy: vec![zero; n],
         }
     }
 
@@ -427,12 +472,15 @@ impl<Sd: Simd> LaneRows<Sd> {
 /// The lane form of a scheme's step for systems of any size ([`LanePaths::step_wide_groups`]),
 /// with buffers of its own for the instruction set `Sd`.
 pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
-    /// The step of the W lanes of `rows` (r_k, v_k, dw) into `rows` (r_{k+1}, v_{k+1} and the
-    /// increment of mu) for the lanes it decides, which it returns with what their steps add
-    /// to their diagnostics; `None` if this group must go through the scalar step.
+    /// The step of W lanes from `state` = (r_k, v_k) with the increments in `rows` into `rows`
+    /// (r_{k+1}, v_{k+1} and the increment of mu) for the lanes it decides, which it returns
+    /// with what their steps add to their diagnostics; `None` if this group must go through
+    /// the scalar step. `state` is left as it is: a lane the kernel does not decide steps
+    /// again from it through the scalar step.
     fn step(
         &mut self,
         scheme: &Sch,
+        state: (&[Lanes<Sd>], &[Lanes<Sd>]),
         rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
 }
@@ -575,8 +623,9 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
         check_path(p, paths.paths)?;
         check_dim("position", paths.lane_r.len(), r.len())?;
         check_dim("velocity", paths.lane_v.len(), v.len())?;
-        gather(&paths.r, paths.stride, p, r);
-        gather(&paths.v, paths.stride, p, v);
+        let base = paths.lane_base(p);
+        gather(&paths.r, LANE_BLOCK, base, r);
+        gather(&paths.v, LANE_BLOCK, base, v);
         if !mu.is_empty() {
             check_dim("multiplier", paths.mu.len() / paths.stride, mu.len())?;
             gather(&paths.mu, paths.stride, p, mu);
@@ -601,8 +650,9 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
         }
         let n = lanes.lane_r.len();
         for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
-            gather(&lanes.r, lanes.stride, p, r);
-            gather(&lanes.v, lanes.stride, p, v);
+            let base = lanes.lane_base(p);
+            gather(&lanes.r, LANE_BLOCK, base, r);
+            gather(&lanes.v, LANE_BLOCK, base, v);
             gather(&lanes.mu, lanes.stride, p, mu);
             Ok(())
         })

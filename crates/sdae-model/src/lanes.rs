@@ -62,8 +62,10 @@ impl LaneWidth {
     }
 }
 
-/// W values, one per path, of the instruction set `S`.
+/// W values, one per path, of the instruction set `S`. Laid out as its W f64 where the
+/// instruction set is zero-sized ([`Lanes::rows`]).
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 pub struct Lanes<S: Simd> {
     simd: S,
     x: S::f64s,
@@ -97,6 +99,28 @@ impl<S: Simd> Lanes<S> {
             simd,
             x: bytemuck::pod_read_unaligned(bytes),
         }
+    }
+
+    /// `values` as rows of W lanes (row i from `values[i W..(i + 1) W]`) without a copy, or
+    /// `None` where the layout does not allow it: `Lanes<S>` must be laid out as its W f64 (a
+    /// zero-sized instruction set, as pulp's are), `values` aligned for it and a whole number
+    /// of rows.
+    #[inline(always)]
+    pub fn rows(simd: S, values: &[f64]) -> Option<&[Self]> {
+        let _ = simd;
+        let w = Self::WIDTH;
+        let fits = size_of::<S>() == 0
+            && size_of::<Self>() == w * size_of::<f64>()
+            && values.len().is_multiple_of(w)
+            && values.as_ptr().cast::<Self>().is_aligned();
+        // SAFETY: `Lanes` is repr(C): the zero-sized `simd`, then `x`, at offset 0 and, by the
+        // size check, exactly W f64 wide, for which every bit pattern is valid; the pointer is
+        // aligned for `Lanes<S>` and the rows cover `values` exactly; the result borrows
+        // `values`. The instruction set's token is zero-sized and the caller holds one
+        // (`simd`), so the rows carry a set this processor runs.
+        fits.then(|| unsafe {
+            std::slice::from_raw_parts(values.as_ptr().cast::<Self>(), values.len() / w)
+        })
     }
 
     /// Writes the lanes to `to[..W]`.
@@ -547,6 +571,40 @@ mod tests {
                 let b = (a * a + 2.0).sqrt() / (a - 7.0) - a.abs().max(0.25);
                 let c = if a < b { -b } else { b + 1.0 };
                 assert_eq!(g.to_bits(), c.to_bits(), "width {width}, lane {i}");
+            }
+        }
+    }
+
+    /// The rows of `values` in place are the rows loaded one by one; a slice that is not a
+    /// whole number of rows has none.
+    fn rows_in_place<S: Simd>(simd: S) {
+        let w = S::F64_LANES;
+        let values: Vec<f64> = (0..3 * w).map(|i| i as f64 * 0.5 - 2.0).collect();
+        let rows = Lanes::rows(simd, &values).expect("pulp's instruction sets are zero-sized");
+        assert_eq!(rows.len(), 3);
+        for (i, row) in rows.iter().enumerate() {
+            let loaded = Lanes::load(simd, &values[i * w..]);
+            for lane in 0..w {
+                assert_eq!(row.lane(lane).to_bits(), loaded.lane(lane).to_bits());
+            }
+        }
+        if w > 1 {
+            assert!(Lanes::rows(simd, &values[..2 * w + 1]).is_none());
+        }
+    }
+
+    #[test]
+    fn rows_in_place_are_the_rows_loaded() {
+        rows_in_place(pulp::Scalar);
+        rows_in_place(pulp::Scalar256b);
+        rows_in_place(pulp::Scalar512b);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(simd) = pulp::x86::V3::try_new() {
+                rows_in_place(simd);
+            }
+            if let Some(simd) = pulp::x86::V4::try_new() {
+                rows_in_place(simd);
             }
         }
     }

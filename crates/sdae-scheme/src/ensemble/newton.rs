@@ -432,7 +432,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             rescaled: (rescaled, scale),
             root,
         }: Velocity<Sd>,
-        (r, v, dmu): GroupRows<'_, Sd>,
+        (r, v, v_next, dmu): GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let mut force = std::mem::take(&mut self.force);
         if active_any(rescaled) {
@@ -451,13 +451,13 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             .velocity_right_hand_side(&self.x, (&mut force, v), factor, dmu);
         factor.back_substitute(dmu);
         // v' = v~ + M^-1 grad g(r) lambda.
-        self.constraint.displace(r, dmu, &force, v);
+        self.constraint.displace(r, dmu, &force, v_next);
         self.force = force;
-        ok = ok.and(sum_squares(v).is_finite());
+        ok = ok.and(sum_squares(v_next).is_finite());
         let velocity_residual = if config.monitor_velocity_constraint {
             // max_i |-(Dg(r') v')_i| = max_i |(Dg(r') v')_i|.
             self.constraint
-                .negated_jacobian_mul(&self.x, v, &mut self.residual);
+                .negated_jacobian_mul(&self.x, v_next, &mut self.residual);
             max_abs(&self.residual)
         } else {
             self.splat(0.0)
@@ -548,9 +548,10 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
     }
 }
 
-/// r, v and the increment of mu of a group ([`LaneRows`]).
+/// r_k, v_k, v_{k+1} and the increment of mu of a group ([`LaneRows`]).
 type GroupRows<'a, Sd> = (
-    &'a mut [Lanes<Sd>],
+    &'a [Lanes<Sd>],
+    &'a [Lanes<Sd>],
     &'a mut [Lanes<Sd>],
     &'a mut [Lanes<Sd>],
 );
@@ -578,28 +579,33 @@ struct KappaLanes<Sd: Simd> {
 }
 
 impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
-    /// Seed eq. 3.1-3.2 for the W lanes of `rows` (module documentation).
+    /// Seed eq. 3.1-3.2 for W lanes from `state` = (r_k, v_k) into `rows` (module
+    /// documentation).
     #[inline(always)]
     fn step(
         &mut self,
         stepper: &Stepper<S>,
+        (r, v): (&[Lanes<Sd>], &[Lanes<Sd>]),
         rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let system = stepper.system();
         let config = stepper.config();
         let h = self.h;
         let one = self.splat(1.0);
-        let LaneRows { r, v, dw, dmu, .. } = rows;
+        let LaneRows {
+            r: r_next,
+            v: v_next,
+            dw,
+            dmu,
+            ..
+        } = rows;
         let v_norm2 = sum_squares(v);
         // a(r_k, v_k) into `force`, which becomes the force in the pass that forms y.
         let mut force = std::mem::take(&mut self.force);
         if !system.drift_lanes(r, v, &mut force) {
-            per_path(
-                [&r[..], &v[..]],
-                &mut force,
-                &mut self.scratch,
-                |[r, v], out| system.drift(r, v, out),
-            );
+            per_path([r, v], &mut force, &mut self.scratch, |[r, v], out| {
+                system.drift(r, v, out)
+            });
         }
         let a_norm2 = sum_squares(&force);
         let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
@@ -643,7 +649,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         }
         if !system.add_noise_lanes(r, v, dw, &mut force) {
             per_path(
-                [&r[..], &v[..], &dw[..]],
+                [r, v, &dw[..]],
                 &mut force,
                 &mut self.scratch,
                 |[r, v, dw], out| system.add_noise(r, v, dw, out),
@@ -667,10 +673,11 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
                 rescaled: (rescaled, scale),
                 root,
             },
-            (r, v, dmu),
+            (r, v, v_next, dmu),
         );
-        // r_{k+1} is in `x`: the rows take it, `x` takes the rows' r_k (overwritten next step).
-        std::mem::swap(r, &mut self.x);
+        // r_{k+1} is in `x`: the rows take it, `x` takes the rows' old buffer (overwritten
+        // next step).
+        std::mem::swap(r_next, &mut self.x);
         outcomes
     }
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{lane_configs, noisy_pendulum};
-use sdae_manifold::{IdentityMass, Sphere};
+use sdae_manifold::{IdentityMass, ManifoldError, Sphere};
 use sdae_model::{
     AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble, PathLoop,
     PathState, Scheme, StepFailure, System,
@@ -303,6 +303,25 @@ fn bad_input_is_a_typed_error() {
     assert!(ensemble.diagnostics(7).is_err());
     assert!(ensemble.stop(3).is_err());
     assert!(ensemble.restart(&[1.5], &[0.0, 0.0]).is_err());
+    // A start off the manifold (|r| = 1.4 on a pendulum of length 1.5: g = (1 - 1.4^2 / 1.5^2)
+    // / 2) or off its tangent space is refused with the residual, before any path moves.
+    let off = Ensemble::new(ensemble.scheme().clone(), 3, &[1.4, 0.0], &[0.0, 0.0]);
+    let Err(sdae_model::ModelError::Manifold(ManifoldError::OffManifold { residual, .. })) = off
+    else {
+        panic!("a start off the manifold was accepted");
+    };
+    assert!(
+        (residual - 0.5 * (1.0 - 1.96 / 2.25)).abs() < 1e-12,
+        "{residual}"
+    );
+    let e = ensemble.restart(&[1.5, 0.0], &[0.3, 0.0]).unwrap_err();
+    assert!(matches!(
+        e,
+        sdae_model::ModelError::Manifold(ManifoldError::OffTangent { .. })
+    ));
+    assert_eq!(ensemble.diagnostics(0).unwrap().steps, 0);
+    let looped = PathLoop::new(ensemble.scheme().clone(), 2, &[f64::NAN, 0.0], &[0.0, 0.0]);
+    assert!(looped.is_err(), "a non-finite start was accepted");
     assert!(ensemble.set_state(0, &[1.0], &[0.0, 0.0]).is_err());
     let e = PathLoop::new(ensemble.scheme().clone(), 0, &[1.5, 0.0], &[0.0, 0.0])
         .err()

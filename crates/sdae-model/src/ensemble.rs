@@ -1,55 +1,8 @@
-//! Many independent paths of one scheme stepped together: the trait [`PathEnsemble`], the
-//! layout of its increments ([`lane_stride`]) and [`PathLoop`], which steps the paths of any
-//! [`Scheme`] one at a time.
-//!
-//! A path's numbers never depend on the other paths of its ensemble: path p of an ensemble
-//! computes exactly what [`run_path`](crate::run_path) computes for that path alone, so a
-//! Monte Carlo run gives the same numbers however its paths are grouped into ensembles and
-//! threads. An implementation that steps W paths in SIMD lanes is `sdae_scheme::Ensemble`.
-//!
-//! ```
-//! use sdae_model::{
-//!     GaussianIncrements, IncrementSource, MechanicalSystem, NoNoise, PathEnsemble, PathLoop,
-//!     Scheme, StepFailure, StepOutcome, ZeroDrift, lane_stride,
-//! };
-//! use sdae_manifold::{IdentityMass, Sphere};
-//!
-//! // A scheme that only moves along a circle's tangent (enough to show the bookkeeping).
-//! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
-//! struct Rotate(Circle);
-//! impl Scheme for Rotate {
-//!     type System = Circle;
-//!     fn system(&self) -> &Circle {
-//!         &self.0
-//!     }
-//!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
-//!         -> Result<StepOutcome, StepFailure> {
-//!         let (c, s) = (h.cos(), h.sin());
-//!         let (x, y) = (r[0], r[1]);
-//!         r.copy_from_slice(&[c * x - s * y, s * x + c * y]);
-//!         v.copy_from_slice(&[-r[1], r[0]]);
-//!         Ok(StepOutcome::PLAIN)
-//!     }
-//!     fn multiplier_increment(&self) -> &[f64] {
-//!         &[0.0]
-//!     }
-//! }
-//!
-//! let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
-//! let mut paths = PathLoop::new(Rotate(system), 3, &[1.0, 0.0], &[0.0, 1.0])?;
-//! assert_eq!(paths.stride(), lane_stride(3));
-//! for _ in 0..100 {
-//!     paths.step(0.01, &[])?;
-//! }
-//! let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
-//! paths.state(2, &mut r, &mut v, &mut mu)?;
-//! assert!((r[0] - 1f64.cos()).abs() < 1e-12 && paths.diagnostics(2)?.steps == 100);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
+//! Many independent paths of one scheme stepped together: [`PathEnsemble`], [`PathLoop`].
 
-use sdae_manifold::Constraint;
+use sdae_manifold::{Constraint, check_state};
 
-use crate::driver::{PathDiagnostics, PathState};
+use crate::driver::{INITIAL_STATE_TOLERANCE, PathDiagnostics, PathState};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
 use crate::scheme::Scheme;
 use crate::system::System;
@@ -68,6 +21,55 @@ pub fn lane_stride(paths: usize) -> usize {
 /// P independent paths of one scheme, each with its state (r, v), its mu (seed eq. 1.4), its
 /// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`]: a failed path keeps
 /// its last good state and stops; the others go on.
+///
+/// Many independent paths of one scheme stepped together: the trait [`PathEnsemble`], the
+/// layout of its increments ([`lane_stride`]) and [`PathLoop`], which steps the paths of any
+/// [`Scheme`] one at a time.
+///
+/// A path's numbers never depend on the other paths of its ensemble: path p of an ensemble
+/// computes exactly what [`run_path`](crate::run_path) computes for that path alone, so a
+/// Monte Carlo run gives the same numbers however its paths are grouped into ensembles and
+/// threads. An implementation that steps W paths in SIMD lanes is `sdae_scheme::Ensemble`.
+///
+/// ```
+/// use sdae_model::{
+///     GaussianIncrements, IncrementSource, MechanicalSystem, NoNoise, PathEnsemble, PathLoop,
+///     Scheme, StepFailure, StepOutcome, ZeroDrift, lane_stride,
+/// };
+/// use sdae_manifold::{IdentityMass, Sphere};
+///
+/// // A scheme that only moves along a circle's tangent (enough to show the bookkeeping).
+/// type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
+/// struct Rotate(Circle);
+/// impl Scheme for Rotate {
+///     type System = Circle;
+///     fn system(&self) -> &Circle {
+///         &self.0
+///     }
+///     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
+///         -> Result<StepOutcome, StepFailure> {
+///         let (c, s) = (h.cos(), h.sin());
+///         let (x, y) = (r[0], r[1]);
+///         r.copy_from_slice(&[c * x - s * y, s * x + c * y]);
+///         v.copy_from_slice(&[-r[1], r[0]]);
+///         Ok(StepOutcome::PLAIN)
+///     }
+///     fn multiplier_increment(&self) -> &[f64] {
+///         &[0.0]
+///     }
+/// }
+///
+/// let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
+/// let mut paths = PathLoop::new(Rotate(system), 3, &[1.0, 0.0], &[0.0, 1.0])?;
+/// assert_eq!(paths.stride(), lane_stride(3));
+/// for _ in 0..100 {
+///     paths.step(0.01, &[])?;
+/// }
+/// let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
+/// paths.state(2, &mut r, &mut v, &mut mu)?;
+/// assert!((r[0] - 1f64.cos()).abs() < 1e-12 && paths.diagnostics(2)?.steps == 100);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub trait PathEnsemble {
     /// The system stepped.
     type System: System;
@@ -79,10 +81,13 @@ pub trait PathEnsemble {
     fn stride(&self) -> usize {
         lane_stride(self.paths())
     }
-    /// Puts every path back at (r0, v0) with mu = 0, fresh diagnostics and no failure.
+    /// Puts every path back at (r0, v0) with mu = 0, fresh diagnostics and no failure. Fails,
+    /// leaving the paths alone, unless (r0, v0) has n coordinates each, is finite and lies on
+    /// the tangent bundle within [`INITIAL_STATE_TOLERANCE`] ([`check_initial_state`]).
     fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError>;
     /// Sets path p to (r, v) and lets it go on if it had stopped (its mu and diagnostics go on
-    /// from where they were).
+    /// from where they were; a failure it had is dropped). Only the lengths are checked: a
+    /// path may be placed anywhere, off the manifold too (to see how a scheme fails there).
     fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError>;
     /// Advances every path that goes on by one step of size h with Brownian increments `dw`
     /// (component j of path p at `j * stride + p`, length l * stride); returns how many paths
@@ -112,7 +117,8 @@ pub trait PathEnsemble {
     }
     /// What path p's steps did so far.
     fn diagnostics(&self, p: usize) -> Result<PathDiagnostics, ModelError>;
-    /// Why path p stopped on a failed step, or `None`.
+    /// Why path p stopped on a failed step, or `None`. The step that failed is the path's
+    /// step k = [`PathDiagnostics::steps`] (the steps it completed), from t_k = k h.
     fn failure(&self, p: usize) -> Result<Option<&StepFailure>, ModelError>;
     /// Stops path p (its caller found it failed, say beyond a blow-up bound): it takes no
     /// further steps until [`PathEnsemble::restart`].
@@ -150,6 +156,22 @@ pub fn check_path(p: usize, paths: usize) -> Result<(), ModelError> {
     }
 }
 
+/// Checks an ensemble's start as [`run_path`](crate::run_path) checks a path's: r0 and v0 of
+/// length n (the system's coordinates), finite, |g(r0)| and |Dg(r0) v0| within
+/// [`INITIAL_STATE_TOLERANCE`] ([`ModelError::Manifold`] with the residual and where it is
+/// largest otherwise).
+pub fn check_initial_state<S: System + ?Sized>(
+    system: &S,
+    r0: &[f64],
+    v0: &[f64],
+) -> Result<(), ModelError> {
+    let constraint = system.constraint();
+    check_dim("initial position", constraint.dim(), r0.len())?;
+    check_dim("initial velocity", constraint.dim(), v0.len())?;
+    check_state(constraint, r0, v0, INITIAL_STATE_TOLERANCE)?;
+    Ok(())
+}
+
 /// The paths of any [`Scheme`] (a user's, one without a lane form), stepped one at a time by
 /// the same [`PathState::step`] as [`run_path`](crate::run_path).
 pub struct PathLoop<Sch: Scheme> {
@@ -167,8 +189,7 @@ pub struct PathLoop<Sch: Scheme> {
 }
 
 impl<Sch: Scheme> PathLoop<Sch> {
-    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) (not checked to be on the
-    /// manifold, as for one step of a scheme).
+    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) ([`check_initial_state`]).
     pub fn new(scheme: Sch, paths: usize, r0: &[f64], v0: &[f64]) -> Result<Self, ModelError> {
         if paths == 0 {
             return Err(ModelError::InvalidSetting {
@@ -211,10 +232,8 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
     }
 
     fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
-        let c = self.scheme.system().constraint();
-        check_dim("initial position", c.dim(), r0.len())?;
-        check_dim("initial velocity", c.dim(), v0.len())?;
-        let m = c.n_constraints();
+        check_initial_state(self.scheme.system(), r0, v0)?;
+        let m = self.scheme.system().constraint().n_constraints();
         for p in 0..self.states.len() {
             self.r[p] = r0.to_vec();
             self.v[p] = v0.to_vec();

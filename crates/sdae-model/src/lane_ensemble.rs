@@ -1,54 +1,4 @@
-//! Many paths of one scheme in structure-of-arrays layout ([`LanePaths`]), stepped W at a time
-//! in SIMD lanes where the scheme has a lane form ([`LaneScheme`]) and one at a time through
-//! its scalar [`Scheme::step`] where it has none ([`LaneEnsemble`]).
-//!
-//! A lane form computes, lane by lane, exactly what the scalar step computes for that path
-//! alone; a lane it does not decide (a failure, a case outside its closed form) finishes its
-//! step through the scalar step, which reports the failure as for one path. So a path's
-//! numbers do not depend on W, on the other paths or on how paths are grouped.
-//!
-//! ```
-//! use sdae_manifold::{IdentityMass, Sphere};
-//! use sdae_model::lanes::LaneWidth;
-//! use sdae_model::{
-//!     LaneEnsemble, LanePaths, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme,
-//!     StepFailure, StepOutcome, ZeroDrift,
-//! };
-//!
-//! // A scheme without a lane form: every path steps through `step`.
-//! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
-//! struct Drift(Circle);
-//! impl Scheme for Drift {
-//!     type System = Circle;
-//!     fn system(&self) -> &Circle {
-//!         &self.0
-//!     }
-//!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
-//!         -> Result<StepOutcome, StepFailure> {
-//!         r[0] += h * v[0];
-//!         r[1] += h * v[1];
-//!         Ok(StepOutcome::PLAIN)
-//!     }
-//!     fn multiplier_increment(&self) -> &[f64] {
-//!         &[0.5]
-//!     }
-//! }
-//! impl LaneScheme for Drift {
-//!     fn step_lanes(&mut self, _: &mut LanePaths, _: LaneWidth, _: f64, _: &[f64]) -> bool {
-//!         false
-//!     }
-//! }
-//!
-//! let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
-//! let mut paths = LaneEnsemble::new(Drift(system), 5, &[1.0, 0.0], &[0.0, 1.0])?;
-//! for _ in 0..10 {
-//!     paths.step(0.1, &[])?;
-//! }
-//! let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
-//! paths.state(4, &mut r, &mut v, &mut mu)?;
-//! assert!((r[1] - 1.0).abs() < 1e-12 && mu[0] == 5.0 && paths.scalar_steps() == 50);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
-//! ```
+//! Many paths of one scheme stepped W at a time in SIMD lanes: [`LaneEnsemble`], [`LanePaths`].
 
 use std::mem::take;
 
@@ -56,7 +6,9 @@ use pulp::Simd;
 use sdae_manifold::Constraint;
 
 use crate::driver::PathDiagnostics;
-use crate::ensemble::{LANE_BLOCK, PathEnsemble, check_path, for_each_row, lane_stride};
+use crate::ensemble::{
+    LANE_BLOCK, PathEnsemble, check_initial_state, check_path, for_each_row, lane_stride,
+};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
@@ -82,7 +34,8 @@ impl<T: LaneScheme + ?Sized> LaneScheme for Box<T> {
 }
 
 /// The state of P paths in structure-of-arrays layout, block by block of [`LANE_BLOCK`] paths
-/// (coordinate i of path p at [`LanePaths::lane_base`]`(p) + i * LANE_BLOCK`: a block's n rows
+/// (coordinate i of path p at `(p / LANE_BLOCK) * n * LANE_BLOCK + i * LANE_BLOCK + p %
+/// LANE_BLOCK`: a block's n rows
 /// of LANE_BLOCK lanes are contiguous, so that a group of W = LANE_BLOCK lanes is stepped where
 /// it lies), with each path's mu (seed eq. 1.4, constraint j of path p at `j * stride + p`,
 /// stride = [`lane_stride`]`(P)`), [`PathDiagnostics`] and, once a step has failed, its
@@ -521,6 +474,58 @@ impl std::fmt::Debug for LaneStore {
 }
 
 /// P paths of a [`LaneScheme`], stepped in SIMD lanes where it has a lane form.
+///
+/// Many paths of one scheme in structure-of-arrays layout ([`LanePaths`]), stepped W at a time
+/// in SIMD lanes where the scheme has a lane form ([`LaneScheme`]) and one at a time through
+/// its scalar [`Scheme::step`] where it has none ([`LaneEnsemble`]).
+///
+/// A lane form computes, lane by lane, exactly what the scalar step computes for that path
+/// alone; a lane it does not decide (a failure, a case outside its closed form) finishes its
+/// step through the scalar step, which reports the failure as for one path. So a path's
+/// numbers do not depend on W, on the other paths or on how paths are grouped.
+///
+/// ```
+/// use sdae_manifold::{IdentityMass, Sphere};
+/// use sdae_model::lanes::LaneWidth;
+/// use sdae_model::{
+///     LaneEnsemble, LanePaths, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme,
+///     StepFailure, StepOutcome, ZeroDrift,
+/// };
+///
+/// // A scheme without a lane form: every path steps through `step`.
+/// type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
+/// struct Drift(Circle);
+/// impl Scheme for Drift {
+///     type System = Circle;
+///     fn system(&self) -> &Circle {
+///         &self.0
+///     }
+///     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
+///         -> Result<StepOutcome, StepFailure> {
+///         r[0] += h * v[0];
+///         r[1] += h * v[1];
+///         Ok(StepOutcome::PLAIN)
+///     }
+///     fn multiplier_increment(&self) -> &[f64] {
+///         &[0.5]
+///     }
+/// }
+/// impl LaneScheme for Drift {
+///     fn step_lanes(&mut self, _: &mut LanePaths, _: LaneWidth, _: f64, _: &[f64]) -> bool {
+///         false
+///     }
+/// }
+///
+/// let system = MechanicalSystem::new(Sphere::new(2, 1.0)?, IdentityMass, ZeroDrift, NoNoise)?;
+/// let mut paths = LaneEnsemble::new(Drift(system), 5, &[1.0, 0.0], &[0.0, 1.0])?;
+/// for _ in 0..10 {
+///     paths.step(0.1, &[])?;
+/// }
+/// let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [0.0; 1]);
+/// paths.state(4, &mut r, &mut v, &mut mu)?;
+/// assert!((r[1] - 1.0).abs() < 1e-12 && mu[0] == 5.0 && paths.scalar_steps() == 50);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct LaneEnsemble<Sch: LaneScheme> {
     scheme: Sch,
@@ -530,10 +535,10 @@ pub struct LaneEnsemble<Sch: LaneScheme> {
 }
 
 impl<Sch: LaneScheme> LaneEnsemble<Sch> {
-    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) (not checked to be on the
-    /// manifold, as for one step of a scheme).
+    /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) ([`check_initial_state`]).
     pub fn new(scheme: Sch, paths: usize, r0: &[f64], v0: &[f64]) -> Result<Self, ModelError> {
         let paths = LanePaths::new(scheme.system(), paths, r0, v0)?;
+        check_initial_state(scheme.system(), r0, v0)?;
         Ok(Self {
             scheme,
             paths,
@@ -586,6 +591,7 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
     }
 
     fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
+        check_initial_state(self.scheme.system(), r0, v0)?;
         self.paths.restart(r0, v0)
     }
 

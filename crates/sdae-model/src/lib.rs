@@ -92,7 +92,9 @@ pub use driver::{
     INITIAL_STATE_TOLERANCE, ITERATION_BINS, PathDiagnostics, PathState, TRUNCATION_DOMINATED,
     advance, run_path,
 };
-pub use ensemble::{LANE_BLOCK, PathEnsemble, PathLoop, check_path, lane_stride};
+pub use ensemble::{
+    LANE_BLOCK, PathEnsemble, PathLoop, check_initial_state, check_path, lane_stride,
+};
 pub use error::{
     FailureKind, ModelError, PathFailure, StepError, StepFailure, check_dim, check_step_size,
 };

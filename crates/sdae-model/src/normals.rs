@@ -113,7 +113,9 @@ impl EnsembleIncrements {
 
     /// Fills `dw` with the next increments over steps of size h of every path: step k,
     /// coordinate j < l, path p at `dw[(k * l + j) * stride + p]`, as many steps as `dw`
-    /// holds. Returns that number of steps. Fails if h is not finite and > 0, or if `dw`'s
+    /// holds. Returns that number of steps. The stride's padding lanes (p >= P) repeat path
+    /// 0's numbers: an ensemble of P' paths needs increments drawn for exactly P' paths, since
+    /// for P < P' <= stride its paths P.. would silently share path 0's noise. Fails if h is not finite and > 0, or if `dw`'s
     /// length is not a multiple of l * stride (nothing is drawn then).
     pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, ModelError> {
         check_step_size(h)?;
@@ -336,26 +338,64 @@ fn draw<S: WordLanes>(
     let (x, accepted) = fast_path(simd, table, bits);
     let z = simd.mul_f64s(simd.splat_f64s(scale), x);
     store_f64s::<S>(z, out);
-    let rejected = simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES;
-    if rejected {
-        // Only here do the states and the acceptance leave the registers.
+    if simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES {
+        // Only here do the states leave the registers: each rejected lane is drawn again from
+        // its state before the draw, and the state rand_distr leaves is blended into its lane.
         let mut lanes_before = [[0u64; LANE_BLOCK]; 4];
-        let mut lanes_after = [[0u64; LANE_BLOCK]; 4];
-        for i in 0..4 {
-            store_words::<S>(before[i], &mut lanes_before[i]);
-            store_words::<S>(state[i], &mut lanes_after[i]);
+        for (words, b) in lanes_before.iter_mut().zip(&before) {
+            store_words::<S>(*b, words);
         }
-        let one = simd.splat_f64s(1.0);
-        let mut accepted_lanes = [0.0; LANE_BLOCK];
-        store_f64s::<S>(
-            simd.select_f64s(accepted, one, simd.splat_f64s(0.0)),
-            &mut accepted_lanes,
-        );
-        let lanes = (&lanes_before, &mut lanes_after);
-        redraw_rejected(lanes, &accepted_lanes, scale, out);
-        *state = std::array::from_fn(|i| load_words(&lanes_after[i]));
+        // The rejected lanes as bits (lane k is 2^k), visited without a branch per lane
+        // (which the processor mispredicts).
+        let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
+        let zero = simd.splat_f64s(0.0);
+        let rejected = simd.reduce_sum_f64s(simd.select_f64s(accepted, zero, lane_bits));
+        let mut pending = rejected as u32;
+        let lane_index: S::u64s = load_words(&LANE_INDICES);
+        while pending != 0 {
+            let lane = pending.trailing_zeros() as usize;
+            pending &= pending - 1;
+            let words = [
+                lanes_before[0][lane],
+                lanes_before[1][lane],
+                lanes_before[2][lane],
+                lanes_before[3][lane],
+            ];
+            let (z, after) = redraw(words);
+            out[lane] = scale * z;
+            let at = lane as u64;
+            let this = simd.and_m64s(
+                simd.greater_than_or_equal_u64s(lane_index, simd.splat_u64s(at)),
+                simd.less_than_u64s(lane_index, simd.splat_u64s(at + 1)),
+            );
+            for (s, word) in state.iter_mut().zip(after) {
+                *s = simd.select_u64s(this, simd.splat_u64s(word), *s);
+            }
+        }
     }
 }
+
+/// 2^k for lane k < LANE_BLOCK.
+const LANE_BITS: [f64; LANE_BLOCK] = {
+    let mut bits = [0.0; LANE_BLOCK];
+    let mut i = 0;
+    while i < LANE_BLOCK {
+        bits[i] = (1u32 << i) as f64;
+        i += 1;
+    }
+    bits
+};
+
+/// 0, 1, ..., LANE_BLOCK - 1: the lanes' indices as words.
+const LANE_INDICES: [u64; LANE_BLOCK] = {
+    let mut indices = [0; LANE_BLOCK];
+    let mut i = 0;
+    while i < LANE_BLOCK {
+        indices[i] = i as u64;
+        i += 1;
+    }
+    indices
+};
 
 /// The ziggurat's fast path for the words b of every lane: (u x_i, whether |u x_i| < x_{i+1}),
 /// with layer i = b & 0xff and u in [-1, 1) from b's upper 52 bits.
@@ -376,28 +416,15 @@ fn fast_path<S: WordLanes>(simd: S, table: &ZigguratTable, bits: S::u64s) -> (S:
     (x, simd.less_than_f64s(simd.abs_f64s(x), above))
 }
 
-/// The lanes the fast path did not accept (`accepted` 0), drawn again by rand_distr's
-/// `StandardNormal` from the lane's state before the draw (`before`); their state after
-/// (`after`) becomes the one rand_distr leaves. Lanes that were accepted are left alone.
+/// A draw the fast path did not accept, drawn again by rand_distr's `StandardNormal` from the
+/// lane's xoshiro256++ state before the draw (`before`): the standard normal and the state
+/// rand_distr leaves.
 #[cold]
 #[inline(never)]
-fn redraw_rejected(
-    (before, after): (&[[u64; LANE_BLOCK]; 4], &mut [[u64; LANE_BLOCK]; 4]),
-    accepted: &[f64; LANE_BLOCK],
-    scale: f64,
-    out: &mut [f64],
-) {
-    for (lane, o) in out.iter_mut().enumerate() {
-        if accepted[lane] == 1.0 {
-            continue;
-        }
-        let mut rng = LaneRng(std::array::from_fn(|i| before[i][lane]));
-        let z: f64 = rng.sample(StandardNormal);
-        *o = scale * z;
-        for (i, words) in after.iter_mut().enumerate() {
-            words[lane] = rng.0[i];
-        }
-    }
+fn redraw(before: [u64; 4]) -> (f64, [u64; 4]) {
+    let mut rng = LaneRng(before);
+    let z: f64 = rng.sample(StandardNormal);
+    (z, rng.0)
 }
 
 /// One lane's xoshiro256++ in scalar form, for rand_distr's sampler.

@@ -22,9 +22,9 @@ pub fn lane_stride(paths: usize) -> usize {
 /// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`]: a failed path keeps
 /// its last good state and stops; the others go on.
 ///
-/// Many independent paths of one scheme stepped together: the trait [`PathEnsemble`], the
-/// layout of its increments ([`lane_stride`]) and [`PathLoop`], which steps the paths of any
-/// [`Scheme`] one at a time.
+/// Implemented by [`PathLoop`], which steps the paths of any [`Scheme`] one at a time, and
+/// [`LaneEnsemble`](crate::LaneEnsemble), which steps W at a time in SIMD lanes; the
+/// increments of a step are laid out by [`lane_stride`].
 ///
 /// A path's numbers never depend on the other paths of its ensemble: path p of an ensemble
 /// computes exactly what [`run_path`](crate::run_path) computes for that path alone, so a

@@ -537,8 +537,8 @@ pub struct LaneEnsemble<Sch: LaneScheme> {
 impl<Sch: LaneScheme> LaneEnsemble<Sch> {
     /// `paths` >= 1 paths of `scheme`, each starting at (r0, v0) ([`check_initial_state`]).
     pub fn new(scheme: Sch, paths: usize, r0: &[f64], v0: &[f64]) -> Result<Self, ModelError> {
-        let paths = LanePaths::new(scheme.system(), paths, r0, v0)?;
         check_initial_state(scheme.system(), r0, v0)?;
+        let paths = LanePaths::new(scheme.system(), paths, r0, v0)?;
         Ok(Self {
             scheme,
             paths,

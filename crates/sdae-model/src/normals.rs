@@ -351,7 +351,6 @@ fn draw<S: WordLanes>(
         let zero = simd.splat_f64s(0.0);
         let rejected = simd.reduce_sum_f64s(simd.select_f64s(accepted, zero, lane_bits));
         let mut pending = rejected as u32;
-        let lane_index: S::u64s = load_words(&LANE_INDICES);
         while pending != 0 {
             let lane = pending.trailing_zeros() as usize;
             pending &= pending - 1;
@@ -363,11 +362,7 @@ fn draw<S: WordLanes>(
             ];
             let (z, after) = redraw(words);
             out[lane] = scale * z;
-            let at = lane as u64;
-            let this = simd.and_m64s(
-                simd.greater_than_or_equal_u64s(lane_index, simd.splat_u64s(at)),
-                simd.less_than_u64s(lane_index, simd.splat_u64s(at + 1)),
-            );
+            let this = simd.mask_between_m64s(lane as u64, lane as u64 + 1).mask();
             for (s, word) in state.iter_mut().zip(after) {
                 *s = simd.select_u64s(this, simd.splat_u64s(word), *s);
             }
@@ -384,17 +379,6 @@ const LANE_BITS: [f64; LANE_BLOCK] = {
         i += 1;
     }
     bits
-};
-
-/// 0, 1, ..., LANE_BLOCK - 1: the lanes' indices as words.
-const LANE_INDICES: [u64; LANE_BLOCK] = {
-    let mut indices = [0; LANE_BLOCK];
-    let mut i = 0;
-    while i < LANE_BLOCK {
-        indices[i] = i as u64;
-        i += 1;
-    }
-    indices
 };
 
 /// The ziggurat's fast path for the words b of every lane: (u x_i, whether |u x_i| < x_{i+1}),

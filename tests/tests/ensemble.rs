@@ -295,7 +295,7 @@ fn bad_input_is_a_typed_error() {
     let e = ensemble
         .state(3, &mut [0.0; 2], &mut [0.0; 2], &mut [])
         .unwrap_err();
-    assert!(model(e).contains("path index"));
+    assert!(model(e).contains("path index 3"));
     let e = ensemble
         .state(0, &mut [0.0; 2], &mut [0.0; 2], &mut [0.0; 2])
         .unwrap_err();
@@ -327,6 +327,72 @@ fn bad_input_is_a_typed_error() {
         .err()
         .unwrap();
     assert!(model(e).contains("paths"));
+}
+
+/// What a caller can get wrong beyond the shapes: a path index out of range names the index
+/// and the count, a path count too large for memory is an allocation error (not a panic), a NaN
+/// increment is blamed on dw (not on the velocity that shows it) while the other paths go on,
+/// and both ensembles count their failed paths through the trait.
+#[test]
+fn out_of_range_paths_absurd_counts_and_nan_increments_are_named() {
+    use sdae_model::ModelError;
+    let stepper = Stepper::new(noisy_pendulum(2), configs(&noisy_pendulum(2))[0].1).unwrap();
+    let (r0, v0) = ([1.5, 0.0], [0.0, 0.0]);
+    let mut lanes = Ensemble::new(stepper.clone(), 3, &r0, &v0).unwrap();
+    let mut looped = PathLoop::new(stepper.clone(), 3, &r0, &v0).unwrap();
+    let index = |e| matches!(e, ModelError::PathIndex { index: 5, paths: 3 });
+    assert!(index(lanes.diagnostics(5).unwrap_err()));
+    assert!(index(looped.stop(5).unwrap_err()));
+    let message = lanes.failure(5).unwrap_err().to_string();
+    assert!(
+        message.contains("path index 5") && message.contains("3 paths"),
+        "{message}"
+    );
+
+    for paths in [usize::MAX, usize::MAX / 4, 1 << 60] {
+        let e = Ensemble::new(stepper.clone(), paths, &r0, &v0)
+            .err()
+            .unwrap();
+        assert!(matches!(e, ModelError::Allocation { .. }), "{paths}: {e}");
+        let e = PathLoop::new(stepper.clone(), paths, &r0, &v0)
+            .err()
+            .unwrap();
+        assert!(matches!(e, ModelError::Allocation { .. }), "{paths}: {e}");
+    }
+
+    let stride = lanes.stride();
+    let mut dw = vec![0.01; 2 * stride];
+    dw[stride + 1] = f64::NAN;
+    assert_eq!(lanes.step(H, &dw).unwrap(), 1);
+    assert_eq!(looped.step(H, &dw).unwrap(), 1);
+    for ensemble in [&lanes as &dyn PathEnsemble<System = _>, &looped] {
+        assert_eq!(ensemble.failed_paths(), 1);
+        let failure = ensemble.failure(1).unwrap().unwrap();
+        let StepFailure::NonFinite { what, size } = failure else {
+            panic!("a NaN increment gave {failure}");
+        };
+        assert!(what.contains("dw") && size.is_nan(), "{failure}");
+        for p in [0, 2] {
+            assert_eq!(ensemble.diagnostics(p).unwrap().steps, 1);
+        }
+    }
+    let scheme = lanes.scheme().clone();
+    let mut r = r0;
+    let mut v = v0;
+    let mut path = PathState::new(1, true, false);
+    let failure = path
+        .step(
+            &mut scheme.clone(),
+            &mut r,
+            &mut v,
+            H,
+            &[f64::INFINITY, 0.0],
+        )
+        .unwrap_err();
+    assert!(
+        matches!(failure, StepFailure::NonFinite { what, size } if what.contains("dw") && size == f64::INFINITY),
+        "{failure}"
+    );
 }
 
 #[test]

@@ -165,7 +165,8 @@ impl PathState {
     /// One step of size h of `scheme` from (r, v) = (r_k, v_k) with the increment dw: the
     /// residuals the scheme did not measure (if [`PathState::measure_residuals`]), the
     /// diagnostics, mu_{k+1} = mu_k + (mu_{k+1} - mu_k) (seed eq. 1.4) and k + 1. On failure
-    /// nothing changes.
+    /// nothing changes (a non-finite failure with a non-finite dw is reported as the
+    /// increment's, [`StepFailure::blaming_increment`]).
     #[inline]
     pub fn step<S: Scheme + ?Sized>(
         &mut self,
@@ -175,7 +176,9 @@ impl PathState {
         h: f64,
         dw: &[f64],
     ) -> Result<StepOutcome, StepFailure> {
-        let mut outcome = scheme.step(r, v, h, dw)?;
+        let mut outcome = scheme
+            .step(r, v, h, dw)
+            .map_err(|failure| failure.blaming_increment(dw))?;
         if self.measure_residuals {
             self.complete(scheme.system().constraint(), r, v, &mut outcome);
         }

@@ -3,7 +3,7 @@
 use sdae_manifold::{Constraint, check_state};
 
 use crate::driver::{INITIAL_STATE_TOLERANCE, PathDiagnostics, PathState};
-use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
+use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
 use crate::scheme::Scheme;
 use crate::system::System;
 
@@ -13,9 +13,10 @@ pub const LANE_BLOCK: usize = 8;
 
 /// The stride of an ensemble of `paths` paths: `paths` rounded up to a multiple of
 /// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to [`PathEnsemble::step`]
-/// is entry `j * stride + p`.
+/// is entry `j * stride + p`. (An ensemble's constructor refuses a count too large to round
+/// up, [`ModelError::Allocation`].)
 pub fn lane_stride(paths: usize) -> usize {
-    paths.div_ceil(LANE_BLOCK) * LANE_BLOCK
+    paths.next_multiple_of(LANE_BLOCK)
 }
 
 /// P independent paths of one scheme, each with its state (r, v), its mu (seed eq. 1.4), its
@@ -123,6 +124,13 @@ pub trait PathEnsemble {
     /// Stops path p (its caller found it failed, say beyond a blow-up bound): it takes no
     /// further steps until [`PathEnsemble::restart`].
     fn stop(&mut self, p: usize) -> Result<(), ModelError>;
+    /// How many paths have stopped on a failed step (those with a [`PathEnsemble::failure`];
+    /// paths stopped by [`PathEnsemble::stop`] are not counted).
+    fn failed_paths(&self) -> usize {
+        (0..self.paths())
+            .filter(|&p| matches!(self.failure(p), Ok(Some(_))))
+            .count()
+    }
 }
 
 /// Checks the length of the rows of [`PathEnsemble::read_rows`] (2n + `mu_len` per path) and
@@ -143,16 +151,13 @@ pub(crate) fn for_each_row(
     Ok(())
 }
 
-/// Checks a path index against the number of paths.
+/// Checks a path index against the number of paths ([`ModelError::PathIndex`] unless
+/// p < `paths`).
 pub fn check_path(p: usize, paths: usize) -> Result<(), ModelError> {
     if p < paths {
         Ok(())
     } else {
-        Err(ModelError::DimensionMismatch {
-            what: "path index (must be below the number of paths)",
-            expected: paths,
-            found: p,
-        })
+        Err(ModelError::PathIndex { index: p, paths })
     }
 }
 
@@ -198,17 +203,19 @@ impl<Sch: Scheme> PathLoop<Sch> {
                 reason: "an ensemble needs at least one path",
             });
         }
+        check_initial_state(scheme.system(), r0, v0)?;
         let system = scheme.system();
         let m = system.constraint().n_constraints();
         let l = system.noise_dim();
+        let fresh = PathState::new(m, true, false);
         let mut ensemble = Self {
-            scheme,
-            r: vec![Vec::new(); paths],
-            v: vec![Vec::new(); paths],
-            states: vec![PathState::new(m, true, false); paths],
-            alive: vec![true; paths],
-            failures: vec![None; paths],
+            r: try_filled("the paths' positions", Vec::new(), (paths, 1))?,
+            v: try_filled("the paths' velocities", Vec::new(), (paths, 1))?,
+            states: try_filled("the paths' states", fresh, (paths, 1))?,
+            alive: try_filled("the paths' flags", true, (paths, 1))?,
+            failures: try_filled("the paths' failures", None, (paths, 1))?,
             dw: vec![0.0; l],
+            scheme,
         };
         ensemble.restart(r0, v0)?;
         Ok(ensemble)

@@ -35,6 +35,46 @@ pub enum ModelError {
         /// Size found.
         found: usize,
     },
+    /// A path index at or beyond the number of paths of an ensemble.
+    #[error("path index {index} out of range: the ensemble has {paths} paths (0..{paths})")]
+    PathIndex {
+        /// The index given.
+        index: usize,
+        /// The number of paths.
+        paths: usize,
+    },
+    /// A buffer the size of the input asks for cannot be allocated (its length overflows, or
+    /// the memory is not there).
+    #[error("cannot allocate {what}: {len} entries of {entry_bytes} bytes")]
+    Allocation {
+        /// Which buffer.
+        what: &'static str,
+        /// Its number of entries (`usize::MAX` if that count overflows).
+        len: usize,
+        /// The size of one entry.
+        entry_bytes: usize,
+    },
+}
+
+/// A vector of `rows * cols` copies of `value`, or [`ModelError::Allocation`] if that length
+/// overflows or the memory cannot be reserved: the buffers of an ensemble whose size comes
+/// from its caller.
+pub fn try_filled<T: Clone>(
+    what: &'static str,
+    value: T,
+    (rows, cols): (usize, usize),
+) -> Result<Vec<T>, ModelError> {
+    let entry_bytes = std::mem::size_of::<T>();
+    let error = |len| ModelError::Allocation {
+        what,
+        len,
+        entry_bytes,
+    };
+    let len = rows.checked_mul(cols).ok_or(error(usize::MAX))?;
+    let mut buffer = Vec::new();
+    buffer.try_reserve_exact(len).map_err(|_| error(len))?;
+    buffer.resize(len, value);
+    Ok(buffer)
 }
 
 /// Fails with [`ModelError::DimensionMismatch`] unless `found == expected`.
@@ -184,6 +224,21 @@ impl StepFailure {
             StepFailure::NonFinite { .. } => FailureKind::NonFinite,
             StepFailure::Input(_) => FailureKind::Other,
             StepFailure::Other { kind, .. } => *kind,
+        }
+    }
+
+    /// The failure of a step whose Brownian increment `dw` has a NaN or infinite entry: a
+    /// non-finite result is blamed on that input ([`StepFailure::NonFinite`] of the increment,
+    /// with its largest |entry|) instead of on the quantity that showed it; any other failure
+    /// is kept.
+    pub fn blaming_increment(self, dw: &[f64]) -> StepFailure {
+        let size = sdae_manifold::vector::max_abs(dw);
+        match self {
+            StepFailure::NonFinite { .. } if !size.is_finite() => StepFailure::NonFinite {
+                what: "Brownian increment dw (an input of the step)",
+                size,
+            },
+            failure => failure,
         }
     }
 

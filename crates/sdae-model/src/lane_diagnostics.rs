@@ -7,6 +7,7 @@
 use pulp::Simd;
 
 use crate::driver::{ITERATION_BINS, PathDiagnostics};
+use crate::error::{ModelError, try_filled};
 use crate::lanes::{LaneMask, Lanes};
 use crate::scheme::StepOutcome;
 
@@ -62,25 +63,49 @@ pub(crate) struct DiagnosticsColumns {
 }
 
 impl DiagnosticsColumns {
-    /// Fresh diagnostics of the paths of a layout of width `stride`.
-    pub(crate) fn new(stride: usize) -> Self {
-        let column = |value: f64| vec![value; stride];
-        let fresh = PathDiagnostics::default();
-        Self {
+    /// Fresh diagnostics of the paths of a layout of width `stride`
+    /// ([`ModelError::Allocation`] if they do not fit in memory).
+    pub(crate) fn new(stride: usize) -> Result<Self, ModelError> {
+        let what = "the lanes' diagnostics";
+        let column = || try_filled(what, 0.0, (1, stride));
+        let mut columns = Self {
             stride,
-            steps: column(0.0),
-            truncated_steps: column(0.0),
-            min_eta: column(fresh.min_eta),
-            newton_iterations: column(0.0),
-            iteration_histogram: vec![0.0; ITERATION_BINS * stride],
-            homotopy_steps: column(0.0),
-            max_position_residual: column(fresh.max_position_residual),
-            max_velocity_residual: column(fresh.max_velocity_residual),
-            max_kappa_ratio: column(fresh.max_kappa_ratio),
-            max_contraction: column(fresh.max_contraction),
-            clock_lag: column(fresh.clock_lag),
-            rounding_certified_steps: column(0.0),
+            steps: column()?,
+            truncated_steps: column()?,
+            min_eta: column()?,
+            newton_iterations: column()?,
+            iteration_histogram: try_filled(what, 0.0, (ITERATION_BINS, stride))?,
+            homotopy_steps: column()?,
+            max_position_residual: column()?,
+            max_velocity_residual: column()?,
+            max_kappa_ratio: column()?,
+            max_contraction: column()?,
+            clock_lag: column()?,
+            rounding_certified_steps: column()?,
+        };
+        columns.reset();
+        Ok(columns)
+    }
+
+    /// Every path's diagnostics back to those of a path that has taken no step.
+    pub(crate) fn reset(&mut self) {
+        let fresh = PathDiagnostics::default();
+        for column in [
+            &mut self.steps,
+            &mut self.truncated_steps,
+            &mut self.newton_iterations,
+            &mut self.iteration_histogram,
+            &mut self.homotopy_steps,
+            &mut self.rounding_certified_steps,
+        ] {
+            column.fill(0.0);
         }
+        self.min_eta.fill(fresh.min_eta);
+        self.max_position_residual.fill(fresh.max_position_residual);
+        self.max_velocity_residual.fill(fresh.max_velocity_residual);
+        self.max_kappa_ratio.fill(fresh.max_kappa_ratio);
+        self.max_contraction.fill(fresh.max_contraction);
+        self.clock_lag.fill(fresh.clock_lag);
     }
 
     /// Path p's diagnostics.
@@ -261,7 +286,7 @@ mod tests {
             let width = Lanes::<S>::WIDTH;
             let stride = 2 * width;
             let h = 0.01;
-            let mut columns = DiagnosticsColumns::new(stride);
+            let mut columns = DiagnosticsColumns::new(stride).expect("a small layout");
             let mut expected = vec![PathDiagnostics::default(); stride];
             let lanes_of = |f: &dyn Fn(usize) -> f64, offset: usize| {
                 let values: Vec<f64> = (0..width).map(|lane| f(offset + lane)).collect();

@@ -6,10 +6,8 @@ use pulp::Simd;
 use sdae_manifold::Constraint;
 
 use crate::driver::PathDiagnostics;
-use crate::ensemble::{
-    LANE_BLOCK, PathEnsemble, check_initial_state, check_path, for_each_row, lane_stride,
-};
-use crate::error::{ModelError, StepFailure, check_dim, check_step_size};
+use crate::ensemble::{LANE_BLOCK, PathEnsemble, check_initial_state, check_path, for_each_row};
+use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
 use crate::scheme::Scheme;
@@ -113,17 +111,23 @@ impl LanePaths {
         }
         let c = system.constraint();
         let (n, m, l) = (c.dim(), c.n_constraints(), system.noise_dim());
-        let stride = lane_stride(paths);
+        let stride = paths
+            .checked_next_multiple_of(LANE_BLOCK)
+            .ok_or(ModelError::Allocation {
+                what: "the lanes of the paths",
+                len: usize::MAX,
+                entry_bytes: std::mem::size_of::<f64>(),
+            })?;
         let mut state = Self {
             paths,
             stride,
-            r: vec![0.0; n * stride],
-            v: vec![0.0; n * stride],
-            mu: vec![0.0; m * stride],
-            alive: vec![0.0; stride],
-            failures: vec![None; paths],
+            r: try_filled("the lanes' positions", 0.0, (n, stride))?,
+            v: try_filled("the lanes' velocities", 0.0, (n, stride))?,
+            mu: try_filled("the lanes' multipliers", 0.0, (m, stride))?,
+            alive: try_filled("the lanes' flags", 0.0, (1, stride))?,
+            failures: try_filled("the paths' failures", None, (paths, 1))?,
             failed: 0,
-            diagnostics: DiagnosticsColumns::new(stride),
+            diagnostics: DiagnosticsColumns::new(stride)?,
             scalar_steps: 0,
             lane_r: vec![0.0; n],
             lane_v: vec![0.0; n],
@@ -169,7 +173,6 @@ impl LanePaths {
         let n = self.lane_r.len();
         check_dim("initial position", n, r0.len())?;
         check_dim("initial velocity", n, v0.len())?;
-        let stride = self.stride;
         // Padding lanes hold the initial state too, so that they compute finite numbers.
         let block = n * LANE_BLOCK;
         for (r, v) in self
@@ -187,7 +190,7 @@ impl LanePaths {
         self.alive[..self.paths].fill(1.0);
         self.failures.fill(None);
         self.failed = 0;
-        self.diagnostics = DiagnosticsColumns::new(stride);
+        self.diagnostics.reset();
         Ok(())
     }
 
@@ -235,7 +238,7 @@ impl LanePaths {
             }
             Err(failure) => {
                 self.alive[p] = 0.0;
-                self.failures[p] = Some(failure);
+                self.failures[p] = Some(failure.blaming_increment(&self.lane_dw));
                 self.failed += 1;
             }
         }
@@ -568,11 +571,6 @@ impl<Sch: LaneScheme> LaneEnsemble<Sch> {
     pub fn scalar_steps(&self) -> usize {
         self.paths.scalar_steps
     }
-
-    /// How many paths have stopped on a failed step.
-    pub fn failed_paths(&self) -> usize {
-        self.paths.failed_paths()
-    }
 }
 
 impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
@@ -678,6 +676,10 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
         check_path(p, self.paths.paths)?;
         self.paths.alive[p] = 0.0;
         Ok(())
+    }
+
+    fn failed_paths(&self) -> usize {
+        self.paths.failed_paths()
     }
 }
 

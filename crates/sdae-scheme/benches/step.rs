@@ -9,6 +9,8 @@
 //!   every step, W paths at once (`EnsembleIncrements`), the chain's step (Newton for kappa,
 //!   the tridiagonal solves, gravity and the additive noise) in W lanes; throughput is
 //!   reported per bead and path.
+//! - `chain_ensemble/normals_only/1000`: the increments of `chain_ensemble/1000` alone
+//!   (`EnsembleIncrements::fill`): the part of its time that goes to random numbers.
 //!
 //! The benchmarks keep stepping one state and put it back to the initial state every
 //! [`RESET_EVERY`] steps, so that the chain does not fall (and speed up) for the whole run and
@@ -281,6 +283,17 @@ fn bench_chain_ensemble(c: &mut Criterion) {
         group.bench_function(BenchmarkId::from_parameter(beads), |b| {
             b.iter(|| black_box(bench.step()))
         });
+        if beads == 1000 {
+            group.bench_function(BenchmarkId::new("normals_only", beads), |b| {
+                b.iter(|| {
+                    bench
+                        .noise
+                        .fill(CHAIN_H, &mut bench.dw)
+                        .expect("increments buffer");
+                    black_box(bench.dw[0])
+                })
+            });
+        }
         assert_eq!(bench.ensemble.failed_paths(), 0, "a chain path failed");
         if bench.steps == 0 {
             // Left out by a filter.

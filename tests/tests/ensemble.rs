@@ -73,11 +73,16 @@ fn run_ensemble<S: System>(stepper: Stepper<S>, width: LaneWidth) -> (Vec<u64>, 
 
 /// Steps any ensemble through [`increments`] and reads every path's (r, v, mu) as bits.
 fn run_and_read<E: PathEnsemble + ?Sized>(ensemble: &mut E) -> Vec<u64> {
-    let dim = ensemble.system().constraint_dim();
     let l = ensemble.system().noise_dim();
     for dw in increments(l, ensemble.stride()) {
         ensemble.step(H, &dw).unwrap();
     }
+    read_bits(ensemble)
+}
+
+/// The bits of every path's (r, v, mu).
+fn read_bits<E: PathEnsemble + ?Sized>(ensemble: &E) -> Vec<u64> {
+    let dim = ensemble.system().constraint_dim();
     let mut bits = Vec::new();
     let (mut r, mut v, mut mu) = (vec![0.0; dim], vec![0.0; dim], [0.0]);
     for p in 0..PATHS {
@@ -393,6 +398,47 @@ fn out_of_range_paths_absurd_counts_and_nan_increments_are_named() {
         matches!(failure, StepFailure::NonFinite { what, size } if what.contains("dw") && size == f64::INFINITY),
         "{failure}"
     );
+}
+
+/// `step_drawing` takes the step that `fill` then `step` take, and refuses increments drawn
+/// for other paths or another noise dimension before drawing anything.
+#[test]
+fn stepping_with_the_ensembles_own_draws_checks_them() {
+    use sdae_model::{EnsembleIncrements, ModelError};
+    let system = noisy_pendulum(2);
+    let stepper = Stepper::new(system.clone(), configs(&system)[0].1).unwrap();
+    let (r0, v0) = ([1.5, 0.0], [0.0, 0.0]);
+    let indices: Vec<u64> = (0..PATHS as u64).collect();
+    let mut drawing = Ensemble::new(stepper.clone(), PATHS, &r0, &v0).unwrap();
+    let mut filled = PathLoop::new(stepper, PATHS, &r0, &v0).unwrap();
+    let (mut noise, mut same_noise) = (
+        EnsembleIncrements::for_paths(5, &indices, 2),
+        EnsembleIncrements::for_paths(5, &indices, 2),
+    );
+    let mut dw = vec![0.0; 2 * drawing.stride()];
+    for _ in 0..50 {
+        drawing.step_drawing(H, &mut noise, &mut dw).unwrap();
+        same_noise.fill(H, &mut dw).unwrap();
+        filled.step(H, &dw).unwrap();
+    }
+    assert!(read_bits(&drawing) == read_bits(&filled));
+
+    let before = noise.stream(0);
+    let mut fewer = EnsembleIncrements::for_paths(5, &indices[..PATHS - 1], 2);
+    let e = drawing.step_drawing(H, &mut fewer, &mut dw).unwrap_err();
+    assert!(
+        matches!(e, ModelError::DimensionMismatch { expected: PATHS, found, .. } if found == PATHS - 1),
+        "{e}"
+    );
+    let mut wider = EnsembleIncrements::for_paths(5, &indices, 3);
+    let e = drawing.step_drawing(H, &mut wider, &mut dw).unwrap_err();
+    assert!(e.to_string().contains("noise dimension"), "{e}");
+    let e = drawing
+        .step_drawing(H, &mut noise, &mut dw[1..])
+        .unwrap_err();
+    assert!(e.to_string().contains("increments"), "{e}");
+    assert_eq!(noise.stream(0), before, "a refused step drew numbers");
+    assert_eq!(drawing.diagnostics(0).unwrap().steps, 50);
 }
 
 #[test]

@@ -4,6 +4,7 @@ use sdae_manifold::{Constraint, check_state};
 
 use crate::driver::{INITIAL_STATE_TOLERANCE, PathDiagnostics, PathState};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
+use crate::normals::EnsembleIncrements;
 use crate::scheme::Scheme;
 use crate::system::System;
 
@@ -94,6 +95,24 @@ pub trait PathEnsemble {
     /// (component j of path p at `j * stride + p`, length l * stride); returns how many paths
     /// stopped in this step.
     fn step(&mut self, h: f64, dw: &[f64]) -> Result<usize, ModelError>;
+    /// Draws every path's next increment from `noise` into `dw` ([`EnsembleIncrements::fill`])
+    /// and takes that step ([`PathEnsemble::step`]); returns how many paths stopped in it.
+    /// Fails, drawing nothing, unless `noise` draws the system's l components for exactly
+    /// this ensemble's P paths (increments drawn for fewer paths would silently give the
+    /// others path 0's numbers) and `dw` holds one step (l * stride).
+    fn step_drawing(
+        &mut self,
+        h: f64,
+        noise: &mut EnsembleIncrements,
+        dw: &mut [f64],
+    ) -> Result<usize, ModelError> {
+        check_dim("paths of the increments", self.paths(), noise.paths())?;
+        let l = self.system().noise_dim();
+        check_dim("noise dimension of the increments", l, noise.dim())?;
+        check_dim("increments (l * stride)", l * self.stride(), dw.len())?;
+        noise.fill(h, dw)?;
+        self.step(h, dw)
+    }
     /// Copies path p's (r, v, mu) into the slices (mu of length m, or empty to skip it).
     fn state(
         &self,

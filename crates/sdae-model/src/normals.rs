@@ -115,7 +115,8 @@ impl EnsembleIncrements {
     /// coordinate j < l, path p at `dw[(k * l + j) * stride + p]`, as many steps as `dw`
     /// holds. Returns that number of steps. The stride's padding lanes (p >= P) repeat path
     /// 0's numbers: an ensemble of P' paths needs increments drawn for exactly P' paths, since
-    /// for P < P' <= stride its paths P.. would silently share path 0's noise. Fails if h is not finite and > 0, or if `dw`'s
+    /// for P < P' <= stride its paths P.. would silently share path 0's noise
+    /// ([`PathEnsemble::step_drawing`](crate::PathEnsemble::step_drawing) checks this). Fails if h is not finite and > 0, or if `dw`'s
     /// length is not a multiple of l * stride (nothing is drawn then).
     pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, ModelError> {
         check_step_size(h)?;

@@ -189,6 +189,13 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         )?;
         chain_ensemble.push((beads, ns / (beads * CHAIN_ENSEMBLE_PATHS) as f64));
     }
+    // The increments alone of `chain_ensemble/1000` (benches/step.rs), per bead and path.
+    let chain_ensemble_normals = read_mean_ns(
+        &criterion_home,
+        "chain_ensemble",
+        Some("normals_only/1000"),
+        started,
+    )? / (1000 * CHAIN_ENSEMBLE_PATHS) as f64;
     let chain_ensemble_per_bead: Map<String, Value> = chain_ensemble
         .iter()
         .map(|&(beads, ns)| (beads.to_string(), json!(ns)))
@@ -243,6 +250,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": ensemble_normals_per_path,
         "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
         "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
+        "chain_ensemble_normals_ns_per_bead_path_step": { "1000": chain_ensemble_normals },
         "inherent_ensemble_ns_per_path_step": inherent_summary,
         "fiber_ensemble_ns_per_bead_path_step": fiber_summary,
         "quick": options.quick,
@@ -296,6 +304,10 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
         let name = format!("chain_ensemble/{beads}");
         println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
     }
+    println!(
+        "{:<20} {:>14} {chain_ensemble_normals:>16.2}   (K = 1000, per bead and path)",
+        "  normals only", ""
+    );
     for &(beads, step, lanes, path_by_path) in &fiber {
         let name = format!("fiber_ensemble/{beads}");
         println!(

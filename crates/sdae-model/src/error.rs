@@ -59,7 +59,7 @@ pub enum ModelError {
 /// A vector of `rows * cols` copies of `value`, or [`ModelError::Allocation`] if that length
 /// overflows or the memory cannot be reserved: the buffers of an ensemble whose size comes
 /// from its caller.
-pub fn try_filled<T: Clone>(
+pub(crate) fn try_filled<T: Clone>(
     what: &'static str,
     value: T,
     (rows, cols): (usize, usize),

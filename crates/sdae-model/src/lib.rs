@@ -97,7 +97,6 @@ pub use ensemble::{
 };
 pub use error::{
     FailureKind, ModelError, PathFailure, StepError, StepFailure, check_dim, check_step_size,
-    try_filled,
 };
 pub use grid::TimeGrid;
 pub use increments::{

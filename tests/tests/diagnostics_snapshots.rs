@@ -65,7 +65,9 @@ fn chain_run_diagnostics() {
     let mut stepper = Stepper::new(system, config).unwrap();
     let mut text = |t: f64| {
         let grid = TimeGrid::new(t, 500).unwrap();
-        run_summary(&mut stepper, chain.zigzag(0.4), vec![0.0; 60], grid, 1)
+        // Stream 0 finishes; about 9% of this chain's paths end in a failed kappa root before
+        // T = 1 at C_eta = 1 (35 of streams 0..400).
+        run_summary(&mut stepper, chain.zigzag(0.4), vec![0.0; 60], grid, 0)
     };
     let (text, nudged) = (text(1.0), text(1f64.next_up()));
     assert_eq!(text, nudged, "a last-bit change of h rewrites it");

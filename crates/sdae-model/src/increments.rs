@@ -1,11 +1,12 @@
 //! Sources of Brownian increments dw_k = w(t_{k+1}) - w(t_k).
 //!
-//! Path i of a study draws from its own stream [`path_rng`]`(seed, i)`, so results do not
-//! depend on the thread count or on which paths run where.
+//! Path i of a study draws from its own streams [`PathStreams::for_path`]`(seed, i)`, so
+//! results do not depend on the thread count or on which paths run where.
 
 use rand::{RngExt, SeedableRng};
-use rand_distr::StandardNormal;
 use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
+
+use crate::path_streams::{PathStreams, StandardNormals};
 
 /// Something that fills the next Brownian increment over a step of size h.
 pub trait IncrementSource {
@@ -20,7 +21,8 @@ pub trait IncrementSource {
 }
 
 /// The random-number stream of path `index` of a study with seed `seed`: a xoshiro256++ whose
-/// 256-bit state comes from SplitMix64 applied to the pair (seed, index).
+/// 256-bit state comes from SplitMix64 applied to the pair (seed, index). It is the main
+/// stream of the path's [`PathStreams`], which draw its standard normals.
 pub fn path_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
     let mut mixer = SplitMix64::seed_from_u64(seed);
     let base: u64 = mixer.random();
@@ -32,28 +34,30 @@ pub fn path_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
     Xoshiro256PlusPlus::from_seed(state)
 }
 
-/// Gaussian increments sqrt(h) N(0, I_l) from a random-number generator.
+/// Gaussian increments sqrt(h) N(0, I_l) from a source of standard normals: a path's
+/// [`PathStreams`] ([`GaussianIncrements::for_path`]) or any random-number generator
+/// (through rand_distr's `StandardNormal`).
 #[derive(Debug, Clone)]
 pub struct GaussianIncrements<R> {
-    rng: R,
+    normals: R,
     dim: usize,
 }
 
-impl<R: rand::Rng> GaussianIncrements<R> {
-    /// Increments of dimension `dim` drawn from `rng`.
-    pub fn new(rng: R, dim: usize) -> Self {
-        Self { rng, dim }
+impl<R: StandardNormals> GaussianIncrements<R> {
+    /// Increments of dimension `dim` drawn from `normals`.
+    pub fn new(normals: R, dim: usize) -> Self {
+        Self { normals, dim }
     }
 }
 
-impl GaussianIncrements<Xoshiro256PlusPlus> {
-    /// Increments of path `index` of a study with seed `seed`.
+impl GaussianIncrements<PathStreams> {
+    /// Increments of path `index` of a study with seed `seed` ([`PathStreams::for_path`]).
     pub fn for_path(seed: u64, index: u64, dim: usize) -> Self {
-        Self::new(path_rng(seed, index), dim)
+        Self::new(PathStreams::for_path(seed, index), dim)
     }
 }
 
-impl<R: rand::Rng> IncrementSource for GaussianIncrements<R> {
+impl<R: StandardNormals> IncrementSource for GaussianIncrements<R> {
     fn dim(&self) -> usize {
         self.dim
     }
@@ -61,8 +65,7 @@ impl<R: rand::Rng> IncrementSource for GaussianIncrements<R> {
     fn next_increment(&mut self, h: f64, out: &mut [f64]) {
         let scale = h.sqrt();
         for o in out.iter_mut() {
-            let z: f64 = self.rng.sample(StandardNormal);
-            *o = scale * z;
+            *o = scale * self.normals.next_normal();
         }
     }
 }

@@ -6,8 +6,10 @@
 //! ```
 //!
 //! - the system: [`System`], built from parts ([`Drift`], [`Noise`]) with [`MechanicalSystem`];
-//! - Brownian increments: [`IncrementSource`], one stream per path ([`path_rng`],
-//!   [`GaussianIncrements`]), [`Coarsened`] and [`RecordedIncrements`];
+//! - Brownian increments: [`IncrementSource`], each path's own streams ([`PathStreams`], whose
+//!   main stream is [`path_rng`]) and standard normals from them ([`StandardNormals`], a
+//!   ziggurat of 2048 layers), [`GaussianIncrements`], [`EnsembleIncrements`] (W paths at
+//!   once, the same numbers), [`Coarsened`] and [`RecordedIncrements`];
 //! - the one step trait [`Scheme`] with its [`StepOutcome`] and [`StepFailure`] (classified by
 //!   [`FailureKind`]);
 //! - the one path driver [`run_path`] on a [`TimeGrid`] (and [`advance`], a stretch of a path
@@ -83,10 +85,12 @@ mod lane_ensemble;
 pub mod lanes;
 mod normals;
 mod observer;
+mod path_streams;
 mod scheme;
 mod sphere_root;
 mod system;
 mod tangent;
+mod ziggurat;
 
 pub use driver::{
     INITIAL_STATE_TOLERANCE, ITERATION_BINS, PathDiagnostics, PathState, TRUNCATION_DOMINATED,
@@ -108,6 +112,7 @@ pub use lane_ensemble::{
 };
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
+pub use path_streams::{PathStreams, StandardNormals};
 pub use scheme::{Scheme, StepOutcome};
 pub use sphere_root::{RootLanes, SphereRoot};
 pub use system::{

@@ -1,29 +1,29 @@
 //! Gaussian increments of many paths, drawn W paths at once ([`EnsembleIncrements`]).
 
 use std::convert::Infallible;
-use std::sync::OnceLock;
 
 use pulp::{Simd, bytemuck};
-use rand::{RngExt, SeedableRng, TryRng};
-use rand_distr::StandardNormal;
+use rand::{SeedableRng, TryRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::ensemble::{LANE_BLOCK, lane_stride};
 use crate::error::{ModelError, check_step_size};
-use crate::increments::path_rng;
 use crate::lanes::LaneWidth;
+use crate::path_streams::PathStreams;
+use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 
-/// The Gaussian increments sqrt(h) N(0, I_l) of P paths, each path from its own xoshiro256++
-/// stream, drawn W paths at once into the ensembles' layout ([`lane_stride`]).
+/// The Gaussian increments sqrt(h) N(0, I_l) of P paths, each path from its own
+/// [`PathStreams`], drawn W paths at once into the ensembles' layout ([`lane_stride`]).
 ///
 /// It keeps the streams in structure-of-arrays layout and draws one standard normal for W
-/// paths per pass: the generator's 64-bit additions, shifts and xors run in the lanes of a SIMD
-/// register (W = 4 with AVX2, 8 with AVX-512, 1 otherwise; [`LaneWidth`]), the ziggurat's fast
-/// path follows lane by lane. Path p's numbers are bit for bit those of
+/// paths per pass: the main streams' xoshiro256++ additions, shifts and xors run in the lanes
+/// of a SIMD register (W = 4 with AVX2, 8 with AVX-512, 1 otherwise; [`LaneWidth`]), and so
+/// does the ziggurat's fast path (2048 layers; [`PathStreams`]). A lane the fast path rejects
+/// (0.23% of draws) does not hold the others up: the main streams go on one word per number,
+/// the draw's word is put aside without a branch, and the rejected draws are finished later,
+/// in order, from each lane's side stream. Path p's numbers are therefore bit for bit those of
 /// [`GaussianIncrements::for_path`](crate::GaussianIncrements::for_path)`(seed, index_p, l)`,
-/// whatever W is: the lanes use rand_distr's own ziggurat abscissae (read from its
-/// `StandardNormal` sampler), and a lane the fast path does not accept (1.5% of draws) is
-/// drawn again by rand_distr's `StandardNormal` from that lane's state before the draw.
+/// whatever W is.
 ///
 /// ```
 /// use sdae_model::{EnsembleIncrements, GaussianIncrements, IncrementSource};
@@ -45,9 +45,11 @@ use crate::lanes::LaneWidth;
 /// ```
 #[derive(Debug, Clone)]
 pub struct EnsembleIncrements {
-    /// Word i of the streams' states, one entry per lane (the stride's padding lanes repeat
-    /// path 0's stream; their numbers are drawn and not used).
+    /// Word i of the main streams' states, one entry per lane (the stride's padding lanes
+    /// repeat path 0's streams; their numbers are drawn and not used).
     words: [Vec<u64>; 4],
+    /// Word i of the side streams' states, laid out as `words`.
+    side: [Vec<u64>; 4],
     paths: usize,
     dim: usize,
     width: LaneWidth,
@@ -55,27 +57,30 @@ pub struct EnsembleIncrements {
 
 impl EnsembleIncrements {
     /// The increments of dimension `dim` of the paths `indices` of a study with seed `seed`:
-    /// path p draws from [`path_rng`]`(seed, indices[p])`.
+    /// path p draws from [`PathStreams::for_path`]`(seed, indices[p])`.
     pub fn for_paths(seed: u64, indices: &[u64], dim: usize) -> Self {
-        let streams: Vec<_> = indices.iter().map(|&i| path_rng(seed, i)).collect();
+        let streams: Vec<_> = indices
+            .iter()
+            .map(|&i| PathStreams::for_path(seed, i))
+            .collect();
         Self::from_streams(&streams, dim)
     }
 
-    /// The increments of dimension `dim` of one path per stream, each continuing its stream
-    /// (the streams are copied, not advanced).
-    pub fn from_streams(streams: &[Xoshiro256PlusPlus], dim: usize) -> Self {
+    /// The increments of dimension `dim` of one path per element of `streams`, each
+    /// continuing its streams (they are copied, not advanced).
+    pub fn from_streams(streams: &[PathStreams], dim: usize) -> Self {
         let stride = lane_stride(streams.len());
         let mut words: [Vec<u64>; 4] = std::array::from_fn(|_| Vec::with_capacity(stride));
-        // No lanes without streams; padding lanes copy the first stream.
+        let mut side = words.clone();
+        // No lanes without streams; padding lanes copy the first path's.
         for lane in 0..stride {
-            let state = streams.get(lane).unwrap_or(&streams[0]).state();
-            for (i, word) in words.iter_mut().enumerate() {
-                let bytes = state[8 * i..8 * i + 8].try_into().expect("8 bytes");
-                word.push(u64::from_le_bytes(bytes));
-            }
+            let path = streams.get(lane).unwrap_or(&streams[0]);
+            push_state(&mut words, path.main());
+            push_state(&mut side, path.side());
         }
         Self {
             words,
+            side,
             paths: streams.len(),
             dim,
             width: LaneWidth::Best,
@@ -105,10 +110,11 @@ impl EnsembleIncrements {
         self
     }
 
-    /// Path p's stream as it stands (None if p >= P): continuing it gives the numbers path p
-    /// would draw next.
-    pub fn stream(&self, p: usize) -> Option<Xoshiro256PlusPlus> {
-        (p < self.paths).then(|| stream_of(&self.words, p))
+    /// Path p's streams as they stand (None if p >= P): continuing them gives the numbers
+    /// path p would draw next.
+    pub fn stream(&self, p: usize) -> Option<PathStreams> {
+        (p < self.paths)
+            .then(|| PathStreams::from_parts(stream_of(&self.words, p), stream_of(&self.side, p)))
     }
 
     /// Fills `dw` with the next increments over steps of size h of every path: step k,
@@ -116,8 +122,9 @@ impl EnsembleIncrements {
     /// holds. Returns that number of steps. The stride's padding lanes (p >= P) repeat path
     /// 0's numbers: an ensemble of P' paths needs increments drawn for exactly P' paths, since
     /// for P < P' <= stride its paths P.. would silently share path 0's noise
-    /// ([`PathEnsemble::step_drawing`](crate::PathEnsemble::step_drawing) checks this). Fails if h is not finite and > 0, or if `dw`'s
-    /// length is not a multiple of l * stride (nothing is drawn then).
+    /// ([`PathEnsemble::step_drawing`](crate::PathEnsemble::step_drawing) checks this).
+    /// Fails if h is not finite and > 0, or if `dw`'s length is not a multiple of l * stride
+    /// (nothing is drawn then).
     pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, ModelError> {
         check_step_size(h)?;
         let Some(row) = self.dim.checked_mul(self.stride()) else {
@@ -285,8 +292,10 @@ impl pulp::WithSimd for FillAll<'_> {
     }
 }
 
-/// Every lane group of `fill`, a tile of steps at a time: W streams' states stay in registers
-/// across the group's draws of a tile.
+/// Every lane group of `fill`, a tile of steps at a time: W main streams' states stay in
+/// registers across the group's draws of a tile; the draws their fast path rejects are put
+/// aside ([`Rejected`]) and finished from the side streams before the group's states are
+/// stored.
 #[inline(always)]
 fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
     let FillAll {
@@ -294,22 +303,35 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
         scale,
         dw,
     } = fill;
-    let table = ZigguratTable::get();
     let (dim, w) = (increments.dim, S::F64_LANES);
     let stride = increments.words[0].len();
     // `fill` checked that dim * stride does not overflow and that dw holds whole steps.
     let row_len = dim * stride;
     debug_assert!(w <= LANE_BLOCK && stride.is_multiple_of(w));
-    let words = &mut increments.words;
+    let (words, side) = (&mut increments.words, &mut increments.side);
+    let mut rejected = Rejected::<S>::new(simd);
+    let mut pending = 0;
     for tile in dw.chunks_mut(row_len * TILE_ROWS.min(dw.len() / row_len)) {
+        let rows = tile.len() / row_len;
         for at in (0..stride).step_by(w) {
             let mut state: [S::u64s; 4] = std::array::from_fn(|i| load_words(&words[i][at..]));
-            for row in tile.chunks_exact_mut(row_len) {
+            for row in 0..rows {
                 for j in 0..dim {
-                    let out = &mut row[j * stride + at..j * stride + at + w];
-                    draw(simd, &mut state, table, scale, out);
+                    let offset = row * row_len + j * stride + at;
+                    let bits = next_words(simd, &mut state);
+                    let (x, accepted) = fast_path(simd, bits);
+                    let z = simd.mul_f64s(simd.splat_f64s(scale), x);
+                    store_f64s::<S>(z, &mut tile[offset..]);
+                    // Kept in a register: a count in memory would chain the draws.
+                    pending = rejected.put(simd, pending, (offset, bits, accepted));
+                    if pending == REJECTED_CAPACITY {
+                        rejected.finish(simd, pending, (scale, tile), (side, at));
+                        pending = 0;
+                    }
                 }
             }
+            rejected.finish(simd, pending, (scale, tile), (side, at));
+            pending = 0;
             for (i, s) in state.iter().enumerate() {
                 store_words::<S>(*s, &mut words[i][at..]);
             }
@@ -321,52 +343,71 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
 /// group writes its lanes.
 const TILE_ROWS: usize = 32;
 
-/// out[lane] = scale z for one standard normal z per lane (rand_distr's ziggurat, symmetric,
-/// 256 layers): the next word b of each lane's xoshiro256++, layer i = b & 0xff, u in [-1, 1)
-/// from b's upper 52 bits, z = u x_i if |u x_i| < x_{i+1}; a lane that is not accepted is
-/// drawn again by rand_distr from its state before the draw. The arithmetic runs on all lanes
-/// at once; only x_i and x_{i+1} are read lane by lane.
-#[inline(always)]
-fn draw<S: WordLanes>(
-    simd: S,
-    state: &mut [S::u64s; 4],
-    table: &ZigguratTable,
-    scale: f64,
-    out: &mut [f64],
-) {
-    let before = *state;
-    let bits = next_words(simd, state);
-    let (x, accepted) = fast_path(simd, table, bits);
-    let z = simd.mul_f64s(simd.splat_f64s(scale), x);
-    store_f64s::<S>(z, out);
-    if simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES {
-        // Only here do the states leave the registers: each rejected lane is drawn again from
-        // its state before the draw, and the state rand_distr leaves is blended into its lane.
-        let mut lanes_before = [[0u64; LANE_BLOCK]; 4];
-        for (words, b) in lanes_before.iter_mut().zip(&before) {
-            store_words::<S>(*b, words);
+/// How many draws with a rejected lane are put aside before they are finished.
+const REJECTED_CAPACITY: usize = 64;
+
+/// A lane group's draws with a lane the fast path rejected, in the order drawn: where each
+/// was written, its words and which lanes it accepted (the count is the caller's).
+///
+/// Every draw is written into the next entry and the count moves on only if a lane was
+/// rejected (1.8% of draws of 8 lanes), so drawing takes no branch that depends on the
+/// numbers: such a branch, mispredicted at each rejection, and the rejected lane's state
+/// blended back before the next draw, cost more than half of the time drawing took.
+struct Rejected<S: Simd> {
+    offsets: [usize; REJECTED_CAPACITY],
+    bits: [S::u64s; REJECTED_CAPACITY],
+    accepted: [S::m64s; REJECTED_CAPACITY],
+}
+
+impl<S: WordLanes> Rejected<S> {
+    #[inline(always)]
+    fn new(simd: S) -> Self {
+        Self {
+            offsets: [0; REJECTED_CAPACITY],
+            bits: [simd.splat_u64s(0); REJECTED_CAPACITY],
+            accepted: [simd.mask_between_m64s(0, 0).mask(); REJECTED_CAPACITY],
         }
-        // The rejected lanes as bits (lane k is 2^k), visited without a branch per lane
-        // (which the processor mispredicts).
+    }
+
+    /// Writes the draw at `offset` (its words and accepted lanes) into entry `len` (<
+    /// [`REJECTED_CAPACITY`]) and returns the new count: `len + 1` if a lane was rejected,
+    /// else `len`.
+    #[inline(always)]
+    fn put(
+        &mut self,
+        simd: S,
+        len: usize,
+        (offset, bits, accepted): (usize, S::u64s, S::m64s),
+    ) -> usize {
+        self.offsets[len] = offset;
+        self.bits[len] = bits;
+        self.accepted[len] = accepted;
+        // pulp's first_true is below the width exactly when some lane is true.
+        let any_rejected = simd.first_true_m64s(simd.not_m64s(accepted)) < S::F64_LANES;
+        len + any_rejected as usize
+    }
+
+    /// Finishes the first `len` draws put aside, in the order drawn: each rejected lane's
+    /// number is the ziggurat's from its word and then its side stream's words ([`finish_draw`])
+    /// (tile[offset + lane] = scale z). The lane group's side streams are the states
+    /// `side[i][at + lane]`, read and written only for a rejected lane.
+    #[inline(always)]
+    fn finish(
+        &self,
+        simd: S,
+        len: usize,
+        (scale, tile): (f64, &mut [f64]),
+        (side, at): (&mut [Vec<u64>; 4], usize),
+    ) {
         let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
         let zero = simd.splat_f64s(0.0);
-        let rejected = simd.reduce_sum_f64s(simd.select_f64s(accepted, zero, lane_bits));
-        let mut pending = rejected as u32;
-        while pending != 0 {
-            let lane = pending.trailing_zeros() as usize;
-            pending &= pending - 1;
-            let words = [
-                lanes_before[0][lane],
-                lanes_before[1][lane],
-                lanes_before[2][lane],
-                lanes_before[3][lane],
-            ];
-            let (z, after) = redraw(words);
-            out[lane] = scale * z;
-            let this = simd.mask_between_m64s(lane as u64, lane as u64 + 1).mask();
-            for (s, word) in state.iter_mut().zip(after) {
-                *s = simd.select_u64s(this, simd.splat_u64s(word), *s);
-            }
+        for e in 0..len {
+            // The rejected lanes as bits (lane k is 2^k).
+            let lanes = simd.reduce_sum_f64s(simd.select_f64s(self.accepted[e], zero, lane_bits));
+            let mut words = [0u64; LANE_BLOCK];
+            store_words::<S>(self.bits[e], &mut words);
+            let out = &mut tile[self.offsets[e]..];
+            finish_lanes(lanes as u32, &words, (side, at), (scale, out));
         }
     }
 }
@@ -382,10 +423,32 @@ const LANE_BITS: [f64; LANE_BLOCK] = {
     bits
 };
 
+/// For each lane in `lanes` (lane k is bit k): out[lane] = scale z, z the standard normal
+/// whose first ziggurat word is words[lane], finished from that lane's side stream (state
+/// `side[i][at + lane]`, advanced in place; [`finish_draw`]).
+#[inline(never)]
+fn finish_lanes(
+    mut lanes: u32,
+    words: &[u64; LANE_BLOCK],
+    (side, at): (&mut [Vec<u64>; 4], usize),
+    (scale, out): (f64, &mut [f64]),
+) {
+    while lanes != 0 {
+        let lane = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let mut rng = LaneRng(std::array::from_fn(|i| side[i][at + lane]));
+        out[lane] = scale * finish_draw(words[lane], &mut rng);
+        for (words, word) in side.iter_mut().zip(rng.0) {
+            words[at + lane] = word;
+        }
+    }
+}
+
 /// The ziggurat's fast path for the words b of every lane: (u x_i, whether |u x_i| < x_{i+1}),
-/// with layer i = b & 0xff and u in [-1, 1) from b's upper 52 bits.
+/// with layer i = b mod 2048 and u in [-1, 1) from b's upper 52 bits (as
+/// [`crate::ziggurat::fast_path`] for one word).
 #[inline(always)]
-fn fast_path<S: WordLanes>(simd: S, table: &ZigguratTable, bits: S::u64s) -> (S::f64s, S::m64s) {
+fn fast_path<S: WordLanes>(simd: S, bits: S::u64s) -> (S::f64s, S::m64s) {
     let mantissa = simd.or_u64s(simd.shr12(bits), simd.splat_u64s(U_EXPONENT));
     let u = simd.sub_f64s(bytemuck::cast(mantissa), simd.splat_f64s(3.0));
     // Only the two table entries are read lane by lane (gathers measured slower).
@@ -393,26 +456,15 @@ fn fast_path<S: WordLanes>(simd: S, table: &ZigguratTable, bits: S::u64s) -> (S:
     store_words::<S>(bits, &mut lane_bits);
     let (mut x_layer, mut x_above) = ([0.0; LANE_BLOCK], [0.0; LANE_BLOCK]);
     for ((b, lo), hi) in lane_bits.iter().zip(&mut x_layer).zip(&mut x_above) {
-        let layer = (b & 0xff) as usize;
-        (*lo, *hi) = (table.x[layer], table.x[layer + 1]);
+        let layer = (b & LAYER_MASK) as usize;
+        (*lo, *hi) = (X[layer], X[layer + 1]);
     }
     let x = simd.mul_f64s(u, load_words(bytemuck::cast_slice(&x_layer)));
     let above = load_words(bytemuck::cast_slice(&x_above));
     (x, simd.less_than_f64s(simd.abs_f64s(x), above))
 }
 
-/// A draw the fast path did not accept, drawn again by rand_distr's `StandardNormal` from the
-/// lane's xoshiro256++ state before the draw (`before`): the standard normal and the state
-/// rand_distr leaves.
-#[cold]
-#[inline(never)]
-fn redraw(before: [u64; 4]) -> (f64, [u64; 4]) {
-    let mut rng = LaneRng(before);
-    let z: f64 = rng.sample(StandardNormal);
-    (z, rng.0)
-}
-
-/// One lane's xoshiro256++ in scalar form, for rand_distr's sampler.
+/// One lane's xoshiro256++ in scalar form (a side stream).
 struct LaneRng([u64; 4]);
 
 impl TryRng for LaneRng {
@@ -455,6 +507,15 @@ fn next_words<S: WordLanes>(simd: S, s: &mut [S::u64s; 4]) -> S::u64s {
     out
 }
 
+/// Appends the four state words of `stream` to `words`, one to each.
+fn push_state(words: &mut [Vec<u64>; 4], stream: &Xoshiro256PlusPlus) {
+    let state = stream.state();
+    for (i, word) in words.iter_mut().enumerate() {
+        let bytes = state[8 * i..8 * i + 8].try_into().expect("8 bytes");
+        word.push(u64::from_le_bytes(bytes));
+    }
+}
+
 /// Lane `lane`'s stream from the four state words of every lane.
 fn stream_of(words: &[Vec<u64>; 4], lane: usize) -> Xoshiro256PlusPlus {
     let mut seed = [0u8; 32];
@@ -463,9 +524,6 @@ fn stream_of(words: &[Vec<u64>; 4], lane: usize) -> Xoshiro256PlusPlus {
     }
     Xoshiro256PlusPlus::from_seed(seed)
 }
-
-/// The exponent bits that make (b >> 12) a float in [2, 4) (rand's `into_float_with_exponent(1)`).
-const U_EXPONENT: u64 = (1023 + 1) << 52;
 
 #[inline(always)]
 fn load_words<V: bytemuck::Pod>(from: &[u64]) -> V {
@@ -485,110 +543,62 @@ fn store_words<S: Simd>(v: S::u64s, to: &mut [u64]) {
     to[..values.len()].copy_from_slice(values);
 }
 
-/// rand_distr's ziggurat abscissae x_0 > x_1 > ... > x_255 > x_256 = 0 of `StandardNormal`.
-#[derive(Debug)]
-struct ZigguratTable {
-    x: [f64; 257],
-}
-
-impl ZigguratTable {
-    /// The table, read once from rand_distr's sampler: the word whose layer is i and whose
-    /// u is 2^-51 makes it return 2^-51 x_i exactly (at once for i < 255, where
-    /// 2^-51 x_i < x_{i+1}; through the density test with a uniform just below 1 for
-    /// i = 255).
-    fn get() -> &'static Self {
-        static TABLE: OnceLock<ZigguratTable> = OnceLock::new();
-        TABLE.get_or_init(|| {
-            let mut x = [0.0; 257];
-            for (layer, x) in x.iter_mut().enumerate().take(256) {
-                let mut words = Words::new(probe_word(layer));
-                let value: f64 = words.sample(StandardNormal);
-                *x = value * (1u64 << 51) as f64;
-            }
-            Self { x }
-        })
-    }
-}
-
-/// The word of layer `layer` with u = 2^-51: its upper 52 bits 2^51 + 1, as the mantissa of a
-/// float with exponent 1, give 3 + 2^-51, and u is that minus 3.
-fn probe_word(layer: usize) -> u64 {
-    (((1u64 << 51) | 1) << 12) | layer as u64
-}
-
-/// A generator that returns a given word, then u64::MAX (a uniform just below 1 for the
-/// density test), then words that the fast path accepts (layer 1, u = 2^-51), so that every
-/// draw from it ends.
-struct Words {
-    words: [u64; 3],
-    next: usize,
-}
-
-impl Words {
-    fn new(first: u64) -> Self {
-        Self {
-            words: [first, u64::MAX, probe_word(1)],
-            next: 0,
-        }
-    }
-}
-
-impl TryRng for Words {
-    type Error = Infallible;
-    fn try_next_u32(&mut self) -> Result<u32, Infallible> {
-        Ok((self.try_next_u64()? >> 32) as u32)
-    }
-    fn try_next_u64(&mut self) -> Result<u64, Infallible> {
-        let word = self.words[self.next.min(self.words.len() - 1)];
-        self.next += 1;
-        Ok(word)
-    }
-    fn try_fill_bytes(&mut self, dst: &mut [u8]) -> Result<(), Infallible> {
-        fill_bytes_from(self, dst)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::increments::{GaussianIncrements, IncrementSource};
+    use crate::increments::{GaussianIncrements, IncrementSource, path_rng};
 
     #[test]
-    fn the_table_is_the_standard_normal_ziggurat() {
-        let x = &ZigguratTable::get().x;
-        // x_1 is the tail's start r = 3.654152885361008796 of the 256-layer normal ziggurat.
-        assert_eq!(x[1], 3.654_152_885_361_009);
-        assert!(x.windows(2).all(|w| w[0] > w[1]), "strictly decreasing");
-        assert_eq!(x[256], 0.0);
-    }
-
-    #[test]
-    fn the_fast_path_accepts_exactly_what_rand_distr_accepts_from_one_word() {
-        let table = ZigguratTable::get();
+    fn the_lanes_fast_path_is_the_one_words() {
+        // Every layer, with fractions at both ends of u's range and random ones, 8 words at a
+        // time through AVX-512 (where the processor has it), 4 through AVX2 and one.
         let mut mixer = path_rng(5, 5);
         let mut fractions = vec![0, 1, 1 << 51, (1 << 51) + 1, (1 << 52) - 1, 1 << 50];
-        fractions.extend((0..30).map(|_| rand::Rng::next_u64(&mut mixer) >> 12));
-        for layer in 0..256u64 {
-            for &fraction in &fractions {
-                let word = (fraction << 12) | layer;
-                let (x, accepted) = fast_path(pulp::Scalar, table, word);
-                let mut words = Words::new(word);
-                let z: f64 = words.sample(StandardNormal);
-                // rand_distr returns after one word exactly when its fast path accepts.
-                assert_eq!(
-                    accepted,
-                    words.next == 1,
-                    "layer {layer}, fraction {fraction}"
-                );
-                if accepted {
-                    assert_eq!(
-                        z.to_bits(),
-                        x.to_bits(),
-                        "layer {layer}, fraction {fraction}"
-                    );
-                }
+        fractions.extend((0..10).map(|_| rand::Rng::next_u64(&mut mixer) >> 12));
+        let words: Vec<u64> = (0..crate::ziggurat::LAYERS as u64)
+            .flat_map(|layer| fractions.iter().map(move |&f| (f << 12) | layer))
+            .collect();
+        let expected: Vec<(f64, bool)> = words
+            .iter()
+            .map(|&w| crate::ziggurat::fast_path(w))
+            .collect();
+        assert!(expected.iter().any(|e| e.1) && expected.iter().any(|e| !e.1));
+        let check = |got: &[(f64, bool)]| {
+            for ((g, e), w) in got.iter().zip(&expected).zip(&words) {
+                assert_eq!((g.0.to_bits(), g.1), (e.0.to_bits(), e.1), "word {w:#x}");
+            }
+        };
+        check(
+            &words
+                .iter()
+                .map(|&w| fast_path(pulp::Scalar, w))
+                .collect::<Vec<_>>(),
+        );
+        #[cfg(target_arch = "x86_64")]
+        if let Some(simd) = pulp::x86::V3::try_new() {
+            check(&lanes_fast_path(simd, &words));
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(simd) = pulp::x86::V4::try_new() {
+            check(&lanes_fast_path(simd, &words));
+        }
+    }
+
+    /// The lanes' fast path over `words`, W at a time (words.len() a multiple of W).
+    fn lanes_fast_path<S: WordLanes>(simd: S, words: &[u64]) -> Vec<(f64, bool)> {
+        let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
+        let zero = simd.splat_f64s(0.0);
+        let mut out = Vec::new();
+        for group in words.chunks_exact(S::F64_LANES) {
+            let (x, accepted) = fast_path(simd, load_words(group));
+            let mut values = [0.0; LANE_BLOCK];
+            store_f64s::<S>(x, &mut values);
+            let bits = simd.reduce_sum_f64s(simd.select_f64s(accepted, lane_bits, zero)) as u32;
+            for (lane, value) in values[..S::F64_LANES].iter().enumerate() {
+                out.push((*value, bits & (1 << lane) != 0));
             }
         }
+        out
     }
 
     /// Paths 0..p of seed 11 drawn `steps` times with dimension `dim` at `width`, against
@@ -632,6 +642,9 @@ mod tests {
             LaneWidth::Best,
         ] {
             check_against_scalar(width, 13, 2, 10_000);
+            // Draws per lane group and tile (7 a step, 32 steps a tile, 13 in the last) not a
+            // multiple of a batch: the last batch of each is partial.
+            check_against_scalar(width, 5, 7, 301);
         }
     }
 

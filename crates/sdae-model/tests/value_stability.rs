@@ -12,15 +12,16 @@ fn first_increments_of_a_path_are_pinned() {
         source.next_increment(1.0, &mut dw);
         bits.extend(dw.iter().map(|x| x.to_bits()));
     }
-    // dw_0 = (-0.8687..., 0.7489...), dw_1 = (-1.8031..., 1.4864...),
-    // dw_2 = (-0.1226..., -0.5952...): standard normals, h = 1.
+    // dw_0 = (-1.2630..., 0.3996...), dw_1 = (-0.9082..., 1.9554...),
+    // dw_2 = (-0.3623..., -0.7433...): standard normals (the path's streams and the 2048-layer
+    // ziggurat of `PathStreams`), h = 1.
     let expected: [u64; 6] = [
-        0xbfebcc87cfd25fa5,
-        0x3fe7f74a2fdc899a,
-        0xbffcd9840e403ec8,
-        0x3ff7c854c5921346,
-        0xbfbf63a2577abb6c,
-        0xbfe30c208731d71b,
+        0xbff4358860e23aa5,
+        0x3fd993fad747f890,
+        0xbfed104751c5efde,
+        0x3fff4999ee041dab,
+        0xbfd730405204074d,
+        0xbfe7c9407f945037,
     ];
     assert_eq!(bits, expected, "{bits:#018x?}");
     // At h = 1/4 the same normals are scaled by sqrt(h) = 1/2, exactly.

@@ -7,7 +7,7 @@
 //! - `pendulum_ensemble/normals_only`: the increments alone (`EnsembleIncrements::fill` into
 //!   the ensemble's layout).
 //! - `pendulum_ensemble/normals_one_path_at_a_time`: the same numbers drawn path by path
-//!   (`GaussianIncrements`, rand_distr's ziggurat) and written into the layout: what the
+//!   (`GaussianIncrements`, the same ziggurat one path at a time) and written into the layout: what the
 //!   lanes gain.
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
@@ -67,7 +67,7 @@ fn closure_pendulum() -> ClosurePendulum {
 struct Bench<S: System> {
     ensemble: Ensemble<S>,
     noise: EnsembleIncrements,
-    per_path: Vec<GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>>,
+    per_path: Vec<GaussianIncrements<sdae_model::PathStreams>>,
     drawn: Vec<Vec<f64>>,
     steps: usize,
 }
@@ -128,7 +128,7 @@ impl<S: System<Constraint = Sphere>> Bench<S> {
 
 /// dw[j * stride + p] = increment j of path p, from path p's own stream, one path at a time.
 fn draw_per_path(
-    noise: &mut [GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>],
+    noise: &mut [GaussianIncrements<sdae_model::PathStreams>],
     stride: usize,
     dw: &mut [f64],
 ) {

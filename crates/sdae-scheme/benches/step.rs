@@ -98,7 +98,7 @@ struct Bench<S: System> {
     r: Vec<f64>,
     v: Vec<f64>,
     h: f64,
-    noise: GaussianIncrements<rand_xoshiro::Xoshiro256PlusPlus>,
+    noise: GaussianIncrements<sdae_model::PathStreams>,
     dw: Vec<f64>,
     steps: u64,
     last_iterations: usize,

@@ -1,0 +1,122 @@
+//! A path's two random-number streams and the standard normals drawn from them.
+
+use rand::{Rng, RngExt};
+use rand_distr::StandardNormal;
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use crate::increments::path_rng;
+use crate::ziggurat::{fast_path, finish_draw};
+
+/// The random numbers of one path: a main xoshiro256++ stream that gives exactly one 64-bit
+/// word per standard normal, and a side stream (the main one 2^192 words ahead, its
+/// `long_jump`) that finishes the 0.23% of draws whose word the ziggurat's fast path rejects
+/// ([`crate::ziggurat`]).
+///
+/// One word per normal on the main stream is what lets W paths draw in the lanes of a SIMD
+/// register without waiting on each other ([`EnsembleIncrements`](crate::EnsembleIncrements)):
+/// a rejected lane is finished later from its side stream, and path p's numbers are the same
+/// bits whatever W is.
+///
+/// ```
+/// use sdae_model::{PathStreams, StandardNormals};
+/// let mut streams = PathStreams::for_path(7, 3);
+/// let z: Vec<f64> = (0..1000).map(|_| streams.next_normal()).collect();
+/// let mean = z.iter().sum::<f64>() / 1000.0;
+/// assert!(mean.abs() < 5.0 / 1000f64.sqrt());
+/// // The same seed and path give the same numbers.
+/// assert_eq!(PathStreams::for_path(7, 3).next_normal(), z[0]);
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PathStreams {
+    main: Xoshiro256PlusPlus,
+    side: Xoshiro256PlusPlus,
+}
+
+impl PathStreams {
+    /// The streams of path `index` of a study with seed `seed`: the main stream is
+    /// [`path_rng`]`(seed, index)`.
+    pub fn for_path(seed: u64, index: u64) -> Self {
+        Self::new(path_rng(seed, index))
+    }
+
+    /// The streams whose main stream is `main` and whose side stream is `main` 2^192 words
+    /// ahead.
+    pub fn new(main: Xoshiro256PlusPlus) -> Self {
+        let mut side = main.clone();
+        side.long_jump();
+        Self { main, side }
+    }
+
+    /// Streams as they stood somewhere along a path (from [`PathStreams::main`] and
+    /// [`PathStreams::side`]): continuing them continues that path's numbers.
+    pub fn from_parts(main: Xoshiro256PlusPlus, side: Xoshiro256PlusPlus) -> Self {
+        Self { main, side }
+    }
+
+    /// The main stream: one word per standard normal.
+    pub fn main(&self) -> &Xoshiro256PlusPlus {
+        &self.main
+    }
+
+    /// The side stream: the words of the draws the fast path rejects.
+    pub fn side(&self) -> &Xoshiro256PlusPlus {
+        &self.side
+    }
+}
+
+/// A source of independent standard normals.
+pub trait StandardNormals {
+    /// The next standard normal.
+    fn next_normal(&mut self) -> f64;
+}
+
+impl StandardNormals for PathStreams {
+    /// The ziggurat on the main stream's next word, finished from the side stream if its fast
+    /// path rejects it.
+    #[inline]
+    fn next_normal(&mut self) -> f64 {
+        let word = self.main.next_u64();
+        match fast_path(word) {
+            (x, true) => x,
+            _ => finish_draw(word, &mut self.side),
+        }
+    }
+}
+
+/// Any random-number generator, through rand_distr's `StandardNormal`.
+impl<R: Rng> StandardNormals for R {
+    #[inline]
+    fn next_normal(&mut self) -> f64 {
+        self.sample(StandardNormal)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_main_stream_gives_one_word_per_normal() {
+        let mut streams = PathStreams::for_path(1, 2);
+        let mut main = path_rng(1, 2);
+        for _ in 0..100_000 {
+            streams.next_normal();
+            main.next_u64();
+        }
+        assert_eq!(streams.main(), &main);
+        // About 0.23% of 100 000 draws were finished from the side stream.
+        let fresh = PathStreams::for_path(1, 2);
+        assert_ne!(streams.side(), fresh.side());
+        let resumed = PathStreams::from_parts(streams.main().clone(), streams.side().clone());
+        assert_eq!(resumed, streams);
+    }
+
+    #[test]
+    fn the_side_stream_is_the_main_one_far_ahead() {
+        let streams = PathStreams::for_path(5, 9);
+        let mut ahead = path_rng(5, 9);
+        ahead.long_jump();
+        assert_eq!(streams.side(), &ahead);
+        assert_ne!(streams.side(), streams.main());
+    }
+}

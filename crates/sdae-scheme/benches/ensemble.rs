@@ -7,8 +7,8 @@
 //! - `pendulum_ensemble/normals_only`: the increments alone (`EnsembleIncrements::fill` into
 //!   the ensemble's layout).
 //! - `pendulum_ensemble/normals_one_path_at_a_time`: the same numbers drawn path by path
-//!   (`GaussianIncrements`, the same ziggurat one path at a time) and written into the layout: what the
-//!   lanes gain.
+//!   (`GaussianIncrements`, the same ziggurat one path at a time) and written into the layout:
+//!   what the lanes gain.
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
 //!   the lanes gain.

@@ -94,25 +94,26 @@ fn increments(l: usize, h: f64) -> Vec<Vec<f64>> {
     all
 }
 
+/// The first `paths` paths in an ensemble of that many.
 fn run_ensemble<S: System>(
     stepper: &Stepper<S>,
-    width: LaneWidth,
+    (width, paths): (LaneWidth, usize),
     (r0, v0): (&[f64], &[f64]),
     h: f64,
 ) -> (Vec<Outcome>, usize)
 where
     Stepper<S>: Clone,
 {
-    let mut ensemble = Ensemble::new(stepper.clone(), PATHS, r0, v0)
+    let mut ensemble = Ensemble::new(stepper.clone(), paths, r0, v0)
         .unwrap()
         .with_width(width);
-    for p in 0..PATHS {
+    for p in 0..paths {
         ensemble.set_state(p, r0, &start(v0, p)).unwrap();
     }
     let (n, l, stride) = (r0.len(), stepper.system().noise_dim(), ensemble.stride());
     let mut dw = vec![0.0; l * stride];
     for step in increments(l, h) {
-        for p in 0..PATHS {
+        for p in 0..paths {
             for j in 0..l {
                 dw[j * stride + p] = step[p * l + j];
             }
@@ -120,7 +121,7 @@ where
         ensemble.step(h, &dw).unwrap();
     }
     let m = stepper.system().constraint().n_constraints();
-    let outcomes = (0..PATHS)
+    let outcomes = (0..paths)
         .map(|p| {
             let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
             ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
@@ -139,14 +140,20 @@ where
     (outcomes, ensemble.scalar_steps())
 }
 
-fn run_scalar<S: System>(stepper: &Stepper<S>, (r0, v0): (&[f64], &[f64]), h: f64) -> Vec<Outcome>
+/// The first `paths` paths, each through the scalar stepper.
+fn run_scalar<S: System>(
+    stepper: &Stepper<S>,
+    paths: usize,
+    (r0, v0): (&[f64], &[f64]),
+    h: f64,
+) -> Vec<Outcome>
 where
     Stepper<S>: Clone,
 {
     let l = stepper.system().noise_dim();
     let m = stepper.system().constraint().n_constraints();
     let all = increments(l, h);
-    (0..PATHS)
+    (0..paths)
         .map(|p| {
             let mut scheme = stepper.clone();
             let (mut r, mut v) = (r0.to_vec(), start(v0, p));
@@ -189,7 +196,7 @@ fn check<S: System>(
 where
     Stepper<S>: Clone,
 {
-    let scalar = run_scalar(stepper, state, h);
+    let scalar = run_scalar(stepper, PATHS, state, h);
     let mut summary = (0, 0, 0);
     for width in [
         LaneWidth::One,
@@ -197,7 +204,7 @@ where
         LaneWidth::Eight,
         LaneWidth::Best,
     ] {
-        let (lanes, scalar_steps) = run_ensemble(stepper, width, state, h);
+        let (lanes, scalar_steps) = run_ensemble(stepper, (width, PATHS), state, h);
         for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
             assert_eq!(a, b, "{what}, {width:?}, path {p}");
         }
@@ -326,4 +333,25 @@ fn a_tetrahedron_under_gravity_steps_in_lanes_with_the_scalar_numbers() {
     let tetrahedron = RigidBonds::new(4, &bonds).unwrap();
     let mass = DiagonalMass::per_particle(&[1.0, 2.0, 0.5, 1.5], 3).unwrap();
     check_under_gravity(tetrahedron, mass, &r0, 2e-3);
+}
+
+#[test]
+fn one_group_of_paths_reads_its_increments_where_they_lie() {
+    // Eight paths at W = 8: the increments' rows are read where they lie, without a copy.
+    // Four lanes from the same rows copy them (two groups). Both give the scalar numbers.
+    let chain = BeadChain::new(12, 1.0 / 11.0).unwrap();
+    let r0 = chain.zigzag(0.3);
+    let v0 = vec![0.0; r0.len()];
+    let noise = AdditiveNoise::new(0.3, r0.len()).unwrap();
+    let system = MechanicalSystem::new(chain, IdentityMass, Gravity, noise).unwrap();
+    let stepper = Stepper::new(system.clone(), lane_configs(&system)[0].1).unwrap();
+    let paths = 8;
+    let scalar = run_scalar(&stepper, paths, (&r0, &v0), 2e-3);
+    for width in [LaneWidth::Eight, LaneWidth::Four, LaneWidth::Best] {
+        let (lanes, _) = run_ensemble(&stepper, (width, paths), (&r0, &v0), 2e-3);
+        assert_eq!(lanes.len(), paths);
+        for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
+            assert_eq!(a, b, "{width:?}, path {p}");
+        }
+    }
 }

@@ -296,8 +296,8 @@ impl LanePaths {
 
     /// Steps every path that goes on, W = `Sd::F64_LANES` lanes at a time, for a system of any
     /// size: `kernel` computes a group's step from its r_k and v_k (read where they lie when
-    /// the group is a whole block, W = [`LANE_BLOCK`], else copied) and the increments loaded
-    /// into `rows`, and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k in `rows`; the lanes it
+    /// the group is a whole block, W = [`LANE_BLOCK`], else copied) and its increments (read
+    /// where they lie when the ensemble is one group, stride = W, else copied), and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k in `rows`; the lanes it
     /// decides take them and their outcome, the others (and all of a group for which it returns
     /// `None`) go through the scalar step from r_k and v_k. `rows` must have the system's n, m and l
     /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
@@ -315,13 +315,26 @@ impl LanePaths {
     {
         let stride = self.stride;
         let simd = rows.simd;
+        // With one group, the increments' rows lie as the kernel reads them.
+        let whole_increments = if stride == Sd::F64_LANES {
+            Lanes::rows(simd, dw)
+        } else {
+            None
+        };
         for offset in (0..stride).step_by(Sd::F64_LANES) {
             let alive = Lanes::load(simd, &self.alive[offset..]);
             let alive = alive.eq(alive.splat_like(1.0));
             if (!alive).all() {
                 continue;
             }
-            load_into(&mut rows.dw, dw, stride, offset);
+            let mut dw_copy = take(&mut rows.dw);
+            let increments = match whole_increments {
+                Some(rows) => rows,
+                None => {
+                    load_into(&mut dw_copy, dw, stride, offset);
+                    &dw_copy[..]
+                }
+            };
             let base = self.lane_base(offset);
             // r_k and v_k where they lie if the group is a whole block, else copied.
             let (mut r_copy, mut v_copy) = (take(&mut rows.r_copy), take(&mut rows.v_copy));
@@ -339,8 +352,8 @@ impl LanePaths {
                     (&r_copy[..], &v_copy[..])
                 }
             };
-            let stepped = kernel.step(scheme, state, rows);
-            (rows.r_copy, rows.v_copy) = (r_copy, v_copy);
+            let stepped = kernel.step(scheme, (state.0, state.1, increments), rows);
+            (rows.r_copy, rows.v_copy, rows.dw) = (r_copy, v_copy, dw_copy);
             let Some((ok, record)) = stepped else {
                 for p in offset..(offset + Sd::F64_LANES).min(self.paths) {
                     self.step_one(scheme, p, h, dw);
@@ -395,8 +408,8 @@ pub struct LaneRows<Sd: Simd> {
     pub r: Vec<Lanes<Sd>>,
     /// v_{k+1} (n rows).
     pub v: Vec<Lanes<Sd>>,
-    /// The increments dw (l rows).
-    pub dw: Vec<Lanes<Sd>>,
+    /// The increments dw (l rows), copied for a group of an ensemble of several groups.
+    dw: Vec<Lanes<Sd>>,
     /// mu_{k+1} - mu_k (m rows).
     pub dmu: Vec<Lanes<Sd>>,
     /// r_k and v_k copied, for a group narrower than a block.
@@ -428,18 +441,21 @@ impl<Sd: Simd> LaneRows<Sd> {
 /// The lane form of a scheme's step for systems of any size ([`LanePaths::step_wide_groups`]),
 /// with buffers of its own for the instruction set `Sd`.
 pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
-    /// The step of W lanes from `state` = (r_k, v_k) with the increments in `rows` into `rows`
-    /// (r_{k+1}, v_{k+1} and the increment of mu) for the lanes it decides, which it returns
+    /// The step of W lanes from `state` = (r_k, v_k, dw) into `rows` (r_{k+1}, v_{k+1} and
+    /// the increment of mu) for the lanes it decides, which it returns
     /// with what their steps add to their diagnostics; `None` if this group must go through
     /// the scalar step. `state` is left as it is: a lane the kernel does not decide steps
     /// again from it through the scalar step.
     fn step(
         &mut self,
         scheme: &Sch,
-        state: (&[Lanes<Sd>], &[Lanes<Sd>]),
+        state: GroupState<'_, Sd>,
         rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
 }
+
+/// A group's r_k, v_k and increments dw, a row of W lanes per coordinate ([`WideKernel::step`]).
+pub type GroupState<'a, Sd> = (&'a [Lanes<Sd>], &'a [Lanes<Sd>], &'a [Lanes<Sd>]);
 
 /// Buffers of a lane form kept between steps whatever their instruction set (the set is chosen
 /// at run time; one scheme keeps one set of buffers). A clone starts empty.

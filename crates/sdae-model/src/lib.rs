@@ -108,7 +108,8 @@ pub use increments::{
 };
 pub use lane_diagnostics::LaneRecord;
 pub use lane_ensemble::{
-    LaneEnsemble, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore, WideKernel,
+    GroupState, LaneEnsemble, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore,
+    WideKernel,
 };
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};

@@ -13,7 +13,8 @@ use sdae_model::lanes::Lanes;
 
 use super::dense::{DenseLanes, LuLanes};
 use super::newton::{
-    ConstraintLanes, Evaluation, FactorLanes, InverseMass, dot3, max_abs_and_finite,
+    ConstraintLanes, Evaluation, FactorLanes, InverseMass, PointLanes, base_coords, dot3,
+    max_abs_and_finite,
 };
 
 /// The bond network's constants for a diagonal mass.
@@ -41,20 +42,20 @@ impl BondLanes {
     /// Dg(x1) M^-1 grad g(r): over the atoms c that bonds a and b share, sign_a sign_b
     /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
     #[inline(always)]
-    fn value_and_cross_gram<Sd: Simd>(
+    fn value_and_cross_gram<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        x1: &[Lanes<Sd>],
+        x1: &P,
         r: &[Lanes<Sd>],
         values: &mut [Lanes<Sd>],
         jacobian: &mut DenseLanes<Sd>,
     ) {
-        let half = x1[0].splat_like(0.5);
+        let half = r[0].splat_like(0.5);
         for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x1, bond);
             *value = half - dot3(&d, &d) * 0.5 * *s;
         }
         let m = self.bonds.len();
-        let zero = x1[0].splat_like(0.0);
+        let zero = r[0].splat_like(0.0);
         for a in 0..m {
             for b in 0..m {
                 jacobian.set(a, b, zero);
@@ -123,9 +124,9 @@ impl ConstraintLanes for BondLanes {
     /// g(x1) and the dense Newton matrix ([`BondLanes::value_and_cross_gram`]), then the
     /// largest |g_b| and the LU factorization, each in a pass of its own.
     #[inline(always)]
-    fn evaluate_and_factor<Sd: Simd>(
+    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        (x1, r): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (x1, r): (&P, &[Lanes<Sd>]),
         values: &mut [Lanes<Sd>],
         jacobian: &mut DenseLanes<Sd>,
         factor: &mut LuLanes<Sd>,
@@ -141,31 +142,32 @@ impl ConstraintLanes for BondLanes {
     }
 
     /// out = base + M^-1 grad g(r) z, with (grad g(r) z)_a = sum over the bonds b at atom a
-    /// of sign z_b d_b(r) / L_b^2 accumulated bond by bond from 0
-    /// (`RigidBonds::jacobian_transpose_mul`, then the mass and the sum of
-    /// `Constraint::displace`).
+    /// of sign z_b d_b(r) / L_b^2 accumulated from 0 in the order of the bonds, atom by atom
+    /// (`RigidBonds::jacobian_transpose_mul`'s operations on each entry: adding sign f is
+    /// adding or subtracting f, then the mass and the sum of `Constraint::displace`), so that
+    /// out can be its own base.
     #[inline(always)]
-    fn displace<Sd: Simd>(
+    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
         r: &[Lanes<Sd>],
         z: &[Lanes<Sd>],
-        base: &[Lanes<Sd>],
+        base: Option<&P>,
         out: &mut [Lanes<Sd>],
     ) {
         let zero = r[0].splat_like(0.0);
-        for o in out.iter_mut() {
-            *o = zero;
-        }
-        for ((bond, s), zb) in self.bonds.iter().zip(&self.inv_l2).zip(z) {
-            let d = bond_vector(r, bond);
-            for c in 0..3 {
-                let f = d[c] * *zb * *s;
-                out[3 * bond.i + c] = out[3 * bond.i + c] + f;
-                out[3 * bond.j + c] = out[3 * bond.j + c] - f;
+        for atom in 0..self.atoms {
+            let mut sum = [zero; 3];
+            for &(b, sign) in self.incident(atom) {
+                let d = bond_vector(r, &self.bonds[b]);
+                for c in 0..3 {
+                    sum[c] = sum[c] + d[c] * z[b] * self.inv_l2[b] * sign;
+                }
             }
-        }
-        for (k, (o, y)) in out.iter_mut().zip(base).enumerate() {
-            *o = self.inverse_mass.apply(k, *o) + *y;
+            let k = 3 * atom;
+            let y = base_coords::<_, _, 3>(base, out, k);
+            for c in 0..3 {
+                out[k + c] = self.inverse_mass.apply(k + c, sum[c]) + y[c];
+            }
         }
     }
 
@@ -202,7 +204,7 @@ impl ConstraintLanes for BondLanes {
 
 /// d_b = x_j - x_i of bond b = (i, j).
 #[inline(always)]
-fn bond_vector<Sd: Simd>(x: &[Lanes<Sd>], bond: &Bond) -> [Lanes<Sd>; 3] {
-    let (a, b) = (3 * bond.i, 3 * bond.j);
-    [x[b] - x[a], x[b + 1] - x[a + 1], x[b + 2] - x[a + 2]]
+fn bond_vector<Sd: Simd, P: PointLanes<Sd> + ?Sized>(x: &P, bond: &Bond) -> [Lanes<Sd>; 3] {
+    let (a, b) = (x.coords::<3>(3 * bond.i), x.coords::<3>(3 * bond.j));
+    [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
 }

@@ -8,7 +8,7 @@ use sdae_manifold::{Constraint, Mass};
 use sdae_model::System;
 use sdae_model::lanes::Lanes;
 
-use super::newton::{ConstraintLanes, Evaluation, InverseMass, dot3};
+use super::newton::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, dot3};
 use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
@@ -26,6 +26,18 @@ impl ChainLanes {
         let w = &self.inverse_mass;
         let k = 3 * bead;
         w.apply(k, a[0]) * b[0] + w.apply(k + 1, a[1]) * b[1] + w.apply(k + 2, a[2]) * b[2]
+    }
+
+    /// The diagonal entry's sum `weighted(a, bead, b) + weighted(a, bead + 1, b)`: with M^-1 = I
+    /// both terms are a . b, the same bits, which is formed once.
+    #[inline(always)]
+    fn diagonal<Sd: Simd>(&self, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
+        if self.inverse_mass.is_unit() {
+            let t = dot3(a, b);
+            t + t
+        } else {
+            self.weighted(a, bead, b) + self.weighted(a, bead + 1, b)
+        }
     }
 }
 
@@ -67,9 +79,9 @@ impl ConstraintLanes for ChainLanes {
     /// `max_abs_and_finite`'s reduction of g in its order, so g and the matrix are not read
     /// back (`values` is not used).
     #[inline(always)]
-    fn evaluate_and_factor<Sd: Simd>(
+    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        (x1, r): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (x1, r): (&P, &[Lanes<Sd>]),
         _values: &mut [Lanes<Sd>],
         jacobian: &mut TridiagonalLanes<Sd>,
         factor: &mut ThomasLanes<Sd>,
@@ -86,7 +98,7 @@ impl ConstraintLanes for ChainLanes {
         for (i, out) in step.iter_mut().enumerate().take(m) {
             let (e, f) = (e_next, f_next);
             let value = half - dot3(&e, &e) * 0.5 * self.inv_ds2;
-            let diag = (self.weighted(&e, i, &f) + self.weighted(&e, i + 1, &f)) * s;
+            let diag = self.diagonal(&e, i, &f) * s;
             jacobian.diag[i] = diag;
             let off_diagonal = if i + 1 < m {
                 e_next = segment(x1, i + 1);
@@ -149,13 +161,14 @@ impl ConstraintLanes for ChainLanes {
     }
 
     /// out_j = base_j + (M^-1)_jj (grad g(r) z)_j, with (grad g(r) z)_j = (z_j d_j - z_{j-1}
-    /// d_{j-1}) / ds^2 (`BeadChain::displace` for a diagonal mass).
+    /// d_{j-1}) / ds^2 (`BeadChain::displace` for a diagonal mass); bead j's base is read
+    /// before bead j of out is written.
     #[inline(always)]
-    fn displace<Sd: Simd>(
+    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
         r: &[Lanes<Sd>],
         z: &[Lanes<Sd>],
-        base: &[Lanes<Sd>],
+        base: Option<&P>,
         out: &mut [Lanes<Sd>],
     ) {
         let mut previous = [r[0].splat_like(0.0); 3];
@@ -168,15 +181,17 @@ impl ConstraintLanes for ChainLanes {
                 d[1] * *zi * self.inv_ds2,
                 d[2] * *zi * self.inv_ds2,
             ];
+            let b = base_coords::<_, _, 3>(base, out, 3 * i);
             for c in 0..3 {
                 let k = 3 * i + c;
-                out[k] = base[k] + w.apply(k, current[c] - previous[c]);
+                out[k] = b[c] + w.apply(k, current[c] - previous[c]);
             }
             previous = current;
         }
         let last = 3 * (self.beads - 1);
+        let b = base_coords::<_, _, 3>(base, out, last);
         for c in 0..3 {
-            out[last + c] = base[last + c] + w.apply(last + c, -previous[c]);
+            out[last + c] = b[c] + w.apply(last + c, -previous[c]);
         }
     }
 
@@ -214,7 +229,7 @@ impl ConstraintLanes for ChainLanes {
 
 /// The segment d_i = x_{i+1} - x_i.
 #[inline(always)]
-fn segment<Sd: Simd>(x: &[Lanes<Sd>], i: usize) -> [Lanes<Sd>; 3] {
-    let a = &x[3 * i..3 * i + 6];
+fn segment<Sd: Simd, P: PointLanes<Sd> + ?Sized>(x: &P, i: usize) -> [Lanes<Sd>; 3] {
+    let a = x.coords::<6>(3 * i);
     [a[3] - a[0], a[4] - a[1], a[5] - a[2]]
 }

@@ -23,7 +23,7 @@ use std::marker::PhantomData;
 use pulp::{Simd, WithSimd};
 use sdae_manifold::Mass;
 use sdae_model::lanes::{LaneMask, Lanes, per_path};
-use sdae_model::{LanePaths, LaneRecord, LaneRows, Scheme, System, WideKernel};
+use sdae_model::{GroupState, LanePaths, LaneRecord, LaneRows, Scheme, System, WideKernel};
 
 use crate::config::StepperConfig;
 use crate::stepper::Stepper;
@@ -81,9 +81,9 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// factored into `factor` with the first half of J^-1 g(x1) into `step`
     /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
     /// factorization runs row by row does it all in one pass over the rows.
-    fn evaluate_and_factor<Sd: Simd>(
+    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        points: (&[Lanes<Sd>], &[Lanes<Sd>]),
+        points: (&P, &[Lanes<Sd>]),
         values: &mut [Lanes<Sd>],
         jacobian: &mut Jacobian<Sd, Self>,
         factor: &mut Self::Factor<Sd>,
@@ -107,12 +107,13 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
         self.negated_jacobian_mul(x, force, out);
         factor.forward_in_place(out);
     }
-    /// out = base + M^-1 grad g(r) z (`Constraint::displace`).
-    fn displace<Sd: Simd>(
+    /// out = base + M^-1 grad g(r) z (`Constraint::displace`); without a base, out is its own
+    /// (out <- out + M^-1 grad g(r) z, each entry of out read before it is written).
+    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
         r: &[Lanes<Sd>],
         z: &[Lanes<Sd>],
-        base: &[Lanes<Sd>],
+        base: Option<&P>,
         out: &mut [Lanes<Sd>],
     );
     /// out = -Dg(x) u, the negation of `Constraint::jacobian_mul` (bit for bit: negation is
@@ -145,10 +146,74 @@ impl InverseMass {
         Self { entries, unit }
     }
 
+    /// Whether M^-1 = I.
+    #[inline(always)]
+    pub(super) fn is_unit(&self) -> bool {
+        self.unit
+    }
+
     /// x (M^-1)_kk.
     #[inline(always)]
     pub(super) fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
         if self.unit { x } else { x * self.entries[k] }
+    }
+}
+
+/// A point of W lanes read by coordinate: stored (a slice of lanes) or formed where it is read
+/// ([`Drifted`]).
+pub(super) trait PointLanes<Sd: Simd> {
+    /// Coordinates k..k + N.
+    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N];
+}
+
+impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
+    #[inline(always)]
+    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
+        *self[k..]
+            .first_chunk::<N>()
+            .expect("the point has coordinates k..k + N")
+    }
+}
+
+/// Coordinates k..k + N of a displacement's base ([`ConstraintLanes::displace`]), or of `out`
+/// where it is its own base.
+#[inline(always)]
+pub(super) fn base_coords<Sd: Simd, P: PointLanes<Sd> + ?Sized, const N: usize>(
+    base: Option<&P>,
+    out: &[Lanes<Sd>],
+    k: usize,
+) -> [Lanes<Sd>; N] {
+    match base {
+        Some(base) => base.coords::<N>(k),
+        None => out.coords::<N>(k),
+    }
+}
+
+/// y = r_k + eta h v_k of eq. 3.1, formed where it is read: the same bits each time, and no
+/// pass that stores it.
+pub(super) struct Drifted<'a, Sd: Simd> {
+    pub(super) r: &'a [Lanes<Sd>],
+    pub(super) v: &'a [Lanes<Sd>],
+    pub(super) eta_h: Lanes<Sd>,
+}
+
+impl<Sd: Simd> Drifted<'_, Sd> {
+    /// y_k.
+    #[inline(always)]
+    fn at(&self, k: usize) -> Lanes<Sd> {
+        self.r[k] + self.eta_h * self.v[k]
+    }
+}
+
+impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
+    #[inline(always)]
+    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
+        let (r, v) = (self.r.coords::<N>(k), self.v.coords::<N>(k));
+        let mut y = r;
+        for j in 0..N {
+            y[j] = r[j] + self.eta_h * v[j];
+        }
+        y
     }
 }
 
@@ -221,19 +286,16 @@ struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     h: f64,
     constraint: C,
-    /// The drift a(r_k, v_k), then the force eta a h + B dw, then v~.
-    force: Vec<Lanes<Sd>>,
-    y: Vec<Lanes<Sd>>,
     x: Vec<Lanes<Sd>>,
-    /// Scratch for R(gamma) of the kappa system.
+    /// Scratch for R(gamma) of the kappa system (a constraint that stores g(x1)).
     residual: Vec<Lanes<Sd>>,
     /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
     jacobian: Jacobian<Sd, C>,
     factor_at_zero: C::Factor<Sd>,
     factor: C::Factor<Sd>,
+    /// gamma, then the contraction's probes, then -Dg(r_{k+1}) v_{k+1}.
     gamma: Vec<Lanes<Sd>>,
     step: Vec<Lanes<Sd>>,
-    probe: Vec<Lanes<Sd>>,
     /// Path-by-path buffers of a system without lane forms of this size.
     scratch: Vec<f64>,
 }
@@ -246,8 +308,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             simd,
             h: 0.0,
             constraint,
-            force: vec![zero; n],
-            y: vec![zero; n],
             x: vec![zero; n],
             residual: vec![zero; m],
             jacobian: MatrixLanes::zeros(simd, m),
@@ -255,7 +315,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             factor: FactorLanes::zeros(simd, m),
             gamma: vec![zero; m],
             step: vec![zero; m],
-            probe: vec![zero; m],
             scratch: Vec::new(),
         }
     }
@@ -265,18 +324,19 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         Lanes::splat(self.simd, x)
     }
 
-    /// The kappa root's Newton iteration from 0 and its certificate, with max_i |y_i| for the
-    /// residual floor (`BallSolver::solve` on
-    /// the general path, without the homotopy): the lanes it decides, with r_{k+1} in `x`
-    /// (or `y` where the root is 0), the Jacobian at the root factored in `factor` (or
+    /// The kappa root's Newton iteration from 0 at y = r_k + eta h v_k and its certificate,
+    /// with max_i |y_i| for the residual floor (`BallSolver::solve` on the general path,
+    /// without the homotopy): the lanes it decides, with r_{k+1} in `x` (the caller takes y
+    /// where the root is 0), the Jacobian at the root factored in `factor` (or
     /// `factor_at_zero`, `true` in the returned flag's lanes) and the certificate's numbers.
     #[inline(always)]
     fn kappa_root_lanes(
         &mut self,
         config: &StepperConfig,
-        r: &[Lanes<Sd>],
+        y: &Drifted<'_, Sd>,
         max_abs_y: Lanes<Sd>,
     ) -> KappaLanes<Sd> {
+        let r = y.r;
         let settings = &config.solver;
         let zero = self.splat(0.0);
         let one = self.splat(1.0);
@@ -287,7 +347,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         // R(0), J(0) at x = y and the first Newton step.
         let mut step = std::mem::take(&mut self.step);
         let at_y = self.constraint.evaluate_and_factor(
-            (&self.y, r),
+            (y, r),
             &mut self.residual,
             &mut self.jacobian,
             &mut self.factor_at_zero,
@@ -313,9 +373,9 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             }
             iterated = true;
             self.constraint
-                .displace(r, &self.gamma, &self.y, &mut self.x);
+                .displace(r, &self.gamma, Some(y), &mut self.x);
             let at_x = self.constraint.evaluate_and_factor(
-                (&self.x, r),
+                (&self.x[..], r),
                 &mut self.residual,
                 &mut self.jacobian,
                 &mut self.factor,
@@ -395,33 +455,37 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         if probes == 0 {
             return self.splat(f64::NAN);
         }
-        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
-            *p = *g / norm;
+        // gamma* is not read again: the probes take its place.
+        let mut probe = std::mem::take(&mut self.gamma);
+        for p in probe.iter_mut() {
+            *p = *p / norm;
         }
         let mut estimate = zero;
         let mut stopped = !zero.eq(zero);
         let mut image = std::mem::take(&mut self.step);
-        for probe in 0..probes {
-            self.jacobian.mul_vec(&self.probe, &mut image);
+        for k in 0..probes {
+            self.jacobian.mul_vec(&probe, &mut image);
             self.factor_at_zero.solve_in_place(&mut image);
-            for (s, p) in image.iter_mut().zip(&self.probe) {
+            for (s, p) in image.iter_mut().zip(&probe) {
                 *s = *s - *p;
             }
             let next = sum_squares(&image).sqrt();
             estimate = Lanes::select(stopped, estimate, next);
             stopped = stopped.or(estimate.eq(zero));
-            if probe + 1 < probes {
-                for (p, s) in self.probe.iter_mut().zip(&image) {
+            if k + 1 < probes {
+                for (p, s) in probe.iter_mut().zip(&image) {
                     *p = *s / estimate;
                 }
             }
         }
         self.step = image;
+        self.gamma = probe;
         Lanes::select(norm.eq(zero), zero, estimate)
     }
 
-    /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw in `force`
-    /// (rescaled by sqrt(eta) where asked), and the group's outcomes.
+    /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw, which
+    /// `v_next` holds on entry (rescaled by sqrt(eta) where asked) and which becomes v~, then
+    /// v_{k+1} in place; and the group's outcomes.
     #[inline(always)]
     fn velocity_lanes(
         &mut self,
@@ -434,7 +498,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         }: Velocity<Sd>,
         (r, v, v_next, dmu): GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
-        let mut force = std::mem::take(&mut self.force);
+        let force = v_next;
         if active_any(rescaled) {
             for f in force.iter_mut() {
                 *f = Lanes::select(rescaled, *f * scale, *f);
@@ -448,17 +512,19 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             &self.factor_at_zero
         };
         self.constraint
-            .velocity_right_hand_side(&self.x, (&mut force, v), factor, dmu);
+            .velocity_right_hand_side(&self.x, (force, v), factor, dmu);
         factor.back_substitute(dmu);
-        // v' = v~ + M^-1 grad g(r) lambda.
-        self.constraint.displace(r, dmu, &force, v_next);
-        self.force = force;
+        // v' = v~ + M^-1 grad g(r) lambda, in place of v~.
+        self.constraint
+            .displace(r, dmu, None::<&[Lanes<Sd>]>, force);
+        let v_next = force;
         ok = ok.and(sum_squares(v_next).is_finite());
         let velocity_residual = if config.monitor_velocity_constraint {
-            // max_i |-(Dg(r') v')_i| = max_i |(Dg(r') v')_i|.
+            // max_i |-(Dg(r') v')_i| = max_i |(Dg(r') v')_i|, into gamma's rows (free until
+            // the next step's Newton iteration sets them).
             self.constraint
-                .negated_jacobian_mul(&self.x, v_next, &mut self.residual);
-            max_abs(&self.residual)
+                .negated_jacobian_mul(&self.x, v_next, &mut self.gamma);
+            max_abs(&self.gamma)
         } else {
             self.splat(0.0)
         };
@@ -482,14 +548,14 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     fn kappa_root(
         &mut self,
         config: &StepperConfig,
-        r: &[Lanes<Sd>],
+        y: &Drifted<'_, Sd>,
         max_abs_y: Lanes<Sd>,
     ) -> KappaLanes<Sd> {
         let simd = self.simd;
         simd.vectorize(KappaRootOp {
             kernel: self,
             config,
-            r,
+            y,
             max_abs_y,
         })
     }
@@ -518,7 +584,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
 struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
     kernel: &'a mut Kernel<Sd, C>,
     config: &'a StepperConfig,
-    r: &'a [Lanes<Sd>],
+    y: &'a Drifted<'a, Sd>,
     max_abs_y: Lanes<Sd>,
 }
 
@@ -527,7 +593,7 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> KappaLanes<Sd> {
         self.kernel
-            .kappa_root_lanes(self.config, self.r, self.max_abs_y)
+            .kappa_root_lanes(self.config, self.y, self.max_abs_y)
     }
 }
 
@@ -585,7 +651,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
     fn step(
         &mut self,
         stepper: &Stepper<S>,
-        (r, v): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (r, v, dw): GroupState<'_, Sd>,
         rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let system = stepper.system();
@@ -595,19 +661,19 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let LaneRows {
             r: r_next,
             v: v_next,
-            dw,
             dmu,
             ..
         } = rows;
         let v_norm2 = sum_squares(v);
-        // a(r_k, v_k) into `force`, which becomes the force in the pass that forms y.
-        let mut force = std::mem::take(&mut self.force);
-        if !system.drift_lanes(r, v, &mut force) {
-            per_path([r, v], &mut force, &mut self.scratch, |[r, v], out| {
+        // a(r_k, v_k) into `force` (v_{k+1}'s rows), which becomes the force in the pass that
+        // forms y, then v~ and v_{k+1} in the velocity update.
+        let force = v_next;
+        if !system.drift_lanes(r, v, force) {
+            per_path([r, v], force, &mut self.scratch, |[r, v], out| {
                 system.drift(r, v, out)
             });
         }
-        let a_norm2 = sum_squares(&force);
+        let a_norm2 = sum_squares(force);
         let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
 
         // eta of eq. 3.2, or with the constraint's local measure of the motion.
@@ -615,7 +681,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             None => one,
             Some(c_eta) => {
                 let motion = if config.local_size {
-                    self.constraint.local_motion(v, &force)
+                    self.constraint.local_motion(v, force)
                 } else {
                     let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
                     speed.max(speed * speed).max(force)
@@ -635,33 +701,19 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         };
         let scale = Lanes::select(rescaled, eta.sqrt(), one);
         let drift_h = Lanes::select(rescaled, scale * h, eta_h);
-        let mut max_abs_y = self.splat(0.0);
-        for (((y, f), ri), vi) in self
-            .y
-            .iter_mut()
-            .zip(&mut force)
-            .zip(r.iter())
-            .zip(v.iter())
-        {
-            *y = *ri + eta_h * *vi;
-            max_abs_y = max_abs_y.max(y.abs());
-            *f = drift_h * *f;
+        let y = Drifted { r, v, eta_h };
+        let max_abs_y = scale_and_max_abs(&y, drift_h, force);
+        if !system.add_noise_lanes(r, v, dw, force) {
+            per_path([r, v, dw], force, &mut self.scratch, |[r, v, dw], out| {
+                system.add_noise(r, v, dw, out)
+            });
         }
-        if !system.add_noise_lanes(r, v, dw, &mut force) {
-            per_path(
-                [r, v, &dw[..]],
-                &mut force,
-                &mut self.scratch,
-                |[r, v, dw], out| system.add_noise(r, v, dw, out),
-            );
-        }
-        self.force = force;
-        let root = self.kappa_root(config, r, max_abs_y);
+        let root = self.kappa_root(config, &y, max_abs_y);
         ok = ok.and(root.ok);
         // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
         if active_any(root.at_zero) {
-            for (x, y) in self.x.iter_mut().zip(&self.y) {
-                *x = Lanes::select(root.at_zero, *y, *x);
+            for (k, x) in self.x.iter_mut().enumerate() {
+                *x = Lanes::select(root.at_zero, y.at(k), *x);
             }
         }
 
@@ -673,13 +725,38 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
                 rescaled: (rescaled, scale),
                 root,
             },
-            (r, v, v_next, dmu),
+            (r, v, force, dmu),
         );
         // r_{k+1} is in `x`: the rows take it, `x` takes the rows' old buffer (overwritten
         // next step).
         std::mem::swap(r_next, &mut self.x);
         outcomes
     }
+}
+
+/// force <- drift_h force and max_k |y_k| in one pass. The maximum runs in four chains (k mod
+/// 4) so that the pass does not wait on one comparison per coordinate; a maximum is exact and
+/// never takes a NaN, so it is the bits of `vector::max_abs(y)` in order.
+#[inline(always)]
+fn scale_and_max_abs<Sd: Simd>(
+    y: &Drifted<'_, Sd>,
+    drift_h: Lanes<Sd>,
+    force: &mut [Lanes<Sd>],
+) -> Lanes<Sd> {
+    let mut largest = [drift_h.splat_like(0.0); 4];
+    let start = force.len() - force.len() % 4;
+    let (quads, tail) = force.split_at_mut(start);
+    for (q, f) in quads.chunks_exact_mut(4).enumerate() {
+        for j in 0..4 {
+            largest[j] = largest[j].max(y.at(4 * q + j).abs());
+            f[j] = drift_h * f[j];
+        }
+    }
+    for (k, f) in tail.iter_mut().enumerate() {
+        largest[0] = largest[0].max(y.at(start + k).abs());
+        *f = drift_h * *f;
+    }
+    largest[0].max(largest[1]).max(largest[2].max(largest[3]))
 }
 
 /// |kappa| / C_kappa of the certificate where the ball's radius C_kappa is finite

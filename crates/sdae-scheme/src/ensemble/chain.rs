@@ -6,7 +6,7 @@
 use pulp::Simd;
 use sdae_manifold::{Constraint, Mass};
 use sdae_model::System;
-use sdae_model::lanes::Lanes;
+use sdae_model::lanes::{LaneMask, Lanes};
 
 use super::newton::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, dot3};
 use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
@@ -26,6 +26,19 @@ impl ChainLanes {
         let w = &self.inverse_mass;
         let k = 3 * bead;
         w.apply(k, a[0]) * b[0] + w.apply(k + 1, a[1]) * b[1] + w.apply(k + 2, a[2]) * b[2]
+    }
+
+    /// Row i of -Dg(x) u from beads i and i + 1 of u (`negated_jacobian_mul`'s operations).
+    #[inline(always)]
+    fn velocity_row<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        i: usize,
+        bead: &[Lanes<Sd>; 3],
+        next: &[Lanes<Sd>; 3],
+    ) -> Lanes<Sd> {
+        let du = [next[0] - bead[0], next[1] - bead[1], next[2] - bead[2]];
+        dot3(&segment(x, i), &du) * self.inv_ds2
     }
 
     /// The diagonal entry's sum `weighted(a, bead, b) + weighted(a, bead + 1, b)`: with M^-1 = I
@@ -195,6 +208,62 @@ impl ConstraintLanes for ChainLanes {
         }
     }
 
+    /// [`ConstraintLanes::displace`] in place, the check of v_{k+1} and the velocity residual
+    /// in one pass over the beads: bead j of v_{k+1} is final once segment j is displaced, so
+    /// row j - 1 of Dg(x) v_{k+1} follows at once. A lane passes the check if every |v_k| <=
+    /// sqrt(MAX / (2 n)), under which |v|^2 cannot overflow whatever the order of the sum: it
+    /// passes only where the scalar step finds |v|^2 finite, and a lane beyond the bound (or
+    /// NaN) steps through the scalar stepper. The residual is `max_abs` of
+    /// `negated_jacobian_mul`'s rows, in their order.
+    #[inline(always)]
+    fn finish_velocity<Sd: Simd>(
+        &self,
+        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (x, monitor): (&[Lanes<Sd>], bool),
+        v: &mut [Lanes<Sd>],
+        _scratch: &mut [Lanes<Sd>],
+    ) -> (LaneMask<Sd>, Lanes<Sd>) {
+        let w = &self.inverse_mass;
+        let zero = r[0].splat_like(0.0);
+        let bound = zero.splat_like((f64::MAX / (6 * self.beads) as f64).sqrt());
+        let mut bounded = [zero.eq(zero); 3];
+        let mut residual = zero;
+        let mut previous = [zero; 3];
+        let mut before = [zero; 3];
+        for (i, zi) in lambda.iter().enumerate() {
+            let d = segment(r, i);
+            let current = [
+                d[0] * *zi * self.inv_ds2,
+                d[1] * *zi * self.inv_ds2,
+                d[2] * *zi * self.inv_ds2,
+            ];
+            let mut bead = [zero; 3];
+            for c in 0..3 {
+                let k = 3 * i + c;
+                v[k] = v[k] + w.apply(k, current[c] - previous[c]);
+                bead[c] = v[k];
+                bounded[c] = bounded[c].and(bead[c].abs().le(bound));
+            }
+            if monitor && i > 0 {
+                residual = residual.max(self.velocity_row(x, i - 1, &before, &bead).abs());
+            }
+            before = bead;
+            previous = current;
+        }
+        let last = 3 * (self.beads - 1);
+        let mut bead = [zero; 3];
+        for c in 0..3 {
+            v[last + c] = v[last + c] + w.apply(last + c, -previous[c]);
+            bead[c] = v[last + c];
+            bounded[c] = bounded[c].and(bead[c].abs().le(bound));
+        }
+        if monitor {
+            let row = self.beads - 2;
+            residual = residual.max(self.velocity_row(x, row, &before, &bead).abs());
+        }
+        (bounded[0].and(bounded[1]).and(bounded[2]), residual)
+    }
+
     /// out_i = -(Dg(x) u)_i = d_i.(u_{i+1} - u_i) / ds^2.
     #[inline(always)]
     fn negated_jacobian_mul<Sd: Simd>(
@@ -204,7 +273,8 @@ impl ConstraintLanes for ChainLanes {
         out: &mut [Lanes<Sd>],
     ) {
         for (i, o) in out.iter_mut().enumerate() {
-            *o = dot3(&segment(x, i), &segment(u, i)) * self.inv_ds2;
+            let (bead, next) = (u.coords::<3>(3 * i), u.coords::<3>(3 * i + 3));
+            *o = self.velocity_row(x, i, &bead, &next);
         }
     }
 

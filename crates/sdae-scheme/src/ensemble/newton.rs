@@ -116,6 +116,28 @@ pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
         base: Option<&P>,
         out: &mut [Lanes<Sd>],
     );
+    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`ConstraintLanes::displace`]
+    /// without a base), then the lanes whose v_{k+1} the scalar step finds finite (|v_{k+1}|^2
+    /// finite; a constraint may report fewer lanes, which then step through the scalar
+    /// stepper) and, if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in `scratch`, m rows). The
+    /// default takes three passes; a constraint can fuse them.
+    #[inline(always)]
+    fn finish_velocity<Sd: Simd>(
+        &self,
+        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (x, monitor): (&[Lanes<Sd>], bool),
+        v: &mut [Lanes<Sd>],
+        scratch: &mut [Lanes<Sd>],
+    ) -> (LaneMask<Sd>, Lanes<Sd>) {
+        self.displace(r, lambda, None::<&[Lanes<Sd>]>, v);
+        let finite = sum_squares(v).is_finite();
+        if !monitor {
+            return (finite, v[0].splat_like(0.0));
+        }
+        // max_i |-(Dg(x) v)_i| = max_i |(Dg(x) v)_i|.
+        self.negated_jacobian_mul(x, v, scratch);
+        (finite, max_abs(scratch))
+    }
     /// out = -Dg(x) u, the negation of `Constraint::jacobian_mul` (bit for bit: negation is
     /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of its
     /// own.
@@ -514,20 +536,15 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         self.constraint
             .velocity_right_hand_side(&self.x, (force, v), factor, dmu);
         factor.back_substitute(dmu);
-        // v' = v~ + M^-1 grad g(r) lambda, in place of v~.
-        self.constraint
-            .displace(r, dmu, None::<&[Lanes<Sd>]>, force);
-        let v_next = force;
-        ok = ok.and(sum_squares(v_next).is_finite());
-        let velocity_residual = if config.monitor_velocity_constraint {
-            // max_i |-(Dg(r') v')_i| = max_i |(Dg(r') v')_i|, into gamma's rows (free until
-            // the next step's Newton iteration sets them).
-            self.constraint
-                .negated_jacobian_mul(&self.x, v_next, &mut self.gamma);
-            max_abs(&self.gamma)
-        } else {
-            self.splat(0.0)
-        };
+        // v' = v~ + M^-1 grad g(r) lambda in place of v~, and max_i |(Dg(r') v')_i| (gamma's
+        // rows are free until the next step's Newton iteration sets them).
+        let (finite, velocity_residual) = self.constraint.finish_velocity(
+            (r, dmu),
+            (&self.x, config.monitor_velocity_constraint),
+            force,
+            &mut self.gamma,
+        );
+        ok = ok.and(finite);
         Some((
             ok,
             LaneRecord {

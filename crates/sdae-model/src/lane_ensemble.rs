@@ -297,9 +297,10 @@ impl LanePaths {
     /// Steps every path that goes on, W = `Sd::F64_LANES` lanes at a time, for a system of any
     /// size: `kernel` computes a group's step from its r_k and v_k (read where they lie when
     /// the group is a whole block, W = [`LANE_BLOCK`], else copied) and its increments (read
-    /// where they lie when the ensemble is one group, stride = W, else copied), and leaves r_{k+1}, v_{k+1} and mu_{k+1} - mu_k in `rows`; the lanes it
-    /// decides take them and their outcome, the others (and all of a group for which it returns
-    /// `None`) go through the scalar step from r_k and v_k. `rows` must have the system's n, m and l
+    /// where they lie when the ensemble is one group, stride = W, else copied), and leaves
+    /// r_{k+1}, v_{k+1} and mu_{k+1} - mu_k in `rows`; the lanes it decides take them and
+    /// their outcome, the others (and all of a group for which it returns `None`) go through
+    /// the scalar step from r_k and v_k. `rows` must have the system's n, m and l
     /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
     #[inline(always)]
     pub fn step_wide_groups<Sch, Sd, K>(

@@ -120,6 +120,40 @@ struct KappaRoot<Sd: Simd> {
 }
 
 impl<const N: usize> Kernel<N> {
+    /// Whether eq. 3.2 leaves every lane's step untruncated (eta = 1), decided without the
+    /// square roots and divisions of the motion's measure: with B = |v|^2 + |a|^2 (divided
+    /// by rho^2 for the local measure), the measure max(w, w^2, alpha) is at most max(sqrt(B),
+    /// B) to a few ulps, so B <= min(C_eta / (2h), C_eta^2 / (4h^2)) keeps h times it below
+    /// C_eta / 2 whatever the rounding, where the full formula gives eta = 1 exactly. Not
+    /// finite B, or any lane beyond the bound, leaves it to the full formula.
+    #[inline(always)]
+    fn surely_untruncated<Sd: Simd>(&self, norms2: Lanes<Sd>, c_eta: f64) -> bool {
+        let b = if self.local_size {
+            norms2 * self.inv_r2
+        } else {
+            norms2
+        };
+        let half_step = 0.5 * c_eta / self.h;
+        b.le(b.splat_like(half_step.min(half_step * half_step)))
+            .all()
+    }
+
+    /// eta of eq. 3.2 from |v|^2 and |a|^2 (or the sphere's local measure w = |v|/rho, alpha =
+    /// |a|/rho).
+    #[inline(always)]
+    fn eta<Sd: Simd>(&self, v_norm2: Lanes<Sd>, a_norm2: Lanes<Sd>, c_eta: f64) -> Lanes<Sd> {
+        let motion = if self.local_size {
+            let w = v_norm2.sqrt() / self.rho;
+            w.max(w * w).max(a_norm2.sqrt() / self.rho)
+        } else {
+            let speed = v_norm2.sqrt();
+            speed.max(speed * speed).max(a_norm2.sqrt())
+        };
+        let size = motion * self.h;
+        let (c, one) = (size.splat_like(c_eta), size.splat_like(1.0));
+        Lanes::select(c.lt(size), c / size, one)
+    }
+
     /// [`LaneKernel::step`], with the kappa root.
     #[inline(always)]
     fn step_with_root<S: System, Sd: Simd>(
@@ -143,18 +177,8 @@ impl<const N: usize> Kernel<N> {
         // eta of eq. 3.2 (or the sphere's local measure w = |v|/rho, alpha = |a|/rho).
         let eta = match self.c_eta {
             None => one,
-            Some(c_eta) => {
-                let motion = if self.local_size {
-                    let w = v_norm2.sqrt() / self.rho;
-                    w.max(w * w).max(a_norm2.sqrt() / self.rho)
-                } else {
-                    let speed = v_norm2.sqrt();
-                    speed.max(speed * speed).max(a_norm2.sqrt())
-                };
-                let size = motion * self.h;
-                let c = zero.splat_like(c_eta);
-                Lanes::select(c.lt(size), c / size, one)
-            }
+            Some(c_eta) if self.surely_untruncated(v_norm2 + a_norm2, c_eta) => one,
+            Some(c_eta) => self.eta(v_norm2, a_norm2, c_eta),
         };
         let eta_h = eta * self.h;
         let mut y = [zero; N];
@@ -175,8 +199,9 @@ impl<const N: usize> Kernel<N> {
         } = root;
 
         // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled.
-        let scale = if self.rescale_noise {
-            Lanes::select(eta.lt(one), eta.sqrt(), one)
+        let truncated = eta.lt(one);
+        let scale = if self.rescale_noise && !(!truncated).all() {
+            Lanes::select(truncated, eta.sqrt(), one)
         } else {
             one
         };
@@ -315,4 +340,60 @@ fn one_lane<S: System, const N: usize>(
         kappa: root.gamma.lane(0),
         lambda: step.dmu.lane(0),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sdae_ift::SolverSettings;
+
+    /// The kernel's constants for a sphere of radius `rho` and unit masses.
+    fn kernel(rho: f64, h: f64, c_eta: f64, local_size: bool) -> Kernel<2> {
+        let sphere = Sphere::new(2, rho).unwrap();
+        Kernel {
+            h,
+            c_eta: Some(c_eta),
+            local_size,
+            rescale_noise: false,
+            monitor_velocity: false,
+            root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
+            rho,
+            inv_r2: sphere.inverse_radius_squared(),
+            inverse_mass: [1.0; 2],
+        }
+    }
+
+    /// Wherever the shortcut says eta = 1, eq. 3.2 gives exactly 1; and it says so up to half
+    /// the bound of the measure, while eq. 3.2 truncates within four times it (so a looser
+    /// shortcut would fail here).
+    #[test]
+    fn the_untruncated_shortcut_agrees_with_eq_3_2() {
+        let lane = |x: f64| Lanes::splat(pulp::Scalar, x);
+        let (mut passed, mut truncated) = (0, 0);
+        for local_size in [false, true] {
+            for (rho, h, c_eta) in [(1.0, 1e-3, 1.0), (0.3, 0.1, 0.05), (2.5, 0.02, 3.0)] {
+                let k = kernel(rho, h, c_eta, local_size);
+                let half = 0.5 * c_eta / h;
+                let limit = half.min(half * half) * if local_size { rho * rho } else { 1.0 };
+                for i in 0..=4000 {
+                    let b = limit * (0.25 + i as f64 / 1000.0);
+                    for share in [0.0, 0.3, 0.5, 0.9, 1.0] {
+                        let (v2, a2) = (lane(b * share), lane(b * (1.0 - share)));
+                        let eta = k.eta(v2, a2, c_eta).lane(0);
+                        if k.surely_untruncated(v2 + a2, c_eta) {
+                            assert_eq!(eta, 1.0, "b = {b:e}, share {share}");
+                            passed += 1;
+                        }
+                        if eta < 1.0 {
+                            truncated += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            passed > 0 && truncated > 0,
+            "{passed} passed, {truncated} truncated"
+        );
+    }
 }

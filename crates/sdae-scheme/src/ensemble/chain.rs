@@ -28,6 +28,18 @@ impl ChainLanes {
         w.apply(k, a[0]) * b[0] + w.apply(k + 1, a[1]) * b[1] + w.apply(k + 2, a[2]) * b[2]
     }
 
+    /// Segment i's term of grad g(r) z: z_i d_i / ds^2 (added at bead i, taken at bead i + 1).
+    #[inline(always)]
+    fn segment_term<Sd: Simd>(&self, r: &[Lanes<Sd>], i: usize, z: Lanes<Sd>) -> [Lanes<Sd>; 3] {
+        let d = segment(r, i);
+        // Written out: a closure (array map) would not inherit the instruction set.
+        [
+            d[0] * z * self.inv_ds2,
+            d[1] * z * self.inv_ds2,
+            d[2] * z * self.inv_ds2,
+        ]
+    }
+
     /// Row i of -Dg(x) u from beads i and i + 1 of u (`negated_jacobian_mul`'s operations).
     #[inline(always)]
     fn velocity_row<Sd: Simd>(
@@ -187,13 +199,7 @@ impl ConstraintLanes for ChainLanes {
         let mut previous = [r[0].splat_like(0.0); 3];
         let w = &self.inverse_mass;
         for (i, zi) in z.iter().enumerate() {
-            let d = segment(r, i);
-            // Written out: a closure (array map) would not inherit the instruction set.
-            let current = [
-                d[0] * *zi * self.inv_ds2,
-                d[1] * *zi * self.inv_ds2,
-                d[2] * *zi * self.inv_ds2,
-            ];
+            let current = self.segment_term(r, i, *zi);
             let b = base_coords::<_, _, 3>(base, out, 3 * i);
             for c in 0..3 {
                 let k = 3 * i + c;
@@ -231,12 +237,7 @@ impl ConstraintLanes for ChainLanes {
         let mut previous = [zero; 3];
         let mut before = [zero; 3];
         for (i, zi) in lambda.iter().enumerate() {
-            let d = segment(r, i);
-            let current = [
-                d[0] * *zi * self.inv_ds2,
-                d[1] * *zi * self.inv_ds2,
-                d[2] * *zi * self.inv_ds2,
-            ];
+            let current = self.segment_term(r, i, *zi);
             let mut bead = [zero; 3];
             for c in 0..3 {
                 let k = 3 * i + c;

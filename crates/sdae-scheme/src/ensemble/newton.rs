@@ -223,7 +223,7 @@ impl<Sd: Simd> Drifted<'_, Sd> {
     /// y_k.
     #[inline(always)]
     fn at(&self, k: usize) -> Lanes<Sd> {
-        self.r[k] + self.eta_h * self.v[k]
+        self.coords::<1>(k)[0]
     }
 }
 

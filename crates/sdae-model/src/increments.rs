@@ -63,10 +63,7 @@ impl<R: StandardNormals> IncrementSource for GaussianIncrements<R> {
     }
     #[inline]
     fn next_increment(&mut self, h: f64, out: &mut [f64]) {
-        let scale = h.sqrt();
-        for o in out.iter_mut() {
-            *o = scale * self.normals.next_normal();
-        }
+        self.normals.fill_scaled(h.sqrt(), out);
     }
 }
 

@@ -29,4 +29,13 @@ pub trait BallProblem {
     fn residual_floor(&self) -> f64 {
         0.0
     }
+    /// The right-hand side b of a linear system D R(gamma*) z = b with the Jacobian at the root
+    /// that the caller solves after the root (the scheme's lambda system, seed eq. 3.1 lower
+    /// part), into `out`; `false` (the default) if there is none. Asked where Newton has
+    /// converged, after the evaluation at that gamma, so that the solver can solve the system
+    /// in the pass that factors D R(gamma) ([`BallSolver::companion`](crate::BallSolver::companion)).
+    fn companion_rhs(&mut self, out: &mut [f64]) -> bool {
+        let _ = out;
+        false
+    }
 }

@@ -108,11 +108,20 @@ pub struct BallSolver<A: Factorize> {
     residual_at_zero: Vec<f64>,
     step: Vec<f64>,
     probe: Vec<f64>,
+    /// The problem's companion right-hand side at the root ([`BallProblem::companion_rhs`]).
+    companion_rhs: Vec<f64>,
+    /// The companion system's solution, where `companion_ready`.
+    companion: Vec<f64>,
     matrix: A,
     factor: A::Factor,
     factor_at_zero: A::Factor,
     /// Whether `factor` (rather than `factor_at_zero`) holds the Jacobian at the root.
     root_in_factor: bool,
+    /// Whether `step` holds J(0)^-1 J(gamma) p for p = gamma / |gamma| at the current gamma:
+    /// the first image of the contraction estimate, formed while J(gamma) was factored.
+    probe_image_ready: bool,
+    /// Whether `companion` solves the companion system at the current root.
+    companion_ready: bool,
     /// The tolerance of the current solve: the settings' or the problem's residual floor.
     tolerance: f64,
     history: Vec<f64>,
@@ -135,10 +144,14 @@ impl<A: Factorize> BallSolver<A> {
             residual_at_zero: vec![0.0; m],
             step: vec![0.0; m],
             probe: vec![0.0; m],
+            companion_rhs: vec![0.0; m],
+            companion: vec![0.0; m],
             factor: template.new_factor(),
             factor_at_zero: template.new_factor(),
             matrix: template,
             root_in_factor: false,
+            probe_image_ready: false,
+            companion_ready: false,
             tolerance: settings.tolerance,
             history: Vec::with_capacity(settings.max_iterations + 1),
         }
@@ -164,6 +177,16 @@ impl<A: Factorize> BallSolver<A> {
         }
     }
 
+    /// The solution z of the problem's companion system D R(gamma*) z = b
+    /// ([`BallProblem::companion_rhs`]) at the root of the last successful solve, where the
+    /// solver solved it while factoring D R(gamma*) (with the operations of
+    /// `root_factor().solve_in_place(b)`); `None` where it did not (a root at 0, in closed
+    /// form, on the scalar path, or a problem without one): the caller then solves it with
+    /// [`BallSolver::root_factor`].
+    pub fn companion(&self) -> Option<&[f64]> {
+        self.companion_ready.then_some(&self.companion[..])
+    }
+
     /// Finds the root of `problem` in the ball |gamma| < `radius`, starting Newton from 0
     /// (or in closed form, [`BallProblem::quadratic`]). On success the problem's last evaluation
     /// was at the root.
@@ -175,6 +198,7 @@ impl<A: Factorize> BallSolver<A> {
         problem: &mut P,
         radius: f64,
     ) -> Result<Certificate, IftError> {
+        self.companion_ready = false;
         if self.gamma.len() == 1
             && let Some(coefficients) = problem.quadratic()
             && let Some(outcome) = self.solve_quadratic(problem, radius, coefficients)
@@ -206,6 +230,8 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Result<Certificate, IftError> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
+        self.probe_image_ready = false;
+        self.companion_ready = false;
         if A::STRUCTURE == GramStructure::Scalar && start_is_zero {
             if let Some(certificate) = self.solve_scalar(problem, radius) {
                 return Ok(certificate);
@@ -220,7 +246,9 @@ impl<A: Factorize> BallSolver<A> {
             &mut self.residual_at_zero,
             Some(&mut self.matrix),
         );
-        if self.residual_at_zero.iter().any(|v| !v.is_finite()) {
+        // max |R(0)|: the convergence test's measure, and NaN or infinite with any entry.
+        let r0 = norm_max(&self.residual_at_zero);
+        if !r0.is_finite() {
             return Err(IftError::NonFinite {
                 what: "residual",
                 iteration: 0,
@@ -242,7 +270,6 @@ impl<A: Factorize> BallSolver<A> {
         self.history.clear();
         let newton = if start_is_zero {
             // Iteration 0 is gamma = 0 with R(0), J(0) and its Newton step already at hand.
-            let r0 = norm_max(&self.residual_at_zero);
             self.history.push(r0);
             self.root_in_factor = false;
             if r0 <= self.tolerance {
@@ -488,9 +515,11 @@ impl<A: Factorize> BallSolver<A> {
             return Ok(0.0);
         }
         let rounding = if norm.is_finite() {
-            self.probe.fill(self.tolerance);
-            self.factor_at_zero.solve_in_place(&mut self.probe);
-            norm2(&self.probe)
+            // The residual at the root is in `history`: its buffer serves as scratch here
+            // (`probe` may hold the contraction estimate's start).
+            self.residual.fill(self.tolerance);
+            self.factor_at_zero.solve_in_place(&mut self.residual);
+            norm2(&self.residual)
         } else {
             0.0
         };
@@ -527,7 +556,7 @@ impl<A: Factorize> BallSolver<A> {
             });
         }
         let residual = self.history.last().copied().unwrap_or(0.0);
-        let contraction = self.contraction_estimate(radius);
+        let contraction = self.contraction_estimate(radius, norm);
         self.contracting(contraction, radius)?;
         Ok(Certificate {
             iterations,
@@ -603,8 +632,13 @@ impl<A: Factorize> BallSolver<A> {
                 None
             };
             // The Jacobian is factored in every iteration (the last one's is the root's); the
-            // Newton step is solved only where the iteration goes on, in the same pass.
+            // Newton step is solved only where the iteration goes on, in the same pass. At a
+            // root of R (tau = 1) the contraction estimate's first image J(0)^-1 J(gamma) p
+            // and the companion system are solved in the factorization's pass as well.
+            self.probe_image_ready = false;
+            self.companion_ready = false;
             let factored = match last {
+                Some(Corrector::Converged(_)) if tau == 1.0 => self.factor_root(problem),
                 Some(_) => self.matrix.factor_into(&mut self.factor),
                 None => {
                     self.matrix
@@ -619,17 +653,50 @@ impl<A: Factorize> BallSolver<A> {
                 return outcome;
             }
             previous_residual = r;
-            let step = norm2(&self.step);
             // A corrector that stops contracting will not converge: fail fast.
-            if tau != 1.0 && step > 0.5 * previous_step {
-                return Corrector::Failed(k);
+            if tau != 1.0 {
+                let step = norm2(&self.step);
+                if step > 0.5 * previous_step {
+                    return Corrector::Failed(k);
+                }
+                previous_step = step;
             }
-            previous_step = step;
             for (g, s) in self.gamma.iter_mut().zip(&self.step) {
                 *g -= s;
             }
         }
         Corrector::Failed(max_iterations)
+    }
+
+    /// Factors J(gamma) at a root into `factor` and in the same pass solves the problem's
+    /// companion system into `companion` (where it has one) and, where the contraction
+    /// estimate will take a probe from a nonzero gamma, forms its first image J(0)^-1 J(gamma)
+    /// p (p = gamma / |gamma|) in `step` ([`Factorize::factor_with`]).
+    fn factor_root<P: BallProblem<Matrix = A>>(
+        &mut self,
+        problem: &mut P,
+    ) -> Result<(), sdae_manifold::LinearError> {
+        let companion = problem.companion_rhs(&mut self.companion_rhs);
+        let norm = norm2(&self.gamma);
+        let probe = self.settings.contraction_probes > 0 && norm != 0.0 && norm.is_finite();
+        if probe {
+            self.unit_probe(norm);
+        }
+        self.matrix.factor_with(
+            &mut self.factor,
+            companion.then_some((&self.companion_rhs[..], &mut self.companion[..])),
+            probe.then_some((&self.factor_at_zero, &self.probe[..], &mut self.step[..])),
+        )?;
+        self.probe_image_ready = probe;
+        self.companion_ready = companion;
+        Ok(())
+    }
+
+    /// probe = gamma / `norm`, the contraction estimate's start.
+    fn unit_probe(&mut self, norm: f64) {
+        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
+            *p = g / norm;
+        }
     }
 
     /// Follows F(tau, gamma(tau)) = 0 from (0, 0) to tau = 1 (Euler predictor along
@@ -710,28 +777,32 @@ impl<A: Factorize> BallSolver<A> {
     }
 
     /// Power iteration on A = J(0)^-1 J(gamma*) - I, started along gamma*: a lower bound of
-    /// |A| that approaches it as the probes grow.
-    fn contraction_estimate(&mut self, radius: f64) -> f64 {
+    /// |A| that approaches it as the probes grow. `norm` is |gamma*|.
+    fn contraction_estimate(&mut self, radius: f64, norm: f64) -> f64 {
         let probes = self.probes(radius);
         if probes == 0 {
             return f64::NAN;
         }
-        let norm = norm2(&self.gamma);
         if norm == 0.0 {
             return 0.0;
         }
-        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
-            *p = g / norm;
+        // p = gamma* / |gamma*| and its first image J(0)^-1 J(gamma*) p are at hand where
+        // they were formed with the factorization at the root.
+        let mut image_ready = std::mem::take(&mut self.probe_image_ready);
+        if !image_ready {
+            self.unit_probe(norm);
         }
         let mut estimate = 0.0;
-        for _ in 0..probes {
-            self.matrix.mul_vec(&self.probe, &mut self.step);
-            self.factor_at_zero.solve_in_place(&mut self.step);
+        for probe in 1..=probes {
+            if !std::mem::take(&mut image_ready) {
+                self.matrix.mul_vec(&self.probe, &mut self.step);
+                self.factor_at_zero.solve_in_place(&mut self.step);
+            }
             for (s, p) in self.step.iter_mut().zip(&self.probe) {
                 *s -= p;
             }
             estimate = norm2(&self.step);
-            if estimate == 0.0 {
+            if estimate == 0.0 || probe == probes {
                 break;
             }
             for (p, s) in self.probe.iter_mut().zip(&self.step) {

@@ -33,10 +33,41 @@ pub trait Factorize: GramMatrix {
         b: &[f64],
         out: &mut [f64],
     ) -> Result<(), LinearError> {
+        self.factor_with(factor, Some((b, out)), None)
+    }
+    /// Factors `self` (A) into `factor` and, with `solve` = (b, out), sets out = A^-1 b, and
+    /// with `map` = (B, p, image), image = B^-1 (A p) for a matrix B factored in B: the
+    /// floating-point operations of [`Factorize::factor_into`], [`Solve::solve_in_place`] and
+    /// [`GramMatrix::mul_vec`] (a storage may interleave them, so that their recurrences
+    /// overlap). On failure `out` and `image` are unspecified.
+    #[inline]
+    fn factor_with(
+        &self,
+        factor: &mut Self::Factor,
+        solve: Option<(&[f64], &mut [f64])>,
+        map: Option<(&Self::Factor, &[f64], &mut [f64])>,
+    ) -> Result<(), LinearError> {
         self.factor_into(factor)?;
+        solve_and_map_apart(self, factor, solve, map);
+        Ok(())
+    }
+}
+
+/// The solve and the product of [`Factorize::factor_with`] after `a` is factored in `factor`,
+/// one after the other.
+fn solve_and_map_apart<A: Factorize>(
+    a: &A,
+    factor: &A::Factor,
+    solve: Option<(&[f64], &mut [f64])>,
+    map: Option<(&A::Factor, &[f64], &mut [f64])>,
+) {
+    if let Some((b, out)) = solve {
         out.copy_from_slice(b);
         factor.solve_in_place(out);
-        Ok(())
+    }
+    if let Some((other, p, image)) = map {
+        a.mul_vec(p, image);
+        other.solve_in_place(image);
     }
 }
 
@@ -128,8 +159,17 @@ impl TridiagonalFactor {
     /// the leading principal minors, s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2}: the recurrence
     /// then has a multiply and a subtract on its critical path instead of a division, and the
     /// divisions overlap. The minors are rescaled by exact powers of two to stay in range.
+    ///
+    /// With `mapped` = (B, p, out), out = B^-1 (A p) is formed as well, B an unpivoted Thomas
+    /// factor: the rows of A p ([`GramMatrix::mul_vec`]'s operations) and B's forward
+    /// substitution in the same pass, B's back substitution after it.
     #[inline(always)]
-    fn factor_thomas(&mut self, a: &TridiagonalGram, rhs: Option<(&[f64], &mut [f64])>) -> bool {
+    fn factor_thomas(
+        &mut self,
+        a: &TridiagonalGram,
+        rhs: Option<(&[f64], &mut [f64])>,
+        mapped: Option<(&TridiagonalFactor, &[f64], &mut [f64])>,
+    ) -> bool {
         const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
         const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
@@ -141,6 +181,14 @@ impl TridiagonalFactor {
             &mut self.upper[..off],
         );
         let mut rhs = rhs.map(|(b, out)| (&b[..m], &mut out[..m]));
+        let mut mapped = mapped.map(|(other, p, out)| {
+            (
+                (&other.diag[..m], &other.lower[..off]),
+                &p[..m],
+                &mut out[..m],
+            )
+        });
+        let mut mapped_forward = 0.0;
         let (mut s_prev2, mut s_prev) = (0.0, 1.0);
         // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
         let mut l = 0.0_f64;
@@ -178,6 +226,26 @@ impl TridiagonalFactor {
             } else if let Some((b, out)) = rhs.as_mut() {
                 forward = b[0] * inv;
                 out[0] = forward;
+            }
+            if let Some(((b_diag, b_lower), p, out)) = mapped.as_mut() {
+                // Row i of A p as `mul_vec` forms it, then B's forward substitution.
+                let row = if i == 0 {
+                    if off == 0 {
+                        d * p[0]
+                    } else {
+                        d * p[0] + u * p[1]
+                    }
+                } else if i < off {
+                    d * p[i] + l * p[i - 1] + u * p[i + 1]
+                } else {
+                    d * p[i] + l * p[i - 1]
+                };
+                mapped_forward = if i == 0 {
+                    row * b_diag[0]
+                } else {
+                    row * b_diag[i] - b_lower[i - 1] * mapped_forward
+                };
+                out[i] = mapped_forward;
             }
             if i < off {
                 f_upper[i] = u * inv;
@@ -254,6 +322,25 @@ impl TridiagonalFactor {
     }
 }
 
+impl TridiagonalFactor {
+    /// [`TridiagonalFactor::backward`] of two factors and vectors of one order in one pass
+    /// (two independent recurrences that overlap), each with its own operations.
+    #[inline(always)]
+    fn backward_pair((a, x): (&Self, &mut [f64]), (b, y): (&Self, &mut [f64])) {
+        let off = a.upper.len();
+        let (a_upper, b_upper) = (&a.upper[..off], &b.upper[..off]);
+        let (x_head, x_last) = x.split_at_mut(off);
+        let (y_head, y_last) = y[..off + 1].split_at_mut(off);
+        let (mut x_next, mut y_next) = (x_last[0], y_last[0]);
+        for i in (0..off).rev() {
+            x_next = x_head[i] - a_upper[i] * x_next;
+            x_head[i] = x_next;
+            y_next = y_head[i] - b_upper[i] * y_next;
+            y_head[i] = y_next;
+        }
+    }
+}
+
 impl Solve for TridiagonalFactor {
     fn solve_in_place(&self, b: &mut [f64]) {
         let m = self.diag.len();
@@ -295,28 +382,47 @@ impl Factorize for TridiagonalGram {
     /// Thomas' algorithm first; a non-finite entry makes it fail (it reaches a NaN or infinite
     /// minor or pivot), so the entries are checked only before the pivoted fallback.
     fn factor_into(&self, factor: &mut TridiagonalFactor) -> Result<(), LinearError> {
-        factor.pivoted = !factor.factor_thomas(self, None);
+        factor.pivoted = !factor.factor_thomas(self, None, None);
         if factor.pivoted {
             self.factor_pivoted_into(factor)?;
         }
         Ok(())
     }
-    /// Thomas' factorization with the forward substitution in the same pass, then the back
-    /// substitution; the pivoted fallback solves after factoring.
-    fn factor_and_solve(
+    /// Thomas' factorization with the forward substitutions of b and of A p (with B's factors)
+    /// in the same pass, then both back substitutions in one pass; where a factor is pivoted,
+    /// its solve runs on its own after factoring.
+    fn factor_with(
         &self,
         factor: &mut TridiagonalFactor,
-        b: &[f64],
-        out: &mut [f64],
+        mut solve: Option<(&[f64], &mut [f64])>,
+        map: Option<(&TridiagonalFactor, &[f64], &mut [f64])>,
     ) -> Result<(), LinearError> {
-        factor.pivoted = !factor.factor_thomas(self, Some((b, &mut *out)));
+        let (mut fused, apart) = match map {
+            Some((other, ..)) if other.pivoted => (None, map),
+            _ => (map, None),
+        };
+        factor.pivoted = !factor.factor_thomas(
+            self,
+            solve.as_mut().map(|(b, out)| (*b, &mut **out)),
+            fused
+                .as_mut()
+                .map(|(other, p, image)| (*other, *p, &mut **image)),
+        );
         if factor.pivoted {
+            // The pass stopped part way: every solve from the start.
             self.factor_pivoted_into(factor)?;
-            out.copy_from_slice(b);
-            factor.solve_in_place(out);
+            solve_and_map_apart(self, factor, solve, fused);
         } else {
-            factor.backward(out);
+            match (solve, fused) {
+                (Some((_, out)), Some((other, _, image))) => {
+                    TridiagonalFactor::backward_pair((factor, out), (other, image))
+                }
+                (Some((_, out)), None) => factor.backward(out),
+                (None, Some((other, _, image))) => other.backward(image),
+                (None, None) => {}
+            }
         }
+        solve_and_map_apart(self, factor, None, apart);
         Ok(())
     }
 }
@@ -488,6 +594,79 @@ mod tests {
         assert!(f.is_pivoted());
         let x = solve(&a, &b);
         assert!(residual(&a, &x, &b) < 1e-13, "{}", residual(&a, &x, &b));
+    }
+
+    /// A tridiagonal matrix of order m whose Thomas pivots are safe (`zero_diagonal` false) or
+    /// that needs row interchanges (true).
+    fn tridiagonal(m: usize, shift: f64, zero_diagonal: bool) -> TridiagonalGram {
+        let mut a = TridiagonalGram::zeros(m);
+        for i in 0..m {
+            a.diag[i] = if zero_diagonal && i + 1 < m {
+                0.0
+            } else {
+                2.0 + shift * (i as f64 + 0.5).sin()
+            };
+        }
+        for i in 0..m.saturating_sub(1) {
+            a.lower[i] = -1.0 + 0.1 * (i as f64).cos();
+            a.upper[i] = -0.9 + shift * 0.05 * i as f64 / m as f64;
+        }
+        a
+    }
+
+    #[test]
+    fn factor_with_is_factor_solve_and_product_bit_for_bit() {
+        let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for m in [1, 2, 3, 9, 40] {
+            for (a_pivots, b_pivots) in [(false, false), (true, false), (false, true), (true, true)]
+            {
+                let a = tridiagonal(m, 0.3, a_pivots && m > 1);
+                let b = tridiagonal(m, -0.2, b_pivots && m > 1);
+                let mut b_factor = b.new_factor();
+                b.factor_into(&mut b_factor).unwrap();
+                assert_eq!(b_factor.is_pivoted(), b_pivots && m > 1);
+                let p: Vec<f64> = (0..m).map(|i| (0.7 * i as f64).cos()).collect();
+                let rhs: Vec<f64> = (0..m).map(|i| 1.0 - 0.3 * i as f64).collect();
+                // The separate passes.
+                let mut a_factor = a.new_factor();
+                a.factor_into(&mut a_factor).unwrap();
+                assert_eq!(a_factor.is_pivoted(), a_pivots && m > 1);
+                let mut image_apart = vec![0.0; m];
+                a.mul_vec(&p, &mut image_apart);
+                b_factor.solve_in_place(&mut image_apart);
+                let mut solution_apart = rhs.clone();
+                a_factor.solve_in_place(&mut solution_apart);
+                // One pass, asked for the solve, the product or both, into a factor that held
+                // another matrix.
+                for (with_solve, with_map) in [(true, false), (false, true), (true, true)] {
+                    let mut fused = b.new_factor();
+                    b.factor_into(&mut fused).unwrap();
+                    let mut image = vec![f64::NAN; m];
+                    let mut solution = vec![f64::NAN; m];
+                    a.factor_with(
+                        &mut fused,
+                        with_solve.then_some((&rhs[..], &mut solution[..])),
+                        with_map.then_some((&b_factor, &p[..], &mut image[..])),
+                    )
+                    .unwrap();
+                    let case =
+                        format!("m={m} pivots {a_pivots} {b_pivots}: {with_solve} {with_map}");
+                    if with_map {
+                        assert_eq!(bits(&image), bits(&image_apart), "{case}");
+                    }
+                    if with_solve {
+                        assert_eq!(bits(&solution), bits(&solution_apart), "{case}");
+                    }
+                    // The factor is the one factor_into gives: it solves alike.
+                    assert_eq!(fused.is_pivoted(), a_factor.is_pivoted(), "{case}");
+                    let mut x = p.clone();
+                    fused.solve_in_place(&mut x);
+                    let mut y = p.clone();
+                    a_factor.solve_in_place(&mut y);
+                    assert_eq!(bits(&x), bits(&y), "{case}");
+                }
+            }
+        }
     }
 
     #[test]

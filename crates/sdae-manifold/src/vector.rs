@@ -37,6 +37,10 @@ pub fn norm2(x: &[f64]) -> f64 {
 }
 
 /// max_i |x_i|; NaN if an entry is NaN, infinite if an entry is infinite.
+///
+/// The maximum is a plain compare-and-select (one `maxpd` per two entries), which drops NaN;
+/// the running sum, one addition per entry, finds them instead. A NaN sum without a NaN entry
+/// (infinities of both signs) is told apart by a scan that runs only then.
 #[inline]
 pub fn max_abs(x: &[f64]) -> f64 {
     let mut acc = [0.0_f64; LANES];
@@ -45,25 +49,30 @@ pub fn max_abs(x: &[f64]) -> f64 {
     let mut tail_max = 0.0_f64;
     let mut tail_sum = 0.0;
     for v in chunks.remainder() {
-        tail_max = tail_max.max(v.abs());
+        tail_max = larger(tail_max, v.abs());
         tail_sum += v;
     }
     for c in chunks {
         for k in 0..LANES {
-            acc[k] = acc[k].max(c[k].abs());
+            acc[k] = larger(acc[k], c[k].abs());
             sum[k] += c[k];
         }
     }
-    // f64::max drops NaN; the plain sum keeps it (and any infinity).
     let total = (sum[0] + sum[1]) + (sum[2] + sum[3]) + tail_sum;
-    if total.is_nan() {
+    if total.is_nan() && x.iter().any(|v| v.is_nan()) {
         return f64::NAN;
     }
-    let m = acc.iter().fold(tail_max, |s, v| s.max(*v));
-    if total.is_infinite() && m.is_finite() {
-        f64::INFINITY
+    acc.iter().fold(tail_max, |s, v| larger(s, *v))
+}
+
+/// The larger of `current` and `candidate`, `current` if `candidate` is NaN: the select the
+/// processor's maximum instruction makes, without `f64::max`'s NaN handling.
+#[inline(always)]
+fn larger(current: f64, candidate: f64) -> f64 {
+    if candidate > current {
+        candidate
     } else {
-        m
+        current
     }
 }
 
@@ -89,5 +98,16 @@ mod tests {
         assert!(max_abs(&[1.0, 2.0, 3.0, 4.0, 5.0, f64::NAN]).is_nan());
         assert_eq!(max_abs(&[1.0, f64::INFINITY, 2.0, 0.0, 1.0]), f64::INFINITY);
         assert_eq!(max_abs(&[-3.0, 2.0]), 3.0);
+        // Infinities of both signs sum to NaN; no entry is NaN.
+        assert_eq!(
+            max_abs(&[f64::INFINITY, 1.0, f64::NEG_INFINITY]),
+            f64::INFINITY
+        );
+        assert_eq!(
+            max_abs(&[1.0, 2.0, 3.0, f64::NEG_INFINITY, f64::INFINITY]),
+            f64::INFINITY
+        );
+        // A sum that overflows is not an infinite entry.
+        assert_eq!(max_abs(&[f64::MAX, f64::MAX, -1.0]), f64::MAX);
     }
 }

@@ -31,6 +31,10 @@ pub struct KappaProblem<'a, C, M> {
     pub floor: f64,
     /// Whether the last evaluation was at gamma = 0, i.e. at x = y.
     pub at_y: bool,
+    /// v~ of the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (seed eq. 3.1, lower
+    /// part), whose matrix is the Jacobian at the root: given, the solver may solve it while
+    /// it factors that Jacobian ([`BallSolver::companion`]).
+    pub velocity: Option<&'a [f64]>,
 }
 
 impl<C, M> BallProblem for KappaProblem<'_, C, M>
@@ -65,6 +69,19 @@ where
     }
     fn residual_floor(&self) -> f64 {
         self.floor
+    }
+    /// -Dg(x) v~ at the last evaluation's point, the lambda system's right-hand side.
+    #[inline]
+    fn companion_rhs(&mut self, out: &mut [f64]) -> bool {
+        let Some(velocity) = self.velocity else {
+            return false;
+        };
+        let x: &[f64] = if self.at_y { self.y } else { self.x };
+        self.constraint.jacobian_mul(x, velocity, out);
+        for o in out.iter_mut() {
+            *o = -*o;
+        }
+        true
     }
 }
 
@@ -127,6 +144,7 @@ impl<G: Factorize> TangentProjector<G> {
             scratch: &mut self.scratch,
             floor,
             at_y: false,
+            velocity: None,
         };
         let certificate = self.solver.solve(&mut problem, f64::INFINITY)?;
         if !problem.at_y {

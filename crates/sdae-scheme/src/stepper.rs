@@ -285,29 +285,10 @@ fn half_explicit_step<S: System>(
     // NaN when y is (then so is g(y), and the step fails on it whatever the floor).
     let max_abs_y = max_abs(y);
 
-    let (certificate, at_y) = {
-        let mut problem = KappaProblem {
-            constraint,
-            mass,
-            r,
-            y,
-            x,
-            scratch,
-            floor: constraint.value_roundoff(max_abs_y),
-            at_y: false,
-        };
-        let certificate = solver
-            .solve(&mut problem, config.c_kappa)
-            .map_err(|source| StepFailure::Root {
-                what: "kappa system",
-                source,
-            })?;
-        (certificate, problem.at_y)
-    };
-    let r_new: &[f64] = if at_y { y } else { x };
-
-    // Velocity: v~ = v + M^-1 (eta a h + B dw) (sqrt(eta) B dw when rescaled); lambda from Dg(r') M^-1 grad g(r) lambda
-    // = -Dg(r') v~, whose matrix is the Newton matrix at the root, already factored.
+    // Velocity: v~ = v + M^-1 (eta a h + B dw) (sqrt(eta) B dw when rescaled), formed before
+    // the root (it does not depend on it) so that the solver can solve the lambda system
+    // Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton matrix at the root,
+    // in the pass that factors that matrix.
     if config.rescale_noise && eta < 1.0 {
         // sqrt(eta) (sqrt(eta) h a + B dw) = eta h a + sqrt(eta) B dw: in law a step of eta h.
         let scale = eta.sqrt();
@@ -329,11 +310,40 @@ fn half_explicit_step<S: System>(
     for (f, vi) in force.iter_mut().zip(v.iter()) {
         *f += vi;
     }
-    constraint.jacobian_mul(r_new, force, lambda);
-    for l in lambda.iter_mut() {
-        *l = -*l;
+
+    let (certificate, at_y) = {
+        let mut problem = KappaProblem {
+            constraint,
+            mass,
+            r,
+            y,
+            x,
+            scratch,
+            floor: constraint.value_roundoff(max_abs_y),
+            at_y: false,
+            velocity: Some(force),
+        };
+        let certificate = solver
+            .solve(&mut problem, config.c_kappa)
+            .map_err(|source| StepFailure::Root {
+                what: "kappa system",
+                source,
+            })?;
+        (certificate, problem.at_y)
+    };
+    let r_new: &[f64] = if at_y { y } else { x };
+
+    // lambda, solved by the root solver where it could, with the root's factors otherwise.
+    match solver.companion() {
+        Some(solution) => lambda.copy_from_slice(solution),
+        None => {
+            constraint.jacobian_mul(r_new, force, lambda);
+            for l in lambda.iter_mut() {
+                *l = -*l;
+            }
+            solver.root_factor().solve_in_place(lambda);
+        }
     }
-    solver.root_factor().solve_in_place(lambda);
     // v' = v~ + M^-1 grad g(r) lambda, into the drift buffer (a is no longer needed).
     constraint.displace(r, lambda, mass, force, drift);
     let new_v_norm2 = norm2_squared(drift);

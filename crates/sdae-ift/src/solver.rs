@@ -183,6 +183,49 @@ impl<A: Factorize> BallSolver<A> {
     /// `root_factor().solve_in_place(b)`); `None` where it did not (a root at 0, in closed
     /// form, on the scalar path, or a problem without one): the caller then solves it with
     /// [`BallSolver::root_factor`].
+    ///
+    /// ```
+    /// use sdae_ift::{BallProblem, BallSolver, SolverSettings};
+    /// use sdae_manifold::{GramMatrix, Solve, TridiagonalGram};
+    ///
+    /// /// R(gamma) = T gamma + gamma.gamma / 20 - 1 with T = tridiag(-0.3, 2, -0.3), and the
+    /// /// companion system J(gamma*) z = (1, 2, 3).
+    /// struct Problem;
+    /// impl BallProblem for Problem {
+    ///     type Matrix = TridiagonalGram;
+    ///     fn dim(&self) -> usize { 3 }
+    ///     fn evaluate(&mut self, g: &[f64], r: &mut [f64], j: Option<&mut TridiagonalGram>) {
+    ///         for i in 0..3 {
+    ///             let left = if i > 0 { g[i - 1] } else { 0.0 };
+    ///             let right = if i < 2 { g[i + 1] } else { 0.0 };
+    ///             r[i] = 2.0 * g[i] - 0.3 * (left + right) + g[i] * g[i] / 20.0 - 1.0;
+    ///         }
+    ///         if let Some(j) = j {
+    ///             for i in 0..3 { j.diag[i] = 2.0 + g[i] / 10.0; }
+    ///             j.lower.fill(-0.3);
+    ///             j.upper.fill(-0.3);
+    ///         }
+    ///     }
+    ///     fn companion_rhs(&mut self, out: &mut [f64]) -> bool {
+    ///         out.copy_from_slice(&[1.0, 2.0, 3.0]);
+    ///         true
+    ///     }
+    /// }
+    /// let mut solver = BallSolver::new(TridiagonalGram::zeros(3), SolverSettings::default());
+    /// solver.solve(&mut Problem, f64::INFINITY)?;
+    /// let z = solver.companion().expect("solved with the root's factorization").to_vec();
+    /// // The same bits as a solve with the root's factors afterwards.
+    /// let mut apart = [1.0, 2.0, 3.0];
+    /// solver.root_factor().solve_in_place(&mut apart);
+    /// assert_eq!(z, apart);
+    /// // And J(gamma*) z = b.
+    /// let mut j = TridiagonalGram::zeros(3);
+    /// Problem.evaluate(solver.root(), &mut [0.0; 3], Some(&mut j));
+    /// let mut jz = [0.0; 3];
+    /// j.mul_vec(&z, &mut jz);
+    /// assert!(jz.iter().zip([1.0, 2.0, 3.0]).all(|(a, b)| (a - b).abs() < 1e-14));
+    /// # Ok::<(), sdae_ift::IftError>(())
+    /// ```
     pub fn companion(&self) -> Option<&[f64]> {
         self.companion_ready.then_some(&self.companion[..])
     }

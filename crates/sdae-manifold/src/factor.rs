@@ -36,7 +36,7 @@ pub trait Factorize: GramMatrix {
         self.factor_with(factor, Some((b, out)), None)
     }
     /// Factors `self` (A) into `factor` and, with `solve` = (b, out), sets out = A^-1 b, and
-    /// with `map` = (B, p, image), image = B^-1 (A p) for a matrix B factored in B: the
+    /// with `map` = (B, p, image), image = B^-1 (A p) for a matrix B given by its factors: the
     /// floating-point operations of [`Factorize::factor_into`], [`Solve::solve_in_place`] and
     /// [`GramMatrix::mul_vec`] (a storage may interleave them, so that their recurrences
     /// overlap). On failure `out` and `image` are unspecified.

@@ -120,4 +120,4 @@ pub use system::{
     AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
     check_dimensions, check_step_input,
 };
-pub use tangent::{KappaProblem, TangentProjector, project_state};
+pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, project_state};

@@ -77,11 +77,23 @@ where
             return false;
         };
         let x: &[f64] = if self.at_y { self.y } else { self.x };
-        self.constraint.jacobian_mul(x, velocity, out);
-        for o in out.iter_mut() {
-            *o = -*o;
-        }
+        lambda_right_hand_side(self.constraint, x, velocity, out);
         true
+    }
+}
+
+/// out = -Dg(x) v~, the right-hand side of the lambda system Dg(x) M^-1 grad g(r) lambda =
+/// -Dg(x) v~ at the new position x (seed eq. 3.1, lower part).
+#[inline]
+pub fn lambda_right_hand_side<C: Constraint>(
+    constraint: &C,
+    x: &[f64],
+    velocity: &[f64],
+    out: &mut [f64],
+) {
+    constraint.jacobian_mul(x, velocity, out);
+    for o in out.iter_mut() {
+        *o = -*o;
     }
 }
 

@@ -5,7 +5,7 @@ use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::{
     KappaProblem, LaneStore, Scheme, StepFailure, StepOutcome, System, check_dimensions,
-    check_step_input,
+    check_step_input, lambda_right_hand_side,
 };
 
 use crate::config::StepperConfig;
@@ -337,10 +337,7 @@ fn half_explicit_step<S: System>(
     match solver.companion() {
         Some(solution) => lambda.copy_from_slice(solution),
         None => {
-            constraint.jacobian_mul(r_new, force, lambda);
-            for l in lambda.iter_mut() {
-                *l = -*l;
-            }
+            lambda_right_hand_side(constraint, r_new, force, lambda);
             solver.root_factor().solve_in_place(lambda);
         }
     }

@@ -111,20 +111,27 @@ pub(crate) fn finite_entries(name: &'static str, values: &[f64]) -> Result<(), S
     }
 }
 
-/// Fails unless `value` >= `min`.
-pub(crate) fn at_least(
+/// The most particles (atoms, beads) a built-in system takes: 10^6, a state of 3 x 10^6
+/// coordinates (24 MB per vector). Larger counts are refused before anything is allocated.
+pub const MAX_PARTICLES: usize = 1_000_000;
+
+/// Fails unless `min` <= `value` <= [`MAX_PARTICLES`] (`rule` says what `min` is for).
+pub(crate) fn particle_count(
     name: &'static str,
     value: usize,
     min: usize,
     rule: &'static str,
 ) -> Result<usize, SystemError> {
-    if value >= min {
-        Ok(value)
+    let rule = if value < min {
+        rule
+    } else if value > MAX_PARTICLES {
+        "must be at most 10^6 (MAX_PARTICLES)"
     } else {
-        Err(SystemError::InvalidParameter {
-            name,
-            value: value as f64,
-            rule,
-        })
-    }
+        return Ok(value);
+    };
+    Err(SystemError::InvalidParameter {
+        name,
+        value: value as f64,
+        rule,
+    })
 }

@@ -66,7 +66,7 @@ use sdae_model::System;
 use sdae_model::lanes::{Lanes, Real};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{SystemError, at_least, finite_entries, non_negative, positive};
+use crate::error::{SystemError, finite_entries, non_negative, particle_count, positive};
 use crate::masses::Masses;
 use crate::vec3::{Vec3, atom, dot};
 
@@ -75,12 +75,13 @@ use crate::vec3::{Vec3, atom, dot};
 #[serde(deny_unknown_fields)]
 pub struct AirFlow {
     /// The uniform wind u_0 (unit: length / time).
+    #[serde(deserialize_with = "crate::exact::array")]
     pub wind: [f64; 3],
     /// The velocity gradient S (unit: 1 / time), row-major:
     /// u_k(x) = wind_k + sum_l `shear[k][l]` x_l.
     /// A simple shear flow along x varying with height z has only `shear[0][2]` nonzero.
     /// Optional in a file (no shear).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::exact::matrix")]
     pub shear: [[f64; 3]; 3],
 }
 
@@ -125,6 +126,7 @@ pub struct FiberParams {
     /// Bending stiffness EI >= 0 (unit: force x length^2).
     pub bending_stiffness: f64,
     /// Gravitational acceleration g (unit: length / time^2) (finite).
+    #[serde(deserialize_with = "crate::exact::array")]
     pub gravity: [f64; 3],
     /// The air velocity u(x) = wind + shear x.
     pub air: AirFlow,
@@ -178,7 +180,7 @@ pub struct Fiber {
 impl Fiber {
     /// Builds the fiber; fails with the name, value and rule of the first bad parameter.
     pub fn new(params: &FiberParams) -> Result<Self, SystemError> {
-        let beads = at_least("beads", params.beads, 2, "a fiber needs >= 2 beads")?;
+        let beads = particle_count("beads", params.beads, 2, "a fiber needs >= 2 beads")?;
         let segment = positive("segment", params.segment)?;
         let masses = params.masses.resolve(beads)?;
         let stiffness = non_negative("bending_stiffness", params.bending_stiffness)?;

@@ -40,7 +40,7 @@ use sdae_model::lanes::Lanes;
 use sdae_model::{AdditiveNoise, Noise, System};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{SystemError, at_least, non_negative, positive};
+use crate::error::{SystemError, non_negative, particle_count, positive};
 use crate::masses::Masses;
 use crate::potential::{
     AngleParams, BondAngles, HarmonicTrap, Potential, TorsionParams, Torsions, TrapParams,
@@ -242,7 +242,7 @@ impl Default for ChainMoleculeParams {
 
 /// Builds the chain molecule; fails with the name, value and rule of the first bad parameter.
 pub fn chain_molecule(params: &ChainMoleculeParams) -> Result<ChainMolecule, SystemError> {
-    let atoms = at_least(
+    let atoms = particle_count(
         "atoms",
         params.atoms,
         2,
@@ -292,6 +292,7 @@ pub type RigidTriatomic = Langevin<RigidBonds, HarmonicTrap>;
 pub struct RigidTriatomicParams {
     /// Bond lengths (unit: length) of the bonds 0-1, 0-2 and 1-2: each finite, > 0, and shorter
     /// than the sum of the other two (a non-degenerate triangle).
+    #[serde(deserialize_with = "crate::exact::array")]
     pub bond_lengths: [f64; 3],
     /// Atom masses (unit: mass): one for all atoms or a list of 3.
     pub masses: Masses,

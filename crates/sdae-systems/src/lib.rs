@@ -25,7 +25,8 @@
 //! paths with them.
 //!
 //! Parameter structs derive serde (unknown and missing fields are errors that name the field;
-//! only switched-off extras such as potentials and shear are optional),
+//! only switched-off extras such as potentials and shear are optional; a fixed-length array
+//! with more or fewer entries than its length is an error, see [`exact`]),
 //! and every constructor checks its parameters, failing with a [`SystemError`] that names the
 //! parameter, its value and the rule it breaks.
 //!
@@ -36,6 +37,7 @@
 //! ```
 
 mod error;
+pub mod exact;
 pub mod fiber;
 pub mod langevin;
 mod masses;
@@ -43,7 +45,7 @@ pub mod pendulum;
 pub mod potential;
 mod vec3;
 
-pub use error::SystemError;
+pub use error::{MAX_PARTICLES, SystemError};
 pub use fiber::{AirFlow, Fiber, FiberParams};
 pub use langevin::{
     ChainMolecule, ChainMoleculeParams, ChainPotential, Langevin, RigidTriatomic,

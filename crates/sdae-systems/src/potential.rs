@@ -443,6 +443,7 @@ pub struct TrapParams {
     /// k >= 0 (unit: energy / length^2); 0 switches the trap off.
     pub stiffness: f64,
     /// Center c (unit: length).
+    #[serde(deserialize_with = "crate::exact::array")]
     pub center: [f64; 3],
 }
 

@@ -10,10 +10,14 @@ use sdae_model::FailureKind;
 
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
-use crate::lockstep::{Limits, PathPlan, PathRecord, TrackOutcome};
+use crate::lockstep::{BLOCK_PATHS, Limits, PathPlan, PathRecord, TrackOutcome};
+use crate::memory;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
 use crate::stats::{Interval, OrderFit, PathErrors, fit_order, lp_error, mean_interval};
+
+/// The most worker threads a study starts.
+pub const MAX_THREADS: usize = 1024;
 
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
 /// the Monte Carlo error and by more than this.
@@ -74,7 +78,10 @@ impl ConvergenceSettings {
     }
 
     /// Checks the settings; the error names the bad one by its scene-file key (`study.paths`)
-    /// or settings field (`p`).
+    /// or settings field (`p`). Besides the ranges: every step size T / 2^k (levels and
+    /// reference) must be a normal float (not 0 nor subnormal), at most [`MAX_THREADS`]
+    /// threads, and the paths' records must fit in the available memory
+    /// ([`memory::available`]; see [`ConvergenceSettings::fits_in_memory`]).
     pub fn validate(&self) -> Result<(), StudyError> {
         let bad = |key: &'static str, value: String, rule: String| {
             Err(StudyError::Setting { key, value, rule })
@@ -122,16 +129,83 @@ impl ConvergenceSettings {
                 "must be finite and > 0".into(),
             );
         }
+        // The finest grid gives the smallest step: h = T / 2^k underflows there first.
+        let finest = self.reference.unwrap_or(self.finest);
+        let h = self.t_end / 2f64.powi(finest as i32);
+        if !h.is_normal() {
+            let rule = format!(
+                "gives the step h = T / 2^{finest} = {h:e} at level {finest}: every step size \
+                 must be a normal float (not 0 nor subnormal)"
+            );
+            return bad("T", format!("{:e}", self.t_end), rule);
+        }
         if !(self.p.is_finite() && self.p >= 1.0) {
             return bad("p", self.p.to_string(), "must be finite and >= 1".into());
         }
-        if self.threads == 0 {
-            return bad("threads", "0".into(), "must be >= 1".into());
+        if self.threads == 0 || self.threads > MAX_THREADS {
+            let rule = format!("must be in 1..={MAX_THREADS}");
+            return bad("threads", self.threads.to_string(), rule);
         }
         if self.schemes.is_empty() {
             return bad("schemes", "[]".into(), "names no scheme".into());
         }
+        if let Some(rule) = memory::exceeded(self.record_bytes(), "the records of the paths") {
+            return bad("study.paths", self.paths.to_string(), rule);
+        }
         Ok(())
+    }
+
+    /// The bytes the records of all paths take at least (a merge holds them all at once):
+    /// per path, one [`PathRecord`] with a [`TrackOutcome`] per scheme and level, and its index.
+    pub fn record_bytes(&self) -> u64 {
+        let tracks = self.schemes.len() * self.levels().len();
+        let per_path = size_of::<PathRecord>() + tracks * size_of::<TrackOutcome>() + 8;
+        (self.paths as u64).saturating_mul(per_path as u64)
+    }
+
+    /// The bytes the paths in flight take at least with a system of `coordinates`
+    /// coordinates: per thread, a block of up to [`BLOCK_PATHS`] paths of every scheme at every
+    /// level and of the reference, each holding r and v.
+    pub fn in_flight_bytes(&self, coordinates: usize) -> u64 {
+        let tracks = self.schemes.len() * self.levels().len() + 1;
+        let block = BLOCK_PATHS.min(self.paths);
+        [
+            self.threads.min(self.paths),
+            block,
+            tracks,
+            2 * 8,
+            coordinates,
+        ]
+        .into_iter()
+        .fold(1u64, |bytes, factor| bytes.saturating_mul(factor as u64))
+    }
+
+    /// Fails when the paths in flight with a system of `coordinates` coordinates
+    /// ([`ConvergenceSettings::in_flight_bytes`]) need more than the available memory; the
+    /// error names the thread count, the one setting that shrinks it without changing the
+    /// numbers.
+    pub fn fits_in_memory(&self, coordinates: usize) -> Result<(), StudyError> {
+        let what = format!(
+            "the paths in flight ({} coordinates, blocks of {} paths per thread)",
+            coordinates,
+            BLOCK_PATHS.min(self.paths)
+        );
+        match memory::exceeded(self.in_flight_bytes(coordinates), &what) {
+            None => Ok(()),
+            Some(rule) => Err(StudyError::Setting {
+                key: "threads",
+                value: self.threads.to_string(),
+                rule,
+            }),
+        }
+    }
+
+    /// [`ConvergenceSettings::validate`], then [`ConvergenceSettings::fits_in_memory`] with the
+    /// coordinates of `scene`'s system (known before it is built): everything that can be
+    /// checked before a run starts.
+    pub fn validate_for(&self, scene: &Scene) -> Result<(), StudyError> {
+        self.validate()?;
+        self.fits_in_memory(scene.coordinates().unwrap_or(0))
     }
 
     /// Whether `other` gives the same numbers: equal but perhaps for the thread count.
@@ -226,6 +300,7 @@ where
 {
     let st = settings;
     st.validate()?;
+    st.fits_in_memory(prepared.position.len())?;
     let (schemes, skipped) = applicable(&st.schemes, extra, prepared);
     let (reference, reference_skipped) = applicable(&[st.reference_scheme], &[], prepared);
     if let (Some(_), Some(skipped)) = (st.reference, reference_skipped.first()) {

@@ -163,6 +163,30 @@ pub struct EquipartitionScene {
     pub rows: Vec<EquipartitionRow>,
 }
 
+impl EquipartitionScene {
+    /// Paths that failed and paths counted, summed over the rows.
+    pub fn failed_paths(&self) -> (usize, usize) {
+        self.rows
+            .iter()
+            .fold((0, 0), |(f, p), r| (f + r.failures, p + r.paths))
+    }
+
+    /// The rows that lost every path (nothing to compare with the set temperature), one line
+    /// each: the scheme, h and the failures.
+    pub fn lost(&self) -> Vec<String> {
+        self.rows
+            .iter()
+            .filter(|r| r.failures >= r.paths)
+            .map(|r| {
+                format!(
+                    "scene {}: {} at h = {:e} lost all {} paths ({} failed)",
+                    self.scene, r.scheme, r.h, r.paths, r.failures
+                )
+            })
+            .collect()
+    }
+}
+
 /// C_eta of a scheme run in `report`, for its label.
 fn label(report: &ConvergenceReport, name: &str) -> String {
     let c = &report.scene_definition.scheme;

@@ -14,6 +14,7 @@
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`plots`], [`output`]: statistics, SVG plots and the report files.
+//! - [`memory`]: the memory a study may take (settings that need more are refused).
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
@@ -25,6 +26,7 @@ mod error;
 pub mod files;
 pub mod integrator;
 pub mod lockstep;
+pub mod memory;
 pub mod output;
 pub mod parallel;
 pub mod plots;

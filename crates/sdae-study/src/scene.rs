@@ -30,13 +30,16 @@ use sdae_model::{INITIAL_STATE_TOLERANCE, System, project_state};
 use sdae_reference::CurvedSystem;
 use sdae_scheme::StepperConfig;
 use sdae_systems::{
-    ChainMoleculeParams, Fiber, FiberParams, PendulumParams, RigidTriatomicParams, chain_molecule,
-    pendulum, rigid_triatomic,
+    ChainMoleculeParams, Fiber, FiberParams, MAX_PARTICLES, PendulumParams, RigidTriatomicParams,
+    chain_molecule, pendulum, rigid_triatomic,
 };
 use serde::{Deserialize, Serialize};
 
+use crate::convergence::ConvergenceSettings;
+use crate::equipartition;
 use crate::error::StudyError;
 use crate::integrator::SchemeConstants;
+use crate::stability::stability_settings;
 
 /// What a study of the scene computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -140,7 +143,11 @@ pub struct StudyDefaults {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paths: Option<usize>,
     /// Level exponents [A, B]: N = 2^A .. 2^B.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "sdae_systems::exact::option_array"
+    )]
     pub levels: Option<[u32; 2]>,
     /// Reference level R (2^R steps).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -156,6 +163,7 @@ pub struct StabilitySpec {
     /// Monte Carlo paths.
     pub paths: usize,
     /// Level exponents [A, B]: N = 2^A .. 2^B.
+    #[serde(deserialize_with = "sdae_systems::exact::array")]
     pub levels: [u32; 2],
     /// Reference level R (2^R steps), where a reference is affordable and trustworthy.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -188,6 +196,7 @@ pub struct EquipartitionSpec {
     /// Monte Carlo paths.
     pub paths: usize,
     /// Level exponents [A, B]: N = 2^A .. 2^B over T.
+    #[serde(deserialize_with = "sdae_systems::exact::array")]
     pub levels: [u32; 2],
     /// The kinetic energy is averaged over t >= burn_in.
     pub burn_in: f64,
@@ -303,7 +312,13 @@ impl Scene {
             file: file.to_string(),
             message: e.to_string(),
         })?;
-        scene.validate()?;
+        scene.validate().map_err(|e| match e {
+            StudyError::Invalid { scene, message } => StudyError::Invalid {
+                scene,
+                message: format!("{message} (scene file {file})"),
+            },
+            other => other,
+        })?;
         Ok(scene)
     }
 
@@ -373,6 +388,18 @@ impl Scene {
             return Err(self
                 .invalid("initial.shape applies to chains of beads (chain-molecule, fiber) only"));
         }
+        let particles = match &self.system {
+            SystemSpec::ChainMolecule(p) => Some(("chain-molecule.atoms", p.atoms)),
+            SystemSpec::Fiber(p) => Some(("fiber.beads", p.beads)),
+            _ => None,
+        };
+        if let Some((key, count)) = particles
+            && count > MAX_PARTICLES
+        {
+            return Err(self.invalid(format!(
+                "system.{key} = {count}: must be at most {MAX_PARTICLES} (the largest system built)"
+            )));
+        }
         if self.outputs.is_empty() {
             return Err(self.invalid("outputs is empty: name at least one output"));
         }
@@ -434,7 +461,43 @@ impl Scene {
                 )));
             }
         }
+        self.validate_studies()
+    }
+
+    /// Checks the study settings each table of the scene gives ([study], [stability],
+    /// [equipartition]) as the studies will run them (before the command line changes them),
+    /// naming a bad value by its key in that table.
+    fn validate_studies(&self) -> Result<(), StudyError> {
+        let tables = [
+            ("study", Some(ConvergenceSettings::for_scene(self))),
+            ("stability", stability_settings(self, false)),
+            (
+                "equipartition",
+                equipartition::variants(self, false)
+                    .and_then(|v| v.into_iter().next())
+                    .map(|v| v.settings),
+            ),
+        ];
+        for (table, settings) in tables {
+            if let Some(Err(StudyError::Setting { key, value, rule })) =
+                settings.map(|s| s.validate())
+            {
+                let key = key_in_table(table, key);
+                return Err(self.invalid(format!("{key} = {value}: {rule}")));
+            }
+        }
         Ok(())
+    }
+
+    /// The number of coordinates of the scene's system (`None` for a system built in code).
+    pub fn coordinates(&self) -> Option<usize> {
+        match &self.system {
+            SystemSpec::Pendulum(p) => Some(p.dim),
+            SystemSpec::ChainMolecule(p) => Some(p.atoms.saturating_mul(3)),
+            SystemSpec::Triatomic(_) => Some(9),
+            SystemSpec::Fiber(p) => Some(p.beads.saturating_mul(3)),
+            SystemSpec::Custom(_) => None,
+        }
     }
 
     /// The scene of a system built in code: its name, T and outputs, the practical C_eta of
@@ -599,6 +662,22 @@ impl Scene {
             constants,
             kinetic_target: None,
         })
+    }
+}
+
+/// The key in the scene file's table `table` of a study setting that
+/// [`ConvergenceSettings::validate`] names by its [study] key (`study.paths`) or field (`T`).
+fn key_in_table(table: &str, key: &'static str) -> &'static str {
+    match (table, key) {
+        ("stability", "study.paths") => "stability.paths",
+        ("stability", "study.levels") => "stability.levels",
+        ("stability", "study.reference") => "stability.reference",
+        ("stability", "limits.drift_tolerance") => "stability.drift_tolerance",
+        ("stability", "limits.blow_up") => "stability.blow_up",
+        ("equipartition", "study.paths") => "equipartition.paths",
+        ("equipartition", "study.levels") => "equipartition.levels",
+        ("equipartition", "T") => "equipartition.T",
+        (_, key) => key,
     }
 }
 

@@ -22,6 +22,39 @@ const RECORDS: usize = 400;
 /// Recorded coordinates of a path, at most (a 10^4-bead fiber gets fewer states).
 const COORDINATES: usize = 1 << 21;
 
+/// The finest level a trace takes: 2^24 steps.
+pub const MAX_LEVEL: u32 = 24;
+
+/// The number of steps of a scene's trace, 2^k with k its finest study level (of [study],
+/// else [stability], else [equipartition]; default 10); refused above [`MAX_LEVEL`], naming
+/// the scene-file key.
+pub fn steps(scene: &Scene) -> Result<usize, StudyError> {
+    let (key, finest) = [
+        ("study.levels", scene.study.levels),
+        (
+            "stability.levels",
+            scene.stability.as_ref().map(|s| s.levels),
+        ),
+        (
+            "equipartition.levels",
+            scene.equipartition.as_ref().map(|e| e.levels),
+        ),
+    ]
+    .into_iter()
+    .find_map(|(key, levels)| levels.map(|l| (key, l[1])))
+    .unwrap_or(("", 10));
+    if finest > MAX_LEVEL {
+        return Err(StudyError::Invalid {
+            scene: scene.name.clone(),
+            message: format!(
+                "{key} ends at {finest}: a trace takes at most 2^{MAX_LEVEL} steps (level \
+                 {MAX_LEVEL})"
+            ),
+        });
+    }
+    Ok(1 << finest)
+}
+
 /// One recorded path of a scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trace {

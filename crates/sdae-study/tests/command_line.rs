@@ -177,3 +177,389 @@ fn a_huge_final_time_is_printed_readably_and_its_failures_exit_1() {
     assert!(stderr.contains("failed on all 2 paths"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A built-in scene file under the name "test", with `from` replaced by `to`.
+fn edited(built_in: &str, from: &str, to: &str) -> String {
+    let text = built_in.replacen("name = \"", "name = \"test\"\n# was \"", 1);
+    assert!(text.contains(from), "'{from}' not in the scene");
+    text.replace(from, to)
+}
+
+/// Writes `text` as a scene file in `dir` and returns its path.
+fn scene_file(dir: &Path, text: &str) -> PathBuf {
+    let file = dir.join("scene.toml");
+    std::fs::write(&file, text).unwrap();
+    file
+}
+
+/// The thermal pendulum as a small, fast equipartition scene: 2 paths, N = 4 and 8 over T = 1.
+fn small_thermal() -> String {
+    edited(
+        include_str!("../scenes/thermal-pendulum.toml"),
+        "T = 64.0\npaths = 400\nlevels = [6, 13]\nburn_in = 16.0\nc_eta = [0.25, 1.0, 4.0, 16.0]",
+        "T = 1.0\npaths = 2\nlevels = [2, 3]\nburn_in = 0.5\nc_eta = [1.0]",
+    )
+}
+
+#[test]
+fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
+    let dir = folder("sizes");
+    let out = ["--out", path(&dir)];
+    let huge = "1000000000000";
+    usage_error(
+        &[&["--quick", "--paths", huge][..], &out].concat(),
+        &[
+            "--paths 1000000000000",
+            "need at least",
+            "more than the",
+            "available",
+        ],
+    );
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/pendulum.toml"),
+            "paths = 10000",
+            &format!("paths = {huge}"),
+        ),
+    );
+    let args = [&["--scene-file", path(&file)][..], &out].concat();
+    usage_error(
+        &args,
+        &["study.paths = 1000000000000", "available", path(&file)],
+    );
+    assert!(!text(&study(&args).stderr).contains("--paths"));
+    for (built_in, from, to, key) in [
+        (
+            include_str!("../scenes/chain-molecule.toml"),
+            "atoms = 8",
+            "atoms = 1000000000000",
+            "system.chain-molecule.atoms = 1000000000000",
+        ),
+        (
+            include_str!("../scenes/fiber.toml"),
+            "beads = 20",
+            "beads = 1000000000000",
+            "system.fiber.beads = 1000000000000",
+        ),
+    ] {
+        let file = scene_file(&dir, &edited(built_in, from, to));
+        usage_error(
+            &[&["--scene-file", path(&file), "--quick"][..], &out].concat(),
+            &[key, "at most 1000000"],
+        );
+    }
+    // 10^6 beads are built, but 64 paths of every scheme and level at once are not.
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/fiber.toml"),
+            "beads = 20",
+            "beads = 1000000",
+        ),
+    );
+    usage_error(
+        &[
+            &[
+                "--scene-file",
+                path(&file),
+                "--quick",
+                "--paths",
+                "64",
+                "--threads",
+                "64",
+            ][..],
+            &out,
+        ]
+        .concat(),
+        &[
+            "--threads ",
+            "paths in flight (3000000 coordinates",
+            "available",
+        ],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_absurd_paths_count_in_a_shard_file_is_refused_by_merge() {
+    let dir = folder("shard-paths");
+    let file = scene_file(&dir, &scene());
+    let args = [
+        "--scene-file",
+        path(&file),
+        "--quick",
+        "--paths",
+        "4",
+        "--levels",
+        "2..3",
+    ];
+    let out = study(&[&args[..], &["--shard", "0/2", "--out", path(&dir)]].concat());
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let shard = dir.join("test").join("shard-0-of-2.json");
+    let json = std::fs::read_to_string(&shard).unwrap();
+    let absurd = json.replacen("\"paths\": 4,", "\"paths\": 1000000000000,", 1);
+    assert_ne!(absurd, json);
+    std::fs::write(&shard, absurd).unwrap();
+    usage_error(
+        &["merge", path(&dir), "--out", path(&dir.join("merged"))],
+        &[
+            "shard-0-of-2.json",
+            "study.paths",
+            "1000000000000",
+            "available",
+        ],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn threads_are_capped_at_1024_and_not_started_beyond_the_paths() {
+    usage_error(&["--threads", "1025"], &["--threads", "at most 1024"]);
+    let dir = folder("threads");
+    let file = scene_file(&dir, &scene());
+    let out = study(&[
+        "--scene-file",
+        path(&file),
+        "--quick",
+        "--paths",
+        "3",
+        "--levels",
+        "2..3",
+        "--threads",
+        "1000",
+        "--out",
+        path(&dir),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains(", 3 threads"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn fixed_length_arrays_refuse_extra_entries_as_well_as_missing_ones() {
+    let dir = folder("arrays");
+    let pendulum = include_str!("../scenes/pendulum.toml");
+    let triatomic = include_str!("../scenes/triatomic.toml");
+    let fiber = include_str!("../scenes/fiber.toml");
+    let length = |given: usize, expected: usize| {
+        format!("invalid length {given}, expected an array of length {expected}")
+    };
+    let shear = |rows: &str| format!("wind = [1.0, 0.0, 0.0], shear = {rows} }}");
+    for (built_in, key, from, to, message) in [
+        (
+            pendulum,
+            "levels",
+            "levels = [3, 10]",
+            "levels = [3, 10, 12]".into(),
+            length(3, 2),
+        ),
+        (
+            pendulum,
+            "levels",
+            "levels = [3, 10]",
+            "levels = [3]".into(),
+            length(1, 2),
+        ),
+        (
+            triatomic,
+            "levels",
+            "levels = [9, 15]",
+            "levels = [9, 15, 16]".into(),
+            length(3, 2),
+        ),
+        (
+            triatomic,
+            "bond_lengths",
+            "bond_lengths = [1.0, 1.0, 1.5811388300841898]",
+            "bond_lengths = [1.0, 1.0, 1.5811388300841898, 2.0]".into(),
+            length(4, 3),
+        ),
+        (
+            triatomic,
+            "center",
+            "center = [0.0, 0.0, 0.0]",
+            "center = [0.0, 0.0, 0.0, 1.0]".into(),
+            length(4, 3),
+        ),
+        (
+            fiber,
+            "gravity",
+            "gravity = [0.0, 0.0, -1.0]",
+            "gravity = [0.0, 0.0, -1.0, 5.0]".into(),
+            length(4, 3),
+        ),
+        (
+            fiber,
+            "wind",
+            "wind = [1.0, 0.0, 0.0]",
+            "wind = [1.0, 0.0, 0.0, 0.0]".into(),
+            length(4, 3),
+        ),
+        (
+            fiber,
+            "shear",
+            "wind = [1.0, 0.0, 0.0] }",
+            shear("[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]"),
+            length(4, 3),
+        ),
+        (
+            fiber,
+            "shear",
+            "wind = [1.0, 0.0, 0.0] }",
+            shear("[[0.0, 0.0, 1.0, 7.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]"),
+            length(4, 3),
+        ),
+    ] {
+        let file = scene_file(&dir, &edited(built_in, from, &to));
+        // The key is in the quoted line of the file.
+        usage_error(
+            &["--scene-file", path(&file), "--quick", "--out", path(&dir)],
+            &[&message, key, path(&file)],
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn equipartition_exits_1_when_a_setting_lost_every_path_and_counts_the_failures() {
+    let dir = folder("equipartition");
+    let file = scene_file(&dir, &small_thermal());
+    let args = [
+        "equipartition",
+        "--scene-file",
+        path(&file),
+        "--out",
+        path(&dir),
+    ];
+    let out = study(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains(" paths failed"),
+        "{}",
+        text(&out.stdout)
+    );
+    // |v|^2 overflows: every scheme fails on its first step, on every path.
+    let fast = small_thermal().replace("velocity = [0.0, 0.0]", "velocity = [1e200, 0.0]");
+    std::fs::write(&file, fast).unwrap();
+    let stderr = ran_but_failed(&args);
+    assert!(stderr.contains("lost all 2 paths (2 failed)"), "{stderr}");
+    let stdout = text(&study(&args).stdout);
+    assert!(
+        stdout.contains(" paths failed") && !stdout.contains("), 0 of "),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn trace_levels_are_bounded() {
+    let dir = folder("trace");
+    let pendulum = include_str!("../scenes/pendulum.toml");
+    let file = scene_file(
+        &dir,
+        &edited(
+            pendulum,
+            "levels = [3, 10]\nreference = 15",
+            "levels = [3, 25]\nreference = 26",
+        ),
+    );
+    usage_error(
+        &["trace", "--scene-file", path(&file), "--out", path(&dir)],
+        &["study.levels ends at 25", "at most 2^24 steps"],
+    );
+    // 64 would shift a one-step trace; the scene file itself is refused.
+    let file = scene_file(
+        &dir,
+        &edited(
+            pendulum,
+            "levels = [3, 10]\nreference = 15",
+            "levels = [3, 64]",
+        ),
+    );
+    usage_error(
+        &["trace", "--scene-file", path(&file), "--out", path(&dir)],
+        &["study.levels = 3..64", path(&file)],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn step_sizes_that_underflow_are_refused_before_running() {
+    let dir = folder("underflow");
+    usage_error(
+        &["--quick", "--t-end", "5e-324", "--out", path(&dir)],
+        &[
+            "--t-end 5e-324",
+            "h = T / 2^",
+            "= 0e0 at level",
+            "normal float",
+        ],
+    );
+    // From a scene file the key and the file are named, not a flag.
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/pendulum.toml"),
+            "T = 1.0",
+            "T = 1e-310",
+        ),
+    );
+    let args = ["--scene-file", path(&file), "--quick", "--out", path(&dir)];
+    usage_error(&args, &["T = 1e-310", "normal float", path(&file)]);
+    assert!(!text(&study(&args).stderr).contains("--t-end"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn scene_file_values_are_named_by_their_key_and_file_not_by_a_flag() {
+    let dir = folder("provenance");
+    let pendulum = include_str!("../scenes/pendulum.toml");
+    let file = scene_file(&dir, &edited(pendulum, "paths = 10000", "paths = 0"));
+    let args = ["--scene-file", path(&file), "--out", path(&dir)];
+    usage_error(&args, &["study.paths = 0: must be >= 2", path(&file)]);
+    assert!(!text(&study(&args).stderr).contains("--paths"));
+    // The equipartition study has no --t-end: its T is named by its key.
+    let file = scene_file(
+        &dir,
+        &small_thermal()
+            .replace("T = 1.0\npaths", "T = 1e-310\npaths")
+            .replace("burn_in = 0.5", "burn_in = 0.0"),
+    );
+    let args = [
+        "equipartition",
+        "--scene-file",
+        path(&file),
+        "--out",
+        path(&dir),
+    ];
+    usage_error(&args, &["equipartition.T = 1e-310", path(&file)]);
+    assert!(!text(&study(&args).stderr).contains("--t-end"));
+    let file = scene_file(&dir, &small_thermal().replace("paths = 2", "paths = 1"));
+    usage_error(
+        &[
+            "equipartition",
+            "--scene-file",
+            path(&file),
+            "--out",
+            path(&dir),
+        ],
+        &["equipartition.paths = 1: must be >= 2", path(&file)],
+    );
+    // A flag the user typed is named as typed.
+    let file = scene_file(&dir, &small_thermal());
+    usage_error(
+        &[
+            "equipartition",
+            "--scene-file",
+            path(&file),
+            "--paths",
+            "1",
+            "--out",
+            path(&dir),
+        ],
+        &["--paths 1: must be >= 2"],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
-use sdae_study::convergence::ConvergenceSettings;
+use sdae_study::convergence::{ConvergenceSettings, MAX_THREADS};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::scene::{BUILT_IN, Scene};
 
@@ -85,8 +85,10 @@ pub struct EnsembleArgs {
     /// Seed of the path streams (default: the scene's, 2026 unless it says otherwise).
     #[arg(long, value_name = "S")]
     pub seed: Option<u64>,
-    /// Worker threads (default: the available cores); the numbers do not depend on it.
-    #[arg(long, value_name = "K", value_parser = at_least_one)]
+    /// Worker threads, 1 to 1024 (default: the available cores); more than the paths or than
+    /// 4 per available core are not started (the run's first line gives the count); the
+    /// numbers do not depend on it.
+    #[arg(long, value_name = "K", value_parser = thread_count)]
     pub threads: Option<usize>,
     /// A small run for CI: fewer paths, the scene's coarsest levels and a reference 2^4 times
     /// finer than the finest level.
@@ -155,12 +157,30 @@ fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
         .map(|name| SchemeKind::from_name(&name).expect("one of the possible values"))
 }
 
-fn at_least_one(value: &str) -> Result<usize, String> {
+fn thread_count(value: &str) -> Result<usize, String> {
     match value.parse::<usize>() {
         Ok(0) => Err("must be at least 1".into()),
+        Ok(n) if n > MAX_THREADS => Err(format!("must be at most {MAX_THREADS}")),
         Ok(n) => Ok(n),
         Err(e) => Err(e.to_string()),
     }
+}
+
+/// The threads a study of `paths` paths starts when `threads` are asked for: at most one per
+/// path and 4 per available core.
+fn started_threads(threads: usize, paths: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    threads.min(paths.max(1)).min(4 * cores)
+}
+
+/// Whether the user typed `flag` on the command line (`--flag V` or `--flag=V`).
+pub fn typed(flag: &str) -> bool {
+    std::env::args_os().skip(1).any(|arg| {
+        arg.to_str().is_some_and(|arg| {
+            arg.strip_prefix(flag)
+                .is_some_and(|rest| rest.is_empty() || rest.starts_with('='))
+        })
+    })
 }
 
 fn parse_levels(value: &str) -> Result<(u32, u32), String> {
@@ -174,11 +194,12 @@ fn parse_levels(value: &str) -> Result<(u32, u32), String> {
 }
 
 impl EnsembleArgs {
-    /// Applies the paths, seed and threads given on the command line.
+    /// Applies the paths, seed and threads given on the command line; the threads are capped
+    /// at the paths and at 4 per available core.
     pub fn apply(&self, mut s: ConvergenceSettings) -> ConvergenceSettings {
         s.paths = self.paths.unwrap_or(s.paths);
         s.seed = self.seed.unwrap_or(s.seed);
-        s.threads = self.threads.unwrap_or(s.threads);
+        s.threads = started_threads(self.threads.unwrap_or(s.threads), s.paths);
         s
     }
 }
@@ -249,7 +270,13 @@ mod tests {
         assert_eq!(parse_levels("3..8"), Ok((3, 8)));
         assert!(parse_levels("8..3").is_err());
         assert!(parse_levels("3-8").is_err());
-        assert_eq!(at_least_one("2"), Ok(2));
-        assert!(at_least_one("0").is_err());
+        assert_eq!(thread_count("2"), Ok(2));
+        assert!(thread_count("0").is_err());
+        assert_eq!(thread_count("1024"), Ok(1024));
+        assert!(thread_count("1025").is_err());
+        assert_eq!(started_threads(10_000, 8), 8);
+        assert_eq!(started_threads(1, 8), 1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(started_threads(1024, 1 << 20), 1024.min(4 * cores));
     }
 }

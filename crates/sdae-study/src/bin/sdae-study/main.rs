@@ -28,13 +28,15 @@ pub enum Failure {
 }
 
 impl Failure {
-    /// A library error: wrong input is a usage error, the rest a failure. Settings are named
-    /// by their command-line flags.
+    /// A library error: wrong input is a usage error, the rest a failure. A setting is named
+    /// by its command-line flag when the user typed that flag, else by its scene-file key (or
+    /// settings field).
     pub fn from_study(e: StudyError) -> Failure {
         match e {
-            StudyError::Setting { key, value, rule } => {
-                Failure::Usage(format!("{} {value}: {rule}", flag(key)))
-            }
+            StudyError::Setting { key, value, rule } => match flag(key) {
+                Some(flag) => Failure::Usage(format!("{flag} {value}: {rule}")),
+                None => Failure::Usage(format!("{key} = {value}: {rule}")),
+            },
             StudyError::Format { .. }
             | StudyError::Io { .. }
             | StudyError::Invalid { .. }
@@ -61,19 +63,21 @@ impl From<StudyError> for Failure {
     }
 }
 
-/// The command line's flag for a setting the library names by its scene-file key or settings
-/// field.
-fn flag(key: &str) -> &str {
-    match key {
-        "study.paths" => "--paths",
-        "study.levels" => "--levels",
-        "study.reference" => "--ref-level",
-        "T" => "--t-end",
-        "p" => "--p",
-        "threads" => "--threads",
-        "schemes" => "--schemes",
-        other => other,
-    }
+/// The command-line flag the user typed for a setting the library names by its scene-file key
+/// or settings field; `None` when the value did not come from the command line (a scene file,
+/// a default, or a flag of another subcommand).
+fn flag(key: &str) -> Option<&'static str> {
+    let flags: &[&'static str] = match key {
+        "study.paths" => &["--paths"],
+        "study.levels" => &["--levels"],
+        "study.reference" => &["--ref-level"],
+        "T" => &["--t-end", "--T"],
+        "p" => &["--p"],
+        "threads" => &["--threads"],
+        "schemes" => &["--schemes"],
+        _ => &[],
+    };
+    flags.iter().copied().find(|flag| args::typed(flag))
 }
 
 /// Ctrl-C or SIGTERM raises [`STOP`]; a second one ends the program at once.

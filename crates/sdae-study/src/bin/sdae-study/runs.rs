@@ -94,7 +94,7 @@ impl Job<'_> {
 fn checked(scenes: &[Scene], settings: &[ConvergenceSettings]) -> Result<(), Failure> {
     for (scene, s) in scenes.iter().zip(settings) {
         // Whatever the library calls it, a setting it refuses is a usage error.
-        s.validate().map_err(|e| {
+        s.validate_for(scene).map_err(|e| {
             let failure = match Failure::from(e) {
                 Failure::Failed(message) => Failure::Usage(message),
                 other => other,
@@ -207,6 +207,11 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut by_scene: BTreeMap<String, Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
         let shard: ConvergenceRun = read_json(&file).map_err(|e| Failure::Failed(e.to_string()))?;
+        // An absurd setting in a shard file (say its paths) is refused before merging.
+        shard
+            .settings
+            .validate()
+            .map_err(|e| Failure::Usage(format!("shard file {}: {e}", file.display())))?;
         by_scene
             .entry(shard.scene.name.clone())
             .or_default()
@@ -317,8 +322,10 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
     checkpoints.iter().try_for_each(Checkpoint::remove)?;
     for scene in &results {
         let biased = scene.rows.iter().filter(|r| r.biased == Some(true)).count();
+        let (failed, paths) = scene.failed_paths();
         println!(
-            "{}: {biased} of {} settings biased (95% interval excludes the set temperature)",
+            "{}: {biased} of {} settings biased (95% interval excludes the set temperature), \
+             {failed} of {paths} paths failed",
             scene.scene,
             scene.rows.len()
         );
@@ -327,19 +334,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         "wrote {0}/report.json, report.md, equipartition.svg",
         dir.display()
     );
-    Ok(())
-}
-
-/// The number of steps of a scene's trace: its finest study level (default 2^10).
-fn trace_steps(scene: &Scene) -> usize {
-    let finest = scene
-        .study
-        .levels
-        .map(|l| l[1])
-        .or(scene.stability.as_ref().map(|s| s.levels[1]))
-        .or(scene.equipartition.as_ref().map(|e| e.levels[1]))
-        .unwrap_or(10);
-    1 << finest
+    nothing_uncompared(results.iter().flat_map(|s| s.lost()).collect())
 }
 
 /// One path of each scene as a picture and a CSV file.
@@ -348,7 +343,7 @@ pub fn trace(args: &TraceArgs) -> Result<(), Failure> {
     let dir = args.out.out.join("trace");
     let bar = bar(scenes.len(), "scenes");
     for scene in &scenes {
-        let steps = trace_steps(scene);
+        let steps = trace::steps(scene)?;
         let trace = trace::trace(scene, steps, args.seed)?;
         if let Some(failure) = &trace.failure {
             bar.suspend(|| eprintln!("{}: the path stopped early: {failure}", scene.name));

@@ -365,7 +365,30 @@ pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyE
 
 #[cfg(test)]
 mod tests {
-    use super::readable;
+    use super::{describe_fit, readable};
+    use crate::stats::{Interval, OrderFit};
+
+    #[test]
+    fn indicative_fits_say_so() {
+        let order = Interval {
+            estimate: 1.0,
+            ci_low: 0.9,
+            ci_high: 1.2,
+        };
+        let mut fit = OrderFit {
+            order,
+            fitted: vec![0, 1, 2],
+            pre_asymptotic: Vec::new(),
+            local_slopes: Vec::new(),
+            curvature: Vec::new(),
+            indicative: false,
+        };
+        assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20]");
+        fit.indicative = true;
+        assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20] (indicative)");
+        let json = serde_json::to_string(&fit).unwrap();
+        assert!(json.contains("\"indicative\":true"), "{json}");
+    }
 
     #[test]
     fn numbers_read_as_people_write_them() {

@@ -576,6 +576,47 @@ mod tests {
             fit.order
         );
         assert_eq!(fit.local_slopes.len(), 5);
+        assert!(fit.indicative, "10 paths are below {INDICATIVE_BELOW}");
+    }
+
+    /// Errors C h^q W_i V_ij with a path factor W_i shared by the levels and level noise V_ij
+    /// (deterministic, spread like log-normals).
+    fn noisy_power_law(paths: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let (h, mut errors) = power_law(0.5, paths);
+        for (j, level) in errors.iter_mut().enumerate() {
+            for (i, d) in level.iter_mut().enumerate() {
+                *d *= (0.3 * (1.7 * (i * 7 + j * 13) as f64).sin()).exp();
+            }
+        }
+        (h, errors)
+    }
+
+    #[test]
+    fn the_fits_level_intervals_are_lp_errors_and_its_intervals_hold_the_estimates() {
+        for paths in [INDICATIVE_BELOW, 300] {
+            let (h, errors) = noisy_power_law(paths);
+            let data = PathErrors {
+                h: &h,
+                errors: &errors,
+                p: 2.0,
+            };
+            let (fit, levels) = fit_order_and_errors(data, 0.05).unwrap();
+            assert!(!fit.indicative, "{paths} paths");
+            for (e, d) in levels.iter().zip(&errors) {
+                let alone = lp_error(d, 2.0).unwrap();
+                for (a, b) in [
+                    (e.estimate, alone.estimate),
+                    (e.ci_low, alone.ci_low),
+                    (e.ci_high, alone.ci_high),
+                ] {
+                    assert!((a - b).abs() <= 1e-12 * b, "{e:?} against {alone:?}");
+                }
+            }
+            let slopes = fit.local_slopes.iter().map(|l| l.slope);
+            for i in std::iter::once(fit.order).chain(slopes) {
+                assert!(i.ci_low < i.estimate && i.estimate < i.ci_high, "{i:?}");
+            }
+        }
     }
 
     #[test]

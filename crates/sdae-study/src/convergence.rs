@@ -14,7 +14,7 @@ use crate::lockstep::{BLOCK_PATHS, Limits, PathPlan, PathRecord, TrackOutcome};
 use crate::memory;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
-use crate::stats::{Interval, OrderFit, PathErrors, fit_order, lp_error, mean_interval};
+use crate::stats::{Interval, OrderFit, PathErrors, fit_order_and_errors, lp_error, mean_interval};
 
 /// The most worker threads a study starts.
 pub const MAX_THREADS: usize = 1024;
@@ -435,7 +435,9 @@ pub struct SchemeReport {
     /// Levels from coarse to fine.
     pub levels: Vec<LevelReport>,
     /// Least-squares slope of log(error) against log(h) with 95% intervals from the Monte Carlo
-    /// error; coarse levels whose local slope departs from the finer ones beyond that error
+    /// error (percentile-t of the paired bootstrap of the compared paths, every level of a path
+    /// drawn together; `indicative` below [`INDICATIVE_BELOW`](crate::stats::INDICATIVE_BELOW)
+    /// paths); coarse levels whose local slope departs from the finer ones beyond that error
     /// (and by more than 0.05) are flagged, not fitted.
     pub observed_order: Orders,
     /// Levels left out of the fit because their failure count differs from the finest level's
@@ -648,10 +650,16 @@ fn fittable(levels: &[LevelReport]) -> Vec<usize> {
 }
 
 /// An order fit over the levels `fitted` (indices into all levels), with every index it
-/// reports mapped back to all levels.
-fn fit_levels(fitted: &[usize], h: &[f64], errors: &[Vec<f64>], p: f64) -> Option<OrderFit> {
+/// reports mapped back to all levels, and the L^p error intervals of these levels from the
+/// fit's resamples.
+fn fit_levels(
+    fitted: &[usize],
+    h: &[f64],
+    errors: &[Vec<f64>],
+    p: f64,
+) -> Option<(OrderFit, Vec<Interval>)> {
     let data = PathErrors { h, errors, p };
-    let mut fit = fit_order(data, PRE_ASYMPTOTIC_TOLERANCE)?;
+    let (mut fit, level_errors) = fit_order_and_errors(data, PRE_ASYMPTOTIC_TOLERANCE)?;
     let map = |i: &mut usize| *i = fitted[*i];
     fit.fitted.iter_mut().for_each(map);
     fit.pre_asymptotic.iter_mut().for_each(map);
@@ -660,10 +668,23 @@ fn fit_levels(fitted: &[usize], h: &[f64], errors: &[Vec<f64>], p: f64) -> Optio
         map(&mut l.coarse);
         map(&mut l.fine);
     }
-    Some(fit)
+    Some((fit, level_errors))
 }
 
-/// The report of scheme `s` (named `name`) from the paths whose reference finished.
+impl Errors {
+    /// The error of output `c` (0: r, 1: v, 2: mu).
+    fn output(&mut self, c: usize) -> &mut Option<Interval> {
+        match c {
+            0 => &mut self.r,
+            1 => &mut self.v,
+            _ => &mut self.mu,
+        }
+    }
+}
+
+/// The report of scheme `s` (named `name`) from the paths whose reference finished. The
+/// fitted levels' error intervals come from their order fit's bootstrap (the same intervals
+/// [`lp_error`] gives, one bootstrap for all levels), the others' from [`lp_error`].
 fn scheme_report(
     (s, name): (usize, &str),
     good: &[&PathRecord],
@@ -675,42 +696,44 @@ fn scheme_report(
     let common = common_paths(good, s, count);
     let wanted = |output: Output| scene.wants(output) && settings.reference.is_some();
     let outputs = [Output::Position, Output::Velocity, Output::Multiplier].map(wanted);
-    let reports: Vec<LevelReport> = levels
+    let mut reports: Vec<LevelReport> = levels
         .iter()
         .enumerate()
         .map(|(j, &k)| {
-            let error = |c: usize| {
-                outputs[c]
-                    .then(|| lp_error(&distances(&common, (s, j, count), c), settings.p))
-                    .flatten()
-            };
-            let errors = Errors {
-                r: error(0),
-                v: error(1),
-                mu: error(2),
-            };
             let paths = outcomes(good, (s, j, count));
+            let errors = Errors {
+                r: None,
+                v: None,
+                mu: None,
+            };
             level_report(1usize << k, settings, paths, (errors, common.len()))
         })
         .collect();
     let fitted = fittable(&reports);
     let h: Vec<f64> = fitted.iter().map(|&j| reports[j].h).collect();
-    let fit = |c: usize| {
+    let mut fits: [Option<OrderFit>; 3] = [None, None, None];
+    for (c, fit) in fits.iter_mut().enumerate().filter(|(c, _)| outputs[*c]) {
         let errors: Vec<Vec<f64>> = fitted
             .iter()
             .map(|&j| distances(&common, (s, j, count), c))
             .collect();
-        outputs[c]
-            .then(|| fit_levels(&fitted, &h, &errors, settings.p))
-            .flatten()
-    };
+        if let Some((order, level_errors)) = fit_levels(&fitted, &h, &errors, settings.p) {
+            *fit = Some(order);
+            for (&j, e) in fitted.iter().zip(level_errors) {
+                *reports[j].error.output(c) = Some(e);
+            }
+        }
+        for (j, report) in reports.iter_mut().enumerate() {
+            let error = report.error.output(c);
+            if error.is_none() {
+                *error = lp_error(&distances(&common, (s, j, count), c), settings.p);
+            }
+        }
+    }
+    let [r, v, mu] = fits;
     SchemeReport {
         name: name.to_string(),
-        observed_order: Orders {
-            r: fit(0),
-            v: fit(1),
-            mu: fit(2),
-        },
+        observed_order: Orders { r, v, mu },
         not_fitted_for_failures: (0..reports.len())
             .filter(|&j| !fitted.contains(&j) && !reports[j].stable_but_biased)
             .collect(),

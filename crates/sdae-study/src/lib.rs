@@ -13,12 +13,14 @@
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
-//! - [`stats`], [`plots`], [`output`]: statistics, SVG plots and the report files.
+//! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
+//!   paired bootstrap over paths), SVG plots and the report files.
 //! - [`memory`]: the memory a study may take (settings that need more are refused).
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
 
+pub mod bootstrap;
 pub mod checkpoint;
 pub mod convergence;
 pub mod equipartition;

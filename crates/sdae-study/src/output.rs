@@ -8,7 +8,7 @@ use std::path::Path;
 use crate::convergence::{ConvergenceReport, Errors, LevelReport};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
-use crate::stats::{Interval, OrderFit};
+use crate::stats::{INDICATIVE_BELOW, Interval, OrderFit};
 
 fn fmt_interval(i: Option<Interval>) -> [String; 3] {
     match i {
@@ -62,11 +62,15 @@ pub fn readable(x: f64) -> String {
     }
 }
 
-/// "order [low, high]", the pre-asymptotic levels left out and the fitted levels where the
-/// error curve still bends beyond the Monte Carlo error.
+/// "order [low, high]", the pre-asymptotic levels left out, the fitted levels where the
+/// error curve still bends beyond the Monte Carlo error, and "indicative" when the intervals
+/// come from too few paths to hold their 95%.
 pub fn describe_fit(fit: &OrderFit) -> String {
     let o = &fit.order;
     let mut flags = Vec::new();
+    if fit.indicative {
+        flags.push("indicative".to_string());
+    }
     if !fit.pre_asymptotic.is_empty() {
         flags.push(format!(
             "{} coarse level(s) pre-asymptotic",
@@ -201,7 +205,14 @@ pub fn markdown(report: &ConvergenceReport) -> String {
         report.seed,
         report.p,
     );
-    s += "## Observed orders (95% intervals)\n\n| scheme | r | v | mu |\n|---|---|---|---|\n";
+    s += "## Observed orders (95% intervals)\n\n";
+    if any_indicative(report) {
+        let _ = write!(
+            s,
+            "Intervals marked indicative rest on fewer than {INDICATIVE_BELOW} paths (or a degenerate bootstrap): their coverage falls short of 95%.\n\n"
+        );
+    }
+    s += "| scheme | r | v | mu |\n|---|---|---|---|\n";
     for scheme in &report.schemes {
         let o = &scheme.observed_order;
         let f = |fit: &Option<OrderFit>| fit.as_ref().map_or("-".into(), describe_fit);
@@ -253,6 +264,17 @@ pub fn markdown(report: &ConvergenceReport) -> String {
     s
 }
 
+/// Whether some order fit of the report is indicative only.
+fn any_indicative(report: &ConvergenceReport) -> bool {
+    report.schemes.iter().any(|scheme| {
+        let o = &scheme.observed_order;
+        [&o.r, &o.v, &o.mu]
+            .into_iter()
+            .flatten()
+            .any(|fit| fit.indicative)
+    })
+}
+
 /// A short table on the terminal: per scheme, its orders and its finest level.
 pub fn print_summary(report: &ConvergenceReport) {
     println!(
@@ -264,8 +286,11 @@ pub fn print_summary(report: &ConvergenceReport) {
         let f = |fit: &Option<OrderFit>| {
             fit.as_ref().map_or("-".into(), |f| {
                 format!(
-                    "{:.2} [{:.2}, {:.2}]",
-                    f.order.estimate, f.order.ci_low, f.order.ci_high
+                    "{:.2} [{:.2}, {:.2}]{}",
+                    f.order.estimate,
+                    f.order.ci_low,
+                    f.order.ci_high,
+                    if f.indicative { "*" } else { "" }
                 )
             })
         };
@@ -278,6 +303,11 @@ pub fn print_summary(report: &ConvergenceReport) {
             f(&o.mu),
             finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
             scheme.levels.iter().map(|l| l.failures).sum::<usize>()
+        );
+    }
+    if any_indicative(report) {
+        println!(
+            "* indicative: fewer than {INDICATIVE_BELOW} paths (or a degenerate bootstrap); the interval's coverage falls short of 95%"
         );
     }
     for scheme in &report.schemes {
@@ -335,7 +365,30 @@ pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyE
 
 #[cfg(test)]
 mod tests {
-    use super::readable;
+    use super::{describe_fit, readable};
+    use crate::stats::{Interval, OrderFit};
+
+    #[test]
+    fn indicative_fits_say_so() {
+        let order = Interval {
+            estimate: 1.0,
+            ci_low: 0.9,
+            ci_high: 1.2,
+        };
+        let mut fit = OrderFit {
+            order,
+            fitted: vec![0, 1, 2],
+            pre_asymptotic: Vec::new(),
+            local_slopes: Vec::new(),
+            curvature: Vec::new(),
+            indicative: false,
+        };
+        assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20]");
+        fit.indicative = true;
+        assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20] (indicative)");
+        let json = serde_json::to_string(&fit).unwrap();
+        assert!(json.contains("\"indicative\":true"), "{json}");
+    }
 
     #[test]
     fn numbers_read_as_people_write_them() {

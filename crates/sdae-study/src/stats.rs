@@ -4,16 +4,17 @@
 //! - [`mean_interval`]: the mean of independent samples with its t interval;
 //! - [`lp_error`]: the L^p norm over paths of per-path errors, with a studentized bootstrap
 //!   interval on the log scale (per-path errors are skewed: the CLT interval of the mean of
-//!   d^p under-covers badly at small samples);
+//!   d^p under-covers badly at small samples), scaled by the largest error so that no p
+//!   underflows;
 //! - [`fit_order`]: the observed order of convergence from the per-path errors of all levels
-//!   of one set of paths, its interval from the Monte Carlo error (delta method on the per-path
-//!   covariance across levels), and the local slopes with theirs, so that curvature is flagged
-//!   as pre-asymptotic rather than hidden in an interval.
+//!   of one set of paths, its interval from the Monte Carlo error (percentile-t of the paired
+//!   bootstrap of whole paths, [`crate::bootstrap`]), and the local slopes with theirs, so that
+//!   curvature is flagged as pre-asymptotic rather than hidden in an interval.
 
-use rand::RngExt;
-use sdae_model::path_rng;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, StudentsT};
+
+use crate::bootstrap::{BOOTSTRAP_RESAMPLES, PathTable, paired_bootstrap, quantile};
 
 /// An estimate with a 95% confidence interval.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -69,100 +70,107 @@ pub fn mean_interval(values: &[f64]) -> Option<Interval> {
     })
 }
 
-/// Bootstrap resamples of [`lp_error`].
-pub const BOOTSTRAP_RESAMPLES: usize = 400;
-
-/// Seed of the bootstrap's resampling stream (fixed: the interval is a function of the data).
-const BOOTSTRAP_SEED: u64 = 0x5eed_b007;
-
-/// A uniform index in 0..n from 64 random bits (multiply-shift).
-fn index(bits: u64, n: usize) -> usize {
-    ((u128::from(bits) * n as u128) >> 64) as usize
+/// The largest of the errors (NaN if one is NaN): the scale that keeps d^p from underflowing.
+fn largest(errors: &[f64]) -> f64 {
+    errors
+        .iter()
+        .fold(0.0_f64, |m, &d| if d.is_nan() { d } else { m.max(d) })
 }
 
 /// The L^p norm over paths, (mean of d_i^p)^(1/p), of per-path errors d_i >= 0, with a 95%
-/// studentized bootstrap interval on the log scale: with m the mean of d^p and
+/// studentized bootstrap interval on the log scale. Computed as d_max (mean of
+/// (d_i / d_max)^p)^(1/p) with d_max the largest error, so that neither large p (d^p underflows
+/// from p ~ 200 for errors of 1e-2) nor tiny errors give 0. With m the mean of (d / d_max)^p and
 /// se = s / (sqrt(n) m) the delta-method standard error of log m, the quantiles of
-/// (log m* - log m) / se* over [`BOOTSTRAP_RESAMPLES`] resamples of the paths give the
-/// interval of log m, mapped back by exp and the p-th root. It adapts to the skew of d^p
-/// (measured coverage in docs/studies.md); resampling draws from a fixed stream, so the interval
-/// depends only on the data. `None` for fewer than 2 errors or p < 1; a zero interval when every
-/// error is 0.
+/// (log m* - log m) / se* over [`BOOTSTRAP_RESAMPLES`] resamples of the paths
+/// ([`paired_bootstrap`]) give the interval of log m, mapped back by exp, the p-th root and the
+/// scale. It adapts to the skew of d^p (measured coverage in docs/studies.md); the resampling
+/// stream is fixed, so the interval depends only on the data. `None` for fewer than 2 errors or
+/// p < 1; a zero-width interval when every error is equal (or 0, or one is infinite or NaN).
 pub fn lp_error(errors: &[f64], p: f64) -> Option<Interval> {
     let n = errors.len();
     if n < 2 || p.is_nan() || p < 1.0 {
         return None;
     }
-    let powered: Vec<f64> = errors.iter().map(|d| d.powf(p)).collect();
+    let scale = largest(errors);
+    if !(scale.is_finite() && scale > 0.0) {
+        return Some(exact(scale));
+    }
+    let powered: Vec<f64> = errors.iter().map(|d| (d / scale).powf(p)).collect();
     let (mean, var) = mean_and_variance(&powered);
-    let root = |t: f64| t.max(0.0).powf(1.0 / p);
-    let se = (var / n as f64).sqrt() / mean;
-    if !(se.is_finite() && se > 0.0) {
-        let e = root(mean);
-        return Some(Interval {
-            estimate: e,
-            ci_low: e,
-            ci_high: e,
-        });
-    }
-    let mut rng = path_rng(BOOTSTRAP_SEED, n as u64);
-    let mut statistics = Vec::with_capacity(BOOTSTRAP_RESAMPLES);
-    for _ in 0..BOOTSTRAP_RESAMPLES {
-        let (m, v) = resample_moments(&powered, mean, &mut rng);
-        let se_star = (v / n as f64).sqrt() / m;
-        if se_star.is_finite() && se_star > 0.0 {
-            statistics.push((m.ln() - mean.ln()) / se_star);
-        }
-    }
-    statistics.sort_by(f64::total_cmp);
-    // Resamples of identical values have no spread; with too few others, fall back to t.
-    let (lo, hi) = if statistics.len() < BOOTSTRAP_RESAMPLES / 2 {
-        let t = t975(n - 1);
-        (-t, t)
-    } else {
-        (quantile(&statistics, 0.025), quantile(&statistics, 0.975))
+    let level = LpLevel {
+        scale,
+        mean,
+        var,
+        n,
+        p,
     };
-    Some(Interval {
-        estimate: root(mean),
-        ci_low: root(mean * (-hi * se).exp()),
-        ci_high: root(mean * (-lo * se).exp()),
-    })
+    // Columns x - mean and (x - mean)^2: the resample's mean and variance from their sums
+    // (the shift keeps the sum of squares well conditioned).
+    let table = PathTable::from_rows(n, 2, |i, row| {
+        let x = powered[i] - mean;
+        row.copy_from_slice(&[x, x * x]);
+    });
+    let statistics = paired_bootstrap(&table, BOOTSTRAP_RESAMPLES, |s| level.statistic(s[0], s[1]));
+    Some(level.interval(statistics))
 }
 
-/// The mean and unbiased variance of one bootstrap resample of `values` (n indices drawn from
-/// `rng`), in one pass without storing the resample: the sums of x - shift and (x - shift)^2
-/// run in four independent partial sums, so that the additions do not wait on each other
-/// (`shift`, the sample's mean, keeps the sum of squares well conditioned:
-/// var = (S2 - S1^2 / n) / (n - 1) with S1 of the order of sqrt(n) s).
-fn resample_moments<R: RngExt>(values: &[f64], shift: f64, rng: &mut R) -> (f64, f64) {
-    const PARTIALS: usize = 4;
-    let n = values.len();
-    let mut draw = || values[index(rng.random::<u64>(), n)] - shift;
-    let (mut s1, mut s2) = ([0.0; PARTIALS], [0.0; PARTIALS]);
-    for _ in 0..n / PARTIALS {
-        for (a, b) in s1.iter_mut().zip(s2.iter_mut()) {
-            let x = draw();
-            *a += x;
-            *b += x * x;
+/// A zero-width interval at `e`.
+fn exact(e: f64) -> Interval {
+    Interval {
+        estimate: e,
+        ci_low: e,
+        ci_high: e,
+    }
+}
+
+/// One level's L^p error from x_i = (d_i / scale)^p: the mean m and unbiased variance of x
+/// over n paths.
+struct LpLevel {
+    scale: f64,
+    mean: f64,
+    var: f64,
+    n: usize,
+    p: f64,
+}
+
+impl LpLevel {
+    /// The studentized statistic (log m* - log m) / se* of a resample from the sums S1, S2 of
+    /// x_i - m and (x_i - m)^2 over its paths: m* = m + S1 / n,
+    /// v* = (S2 - S1^2 / n) / (n - 1), se* = sqrt(v* / n) / m*. `None` for a resample without
+    /// spread.
+    fn statistic(&self, s1: f64, s2: f64) -> Option<f64> {
+        let count = self.n as f64;
+        let m = self.mean + s1 / count;
+        let v = ((s2 - s1 * s1 / count) / (count - 1.0)).max(0.0);
+        let se_star = (v / count).sqrt() / m;
+        let t = (s1 / (count * self.mean)).ln_1p() / se_star;
+        t.is_finite().then_some(t)
+    }
+
+    /// The interval from the resamples' statistics: with se = s / (sqrt(n) m), the 2.5% and
+    /// 97.5% quantiles lo, hi of the statistics give scale (m e^{-hi se})^(1/p) and
+    /// scale (m e^{-lo se})^(1/p) (the t quantiles stand in when fewer than half of the
+    /// resamples have a spread; zero width when the sample has none).
+    fn interval(&self, mut statistics: Vec<f64>) -> Interval {
+        let root = |t: f64| self.scale * t.max(0.0).powf(1.0 / self.p);
+        let se = (self.var / self.n as f64).sqrt() / self.mean;
+        if !(se.is_finite() && se > 0.0) {
+            return exact(root(self.mean));
+        }
+        statistics.sort_by(f64::total_cmp);
+        let (lo, hi) = if statistics.len() < BOOTSTRAP_RESAMPLES / 2 {
+            let t = t975(self.n - 1);
+            (-t, t)
+        } else {
+            (quantile(&statistics, 0.025), quantile(&statistics, 0.975))
+        };
+        Interval {
+            estimate: root(self.mean),
+            ci_low: root(self.mean * (-hi * se).exp()),
+            ci_high: root(self.mean * (-lo * se).exp()),
         }
     }
-    for (a, b) in s1.iter_mut().zip(s2.iter_mut()).take(n % PARTIALS) {
-        let x = draw();
-        *a += x;
-        *b += x * x;
-    }
-    let (s1, s2): (f64, f64) = (s1.iter().sum(), s2.iter().sum());
-    let count = n as f64;
-    let variance = ((s2 - s1 * s1 / count) / (count - 1.0)).max(0.0);
-    (shift + s1 / count, variance)
-}
-
-/// The q-quantile of sorted values (linear between order statistics).
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    let x = q * (sorted.len() - 1) as f64;
-    let (i, w) = (x.floor() as usize, x - x.floor());
-    let j = (i + 1).min(sorted.len() - 1);
-    (1.0 - w) * sorted[i] + w * sorted[j]
 }
 
 /// The per-path errors of one set of paths at several levels: `errors[j][i]` is path i at the
@@ -178,12 +186,22 @@ pub struct PathErrors<'a> {
     pub p: f64,
 }
 
-/// log E_j = log (mean_i d_ij^p) / p at every level, with the covariance of these logs from the
-/// Monte Carlo error (delta method: Cov(log m_j, log m_k) = Cov(d_j^p, d_k^p) / (n m_j m_k)).
+/// log E_j = log (mean_i d_ij^p) / p at every level, computed as
+/// log s_j + log (mean_i (d_ij / s_j)^p) / p with s_j the level's largest error (no underflow
+/// of d^p), with the covariance of these logs from the Monte Carlo error (delta method:
+/// Cov(log m_j, log m_k) = Cov(x_j, x_k) / (n m_j m_k p^2), x_ij = (d_ij / s_j)^p, m_j its
+/// mean).
 struct LogErrors {
     x: Vec<f64>,
     y: Vec<f64>,
     cov: Vec<Vec<f64>>,
+    /// x_ij, one row per level.
+    powered: Vec<Vec<f64>>,
+    /// m_j.
+    means: Vec<f64>,
+    /// Each level's L^p error from its x_ij.
+    lp: Vec<LpLevel>,
+    p: f64,
     n: usize,
 }
 
@@ -195,37 +213,56 @@ impl LogErrors {
         if n < 2 || data.errors.len() != levels || data.errors.iter().any(|e| e.len() != n) {
             return None;
         }
+        let scales: Vec<f64> = data.errors.iter().map(|e| largest(e)).collect();
+        if scales.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return None;
+        }
         let powered: Vec<Vec<f64>> = data
             .errors
             .iter()
-            .map(|e| e.iter().map(|d| d.powf(data.p)).collect())
+            .zip(&scales)
+            .map(|(e, s)| e.iter().map(|d| (d / s).powf(data.p)).collect())
             .collect();
         let means: Vec<f64> = powered
             .iter()
             .map(|v| v.iter().sum::<f64>() / n as f64)
             .collect();
-        if means.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
-            return None;
-        }
+        let sample_cov = |j: usize, k: usize| {
+            powered[j]
+                .iter()
+                .zip(&powered[k])
+                .map(|(a, b)| (a - means[j]) * (b - means[k]))
+                .sum::<f64>()
+                / (n - 1) as f64
+        };
         let cov = (0..levels)
             .map(|j| {
                 (0..levels)
-                    .map(|k| {
-                        let c = powered[j]
-                            .iter()
-                            .zip(&powered[k])
-                            .map(|(a, b)| (a - means[j]) * (b - means[k]))
-                            .sum::<f64>()
-                            / (n - 1) as f64;
-                        c / (n as f64 * means[j] * means[k] * data.p * data.p)
-                    })
+                    .map(|k| sample_cov(j, k) / (n as f64 * means[j] * means[k] * data.p * data.p))
                     .collect()
+            })
+            .collect();
+        let lp = (0..levels)
+            .map(|j| LpLevel {
+                scale: scales[j],
+                mean: means[j],
+                var: sample_cov(j, j),
+                n,
+                p: data.p,
             })
             .collect();
         Some(Self {
             x: data.h.iter().map(|h| h.ln()).collect(),
-            y: means.iter().map(|m| m.ln() / data.p).collect(),
+            y: scales
+                .iter()
+                .zip(&means)
+                .map(|(s, m)| s.ln() + m.ln() / data.p)
+                .collect(),
             cov,
+            powered,
+            means,
+            lp,
+            p: data.p,
             n,
         })
     }
@@ -233,11 +270,10 @@ impl LogErrors {
     /// The value and standard error of the linear functional sum_j w_j y_j.
     fn functional(&self, w: &[(usize, f64)]) -> (f64, f64) {
         let value = w.iter().map(|&(j, wj)| wj * self.y[j]).sum();
-        let var: f64 = w
-            .iter()
-            .flat_map(|&(j, wj)| w.iter().map(move |&(k, wk)| wj * wk * self.cov[j][k]))
-            .sum();
-        (value, var.max(0.0).sqrt())
+        (
+            value,
+            quadratic_form(w, |j, k| self.cov[j][k]).max(0.0).sqrt(),
+        )
     }
 
     /// Least-squares slope of y against x over `levels` as weights on y.
@@ -256,7 +292,7 @@ impl LogErrors {
         vec![(a, 1.0 / dx), (b, -1.0 / dx)]
     }
 
-    /// The t interval of a functional.
+    /// The delta-method t interval of a functional.
     fn interval(&self, w: &[(usize, f64)]) -> Interval {
         let (value, se) = self.functional(w);
         let half = t975(self.n - 1) * se;
@@ -267,8 +303,98 @@ impl LogErrors {
         }
     }
 
+    /// Percentile-t intervals of the functionals sum_j w_j y_j from the paired bootstrap of the
+    /// paths (every level of a path drawn together): with f and se the functional's value and
+    /// delta-method standard error, the 2.5% and 97.5% quantiles q of (f* - f) / se* over the
+    /// resamples give [f - q_97.5 se, f - q_2.5 se]. The resampled statistic is studentized
+    /// by its own se*, so a resample that draws a heavy path twice widens its se* with its
+    /// shift, and the quantiles carry the skew and the excess spread of the slope that the
+    /// delta method's normal quantiles miss at heavy tails. A functional without Monte Carlo
+    /// error (se = 0) keeps a zero-width interval; `None` when fewer than half of the
+    /// resamples are usable (a degenerate sample). The same resamples give each level's L^p
+    /// error interval (second; exactly [`lp_error`]'s, whose stream of n paths this is).
+    fn bootstrap(
+        &self,
+        functionals: &[Vec<(usize, f64)>],
+    ) -> (Option<Vec<Interval>>, Vec<Interval>) {
+        let (levels, n) = (self.y.len(), self.n as f64);
+        let pairs: Vec<(usize, usize)> = (0..levels)
+            .flat_map(|j| (j..levels).map(move |k| (j, k)))
+            .collect();
+        let diagonal: Vec<usize> = (0..levels)
+            .map(|j| pairs.iter().position(|&p| p == (j, j)).unwrap_or(0))
+            .collect();
+        // Columns x_ij - m_j and the products (x_ij - m_j)(x_ik - m_k), j <= k.
+        let table = PathTable::from_rows(self.n, levels + pairs.len(), |i, row| {
+            let (centred, products) = row.split_at_mut(levels);
+            for (j, c) in centred.iter_mut().enumerate() {
+                *c = self.powered[j][i] - self.means[j];
+            }
+            for (cell, &(j, k)) in products.iter_mut().zip(&pairs) {
+                *cell = centred[j] * centred[k];
+            }
+        });
+        let estimates: Vec<(f64, f64)> = functionals.iter().map(|w| self.functional(w)).collect();
+        let mut cov = vec![0.0; levels * levels];
+        let mut shift = vec![0.0; levels];
+        let mut m = vec![0.0; levels];
+        let statistics = paired_bootstrap(&table, BOOTSTRAP_RESAMPLES, |sums| {
+            let (s1, s2) = sums.split_at(levels);
+            let level_t: Vec<Option<f64>> = (0..levels)
+                .map(|j| self.lp[j].statistic(s1[j], s2[diagonal[j]]))
+                .collect();
+            for j in 0..levels {
+                m[j] = self.means[j] + s1[j] / n;
+                // log m*_j - log m_j.
+                shift[j] = (s1[j] / (n * self.means[j])).ln_1p() / self.p;
+            }
+            for (&(j, k), &c) in pairs.iter().zip(s2) {
+                let v = (c - s1[j] * s1[k] / n) / (n - 1.0) / (n * m[j] * m[k] * self.p * self.p);
+                cov[j * levels + k] = v;
+                cov[k * levels + j] = v;
+            }
+            let functional_t = functionals
+                .iter()
+                .zip(&estimates)
+                .map(|(w, &(_, se))| {
+                    if se == 0.0 {
+                        return Some(0.0);
+                    }
+                    let change: f64 = w.iter().map(|&(j, wj)| wj * shift[j]).sum();
+                    let t = change / quadratic_form(w, |j, k| cov[j * levels + k]).sqrt();
+                    t.is_finite().then_some(t)
+                })
+                .collect::<Option<Vec<f64>>>();
+            Some((level_t, functional_t))
+        });
+        let level_intervals = (0..levels)
+            .map(|j| {
+                let t = statistics.iter().filter_map(|s| s.0[j]).collect();
+                self.lp[j].interval(t)
+            })
+            .collect();
+        let usable: Vec<&Vec<f64>> = statistics.iter().filter_map(|s| s.1.as_ref()).collect();
+        if usable.len() < BOOTSTRAP_RESAMPLES / 2 {
+            return (None, level_intervals);
+        }
+        let intervals = estimates
+            .iter()
+            .enumerate()
+            .map(|(f, &(value, se))| {
+                let mut t: Vec<f64> = usable.iter().map(|s| s[f]).collect();
+                t.sort_by(f64::total_cmp);
+                Interval {
+                    estimate: value,
+                    ci_low: value - quantile(&t, 0.975) * se,
+                    ci_high: value - quantile(&t, 0.025) * se,
+                }
+            })
+            .collect();
+        (Some(intervals), level_intervals)
+    }
+
     /// Whether the functionals `a` and `b` differ by more than the Monte Carlo error allows
-    /// (95%) and by more than `tolerance`.
+    /// (95%, delta method) and by more than `tolerance`.
     fn disagree(&self, a: &[(usize, f64)], b: &[(usize, f64)], tolerance: f64) -> bool {
         let difference: Vec<(usize, f64)> = a
             .iter()
@@ -279,6 +405,18 @@ impl LogErrors {
         d.abs() > tolerance && d.abs() > t975(self.n - 1) * se
     }
 }
+
+/// sum_jk w_j w_k c(j, k) for weights w on levels.
+fn quadratic_form(w: &[(usize, f64)], c: impl Fn(usize, usize) -> f64) -> f64 {
+    w.iter()
+        .flat_map(|&(j, wj)| w.iter().map(move |&(k, wk)| (j, k, wj * wk)))
+        .map(|(j, k, wjk)| wjk * c(j, k))
+        .sum()
+}
+
+/// Below this many paths an order's interval is indicative: its coverage falls short of 95%
+/// by more than a few points on heavy-tailed errors (docs/studies.md, tests/coverage.rs).
+pub const INDICATIVE_BELOW: usize = 20;
 
 /// The slope between two neighbouring levels, with its Monte Carlo interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -295,7 +433,8 @@ pub struct LocalSlope {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderFit {
     /// Least-squares slope of log(error) against log(h) over the fitted levels, with its 95%
-    /// interval from the Monte Carlo error of the errors (not from the regression residuals).
+    /// percentile-t interval from the paired bootstrap of the paths (the Monte Carlo error of
+    /// the errors, not the regression residuals).
     pub order: Interval,
     /// Indices (into the input) of the levels used in the fit.
     pub fitted: Vec<usize>,
@@ -309,14 +448,29 @@ pub struct OrderFit {
     /// Carlo error: the error curve bends there, and the order's interval does not cover that
     /// model error.
     pub curvature: Vec<usize>,
+    /// The intervals are indicative only: fewer than [`INDICATIVE_BELOW`] paths, or a
+    /// bootstrap with too few usable resamples (the delta-method t intervals stand in).
+    pub indicative: bool,
 }
 
 /// Fits log(error) = c + order log(h) over the levels of one set of paths (any order of h).
 /// Starting from all levels, the coarsest level is left out as pre-asymptotic while its local
-/// slope disagrees with the slope of the remaining finer levels (beyond the Monte Carlo error
-/// and by more than `tolerance`) and at least three levels remain. `None` without >= 2 paths,
-/// >= 2 levels and positive finite errors at every level.
+/// slope disagrees with the slope of the remaining finer levels (beyond the delta-method Monte
+/// Carlo error and by more than `tolerance`) and at least three levels remain. The intervals
+/// of the order and of the local slopes are percentile-t intervals of the paired bootstrap of
+/// the paths ([`paired_bootstrap`]). `None` without >= 2 paths, >= 2 levels and positive finite
+/// errors at every level.
 pub fn fit_order(data: PathErrors<'_>, tolerance: f64) -> Option<OrderFit> {
+    fit_order_and_errors(data, tolerance).map(|(fit, _)| fit)
+}
+
+/// [`fit_order`], with the L^p error interval of every level (in the order of `data`) from the
+/// same resamples: each is the one [`lp_error`] gives for that level, at the cost of one
+/// bootstrap for all.
+pub fn fit_order_and_errors(
+    data: PathErrors<'_>,
+    tolerance: f64,
+) -> Option<(OrderFit, Vec<Interval>)> {
     let logs = LogErrors::new(data)?;
     let mut usable: Vec<usize> = (0..data.h.len()).collect();
     if usable.len() < 2 {
@@ -324,14 +478,7 @@ pub fn fit_order(data: PathErrors<'_>, tolerance: f64) -> Option<OrderFit> {
     }
     // Coarse to fine.
     usable.sort_by(|&a, &b| data.h[b].total_cmp(&data.h[a]));
-    let local_slopes: Vec<LocalSlope> = usable
-        .windows(2)
-        .map(|w| LocalSlope {
-            coarse: w[0],
-            fine: w[1],
-            slope: logs.interval(&logs.local_weights(w[0], w[1])),
-        })
-        .collect();
+    let neighbours: Vec<(usize, usize)> = usable.windows(2).map(|w| (w[0], w[1])).collect();
     let mut pre_asymptotic = Vec::new();
     while usable.len() > 3 {
         let local = logs.local_weights(usable[0], usable[1]);
@@ -348,48 +495,37 @@ pub fn fit_order(data: PathErrors<'_>, tolerance: f64) -> Option<OrderFit> {
         .filter(|w| logs.disagree(&logs.local_weights(w[0], w[1]), &fitted, tolerance))
         .map(|w| w[0])
         .collect();
-    Some(OrderFit {
-        order: logs.interval(&fitted),
+    let functionals: Vec<Vec<(usize, f64)>> = std::iter::once(fitted)
+        .chain(neighbours.iter().map(|&(a, b)| logs.local_weights(a, b)))
+        .collect();
+    let (bootstrapped, errors) = logs.bootstrap(&functionals);
+    let indicative = bootstrapped.is_none() || logs.n < INDICATIVE_BELOW;
+    let mut intervals = bootstrapped
+        .unwrap_or_else(|| functionals.iter().map(|w| logs.interval(w)).collect())
+        .into_iter();
+    let order = intervals.next()?;
+    let fit = OrderFit {
+        order,
         fitted: usable,
         pre_asymptotic,
-        local_slopes,
+        local_slopes: neighbours
+            .iter()
+            .zip(intervals)
+            .map(|(&(coarse, fine), slope)| LocalSlope {
+                coarse,
+                fine,
+                slope,
+            })
+            .collect(),
         curvature,
-    })
+        indicative,
+    };
+    Some((fit, errors))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn one_pass_resample_moments_match_the_stored_resample() {
-        // Skewed values (squares of a lognormal-like spread) of lengths off and on multiples
-        // of the partial sums' count.
-        for n in [2, 3, 10, 1003] {
-            let values: Vec<f64> = (0..n)
-                .map(|i| (0.37 * i as f64).sin().exp().powi(2))
-                .collect();
-            let (mean, _) = mean_and_variance(&values);
-            let mut rng = path_rng(BOOTSTRAP_SEED, n as u64);
-            let mut copy = rng.clone();
-            for _ in 0..5 {
-                let (m, v) = resample_moments(&values, mean, &mut rng);
-                let stored: Vec<f64> = (0..n)
-                    .map(|_| values[index(copy.random::<u64>(), n)])
-                    .collect();
-                let (m2, v2) = mean_and_variance(&stored);
-                assert!(
-                    (m - m2).abs() <= 1e-14 * m2,
-                    "n = {n}: mean {m} against {m2}"
-                );
-                // Relative to the scale of the values: a resample of equal values has v = 0.
-                assert!(
-                    (v - v2).abs() <= 1e-12 * (v2 + m2 * m2),
-                    "n = {n}: variance {v} against {v2}"
-                );
-            }
-        }
-    }
 
     #[test]
     fn t_quantiles_match_published_values() {
@@ -440,6 +576,47 @@ mod tests {
             fit.order
         );
         assert_eq!(fit.local_slopes.len(), 5);
+        assert!(fit.indicative, "10 paths are below {INDICATIVE_BELOW}");
+    }
+
+    /// Errors C h^q W_i V_ij with a path factor W_i shared by the levels and level noise V_ij
+    /// (deterministic, spread like log-normals).
+    fn noisy_power_law(paths: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let (h, mut errors) = power_law(0.5, paths);
+        for (j, level) in errors.iter_mut().enumerate() {
+            for (i, d) in level.iter_mut().enumerate() {
+                *d *= (0.3 * (1.7 * (i * 7 + j * 13) as f64).sin()).exp();
+            }
+        }
+        (h, errors)
+    }
+
+    #[test]
+    fn the_fits_level_intervals_are_lp_errors_and_its_intervals_hold_the_estimates() {
+        for paths in [INDICATIVE_BELOW, 300] {
+            let (h, errors) = noisy_power_law(paths);
+            let data = PathErrors {
+                h: &h,
+                errors: &errors,
+                p: 2.0,
+            };
+            let (fit, levels) = fit_order_and_errors(data, 0.05).unwrap();
+            assert!(!fit.indicative, "{paths} paths");
+            for (e, d) in levels.iter().zip(&errors) {
+                let alone = lp_error(d, 2.0).unwrap();
+                for (a, b) in [
+                    (e.estimate, alone.estimate),
+                    (e.ci_low, alone.ci_low),
+                    (e.ci_high, alone.ci_high),
+                ] {
+                    assert!((a - b).abs() <= 1e-12 * b, "{e:?} against {alone:?}");
+                }
+            }
+            let slopes = fit.local_slopes.iter().map(|l| l.slope);
+            for i in std::iter::once(fit.order).chain(slopes) {
+                assert!(i.ci_low < i.estimate && i.estimate < i.ci_high, "{i:?}");
+            }
+        }
     }
 
     #[test]
@@ -449,5 +626,38 @@ mod tests {
         assert!((e.ci_low - 0.2).abs() < 1e-15 && (e.ci_high - 0.2).abs() < 1e-15);
         assert!(lp_error(&[0.2], 2.0).is_none());
         assert!(mean_interval(&[1.0]).is_none());
+        let zero = lp_error(&[0.0; 4], 2.0).unwrap();
+        assert_eq!((zero.estimate, zero.ci_low, zero.ci_high), (0.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn large_p_and_tiny_errors_do_not_underflow() {
+        // d^400 underflows to 0 for every d below 0.17: the unscaled mean of d^p was 0.
+        let p = 400.0;
+        let tiny: Vec<f64> = (1..=20).map(|i| 1e-3 * (1.0 + 0.01 * i as f64)).collect();
+        let e = lp_error(&tiny, p).unwrap();
+        // (mean d^p)^(1/p) = d_max (mean (d / d_max)^p)^(1/p).
+        let scaled: f64 = tiny.iter().map(|d| (d / 1.2e-3).powf(p)).sum::<f64>() / 20.0;
+        let expected = 1.2e-3 * scaled.powf(1.0 / p);
+        assert!(
+            (e.estimate - expected).abs() <= 1e-13 * expected,
+            "{e:?} against {expected}"
+        );
+        assert!(e.ci_low > 0.0 && e.ci_low <= e.estimate && e.estimate <= e.ci_high);
+        // p = 400 takes the sample's norm close to its largest error.
+        assert!(e.ci_high.is_finite() && e.estimate > 1.18e-3, "{e:?}");
+        // Errors of 1e-200 at p = 2 (d^2 underflows) and an exact power law at p = 400.
+        let e = lp_error(&[1e-200, 2e-200, 3e-200], 2.0).unwrap();
+        let expected = 1e-200 * (14.0f64 / 3.0).sqrt();
+        assert!((e.estimate - expected).abs() <= 1e-14 * expected, "{e:?}");
+        let (h, mut errors) = power_law(0.75, 10);
+        errors.iter_mut().flatten().for_each(|d| *d *= 1e-3);
+        let data = PathErrors {
+            h: &h,
+            errors: &errors,
+            p,
+        };
+        let fit = fit_order(data, 0.05).unwrap();
+        assert!((fit.order.estimate - 0.75).abs() < 1e-12, "{fit:?}");
     }
 }

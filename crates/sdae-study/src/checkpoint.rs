@@ -1,23 +1,46 @@
-//! Nothing lost on interruption: a run stopped early (Ctrl-C, or SIGTERM from a batch system at
-//! its time limit) saves the paths it finished to a checkpoint file, and the same study run
-//! again with resumption carries on from them. Each path's numbers come from its own stream,
-//! so the resumed run ends with exactly the records, and the report, of an uninterrupted one
-//! (timings aside).
+//! Nothing lost on interruption: a run saves the paths it finished to a checkpoint file, every
+//! so often while it runs and when it is stopped early (Ctrl-C, or SIGTERM from a batch
+//! system at its time limit), and the same study run again with resumption carries on from
+//! them. Each path's numbers come from its own stream, so the resumed run ends with exactly the
+//! records, and the report, of an uninterrupted one (timings aside).
+//!
+//! A checkpoint holds what the report reads and nothing more: a line naming the format, a JSON
+//! line with the scene, the settings, the shard and the number of records, then the records in
+//! a compact binary form (f64 as their IEEE bits, so a record reads back bit for bit; counts as
+//! LEB128 varints): about 80 bytes per scheme and level of a path, a seventh of the same
+//! records in JSON. Whatever is read back is checked as strictly as shards are merged.
+//!
+//! A [`RunLock`] keeps two runs from writing one checkpoint at the same time.
 
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use sdae_model::FailureKind;
+use serde::{Deserialize, Serialize};
 
 use crate::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
 use crate::error::StudyError;
-use crate::files::{read_json, write_compact_json};
+use crate::files::{process_alive, write_with};
+use crate::lockstep::{PathRecord, TrackOutcome};
 use crate::parallel::Control;
 use crate::scene::Scene;
+
+/// The first line of a checkpoint file: its format and version.
+const MAGIC: &[u8] = b"sdae-study checkpoint 1\n";
+
+/// How often a run saves its finished paths unless told otherwise.
+pub const DEFAULT_INTERVAL: Duration = Duration::from_secs(60);
 
 /// How a resumable run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Resumed {
-    /// Every selected path finished: the whole run (with the saved paths it resumed from).
+    /// Every selected path finished: the whole run (with the saved paths it resumed from). The
+    /// checkpoint is not rewritten: write the report, then [`Checkpoint::remove`] it.
     Finished(Box<ConvergenceRun>),
-    /// The stop flag was raised: `saved` of the shard's `selected` paths are in the checkpoint.
+    /// The stop flag was raised: `saved` of the shard's `selected` paths are in the checkpoint
+    /// (none written when `saved` is 0).
     Interrupted {
         /// Paths saved so far.
         saved: usize,
@@ -26,16 +49,56 @@ pub enum Resumed {
     },
 }
 
+/// The paths an interrupted run saved, read back by [`Checkpoint::load`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SavedPaths {
+    /// One record per finished path (checked: in range, in the shard, each once).
+    pub records: Vec<PathRecord>,
+}
+
+/// What a checkpoint says about the run that wrote it.
+#[derive(Serialize)]
+struct HeaderOut<'a> {
+    scene: &'a Scene,
+    settings: &'a ConvergenceSettings,
+    shard: (usize, usize),
+    records: usize,
+}
+
+/// [`HeaderOut`] read back.
+#[derive(Deserialize)]
+struct Header {
+    scene: Scene,
+    settings: ConvergenceSettings,
+    shard: (usize, usize),
+    records: usize,
+}
+
 /// The checkpoint file of one run (one scene, one shard of one study).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkpoint {
     path: PathBuf,
+    every: Duration,
+}
+
+/// The paths of shard (index, count) of `paths` paths.
+fn selected((index, count): (usize, usize), paths: usize) -> usize {
+    (index..paths).step_by(count.max(1)).count()
 }
 
 impl Checkpoint {
-    /// A checkpoint kept at `path`.
+    /// A checkpoint kept at `path`, saved every [`DEFAULT_INTERVAL`] while a run goes on.
     pub fn new(path: impl Into<PathBuf>) -> Self {
-        Checkpoint { path: path.into() }
+        Checkpoint {
+            path: path.into(),
+            every: DEFAULT_INTERVAL,
+        }
+    }
+
+    /// The same checkpoint saved every `every` while a run goes on (at the end of the block of
+    /// paths that finishes after the interval; `Duration::ZERO`: after every block).
+    pub fn every(self, every: Duration) -> Self {
+        Checkpoint { every, ..self }
     }
 
     /// Where the finished paths are kept.
@@ -43,71 +106,162 @@ impl Checkpoint {
         &self.path
     }
 
+    /// The number of paths the checkpoint file holds and of the paths of its shard, if it
+    /// exists and its header can be read (for messages; [`Checkpoint::load`] checks it).
+    pub fn holds(&self) -> Option<(usize, usize)> {
+        let bytes = std::fs::read(&self.path).ok()?;
+        let (header, _) = parse_header(&bytes).ok()?;
+        Some((
+            header.records,
+            selected(header.shard, header.settings.paths),
+        ))
+    }
+
     /// The paths saved by an interrupted run of the same scene, settings (the thread count
-    /// aside) and shard; `None` when there is no checkpoint file.
+    /// aside) and shard; `None` when there is no checkpoint file. A file that is not a
+    /// checkpoint, is cut short, or holds a path twice, out of range or of another shard is a
+    /// [`StudyError::Read`] or [`StudyError::Resume`].
     pub fn load(
         &self,
         scene: &Scene,
         settings: &ConvergenceSettings,
         shard: (usize, usize),
-    ) -> Result<Option<ConvergenceRun>, StudyError> {
-        if !self.path.exists() {
-            return Ok(None);
+    ) -> Result<Option<SavedPaths>, StudyError> {
+        let bytes = match std::fs::read(&self.path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            other => other.map_err(|e| self.unreadable(e.to_string()))?,
+        };
+        let (header, body) = parse_header(&bytes).map_err(|m| self.unreadable(m))?;
+        let mut reader = Reader { bytes: body, at: 0 };
+        let records = (0..header.records)
+            .map(|k| {
+                reader
+                    .record()
+                    .map_err(|m| self.unreadable(format!("record {k} of {}: {m}", header.records)))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        if reader.at != body.len() {
+            let extra = body.len() - reader.at;
+            return Err(self.unreadable(format!("{extra} bytes after the last record")));
         }
-        let saved: ConvergenceRun = read_json(&self.path)?;
         let differs = |what: &str| StudyError::Resume {
             path: self.path.clone(),
             reason: format!("it was saved by a run with another {what}"),
         };
-        if saved.scene != *scene {
+        if header.scene != *scene {
             return Err(differs("scene"));
         }
-        if !saved.settings.same_numbers(settings) {
+        if !header.settings.same_numbers(settings) {
             return Err(differs("setting (paths, levels, seed, T, p or schemes)"));
         }
-        if saved.shard != shard {
+        if header.shard != shard {
             return Err(differs("shard"));
         }
-        Ok(Some(saved))
+        let mut seen = vec![false; settings.paths];
+        let (index, count) = shard;
+        for r in &records {
+            let fresh = seen.get_mut(r.index).filter(|s| !**s);
+            match fresh {
+                Some(s) if r.index % count.max(1) == index => *s = true,
+                _ => {
+                    return Err(StudyError::Resume {
+                        path: self.path.clone(),
+                        reason: format!(
+                            "path {} appears twice, is out of range (< {}) or not of shard \
+                             {index}/{count}",
+                            r.index, settings.paths
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(Some(SavedPaths { records }))
+    }
+
+    fn unreadable(&self, message: String) -> StudyError {
+        StudyError::Read {
+            path: self.path.clone(),
+            message: format!("not a whole checkpoint: {message}"),
+        }
     }
 
     /// Runs shard `shard` of the study of `scene` with `settings`, steered by `control`, but
-    /// the paths in `saved` (from [`Checkpoint::load`]; they replace `control.done`), and
-    /// saves the finished paths, with those of `saved`, in the checkpoint. When
-    /// `control.stop` was raised before every path finished, [`Resumed::Interrupted`] comes
-    /// back. The checkpoint stays until [`Checkpoint::remove`] (a study of several scenes
-    /// resumes the finished ones from it too).
+    /// the paths in `saved` (from [`Checkpoint::load`]; they replace `control.done`). While it
+    /// runs, the finished paths (with those of `saved`) are saved in the checkpoint each time
+    /// the interval has passed; when `control.stop` was raised before every path finished, they
+    /// are saved once more and [`Resumed::Interrupted`] comes back. A finished run is not saved
+    /// (its report comes first); the checkpoint stays until [`Checkpoint::remove`].
     pub fn run(
         &self,
         scene: &Scene,
         settings: &ConvergenceSettings,
         shard: (usize, usize),
-        saved: Option<ConvergenceRun>,
+        saved: Option<SavedPaths>,
         control: Control<'_>,
     ) -> Result<Resumed, StudyError> {
-        let done = saved
-            .as_ref()
-            .map(ConvergenceRun::finished_paths)
-            .unwrap_or_default();
+        let saved = saved.map_or_else(Vec::new, |s| s.records);
+        let done: Vec<usize> = saved.iter().map(|r| r.index).collect();
+        let so_far = Mutex::new((saved.clone(), Instant::now()));
+        let periodically = |block: &[PathRecord]| {
+            let mut so_far = so_far.lock().unwrap_or_else(PoisonError::into_inner);
+            so_far.0.extend_from_slice(block);
+            if so_far.1.elapsed() >= self.every {
+                // A failed periodic save is not fatal: the run goes on, and the final save
+                // (or the report) says whether the results could be written.
+                let _ = self.write(scene, settings, shard, &so_far.0);
+                so_far.1 = Instant::now();
+            }
+        };
         let control = Control {
             done: &done,
+            finished: Some(&periodically),
             ..control
         };
-        let fresh = run_convergence(scene, settings, shard, control)?;
-        let run = match saved {
-            Some(saved) => saved.resume_with(fresh)?,
-            None => fresh,
-        };
-        let (index, count) = shard;
-        let selected = (index..settings.paths).step_by(count.max(1)).count();
-        write_compact_json(&self.path, &run)?;
+        let mut run = run_convergence(scene, settings, shard, control)?;
+        run.records.extend(saved);
+        run.records.sort_by_key(|r| r.index);
+        run.check_records().map_err(|reason| StudyError::Resume {
+            path: self.path.clone(),
+            reason,
+        })?;
+        let selected = selected(shard, settings.paths);
         if run.records.len() < selected {
+            if !run.records.is_empty() {
+                self.save(&run)?;
+            }
             return Ok(Resumed::Interrupted {
                 saved: run.records.len(),
                 selected,
             });
         }
         Ok(Resumed::Finished(Box::new(run)))
+    }
+
+    /// Saves the records of `run` in the checkpoint (atomically: the previous checkpoint or
+    /// this one, never a torn file).
+    pub fn save(&self, run: &ConvergenceRun) -> Result<(), StudyError> {
+        self.write(&run.scene, &run.settings, run.shard, &run.records)
+    }
+
+    fn write(
+        &self,
+        scene: &Scene,
+        settings: &ConvergenceSettings,
+        shard: (usize, usize),
+        records: &[PathRecord],
+    ) -> Result<(), StudyError> {
+        let header = HeaderOut {
+            scene,
+            settings,
+            shard,
+            records: records.len(),
+        };
+        write_with(&self.path, |out| {
+            out.write_all(MAGIC)?;
+            serde_json::to_writer(&mut *out, &header)?;
+            out.write_all(b"\n")?;
+            records.iter().try_for_each(|r| write_record(out, r))
+        })
     }
 
     /// Removes the checkpoint file (once the results it holds are in a report).
@@ -117,6 +271,365 @@ impl Checkpoint {
                 Err(StudyError::write(&self.path, e))
             }
             _ => Ok(()),
+        }
+    }
+
+    /// Takes the lock of this checkpoint (and so of the run's results): see [`RunLock`].
+    pub fn lock(&self) -> Result<RunLock, StudyError> {
+        let mut name = self.path.as_os_str().to_owned();
+        name.push(".lock");
+        RunLock::take(PathBuf::from(name))
+    }
+}
+
+/// The magic line and the JSON header, and the bytes after them.
+fn parse_header(bytes: &[u8]) -> Result<(Header, &[u8]), String> {
+    let rest = bytes
+        .strip_prefix(MAGIC)
+        .ok_or("it does not begin with the checkpoint line")?;
+    let end = rest
+        .iter()
+        .position(|&b| b == b'\n')
+        .ok_or("the header line is cut short")?;
+    let header = serde_json::from_slice(&rest[..end]).map_err(|e| format!("header: {e}"))?;
+    Ok((header, &rest[end + 1..]))
+}
+
+/// The code of an optional failure kind: 0 for none, else 1 + its place in
+/// [`FailureKind::ALL`].
+fn failure_code(kind: Option<FailureKind>) -> u8 {
+    kind.and_then(|k| FailureKind::ALL.iter().position(|&a| a == k))
+        .map_or(0, |i| i as u8 + 1)
+}
+
+fn write_varint(out: &mut impl Write, mut value: u64) -> std::io::Result<()> {
+    loop {
+        let byte = (value & 0x7f) as u8;
+        value >>= 7;
+        if value == 0 {
+            return out.write_all(&[byte]);
+        }
+        out.write_all(&[byte | 0x80])?;
+    }
+}
+
+fn write_f64(out: &mut impl Write, x: f64) -> std::io::Result<()> {
+    out.write_all(&x.to_bits().to_le_bytes())
+}
+
+fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Result<()> {
+    write_varint(out, r.index as u64)?;
+    out.write_all(&[failure_code(r.reference_failure)])?;
+    write_f64(out, r.reference_seconds)?;
+    write_varint(out, r.tracks.len() as u64)?;
+    for t in &r.tracks {
+        let flags = u8::from(t.distances.is_some()) | (u8::from(t.kinetic_energy.is_some()) << 1);
+        out.write_all(&[flags, failure_code(t.failure)])?;
+        for d in t.distances.iter().flatten() {
+            write_f64(out, *d)?;
+        }
+        write_f64(out, t.seconds)?;
+        let counts = [
+            t.steps,
+            t.truncated_steps,
+            t.newton_iterations,
+            t.homotopy_steps,
+            t.rounding_certified_steps,
+        ];
+        for c in counts {
+            write_varint(out, c as u64)?;
+        }
+        for x in [
+            t.clock_lag,
+            t.max_position_residual,
+            t.max_velocity_residual,
+        ] {
+            write_f64(out, x)?;
+        }
+        if let Some(k) = t.kinetic_energy {
+            write_f64(out, k)?;
+        }
+    }
+    Ok(())
+}
+
+/// Reads what [`write_record`] wrote, failing with a message on a short or malformed input.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let end = end.ok_or("the file is cut short")?;
+        let taken = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(taken)
+    }
+
+    fn byte(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+
+    fn f64(&mut self) -> Result<f64, String> {
+        let bytes: [u8; 8] = self.take(8)?.try_into().map_err(|_| "short f64")?;
+        Ok(f64::from_bits(u64::from_le_bytes(bytes)))
+    }
+
+    fn count(&mut self) -> Result<usize, String> {
+        let mut value = 0u64;
+        for shift in (0..64).step_by(7) {
+            let byte = self.byte()?;
+            value |= u64::from(byte & 0x7f) << shift;
+            if byte & 0x80 == 0 {
+                return usize::try_from(value).map_err(|_| "a count beyond usize".into());
+            }
+        }
+        Err("a count of more than 64 bits".into())
+    }
+
+    fn failure(&mut self) -> Result<Option<FailureKind>, String> {
+        match self.byte()? {
+            0 => Ok(None),
+            code => FailureKind::ALL
+                .get(usize::from(code) - 1)
+                .map(|&k| Some(k))
+                .ok_or_else(|| format!("failure code {code} is no failure kind")),
+        }
+    }
+
+    fn record(&mut self) -> Result<PathRecord, String> {
+        let index = self.count()?;
+        let reference_failure = self.failure()?;
+        let reference_seconds = self.f64()?;
+        let tracks = self.count()?;
+        // Each track takes at least 2 + 8 * 4 + 5 bytes: a count beyond the rest of the file
+        // is refused before anything is allocated for it.
+        if tracks > (self.bytes.len() - self.at) / 39 {
+            return Err(format!("{tracks} tracks do not fit in the file"));
+        }
+        let tracks = (0..tracks)
+            .map(|_| self.track())
+            .collect::<Result<_, _>>()?;
+        Ok(PathRecord {
+            index,
+            reference_failure,
+            reference_seconds,
+            tracks,
+        })
+    }
+
+    fn track(&mut self) -> Result<TrackOutcome, String> {
+        let flags = self.byte()?;
+        if flags > 3 {
+            return Err(format!("track flags {flags} are not 0 to 3"));
+        }
+        let failure = self.failure()?;
+        let distances = if flags & 1 == 1 {
+            Some([self.f64()?, self.f64()?, self.f64()?])
+        } else {
+            None
+        };
+        let seconds = self.f64()?;
+        let mut counts = [0usize; 5];
+        for c in &mut counts {
+            *c = self.count()?;
+        }
+        let [
+            steps,
+            truncated_steps,
+            newton_iterations,
+            homotopy_steps,
+            rounding,
+        ] = counts;
+        let (clock_lag, max_position_residual) = (self.f64()?, self.f64()?);
+        let max_velocity_residual = self.f64()?;
+        let kinetic_energy = if flags & 2 == 2 {
+            Some(self.f64()?)
+        } else {
+            None
+        };
+        Ok(TrackOutcome {
+            distances,
+            failure,
+            seconds,
+            steps,
+            truncated_steps,
+            newton_iterations,
+            homotopy_steps,
+            rounding_certified_steps: rounding,
+            clock_lag,
+            max_position_residual,
+            max_velocity_residual,
+            kinetic_energy,
+        })
+    }
+}
+
+/// The lock of one run's checkpoint and results: a file created only if it does not exist,
+/// holding the process id, the host and the Slurm job (id and restart count, if any) of the
+/// run that took it, removed when the lock is dropped. A lock left by a process of this host
+/// that is gone (killed), or by an earlier restart of the same Slurm job, is taken over; one
+/// held by a live process, or by a process of another host (whose life cannot be checked from
+/// here), is a [`StudyError::Locked`].
+#[derive(Debug)]
+pub struct RunLock {
+    path: PathBuf,
+    /// The process id of a run that had died holding the lock, if it was taken over.
+    pub took_over: Option<u32>,
+}
+
+/// The Slurm job this process runs in and how often it was requeued, as written into a lock:
+/// a requeued job keeps its id and counts its restarts, so a lock of an earlier restart of the
+/// same job, on whatever host, is known to be stale.
+fn slurm_job() -> Option<(String, u32)> {
+    let id = std::env::var("SLURM_JOB_ID").ok()?;
+    let restart = std::env::var("SLURM_RESTART_COUNT")
+        .ok()
+        .and_then(|r| r.trim().parse().ok())
+        .unwrap_or(0);
+    Some((id.trim().to_string(), restart))
+}
+
+/// This machine's name, as written into a lock.
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "this-host".into())
+}
+
+impl RunLock {
+    /// Takes the lock file `path`, creating its folder.
+    pub fn take(path: PathBuf) -> Result<RunLock, StudyError> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| StudyError::write(dir, e))?;
+        }
+        let job = slurm_job();
+        let me = match &job {
+            Some((id, restart)) => format!("{} {} {id} {restart}\n", std::process::id(), host()),
+            None => format!("{} {}\n", std::process::id(), host()),
+        };
+        let mut took_over = None;
+        loop {
+            let created = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path);
+            match created {
+                Ok(mut file) => {
+                    file.write_all(me.as_bytes())
+                        .map_err(|e| StudyError::write(&path, e))?;
+                    return Ok(RunLock { path, took_over });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                Err(e) => return Err(StudyError::write(&path, e)),
+            }
+            let text = std::fs::read_to_string(&path).unwrap_or_default();
+            let mut words = text.split_whitespace();
+            let pid = words.next().and_then(|p| p.parse::<u32>().ok());
+            let holder = words.next().unwrap_or("").to_string();
+            let holder_job = (
+                words.next(),
+                words.next().and_then(|r| r.parse::<u32>().ok()),
+            );
+            let requeued = match (&job, holder_job) {
+                (Some((id, restart)), (Some(held), Some(held_restart))) => {
+                    held == id && held_restart < *restart
+                }
+                _ => false,
+            };
+            let locked = |pid: u32| StudyError::Locked {
+                path: path.clone(),
+                pid,
+                host: holder.clone(),
+            };
+            match pid {
+                Some(pid) if took_over.is_none() && requeued => {
+                    took_over = Some(pid);
+                    let _ = std::fs::remove_file(&path);
+                }
+                Some(pid) if holder != host() => return Err(locked(pid)),
+                Some(pid) if took_over.is_none() && process_alive(pid) == Some(false) => {
+                    took_over = Some(pid);
+                    let _ = std::fs::remove_file(&path);
+                }
+                Some(pid) => return Err(locked(pid)),
+                // Being written by the run that creates it, or not a lock file at all.
+                None => return Err(locked(0)),
+            }
+        }
+    }
+
+    /// Where the lock is.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for RunLock {
+    fn drop(&mut self) {
+        let mine = std::fs::read_to_string(&self.path)
+            .ok()
+            .and_then(|t| t.split_whitespace().next()?.parse::<u32>().ok());
+        if mine == Some(std::process::id()) {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn outcome(k: usize) -> TrackOutcome {
+        TrackOutcome {
+            distances: k
+                .is_multiple_of(2)
+                .then_some([0.1 * k as f64, f64::NAN, 1e-300]),
+            failure: (k % 3 == 1).then_some(FailureKind::ALL[k % 8]),
+            seconds: 1.5e-3 * k as f64,
+            steps: 1 << 20,
+            truncated_steps: k,
+            newton_iterations: usize::MAX >> 3,
+            homotopy_steps: 0,
+            rounding_certified_steps: 7,
+            clock_lag: -0.0,
+            max_position_residual: f64::INFINITY,
+            max_velocity_residual: 3e-17,
+            kinetic_energy: (!k.is_multiple_of(2)).then_some(0.25),
+        }
+    }
+
+    #[test]
+    fn records_read_back_bit_for_bit_and_cut_files_are_refused() {
+        let record = PathRecord {
+            index: 300,
+            reference_failure: Some(FailureKind::BlowUp),
+            reference_seconds: 0.5,
+            tracks: (0..6).map(outcome).collect(),
+        };
+        let mut out = BufWriter::new(Vec::new());
+        write_record(&mut out, &record).unwrap();
+        let bytes = out.into_inner().unwrap();
+        let read = Reader {
+            bytes: &bytes,
+            at: 0,
+        }
+        .record()
+        .unwrap();
+        // NaN != NaN: compare the bits through the debug text.
+        assert_eq!(format!("{read:?}"), format!("{record:?}"));
+        for cut in [1, 10, bytes.len() / 2, bytes.len() - 1] {
+            let short = Reader {
+                bytes: &bytes[..cut],
+                at: 0,
+            }
+            .record();
+            assert!(short.is_err(), "cut at {cut} of {}", bytes.len());
         }
     }
 }

@@ -809,7 +809,8 @@ impl ConvergenceRun {
     }
 
     /// Adds the records of `later`, a continuation of this run (same study and shard) that ran
-    /// the paths this one had not finished.
+    /// the paths this one had not finished; the records together pass
+    /// [`ConvergenceRun::check_records`].
     pub fn resume_with(mut self, later: ConvergenceRun) -> Result<ConvergenceRun, StudyError> {
         if !self.same_study(&later) || self.shard != later.shard {
             return Err(StudyError::Merge {
@@ -818,7 +819,49 @@ impl ConvergenceRun {
         }
         self.records.extend(later.records);
         self.records.sort_by_key(|r| r.index);
+        self.check_records()
+            .map_err(|reason| StudyError::Merge { reason })?;
         Ok(self)
+    }
+
+    /// Checks the records as [`build_report`] needs them: each path index below the number of
+    /// paths, of this run's shard and present once, and each record whose reference finished
+    /// with one track per scheme and level (a record whose reference failed has none). The
+    /// error says which record is wrong and how.
+    pub fn check_records(&self) -> Result<(), String> {
+        let (index, count) = self.shard;
+        let tracks = self.schemes.len() * self.settings.levels().len();
+        let mut seen = vec![false; self.settings.paths];
+        for r in &self.records {
+            let Some(s) = seen.get_mut(r.index) else {
+                return Err(format!(
+                    "path {} is out of range (the study has {} paths)",
+                    r.index, self.settings.paths
+                ));
+            };
+            if *s {
+                return Err(format!("path {} appears twice", r.index));
+            }
+            *s = true;
+            if count > 1 && r.index % count != index {
+                return Err(format!("path {} is not of shard {index}/{count}", r.index));
+            }
+            let expected = if r.reference_failure.is_some() {
+                0
+            } else {
+                tracks
+            };
+            if r.tracks.len() != expected {
+                return Err(format!(
+                    "path {} has {} scheme-level results where {expected} are expected                      ({} schemes x {} levels)",
+                    r.index,
+                    r.tracks.len(),
+                    self.schemes.len(),
+                    self.settings.levels().len()
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -826,8 +869,15 @@ impl ConvergenceRun {
 /// and settings (the thread count may differ), every path index present exactly once.
 pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, StudyError> {
     let merge = |reason: String| StudyError::Merge { reason };
+    let within = |shard: &ConvergenceRun, reason: String| {
+        merge(format!(
+            "shard {}/{}: {reason}",
+            shard.shard.0, shard.shard.1
+        ))
+    };
     let mut shards = shards.into_iter();
     let mut merged = shards.next().ok_or_else(|| merge("no shards".into()))?;
+    merged.check_records().map_err(|r| within(&merged, r))?;
     let count = merged.shard.1;
     for shard in shards {
         if !merged.same_study(&shard) {
@@ -836,25 +886,18 @@ pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, St
                 shard.shard.0, shard.shard.1, merged.shard.0, count
             )));
         }
+        shard.check_records().map_err(|r| within(&shard, r))?;
         merged.records.extend(shard.records);
     }
+    // Every path once over all shards (a shard given twice repeats its paths).
+    merged.shard = (0, 1);
+    merged.check_records().map_err(merge)?;
     let mut seen = vec![false; merged.settings.paths];
-    for record in &merged.records {
-        match seen.get_mut(record.index) {
-            Some(s) if !*s => *s = true,
-            _ => {
-                return Err(merge(format!(
-                    "path {} appears twice or is out of range",
-                    record.index
-                )));
-            }
-        }
-    }
+    merged.records.iter().for_each(|r| seen[r.index] = true);
     if let Some(missing) = seen.iter().position(|s| !s) {
         return Err(merge(format!(
             "path {missing} is missing: merge needs all {count} shards"
         )));
     }
-    merged.shard = (0, 1);
     Ok(build_report(merged))
 }

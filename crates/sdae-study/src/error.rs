@@ -89,6 +89,21 @@ pub enum StudyError {
         /// What differs.
         reason: String,
     },
+    /// Another run holds the lock of the results (see
+    /// [`RunLock`](crate::checkpoint::RunLock)).
+    #[error(
+        "{} is held by process {pid} on host {host}: another run writes these results (wait \
+         for it or use another --out; if that process is gone, remove the lock file)",
+        path.display()
+    )]
+    Locked {
+        /// The lock file.
+        path: PathBuf,
+        /// The process holding it (0 when the file names none).
+        pid: u32,
+        /// Its host.
+        host: String,
+    },
     /// The worker threads could not be started.
     #[error("cannot start {threads} worker threads: {message}")]
     Threads {

@@ -679,10 +679,25 @@ impl<'a> Lockstep<'a> {
 pub fn run_block<S: System>(
     plan: &PathPlan,
     ensembles: &mut BlockEnsembles<S>,
-    (r0, v0): (&[f64], &[f64]),
+    start: (&[f64], &[f64]),
     seed: u64,
     indices: &[usize],
 ) -> Result<Vec<PathRecord>, ModelError> {
+    let records = run_block_until(plan, ensembles, start, seed, indices, &|| false)?;
+    Ok(records.unwrap_or_default())
+}
+
+/// [`run_block`], abandoned between two chunks of fine steps once `abandon()` is true: `None`
+/// then comes back and no path of the block is recorded (each path is whole or absent). A stop
+/// thus takes effect within one chunk, whatever the block's length.
+pub fn run_block_until<S: System>(
+    plan: &PathPlan,
+    ensembles: &mut BlockEnsembles<S>,
+    (r0, v0): (&[f64], &[f64]),
+    seed: u64,
+    indices: &[usize],
+    abandon: &dyn Fn() -> bool,
+) -> Result<Option<Vec<PathRecord>>, ModelError> {
     let mut records: Vec<PathRecord> = indices
         .iter()
         .map(|&index| PathRecord {
@@ -698,7 +713,7 @@ pub fn run_block<S: System>(
         reference,
     } = ensembles;
     let Some(first) = tracks.first().or(reference.as_ref()) else {
-        return Ok(records);
+        return Ok(Some(records));
     };
     let (paths, live) = (first.paths(), indices.len());
     if live > paths {
@@ -729,6 +744,9 @@ pub fn run_block<S: System>(
     let h_fine = plan.t_end / (1usize << plan.fine) as f64;
     let has_reference = reference.is_some();
     for _ in 0..(1usize << plan.fine) / lockstep.chunk {
+        if abandon() {
+            return Ok(None);
+        }
         fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine)?;
         if let Some(reference) = reference.as_deref_mut() {
             let clock = Instant::now();
@@ -770,7 +788,7 @@ pub fn run_block<S: System>(
             })
             .collect();
     }
-    Ok(records)
+    Ok(Some(records))
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
-use crate::lockstep::{BLOCK_PATHS, BlockEnsembles, PathPlan, PathRecord, run_block};
+use crate::lockstep::{BLOCK_PATHS, BlockEnsembles, PathPlan, PathRecord, run_block_until};
 use crate::scene::Prepared;
 
 /// A scheme left out, and why.
@@ -103,15 +103,22 @@ pub struct PathSelection {
     pub threads: usize,
 }
 
-/// What the caller steers while a run goes on: progress, an early stop, and the paths an
-/// earlier run already finished.
+/// What receives the records of a block of paths that finished.
+pub type FinishedBlock<'a> = dyn Fn(&[PathRecord]) + Sync + 'a;
+
+/// What the caller steers while a run goes on: progress, an early stop, the paths an earlier
+/// run already finished, and where finished paths go as they finish.
 #[derive(Clone, Copy, Default)]
 pub struct Control<'a> {
     /// Called once per finished path with the number of paths this run has finished.
     pub progress: Option<&'a (dyn Fn(usize) + Sync)>,
-    /// Once set (say by a Ctrl-C or SIGTERM handler), no further path starts and the run
-    /// returns the paths it finished; each path is whole or absent, never cut short.
+    /// Once set (say by a Ctrl-C or SIGTERM handler), no further path starts, the blocks of
+    /// paths in progress are abandoned within one chunk of fine steps, and the run returns the
+    /// paths it finished; each path is whole or absent, never cut short.
     pub stop: Option<&'a AtomicBool>,
+    /// Called with the records of each block of paths as it finishes (before the run ends),
+    /// so that they can be saved periodically.
+    pub finished: Option<&'a FinishedBlock<'a>>,
     /// Indices of paths finished by an interrupted run (their records are kept by the caller):
     /// they are not run again.
     pub done: &'a [usize],
@@ -162,7 +169,16 @@ where
                     if control.stopped() {
                         return Ok(Vec::new());
                     }
-                    let records = run_block(plan, ensembles, start, selection.seed, indices)?;
+                    let stopped = || control.stopped();
+                    let seed = selection.seed;
+                    let Some(records) =
+                        run_block_until(plan, ensembles, start, seed, indices, &stopped)?
+                    else {
+                        return Ok(Vec::new());
+                    };
+                    if let Some(save) = control.finished {
+                        save(&records);
+                    }
                     let finished = finished.fetch_add(indices.len(), Ordering::Relaxed);
                     if let Some(progress) = control.progress {
                         for done in finished + 1..=finished + indices.len() {

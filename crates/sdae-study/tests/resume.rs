@@ -30,7 +30,7 @@ fn a_stopped_run_resumed_equals_the_uninterrupted_run() {
     settings.threads = 1;
     let whole = build_report(common::run(&scene, &settings, 0, 1));
     let dir = folder("library");
-    let checkpoint = Checkpoint::new(dir.join("checkpoint.json"));
+    let checkpoint = Checkpoint::new(dir.join("checkpoint.bin"));
     // Raised after the 7th path: no later block of paths starts.
     let stop = AtomicBool::new(false);
     let raise = |done: usize| {
@@ -41,7 +41,7 @@ fn a_stopped_run_resumed_equals_the_uninterrupted_run() {
     let control = Control {
         progress: Some(&raise),
         stop: Some(&stop),
-        done: &[],
+        ..Control::default()
     };
     let first = checkpoint.run(&scene, &settings, (0, 1), None, control);
     // Paths run in blocks: the block that holds the 7th path finishes whole.
@@ -81,9 +81,14 @@ fn a_stopped_run_resumed_equals_the_uninterrupted_run() {
 fn a_checkpoint_of_another_study_is_refused() {
     let (scene, settings) = common::small(6);
     let dir = folder("other");
-    let checkpoint = Checkpoint::new(dir.join("checkpoint.json"));
+    let checkpoint = Checkpoint::new(dir.join("checkpoint.bin"));
     let done = checkpoint.run(&scene, &settings, (0, 1), None, Control::default());
-    assert!(matches!(done, Ok(Resumed::Finished(_))));
+    let Ok(Resumed::Finished(run)) = done else {
+        panic!("the run did not finish: {done:?}");
+    };
+    // A finished run is not saved by itself (its report comes first).
+    assert!(!checkpoint.path().exists());
+    checkpoint.save(&run).unwrap();
     let mut other = settings.clone();
     other.seed += 1;
     let err = checkpoint.load(&scene, &other, (0, 1)).unwrap_err();
@@ -115,8 +120,14 @@ fn the_binary_stopped_by_sigterm_saves_its_paths_and_resumes_to_the_same_report(
         String::from_utf8_lossy(&whole.stderr)
     );
     let out = dir.join("stopped");
-    let child = study(&out, "1", &[]).spawn().unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(800));
+    let mut child = study(&out, "1", &["--checkpoint-every", "0"])
+        .spawn()
+        .unwrap();
+    // Stopped once it has saved some paths (a periodic checkpoint after every block).
+    let checkpoint = out.join("pendulum").join("checkpoint-0-of-1.bin");
+    while !checkpoint.exists() && child.try_wait().unwrap().is_none() {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
     let killed = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status()
@@ -124,11 +135,11 @@ fn the_binary_stopped_by_sigterm_saves_its_paths_and_resumes_to_the_same_report(
     assert!(killed.success());
     let stopped = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&stopped.stderr);
-    // 130 when stopped part way (0 only if it finished within the delay).
+    // 130 when stopped part way (0 only if it finished before the signal).
     match stopped.status.code() {
         Some(130) => {
             assert!(stderr.contains("--resume"), "{stderr}");
-            assert!(out.join("pendulum").join("checkpoint-0-of-1.json").exists());
+            assert!(out.join("pendulum").join("checkpoint-0-of-1.bin").exists());
             assert!(!out.join("pendulum").join("report.json").exists());
             let resumed = study(&out, "2", &["--resume"]).output().unwrap();
             let stderr = String::from_utf8_lossy(&resumed.stderr);
@@ -136,7 +147,7 @@ fn the_binary_stopped_by_sigterm_saves_its_paths_and_resumes_to_the_same_report(
         }
         code => assert_eq!(code, Some(0), "{stderr}"),
     }
-    assert!(!out.join("pendulum").join("checkpoint-0-of-1.json").exists());
+    assert!(!out.join("pendulum").join("checkpoint-0-of-1.bin").exists());
     let read = |d: &Path| std::fs::read_to_string(d.join("pendulum").join("report.json")).unwrap();
     assert_eq!(numbers(&read(&dir.join("whole"))), numbers(&read(&out)));
     let _ = std::fs::remove_dir_all(&dir);

@@ -17,7 +17,8 @@ use crate::shard::ShardArg;
 /// scene gets <OUT>/<scene>/report.json, report.csv, report.md, error_vs_h.svg and
 /// error_vs_time.svg. Exit codes: 0 the study ran; 1 it ran but something could not be
 /// compared or saved (the message names the failures); 2 the command line or a setting is
-/// wrong; 130 interrupted (the finished paths are saved: run again with --resume).
+/// wrong or refused (a locked or unwritable output folder, a bad checkpoint); 130 interrupted,
+/// the finished paths are saved (run again with --resume); 131 interrupted, nothing saved.
 #[derive(Debug, Parser)]
 #[command(name = "sdae-study", version, args_conflicts_with_subcommands = true)]
 pub struct Cli {
@@ -95,8 +96,16 @@ pub struct EnsembleArgs {
     #[arg(long)]
     pub quick: bool,
     /// Carry on from the paths an interrupted run of the same command saved.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "fresh")]
     pub resume: bool,
+    /// Start afresh over the checkpoint of an interrupted run, discarding its paths (without
+    /// --resume or --fresh such a checkpoint is refused).
+    #[arg(long)]
+    pub fresh: bool,
+    /// Save the finished paths every SECONDS while the study runs (0: after every block of
+    /// paths).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds)]
+    pub checkpoint_every: f64,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -181,6 +190,14 @@ pub fn typed(flag: &str) -> bool {
                 .is_some_and(|rest| rest.is_empty() || rest.starts_with('='))
         })
     })
+}
+
+fn seconds(value: &str) -> Result<f64, String> {
+    match value.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        Ok(_) => Err("must be finite and >= 0".into()),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 fn parse_levels(value: &str) -> Result<(u32, u32), String> {

@@ -6,15 +6,19 @@ mod runs;
 mod shard;
 
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use clap::Parser;
 use sdae_study::StudyError;
 
 use args::{Cli, Command};
 
-/// Raised by Ctrl-C or SIGTERM: no new path starts, and the finished ones are saved.
+/// Raised by Ctrl-C, SIGTERM or SIGHUP: no new path starts, the paths in progress are
+/// dropped, and the finished ones are saved.
 static STOP: AtomicBool = AtomicBool::new(false);
+
+/// The stop signals received so far.
+static SIGNALS: AtomicUsize = AtomicUsize::new(0);
 
 /// Why the program stops with a non-zero exit code.
 #[derive(Debug)]
@@ -25,6 +29,9 @@ pub enum Failure {
     Failed(String),
     /// Stopped by a signal; the finished paths are saved (exit code 130).
     Interrupted(String),
+    /// Stopped by a signal before any path finished, or the finished paths could not be saved
+    /// (exit code 131).
+    Unsaved(String),
 }
 
 impl Failure {
@@ -53,6 +60,7 @@ impl Failure {
             Failure::Usage(m) => Failure::Usage(format!("{context}: {m}")),
             Failure::Failed(m) => Failure::Failed(format!("{context}: {m}")),
             Failure::Interrupted(m) => Failure::Interrupted(m),
+            Failure::Unsaved(m) => Failure::Unsaved(m),
         }
     }
 }
@@ -80,17 +88,24 @@ fn flag(key: &str) -> Option<&'static str> {
     flags.iter().copied().find(|flag| args::typed(flag))
 }
 
-/// Ctrl-C or SIGTERM raises [`STOP`]; a second one ends the program at once.
+/// Ctrl-C, SIGTERM or SIGHUP raises [`STOP`]. Later signals change nothing: the finished
+/// paths the first one promised are saved whatever comes after it (but SIGKILL, which loses
+/// the paths finished since the last periodic checkpoint).
 fn stop_on_signals() {
     let installed = ctrlc::set_handler(|| {
-        if STOP.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
+        STOP.store(true, Ordering::SeqCst);
+        if SIGNALS.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!(
+                "\nstopping: the paths in progress are dropped, the finished ones are being saved"
+            );
+        } else {
+            eprintln!("\nalready stopping: the finished paths are being saved");
         }
-        eprintln!("\nstopping: the paths in progress finish and are saved (again to abort)");
     });
     if let Err(e) = installed {
         eprintln!(
-            "sdae-study: warning: cannot catch Ctrl-C and SIGTERM ({e}); an interrupted run saves nothing"
+            "sdae-study: warning: cannot catch Ctrl-C and SIGTERM ({e}); an interrupted run saves \
+             only its periodic checkpoints"
         );
     }
 }
@@ -134,6 +149,10 @@ fn main() -> ExitCode {
         Err(Failure::Interrupted(message)) => {
             eprintln!("{message}");
             ExitCode::from(130)
+        }
+        Err(Failure::Unsaved(message)) => {
+            eprintln!("{message}");
+            ExitCode::from(131)
         }
     }
 }

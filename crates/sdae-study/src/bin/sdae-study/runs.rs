@@ -3,14 +3,16 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use sdae_study::checkpoint::{Checkpoint, Resumed};
+use sdae_study::StudyError;
+use sdae_study::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_shards,
 };
-use sdae_study::files::{read_json, write_json};
+use sdae_study::files::{check_writable, read_json, remove_stale_temporaries, write_json};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
@@ -38,23 +40,144 @@ struct Job<'a> {
     checkpoint: Checkpoint,
 }
 
-impl Job<'_> {
-    /// Runs the job with a progress bar, from the saved paths with `resume`; an interruption
-    /// saves the finished paths and comes back as [`Failure::Interrupted`].
-    fn run(&self, resume: bool, stop: &AtomicBool) -> Result<ConvergenceRun, Failure> {
-        let (scene, st, (index, count)) = (self.scene, self.settings, self.shard);
-        let saved = if resume {
-            self.checkpoint.load(scene, st, self.shard)?
-        } else {
-            if self.checkpoint.path().exists() {
-                eprintln!(
-                    "note: starting afresh; {} held the paths of an interrupted run (--resume \
-                     carries on from them)",
-                    self.checkpoint.path().display()
-                );
+/// What the command line says about checkpoints.
+#[derive(Debug, Clone, Copy)]
+struct Resumption {
+    /// Carry on from a checkpoint.
+    resume: bool,
+    /// Discard a checkpoint.
+    fresh: bool,
+    /// Save the finished paths this often.
+    every: Duration,
+}
+
+impl Resumption {
+    fn of(args: &EnsembleArgs) -> Self {
+        Resumption {
+            resume: args.resume,
+            fresh: args.fresh,
+            every: Duration::from_secs_f64(args.checkpoint_every),
+        }
+    }
+}
+
+/// A library error met before anything ran: a refusal (exit code 2), whatever its kind.
+fn refused(e: StudyError) -> Failure {
+    match Failure::from(e) {
+        Failure::Failed(message) => Failure::Usage(message),
+        other => other,
+    }
+}
+
+/// A job made ready to run: its folder checked, its results locked (until it is dropped), and
+/// the paths it resumes from.
+struct Ready<'a> {
+    job: Job<'a>,
+    saved: Option<SavedPaths>,
+    /// Printed before the job runs (an equipartition variant's name).
+    label: Option<String>,
+    _lock: RunLock,
+}
+
+impl<'a> Job<'a> {
+    /// The job of `scene` with its checkpoint at `file`, saved as `how` says.
+    fn new(
+        (scene, settings): (&'a Scene, &'a ConvergenceSettings),
+        shard: (usize, usize),
+        file: PathBuf,
+        how: Resumption,
+    ) -> Self {
+        Job {
+            scene,
+            settings,
+            shard,
+            checkpoint: Checkpoint::new(file).every(how.every),
+        }
+    }
+
+    /// Before anything runs: checks that the job's folder is writable, takes the lock of its
+    /// checkpoint, removes the temporary files of `outputs` (and of the checkpoint) that
+    /// killed runs left, and reads the checkpoint with --resume. A checkpoint found without
+    /// --resume is refused, or discarded with --fresh.
+    fn ready(self, how: Resumption, outputs: &[&str]) -> Result<Ready<'a>, Failure> {
+        let path = self.checkpoint.path().to_path_buf();
+        let dir = path.parent().unwrap_or(Path::new("."));
+        check_writable(dir).map_err(refused)?;
+        let lock = self.checkpoint.lock().map_err(refused)?;
+        if let Some(pid) = lock.took_over {
+            eprintln!(
+                "note: {} was left by process {pid}, which is gone: taken over",
+                lock.path().display()
+            );
+        }
+        let own = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        let names: Vec<&str> = outputs.iter().copied().chain([own]).collect();
+        let removed = remove_stale_temporaries(dir, &names);
+        if removed > 0 {
+            eprintln!(
+                "note: removed {removed} temporary file(s) in {} left by a killed run",
+                dir.display()
+            );
+        }
+        let name = &self.scene.name;
+        let saved = if how.resume {
+            let saved = self
+                .checkpoint
+                .load(self.scene, self.settings, self.shard)
+                .map_err(|e| refused(e).within(&format!("scene {name}")))?;
+            match &saved {
+                Some(s) => eprintln!(
+                    "{name}: resuming from {} of {} paths saved in {}",
+                    s.records.len(),
+                    self.selected(),
+                    path.display()
+                ),
+                None => eprintln!(
+                    "{name}: nothing to resume ({} does not exist): starting from the first path",
+                    path.display()
+                ),
             }
+            saved
+        } else if path.exists() {
+            let what = self.checkpoint.holds().map_or_else(
+                || "a file that is not a checkpoint".into(),
+                |(n, m)| format!("{n} of {m} paths of an interrupted run"),
+            );
+            if !how.fresh {
+                return Err(Failure::Usage(format!(
+                    "scene {name}: {} holds {what}: --resume carries on from them, --fresh \
+                     discards them",
+                    path.display()
+                )));
+            }
+            eprintln!("note: --fresh: discarding {} ({what})", path.display());
+            self.checkpoint.remove().map_err(refused)?;
+            None
+        } else {
             None
         };
+        Ok(Ready {
+            job: self,
+            saved,
+            label: None,
+            _lock: lock,
+        })
+    }
+
+    /// The paths of the job's shard.
+    fn selected(&self) -> usize {
+        let (index, count) = self.shard;
+        (index..self.settings.paths).step_by(count).count()
+    }
+}
+
+impl Ready<'_> {
+    /// Runs the job with a progress bar, from the saved paths; an interruption saves the
+    /// finished paths and comes back as [`Failure::Interrupted`] (exit code 130), or as
+    /// [`Failure::Unsaved`] (131) when no path finished or they could not be saved.
+    fn run(&mut self, stop: &AtomicBool) -> Result<ConvergenceRun, Failure> {
+        let job = &self.job;
+        let (scene, st, (index, count)) = (job.scene, job.settings, job.shard);
         let reference = st.reference.map_or("no reference".into(), |r| {
             format!("reference 2^{r} ({})", st.reference_scheme.name())
         });
@@ -67,40 +190,99 @@ impl Job<'_> {
             readable(st.t_end),
             st.threads
         );
-        let selected = (index..st.paths).step_by(count).count();
-        let bar = bar(selected, "paths");
+        let saved = self.saved.take();
+        let bar = bar(job.selected(), "paths");
         bar.set_position(saved.as_ref().map_or(0, |s| s.records.len()) as u64);
         let control = Control {
             progress: Some(&|_| bar.inc(1)),
             stop: Some(stop),
-            done: &[],
+            ..Control::default()
         };
-        let resumed = self.checkpoint.run(scene, st, self.shard, saved, control)?;
+        let resumed = job.checkpoint.run(scene, st, job.shard, saved, control);
         bar.finish_and_clear();
+        let file = job.checkpoint.path().display();
         match resumed {
-            Resumed::Finished(run) => Ok(*run),
-            Resumed::Interrupted { saved, selected } => Err(Failure::Interrupted(format!(
-                "{}: interrupted; {saved} of {selected} paths are saved in {}: run the same \
-                 command with --resume to carry on",
-                scene.name,
-                self.checkpoint.path().display()
+            Ok(Resumed::Finished(run)) => Ok(*run),
+            Ok(Resumed::Interrupted { saved: 0, selected }) => Err(Failure::Unsaved(format!(
+                "{}: interrupted before any of its {selected} paths finished: nothing saved",
+                scene.name
             ))),
+            Ok(Resumed::Interrupted { saved, selected }) => Err(Failure::Interrupted(format!(
+                "{}: interrupted; {saved} of {selected} paths are saved in {file}: run the same \
+                 command with --resume to carry on",
+                scene.name
+            ))),
+            Err(e) if stop.load(Ordering::SeqCst) => Err(Failure::Unsaved(format!(
+                "{}: interrupted, and the finished paths could not be saved: {e}",
+                scene.name
+            ))),
+            Err(e @ StudyError::Threads { .. }) => Err(refused(e)),
+            Err(e) => Err(Failure::from(e)),
         }
     }
 }
+
+/// After the finished `runs` of `jobs` were written (`written`, the report first): removes
+/// their checkpoints; if they could not be written, saves the runs' paths in the checkpoints
+/// instead, so that --resume writes the results without running again.
+fn deliver(
+    jobs: &[Ready<'_>],
+    runs: &[ConvergenceRun],
+    written: Result<(), StudyError>,
+) -> Result<(), Failure> {
+    let Err(e) = written else {
+        return jobs
+            .iter()
+            .try_for_each(|r| r.job.checkpoint.remove())
+            .map_err(Failure::from);
+    };
+    let kept: Result<Vec<String>, StudyError> = jobs
+        .iter()
+        .zip(runs)
+        .map(|(r, run)| {
+            r.job.checkpoint.save(run)?;
+            Ok(r.job.checkpoint.path().display().to_string())
+        })
+        .collect();
+    Err(Failure::Failed(match kept {
+        Ok(files) => format!(
+            "{e}; the finished paths are saved in {}: --resume writes the results without \
+             running again",
+            files.join(", ")
+        ),
+        Err(saving) => format!("{e}; nor could the finished paths be saved: {saving}"),
+    }))
+}
+
+/// Refuses two scenes of one name in one command: their results would overwrite each other.
+fn distinct(scenes: &[Scene]) -> Result<(), Failure> {
+    let mut names = std::collections::BTreeSet::new();
+    match scenes.iter().find(|s| !names.insert(&s.name)) {
+        Some(twice) => Err(Failure::Usage(format!(
+            "two scenes are named {0}: their results would overwrite each other (give one \
+             another name in its scene file)",
+            twice.name
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The files a convergence report puts in its scene's folder.
+const REPORT_FILES: [&str; 5] = [
+    "report.json",
+    "report.csv",
+    "report.md",
+    "error_vs_h.svg",
+    "error_vs_time.svg",
+];
 
 /// Validates each scene's settings before anything runs, so that a bad value stops the
 /// command at once.
 fn checked(scenes: &[Scene], settings: &[ConvergenceSettings]) -> Result<(), Failure> {
     for (scene, s) in scenes.iter().zip(settings) {
         // Whatever the library calls it, a setting it refuses is a usage error.
-        s.validate_for(scene).map_err(|e| {
-            let failure = match Failure::from(e) {
-                Failure::Failed(message) => Failure::Usage(message),
-                other => other,
-            };
-            failure.within(&format!("scene {}", scene.name))
-        })?;
+        s.validate_for(scene)
+            .map_err(|e| refused(e).within(&format!("scene {}", scene.name)))?;
     }
     Ok(())
 }
@@ -109,6 +291,7 @@ fn checked(scenes: &[Scene], settings: &[ConvergenceSettings]) -> Result<(), Fai
 pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let e = &args.ensemble;
     let scenes = e.scenes.load(|s| s.name == "pendulum")?;
+    distinct(&scenes)?;
     let settings: Vec<_> = scenes.iter().map(|s| args.settings(s)).collect();
     checked(&scenes, &settings)?;
     let shard = args
@@ -117,20 +300,32 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
         .transpose()
         .map_err(Failure::Usage)?;
     let (index, count) = shard.unwrap_or((0, 1));
+    let how = Resumption::of(e);
+    let shard_file = format!("shard-{index}-of-{count}.json");
+    let outputs: Vec<&str> = match shard {
+        Some(_) => vec![&shard_file],
+        None => REPORT_FILES.to_vec(),
+    };
+    let jobs = scenes
+        .iter()
+        .zip(&settings)
+        .map(|(scene, settings)| {
+            let dir = e.out.out.join(&scene.name);
+            let file = dir.join(format!("checkpoint-{index}-of-{count}.bin"));
+            Job::new((scene, settings), (index, count), file, how).ready(how, &outputs)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let mut uncompared = Vec::new();
-    for (scene, settings) in scenes.iter().zip(&settings) {
-        let dir = e.out.out.join(&scene.name);
-        let job = Job {
-            scene,
-            settings,
-            shard: (index, count),
-            checkpoint: Checkpoint::new(dir.join(format!("checkpoint-{index}-of-{count}.json"))),
-        };
-        let run = job.run(e.resume, stop)?;
+    for mut ready in jobs {
+        let run = ready.run(stop)?;
+        let dir = e.out.out.join(&ready.job.scene.name);
         if shard.is_some() {
-            let file = dir.join(format!("shard-{index}-of-{count}.json"));
-            write_json(&file, &run)?;
-            job.checkpoint.remove()?;
+            let file = dir.join(&shard_file);
+            deliver(
+                std::slice::from_ref(&ready),
+                std::slice::from_ref(&run),
+                write_json(&file, &run),
+            )?;
             println!(
                 "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
                 file.display(),
@@ -138,10 +333,10 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
             );
             continue;
         }
-        let report = build_report(run);
+        let report = build_report(run.clone());
         print_summary(&report);
-        write_report(&report, &dir)?;
-        job.checkpoint.remove()?;
+        let written = write_report(&report, &dir);
+        deliver(std::slice::from_ref(&ready), &[run], written)?;
         println!(
             "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
             dir.display()
@@ -178,7 +373,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
     let mut files = Vec::new();
     let mut visit = |dir: &Path, deeper: bool| -> Result<Vec<PathBuf>, Failure> {
         let entries = std::fs::read_dir(dir)
-            .map_err(|e| Failure::Failed(format!("cannot read {}: {e}", dir.display())))?;
+            .map_err(|e| Failure::Usage(format!("cannot read {}: {e}", dir.display())))?;
         let mut subdirs = Vec::new();
         for path in entries.flatten().map(|entry| entry.path()) {
             let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -196,7 +391,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
         }
     }
     if files.is_empty() {
-        return Err(Failure::Failed("no shard-*.json files found".into()));
+        return Err(Failure::Usage("no shard-*.json files found".into()));
     }
     files.sort();
     Ok(files)
@@ -206,7 +401,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut by_scene: BTreeMap<String, Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
-        let shard: ConvergenceRun = read_json(&file).map_err(|e| Failure::Failed(e.to_string()))?;
+        let shard: ConvergenceRun = read_json(&file).map_err(refused)?;
         // An absurd setting in a shard file (say its paths) is refused before merging.
         shard
             .settings
@@ -220,7 +415,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut uncompared = Vec::new();
     for (name, shards) in by_scene {
         let context = format!("scene {name}");
-        let report = merge_shards(shards).map_err(|e| Failure::from(e).within(&context))?;
+        let report = merge_shards(shards).map_err(|e| refused(e).within(&context))?;
         print_summary(&report);
         let dir = out.join(&name);
         write_report(&report, &dir)?;
@@ -230,9 +425,36 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     nothing_uncompared(uncompared)
 }
 
+/// The files the stability and equipartition studies put in their folder.
+const STUDY_FILES: [&str; 4] = [
+    "report.json",
+    "report.md",
+    "stability.svg",
+    "equipartition.svg",
+];
+
+/// Runs `jobs` one after the other; each finished run but the last is saved in its checkpoint
+/// (the study's report needs them all, and an interruption of a later one must not lose them).
+fn run_all(jobs: &mut [Ready<'_>], stop: &AtomicBool) -> Result<Vec<ConvergenceRun>, Failure> {
+    let mut runs = Vec::new();
+    let last = jobs.len().saturating_sub(1);
+    for (k, ready) in jobs.iter_mut().enumerate() {
+        if let Some(label) = ready.label.take() {
+            eprintln!("{label}");
+        }
+        let run = ready.run(stop)?;
+        if k < last {
+            ready.job.checkpoint.save(&run)?;
+        }
+        runs.push(run);
+    }
+    Ok(runs)
+}
+
 /// The stability study of the scenes with a [stability] table (or those named).
 pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let scenes = args.scenes.load(|s| s.stability.is_some())?;
+    distinct(&scenes)?;
     let settings = scenes
         .iter()
         .map(|scene| {
@@ -245,17 +467,18 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
         .collect::<Result<Vec<_>, _>>()?;
     checked(&scenes, &settings)?;
     let dir = args.out.out.join("stability");
+    let how = Resumption::of(args);
+    let mut jobs = scenes
+        .iter()
+        .zip(&settings)
+        .map(|(scene, settings)| {
+            let file = dir.join(format!("{}.checkpoint.bin", scene.name));
+            Job::new((scene, settings), (0, 1), file, how).ready(how, &STUDY_FILES)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let runs = run_all(&mut jobs, stop)?;
     let mut report = StabilityReport { scenes: Vec::new() };
-    let mut checkpoints = Vec::new();
-    for (scene, settings) in scenes.iter().zip(&settings) {
-        let job = Job {
-            scene,
-            settings,
-            shard: (0, 1),
-            checkpoint: Checkpoint::new(dir.join(format!("{}.checkpoint.json", scene.name))),
-        };
-        let run = job.run(args.resume, stop)?;
-        checkpoints.push(job.checkpoint);
+    for (scene, run) in scenes.iter().zip(&runs) {
         let case = scene
             .stability
             .as_ref()
@@ -263,11 +486,10 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
             .unwrap_or_default();
         report.scenes.push(StabilityScene {
             case,
-            report: build_report(run),
+            report: build_report(run.clone()),
         });
     }
-    stability::write_report(&report, &dir)?;
-    checkpoints.iter().try_for_each(Checkpoint::remove)?;
+    deliver(&jobs, &runs, stability::write_report(&report, &dir))?;
     let table = stability::markdown(&report);
     let head: Vec<&str> = table.lines().take(4 + report.scenes.len()).collect();
     println!("{}", head.join("\n"));
@@ -281,6 +503,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
 /// The equipartition study of the scenes with an [equipartition] table (or those named).
 pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let scenes = args.scenes.load(|s| s.equipartition.is_some())?;
+    distinct(&scenes)?;
     let mut all = Vec::new();
     for scene in &scenes {
         let variants = equipartition::variants(scene, args.quick).ok_or_else(|| {
@@ -295,31 +518,30 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         all.push((scene, variants, settings));
     }
     let dir = args.out.out.join("equipartition");
-    let (mut results, mut checkpoints) = (Vec::new(), Vec::new());
+    let how = Resumption::of(args);
+    let mut jobs = Vec::new();
     for (scene, variants, settings) in &all {
-        let mut reports = Vec::new();
         for (k, (variant, settings)) in variants.iter().zip(settings).enumerate() {
-            eprintln!("{}: {}", scene.name, variant.label);
-            let job = Job {
-                scene: &variant.scene,
-                settings,
-                shard: (0, 1),
-                checkpoint: Checkpoint::new(
-                    dir.join(format!("{}-{k}.checkpoint.json", scene.name)),
-                ),
-            };
-            reports.push(build_report(job.run(args.resume, stop)?));
-            checkpoints.push(job.checkpoint);
+            let file = dir.join(format!("{}-{k}.checkpoint.bin", scene.name));
+            let job = Job::new((&variant.scene, settings), (0, 1), file, how);
+            let mut ready = job.ready(how, &STUDY_FILES)?;
+            ready.label = Some(format!("{}: {}", scene.name, variant.label));
+            jobs.push(ready);
         }
-        results.push(equipartition::collect(&reports).ok_or_else(|| {
+    }
+    let runs = run_all(&mut jobs, stop)?;
+    let mut reports = runs.iter().map(|run| build_report(run.clone()));
+    let mut results = Vec::new();
+    for (scene, variants, _) in &all {
+        let scene_reports: Vec<_> = reports.by_ref().take(variants.len()).collect();
+        results.push(equipartition::collect(&scene_reports).ok_or_else(|| {
             Failure::Usage(format!(
                 "scene {} has no equipartition value (not a Langevin system)",
                 scene.name
             ))
         })?);
     }
-    equipartition::write_report(&results, &dir)?;
-    checkpoints.iter().try_for_each(Checkpoint::remove)?;
+    deliver(&jobs, &runs, equipartition::write_report(&results, &dir))?;
     for scene in &results {
         let biased = scene.rows.iter().filter(|r| r.biased == Some(true)).count();
         let (failed, paths) = scene.failed_paths();

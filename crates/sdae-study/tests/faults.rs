@@ -1,0 +1,398 @@
+//! Nothing lost, whatever happens to a run: killed (SIGKILL) at random moments and resumed, it
+//! ends with the report of an uninterrupted run; two stop signals save what the first promised;
+//! bad output folders, locked folders, forgotten checkpoints, malformed checkpoints and shards,
+//! and two scenes of one name are refused before anything runs (exit code 2).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use sdae_study::StudyError;
+use sdae_study::checkpoint::{Checkpoint, Resumed};
+use sdae_study::parallel::Control;
+
+fn folder(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("sdae-faults-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The study binary with the test's environment cleared of what would change its output.
+fn binary() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sdae-study"));
+    command
+        .env_remove("SDAE_STUDY_OUT")
+        .env_remove("SLURM_JOB_ID")
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    command
+}
+
+/// A pendulum study of a few seconds, in blocks of 64 paths on one thread, saved after every
+/// block.
+fn long_study(out: &Path, extra: &[&str]) -> Command {
+    let mut command = binary();
+    command
+        .args(["--paths", "1200", "--levels", "3..8", "--ref-level", "12"])
+        .args(["--threads", "1", "--checkpoint-every", "0", "--out"])
+        .arg(out)
+        .args(extra);
+    command
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn numbers(file: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(file).unwrap();
+    sdae_study::files::numbers_of(&text).unwrap()
+}
+
+fn signal(child: &Child, name: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{name}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+/// Waits until `file` exists (the child saved a checkpoint) or the child ended.
+fn wait_for(file: &Path, child: &mut Child) {
+    let start = Instant::now();
+    while !file.exists() && child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(60), "no {file:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Delays from a seeded splitmix64 stream, in `range` milliseconds.
+fn delays(seed: u64, count: usize, range: std::ops::Range<u64>) -> Vec<Duration> {
+    let mut state = seed;
+    (0..count)
+        .map(|_| {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^= z >> 31;
+            Duration::from_millis(range.start + z % (range.end - range.start))
+        })
+        .collect()
+}
+
+#[test]
+fn killed_at_random_moments_and_resumed_it_ends_with_the_uninterrupted_report() {
+    let dir = folder("sigkill");
+    let whole = long_study(&dir.join("whole"), &[]).output().unwrap();
+    assert!(whole.status.success(), "{}", stderr(&whole));
+    let out = dir.join("killed");
+    let scene_dir = out.join("pendulum");
+    let checkpoint = Checkpoint::new(scene_dir.join("checkpoint-0-of-1.bin"));
+    let saved = || checkpoint.holds().map_or(0, |(n, _)| n);
+    let mut runs = Vec::new();
+    // Each run is killed at a random moment after it saved more paths than the one before
+    // (so that the study gets on), perhaps in the middle of its next save.
+    for delay in delays(2026, 3, 0..300) {
+        let before = saved();
+        let mut child = long_study(&out, &["--resume"]).spawn().unwrap();
+        let start = Instant::now();
+        while saved() <= before && child.try_wait().unwrap().is_none() {
+            assert!(start.elapsed() < Duration::from_secs(60), "no progress");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        std::thread::sleep(delay);
+        if child.try_wait().unwrap().is_none() {
+            child.kill().unwrap();
+        }
+        runs.push(child.wait_with_output().unwrap());
+    }
+    let killed = runs.iter().filter(|r| r.status.code().is_none()).count();
+    assert!(killed >= 2, "only {killed} of the runs were killed");
+    let last = long_study(&out, &["--resume"]).output().unwrap();
+    runs.push(last);
+    let last = runs.last().unwrap();
+    assert!(last.status.success(), "{}", stderr(last));
+    // A killed run leaves its lock: the next run takes it over, says so, and resumes.
+    for pair in runs.windows(2) {
+        if pair[0].status.code().is_none() {
+            let text = stderr(&pair[1]);
+            assert!(text.contains("taken over"), "{text}");
+            assert!(text.contains("resuming from"), "{text}");
+        }
+    }
+    assert_eq!(
+        numbers(&dir.join("whole/pendulum/report.json")),
+        numbers(&scene_dir.join("report.json"))
+    );
+    // Nothing left behind: no checkpoint, lock or temporary file.
+    let left: Vec<_> = std::fs::read_dir(&scene_dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("checkpoint") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn two_stop_signals_save_the_finished_paths_and_exit_130() {
+    let dir = folder("twice");
+    let checkpoint = dir.join("pendulum").join("checkpoint-0-of-1.bin");
+    for second in ["TERM", "INT"] {
+        let mut child = long_study(&dir, &[]).spawn().unwrap();
+        wait_for(&checkpoint, &mut child);
+        signal(&child, "TERM");
+        signal(&child, second);
+        let stopped = child.wait_with_output().unwrap();
+        let text = stderr(&stopped);
+        if stopped.status.code() == Some(0) {
+            continue; // finished before the signals: nothing to check
+        }
+        assert_eq!(stopped.status.code(), Some(130), "{text}");
+        assert!(text.contains("paths are saved in"), "{text}");
+        assert!(text.contains("--resume"), "{text}");
+        assert!(checkpoint.exists());
+        let cp = Checkpoint::new(&checkpoint);
+        let (saved, of) = cp.holds().expect("a readable checkpoint");
+        assert!(saved > 0 && saved < of && of == 1200, "{saved} of {of}");
+        assert!(
+            text.contains(&format!("{saved} of 1200 paths are saved")),
+            "{text}"
+        );
+        cp.remove().unwrap();
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_stop_before_any_path_finished_exits_131() {
+    let dir = folder("nothing");
+    // A reference of 2^20 steps: the first block of paths takes far longer than the start.
+    let child = binary()
+        .args([
+            "--paths",
+            "64",
+            "--ref-level",
+            "20",
+            "--threads",
+            "1",
+            "--out",
+        ])
+        .arg(&dir)
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    signal(&child, "TERM");
+    let stopped = child.wait_with_output().unwrap();
+    let text = stderr(&stopped);
+    assert_eq!(stopped.status.code(), Some(131), "{text}");
+    assert!(text.contains("nothing saved"), "{text}");
+    assert!(!dir.join("pendulum").join("checkpoint-0-of-1.bin").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs the binary and requires exit code 2 with every one of `words` in its message.
+fn refused(command: &mut Command, words: &[&str]) -> String {
+    let out = command.output().unwrap();
+    let text = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{text}");
+    for word in words {
+        assert!(text.contains(word), "'{word}' not in\n{text}");
+    }
+    text
+}
+
+fn quick(out: &Path, extra: &[&str]) -> Command {
+    let mut command = binary();
+    command
+        .args(["--quick", "--paths", "8", "--threads", "1", "--out"])
+        .arg(out)
+        .args(extra);
+    command
+}
+
+#[test]
+fn unusable_output_folders_are_refused_before_running() {
+    let dir = folder("out");
+    let file = dir.join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    refused(&mut quick(&file, &[]), &["cannot write", "a-file"]);
+    let long = dir.join("n".repeat(300));
+    refused(&mut quick(&long, &[]), &["cannot write"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_checkpoint_is_neither_replaced_nor_resumed_by_another_run() {
+    let dir = folder("forgotten");
+    let scene_dir = dir.join("pendulum");
+    let checkpoint = scene_dir.join("checkpoint-0-of-1.bin");
+    // An interrupted run's checkpoint (its paths saved by the library, as the binary does).
+    let (scene, mut settings) = common::small(8);
+    settings.threads = 1;
+    let run = common::run(&scene, &settings, 0, 1);
+    Checkpoint::new(&checkpoint).save(&run).unwrap();
+    // Without --resume, a run (here a --quick check) refuses to replace it.
+    refused(
+        &mut quick(&dir, &[]),
+        &[
+            "checkpoint-0-of-1.bin",
+            "8 of 8 paths",
+            "--resume",
+            "--fresh",
+        ],
+    );
+    assert!(checkpoint.exists());
+    // With --resume, a run of other settings names what differs.
+    refused(
+        &mut quick(&dir, &["--resume"]),
+        &["cannot resume", "setting"],
+    );
+    // A live run holds the lock: a second run in the folder is refused.
+    let lock = scene_dir.join("checkpoint-0-of-1.bin.lock");
+    std::fs::write(&lock, format!("{} {}\n", std::process::id(), host())).unwrap();
+    refused(&mut quick(&dir, &["--fresh"]), &["held by process", "lock"]);
+    std::fs::remove_file(&lock).unwrap();
+    // --fresh discards it and says so; --resume with nothing to resume says so.
+    let fresh = quick(&dir, &["--fresh"]).output().unwrap();
+    assert!(fresh.status.success(), "{}", stderr(&fresh));
+    assert!(stderr(&fresh).contains("discarding"), "{}", stderr(&fresh));
+    let resumed = quick(&dir, &["--resume"]).output().unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    assert!(stderr(&resumed).contains("nothing to resume"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_else(|_| "this-host".into())
+}
+
+#[test]
+fn malformed_checkpoints_are_refused_with_a_typed_error() {
+    let (scene, mut settings) = common::small(8);
+    settings.threads = 1;
+    let dir = folder("malformed");
+    let checkpoint = Checkpoint::new(dir.join("checkpoint.bin"));
+    let run = common::run(&scene, &settings, 0, 1);
+    let resume = |c: &Checkpoint| {
+        let saved = c.load(&scene, &settings, (0, 1))?;
+        c.run(&scene, &settings, (0, 1), saved, Control::default())
+    };
+    // A record with fewer tracks.
+    let mut short = run.clone();
+    short.records.truncate(3);
+    short.records[1].tracks.pop();
+    checkpoint.save(&short).unwrap();
+    let err = resume(&checkpoint).unwrap_err();
+    assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+    assert!(err.to_string().contains("scheme-level results"), "{err}");
+    // A duplicated record, and one out of range.
+    for index in [2, 8] {
+        let mut bad = run.clone();
+        bad.records.truncate(3);
+        bad.records[0].index = index;
+        checkpoint.save(&bad).unwrap();
+        let err = resume(&checkpoint).unwrap_err();
+        assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+        assert!(err.to_string().contains(&format!("path {index}")), "{err}");
+    }
+    // A file cut short, or not a checkpoint at all.
+    let mut partial = run.clone();
+    partial.records.truncate(4);
+    checkpoint.save(&partial).unwrap();
+    let bytes = std::fs::read(checkpoint.path()).unwrap();
+    for cut in [bytes.len() - 1, bytes.len() - 200, 10] {
+        std::fs::write(checkpoint.path(), &bytes[..cut]).unwrap();
+        let err = resume(&checkpoint).unwrap_err();
+        assert!(matches!(err, StudyError::Read { .. }), "{err}");
+    }
+    // A good one resumes to the whole run.
+    std::fs::write(checkpoint.path(), &bytes).unwrap();
+    let Ok(Resumed::Finished(resumed)) = resume(&checkpoint) else {
+        panic!("a good checkpoint did not resume");
+    };
+    // The saved records read back bit for bit; the report's numbers are the whole run's.
+    assert_eq!(resumed.records[..4], run.records[..4]);
+    let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
+    let numbers_of = |json: String| sdae_study::files::numbers_of(&json).unwrap();
+    assert_eq!(
+        numbers_of(report(*resumed)),
+        numbers_of(report(run.clone()))
+    );
+    // Through the binary: a corrupt checkpoint is refused (exit code 2), naming the file.
+    let out = dir.join("out");
+    let file = out.join("pendulum").join("checkpoint-0-of-1.bin");
+    std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+    std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+    refused(
+        &mut quick(&out, &["--resume"]),
+        &["checkpoint-0-of-1.bin", "not a whole checkpoint"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
+    let dir = folder("shards");
+    for i in 0..2 {
+        let shard = format!("{i}/2");
+        let out = quick(&dir.join(format!("s{i}")), &["--shard", &shard])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let shard0 = dir.join("s0/pendulum/shard-0-of-2.json");
+    // The same shard twice.
+    let twice = dir.join("twice");
+    std::fs::create_dir_all(&twice).unwrap();
+    std::fs::copy(&shard0, twice.join("shard-0-of-2.json")).unwrap();
+    let merge = |dirs: &[&Path]| {
+        let mut command = binary();
+        command
+            .arg("merge")
+            .args(dirs)
+            .arg("--out")
+            .arg(dir.join("m"));
+        command
+    };
+    refused(
+        &mut merge(&[&dir.join("s0"), &dir.join("s1"), &twice]),
+        &["appears twice"],
+    );
+    // A record with a track less: refused, not a panic.
+    let text = std::fs::read_to_string(&shard0).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let tracks = json["records"][0]["tracks"].as_array_mut().unwrap();
+    tracks.pop();
+    std::fs::write(&shard0, serde_json::to_string(&json).unwrap()).unwrap();
+    refused(
+        &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
+        &["shard 0/2", "scheme-level results"],
+    );
+    // Not a shard at all.
+    std::fs::write(&shard0, "{").unwrap();
+    refused(&mut merge(&[&dir.join("s0")]), &["shard-0-of-2.json"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn two_scenes_of_one_name_are_refused() {
+    let dir = folder("names");
+    let file = dir.join("pendulum.toml");
+    std::fs::write(&file, include_str!("../scenes/pendulum.toml")).unwrap();
+    refused(
+        quick(&dir, &["--scene", "pendulum", "--scene-file"]).arg(&file),
+        &["two scenes are named pendulum"],
+    );
+    assert!(!dir.join("pendulum").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

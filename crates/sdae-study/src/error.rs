@@ -2,7 +2,8 @@
 //!
 //! Settings are named by their key in a scene file (`study.paths`) or, for those a scene file
 //! does not hold, by their field in [`ConvergenceSettings`](crate::convergence::ConvergenceSettings)
-//! (`p`, `threads`); the command line maps the keys to its flags.
+//! (`p`, `threads`); the command line names them by its flags where the user typed the value
+//! there.
 
 use std::path::PathBuf;
 

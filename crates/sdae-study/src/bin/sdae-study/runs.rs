@@ -562,10 +562,13 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
 /// One path of each scene as a picture and a CSV file.
 pub fn trace(args: &TraceArgs) -> Result<(), Failure> {
     let scenes = args.scenes.load(|_| true)?;
+    let steps = scenes
+        .iter()
+        .map(trace::steps)
+        .collect::<Result<Vec<_>, _>>()?;
     let dir = args.out.out.join("trace");
     let bar = bar(scenes.len(), "scenes");
-    for scene in &scenes {
-        let steps = trace::steps(scene)?;
+    for (scene, &steps) in scenes.iter().zip(&steps) {
         let trace = trace::trace(scene, steps, args.seed)?;
         if let Some(failure) = &trace.failure {
             bar.suspend(|| eprintln!("{}: the path stopped early: {failure}", scene.name));

@@ -100,18 +100,6 @@ pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Resul
     })
 }
 
-/// Serializes `value` as JSON on one line and writes it atomically: for files that programs
-/// read back, such as a checkpoint of many paths (about 60% of [`write_json`]'s bytes).
-pub fn write_compact_json<T: serde::Serialize + ?Sized>(
-    path: &Path,
-    value: &T,
-) -> Result<(), StudyError> {
-    write_with(path, |out| {
-        serde_json::to_writer(&mut *out, value)?;
-        out.write_all(b"\n")
-    })
-}
-
 /// Reads a JSON file written by [`write_json`].
 pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StudyError> {
     let fail = |message: String| StudyError::Read {

@@ -396,3 +396,45 @@ fn two_scenes_of_one_name_are_refused() {
     assert!(!dir.join("pendulum").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_stability_study_stopped_in_its_second_scene_resumes_to_the_same_report() {
+    let dir = folder("stability");
+    let study = |out: &Path, extra: &[&str]| {
+        let mut command = binary();
+        command
+            .args(["stability", "--quick", "--paths", "600", "--threads", "1"])
+            .args(["--scene", "fast-pendulum,long-pendulum"])
+            .args(["--checkpoint-every", "0", "--out"])
+            .arg(out)
+            .args(extra);
+        command
+    };
+    let whole = study(&dir.join("whole"), &[]).output().unwrap();
+    assert!(whole.status.success(), "{}", stderr(&whole));
+    let out = dir.join("stopped");
+    let second = out.join("stability").join("long-pendulum.checkpoint.bin");
+    let mut child = study(&out, &[]).spawn().unwrap();
+    wait_for(&second, &mut child);
+    signal(&child, "TERM");
+    let stopped = child.wait_with_output().unwrap();
+    match stopped.status.code() {
+        Some(130) => {
+            let first = out.join("stability").join("fast-pendulum.checkpoint.bin");
+            assert!(first.exists() && second.exists());
+            let resumed = study(&out, &["--resume"]).output().unwrap();
+            let text = stderr(&resumed);
+            assert!(resumed.status.success(), "{text}");
+            assert!(
+                text.contains("fast-pendulum: resuming from 600 of 600"),
+                "{text}"
+            );
+        }
+        code => assert_eq!(code, Some(0), "{}", stderr(&stopped)),
+    }
+    assert_eq!(
+        numbers(&dir.join("whole/stability/report.json")),
+        numbers(&out.join("stability/report.json"))
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -23,7 +23,8 @@ static SIGNALS: AtomicUsize = AtomicUsize::new(0);
 /// Why the program stops with a non-zero exit code.
 #[derive(Debug)]
 pub enum Failure {
-    /// The command line or a setting is wrong (exit code 2).
+    /// The command line or a setting is wrong, or the run is refused before anything runs (an
+    /// unusable or locked output folder, a bad checkpoint or shard) (exit code 2).
     Usage(String),
     /// The study ran and something could not be compared or saved (exit code 1).
     Failed(String),

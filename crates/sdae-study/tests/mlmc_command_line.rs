@@ -43,7 +43,7 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
         &["mlmc", "--eps", "0", "--out", out],
         &["eps = 0", "finite and > 0"],
     );
-    usage_error(&["mlmc", "--eps", "-1e-3", "--out", out], &["eps = -0.001"]);
+    usage_error(&["mlmc", "--eps=-1e-3", "--out", out], &["eps = -0.001"]);
     usage_error(&["mlmc", "--eps", "nan", "--out", out], &["eps = NaN"]);
     usage_error(
         &["mlmc", "--observable", "energy", "--quick", "--out", out],
@@ -75,13 +75,16 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
 }
 
 #[test]
-fn a_quick_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
+fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
     let dir = scratch("mlmc-quick");
     let out = dir.to_str().unwrap();
     let plan = dir.join("plan.json");
     let ran = study(&[
         "mlmc",
-        "--quick",
+        "--test-samples",
+        "512",
+        "--eps",
+        "2e-2",
         "--threads",
         "2",
         "--out",

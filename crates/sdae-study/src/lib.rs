@@ -12,6 +12,8 @@
 //! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
+//! - [`mlmc`]: multilevel Monte Carlo (Giles) for E[f(X_T)], with antithetic fine paths for
+//!   multiplicative noise.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
 //!   paired bootstrap over paths), SVG plots and the report files.
@@ -29,6 +31,7 @@ pub mod files;
 pub mod integrator;
 pub mod lockstep;
 pub mod memory;
+pub mod mlmc;
 pub mod output;
 pub mod parallel;
 pub mod plots;

@@ -235,6 +235,9 @@ pub struct Scene {
     /// Settings of the equipartition study, for Langevin scenes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub equipartition: Option<EquipartitionSpec>,
+    /// Settings of the multilevel Monte Carlo study (`mlmc`); the defaults where left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mlmc: Option<crate::mlmc::MlmcSpec>,
 }
 
 /// The built-in scenes: (name, file contents).
@@ -523,6 +526,7 @@ impl Scene {
             study: StudyDefaults::default(),
             stability: None,
             equipartition: None,
+            mlmc: None,
         };
         scene.validate()?;
         Ok(scene)

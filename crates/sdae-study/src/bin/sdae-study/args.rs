@@ -48,6 +48,12 @@ pub enum Command {
     Trace(TraceArgs),
     /// The built-in scenes and the schemes.
     List,
+    /// Multilevel Monte Carlo of E[f(X_T)] (Giles): convergence test, rates, complexity
+    /// table, savings against standard Monte Carlo (default: the pendulum's E[cos phi_T]);
+    /// writes <OUT>/mlmc/<scene>/.
+    Mlmc(crate::mlmc_cli::MlmcArgs),
+    /// Merge the shard files of `mlmc --plan FILE --shard I/N` runs into the plan's report.
+    MlmcMerge(crate::mlmc_cli::MlmcMergeArgs),
 }
 
 /// Which scenes to run.

@@ -2,6 +2,7 @@
 //! user scenes (run by `cargo xtask study`; `sdae-study --help` lists the options).
 
 mod args;
+mod mlmc_cli;
 mod runs;
 mod shard;
 
@@ -132,6 +133,11 @@ fn main() -> ExitCode {
         }
         Some(Command::Merge(args)) => runs::merge(&args.dirs, &args.out.out),
         Some(Command::Trace(args)) => runs::trace(&args),
+        Some(Command::Mlmc(args)) => {
+            stop_on_signals();
+            mlmc_cli::mlmc(&args, &STOP)
+        }
+        Some(Command::MlmcMerge(args)) => mlmc_cli::mlmc_merge(&args),
         Some(Command::List) => {
             runs::list();
             Ok(())

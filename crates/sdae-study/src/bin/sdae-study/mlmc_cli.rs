@@ -1,0 +1,388 @@
+//! The `mlmc` and `mlmc-merge` subcommands: multilevel Monte Carlo of a scene's E[f(X_T)].
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use sdae_study::files::{read_json, write_atomically, write_json};
+use sdae_study::mlmc::algorithm::Plan;
+use sdae_study::mlmc::report::{print_summary, write_report};
+use sdae_study::mlmc::shard::{Identity, MlmcShard, merge, plan_markdown, plan_report, run_shard};
+use sdae_study::mlmc::study::{MlmcSettings, SamplerTask, plan_from_test, run_mlmc, with_sampler};
+use sdae_study::mlmc::{LevelSampler, MlmcError, RunControl, run_plan};
+use sdae_study::scene::Scene;
+
+use crate::Failure;
+use crate::args::{OutArgs, SceneArgs};
+use crate::shard::ShardArg;
+
+/// Options of `mlmc`.
+#[derive(Debug, Clone, Args)]
+pub struct MlmcArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// Observable f of E[f(X_T)]: cos-angle, end-to-end (default: the scene's, cos-angle).
+    #[arg(long, value_name = "NAME")]
+    pub observable: Option<String>,
+    /// Scheme on both paths of each pair (default: the scene's, half-explicit-practical).
+    #[arg(long, value_name = "NAME")]
+    pub scheme: Option<String>,
+    /// Accuracies eps of the complexity table, comma-separated (default: the scene's).
+    #[arg(
+        long,
+        value_name = "EPS",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub eps: Vec<f64>,
+    /// Antithetic fine paths (for multiplicative noise).
+    #[arg(long)]
+    pub antithetic: bool,
+    /// Level 0 on 2^K steps (default: the scene's, 2).
+    #[arg(long, value_name = "K")]
+    pub coarsest: Option<u32>,
+    /// The finest level the algorithm may add (default: the scene's, 12).
+    #[arg(long = "max-level", value_name = "L")]
+    pub max_level: Option<u32>,
+    /// The convergence test runs levels 0..=L (default: the scene's, 6).
+    #[arg(long = "test-levels", value_name = "L")]
+    pub test_levels: Option<u32>,
+    /// Samples per level of the convergence test (default: the scene's, 4096).
+    #[arg(long = "test-samples", value_name = "N")]
+    pub test_samples: Option<u64>,
+    /// Final time (default: the scene's).
+    #[arg(long = "t-end", alias = "T", value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Seed of the sample streams.
+    #[arg(long, value_name = "S", default_value_t = 2026)]
+    pub seed: u64,
+    /// Worker threads (default: the available cores); the numbers do not depend on it.
+    #[arg(long, value_name = "K")]
+    pub threads: Option<usize>,
+    /// A run of seconds: two test levels fewer, 1024 test samples, the two largest eps.
+    #[arg(long)]
+    pub quick: bool,
+    /// Leave out the direct standard Monte Carlo run at the largest eps.
+    #[arg(long = "no-standard")]
+    pub no_standard: bool,
+    /// After the study, write the plan (levels and N_l) for the smallest eps, from the
+    /// convergence test, to this file (the pilot of a cluster run, docs/cluster.md).
+    #[arg(long = "write-plan", value_name = "FILE")]
+    pub write_plan: Option<PathBuf>,
+    /// Run this plan (from --write-plan) instead of the study; with --shard, only a shard.
+    #[arg(long, value_name = "FILE")]
+    pub plan: Option<PathBuf>,
+    /// With --plan: run the blocks b with b % N == I and write
+    /// <OUT>/mlmc/<scene>/mlmc-shard-I-of-N.json; `auto` reads a Slurm job array.
+    #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse, requires = "plan")]
+    pub shard: Option<ShardArg>,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Options of `mlmc-merge`.
+#[derive(Debug, Clone, Args)]
+pub struct MlmcMergeArgs {
+    /// Folders holding mlmc-shard-*.json files (searched one level deep).
+    #[arg(value_name = "DIR", required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// The scene of the shards, if not built in (a scene file).
+    #[arg(long = "scene-file", value_name = "PATH")]
+    pub scene_file: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+impl From<MlmcError> for Failure {
+    fn from(e: MlmcError) -> Failure {
+        match e {
+            MlmcError::Interrupted => {
+                Failure::Interrupted("interrupted: no MLMC result was written".into())
+            }
+            MlmcError::Study(e) => Failure::from_study(e),
+            e if e.is_input() => Failure::Usage(e.to_string()),
+            e => Failure::Failed(e.to_string()),
+        }
+    }
+}
+
+impl MlmcArgs {
+    /// The settings of `scene` with the command line's changes.
+    fn settings(&self, scene: &Scene) -> MlmcSettings {
+        let mut s = MlmcSettings::for_scene(scene);
+        let spec = &mut s.spec;
+        if let Some(o) = &self.observable {
+            spec.observable = o.clone();
+        }
+        if let Some(scheme) = &self.scheme {
+            spec.scheme = scheme.clone();
+        }
+        if !self.eps.is_empty() {
+            spec.eps = self.eps.clone();
+        }
+        spec.antithetic |= self.antithetic;
+        spec.coarsest = self.coarsest.unwrap_or(spec.coarsest);
+        spec.max_level = self.max_level.unwrap_or(spec.max_level);
+        spec.test_levels = self.test_levels.unwrap_or(spec.test_levels);
+        spec.test_samples = self.test_samples.unwrap_or(spec.test_samples);
+        s.t_end = self.t_end.unwrap_or(s.t_end);
+        s.seed = self.seed;
+        s.threads = self.threads.unwrap_or(s.threads);
+        s.standard_run = !self.no_standard;
+        if self.quick {
+            s = s.quick();
+        }
+        s
+    }
+}
+
+/// A spinner counting samples on stderr.
+fn spinner(scene: &str) -> ProgressBar {
+    let template = format!("  {{spinner}} {scene}: {{pos}} samples, {{elapsed}} elapsed");
+    ProgressBar::new_spinner().with_style(
+        ProgressStyle::with_template(&template)
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    )
+}
+
+/// A run's control: `threads` workers, the progress callback, the stop flag.
+fn control<'a>(
+    threads: usize,
+    progress: &'a (dyn Fn(u64) + Sync),
+    stop: &'a AtomicBool,
+) -> Result<RunControl<'a>, Failure> {
+    let mut c = RunControl::new(threads)?;
+    c.progress = Some(progress);
+    c.stop = Some(stop);
+    Ok(c)
+}
+
+/// The MLMC study of one scene (the pendulum by default), a plan's run or one of its shards.
+pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    let scenes = args.scenes.load(|s| s.name == "pendulum")?;
+    let [scene] = &scenes[..] else {
+        return Err(Failure::Usage(format!(
+            "mlmc runs one scene at a time; {} were named",
+            scenes.len()
+        )));
+    };
+    let settings = args.settings(scene);
+    settings
+        .validate()
+        .map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
+    let dir = args.out.out.join("mlmc").join(&scene.name);
+    let bar = spinner(&scene.name);
+    let progress = |n: u64| bar.inc(n);
+    let control = control(settings.threads, &progress, stop)?;
+    if let Some(plan_file) = &args.plan {
+        let plan: Plan = read_json(plan_file)?;
+        let result = run_plan_file(scene, &settings, &control, (plan, args.shard), &dir);
+        bar.finish_and_clear();
+        return result;
+    }
+    let s = &settings.spec;
+    eprintln!(
+        "{}: MLMC of E[{}] with {}, level 0 on 2^{} steps, {}eps {:?}, {} threads",
+        scene.name,
+        s.observable,
+        s.scheme,
+        s.coarsest,
+        if s.antithetic { "antithetic, " } else { "" },
+        s.eps,
+        settings.threads
+    );
+    let report = run_mlmc(scene, &settings, &control);
+    bar.finish_and_clear();
+    let report = report.map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
+    write_report(&report, &dir)?;
+    print_summary(&report);
+    println!("wrote {}", dir.join("report.md").display());
+    if let Some(file) = &args.write_plan {
+        let eps = s.eps.iter().copied().fold(f64::INFINITY, f64::min);
+        let plan = with_sampler(
+            scene,
+            &settings,
+            PlanFromReport {
+                report: &report,
+                eps,
+            },
+        )?;
+        write_json(file, &plan)?;
+        println!(
+            "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
+            file.display(),
+            plan.samples
+        );
+    }
+    Ok(())
+}
+
+/// The plan for eps from a report's convergence test.
+struct PlanFromReport<'a> {
+    report: &'a sdae_study::mlmc::MlmcReport,
+    eps: f64,
+}
+
+impl SamplerTask for PlanFromReport<'_> {
+    type Output = Plan;
+    fn run<L: LevelSampler>(self, sampler: &L) -> Result<Plan, MlmcError> {
+        let alpha = self.report.rates.alpha.map_or(1.0, |a| a.estimate.max(0.5));
+        plan_from_test(sampler, &self.report.test, alpha, self.eps)
+    }
+}
+
+/// Runs a plan, all of it or one shard, and writes its report or shard file.
+fn run_plan_file(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    control: &RunControl<'_>,
+    (plan, shard): (Plan, Option<ShardArg>),
+    dir: &Path,
+) -> Result<(), Failure> {
+    let identity = Identity::of(&scene.name, settings);
+    struct Task<'a, 'b> {
+        control: &'a RunControl<'b>,
+        identity: Identity,
+        plan: Plan,
+        shard: Option<(usize, usize)>,
+    }
+    enum Done {
+        Shard(Box<MlmcShard>),
+        Report(Box<sdae_study::mlmc::shard::PlanReport>),
+    }
+    impl SamplerTask for Task<'_, '_> {
+        type Output = Done;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<Done, MlmcError> {
+            match self.shard {
+                Some((i, n)) => Ok(Done::Shard(Box::new(run_shard(
+                    sampler,
+                    self.control,
+                    (self.identity, self.plan),
+                    (i as u64, n as u64),
+                )?))),
+                None => {
+                    let sums = run_plan(sampler, self.control, &self.plan.samples)?;
+                    Ok(Done::Report(Box::new(plan_report(
+                        sampler,
+                        (self.identity, self.plan),
+                        sums,
+                    )?)))
+                }
+            }
+        }
+    }
+    let shard = shard
+        .map(|s| s.resolve(|name| std::env::var(name).ok()))
+        .transpose()
+        .map_err(Failure::Usage)?;
+    let task = Task {
+        control,
+        identity,
+        plan,
+        shard,
+    };
+    match with_sampler(scene, settings, task)? {
+        Done::Shard(s) => {
+            let file = dir.join(format!("mlmc-shard-{}-of-{}.json", s.shard.0, s.shard.1));
+            write_json(&file, &s)?;
+            println!(
+                "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
+                file.display()
+            );
+        }
+        Done::Report(r) => write_plan_report(&r, dir)?,
+    }
+    Ok(())
+}
+
+fn write_plan_report(
+    report: &sdae_study::mlmc::shard::PlanReport,
+    dir: &Path,
+) -> Result<(), Failure> {
+    write_json(&dir.join("plan-report.json"), report)?;
+    write_atomically(&dir.join("plan-report.md"), &plan_markdown(report))?;
+    let e = &report.estimate;
+    println!(
+        "{}: {:.6} [{:.6}, {:.6}] (eps {:.0e}, N_l {:?}); wrote {}",
+        report.identity.scene,
+        e.estimate.estimate,
+        e.estimate.ci_low,
+        e.estimate.ci_high,
+        e.eps,
+        report.plan.samples,
+        dir.join("plan-report.md").display()
+    );
+    Ok(())
+}
+
+/// The mlmc-shard-*.json files in `dirs` and their subfolders.
+fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
+    let mut files = Vec::new();
+    let is_shard = |p: &Path| {
+        p.file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n.starts_with("mlmc-shard-") && n.ends_with(".json"))
+    };
+    for dir in dirs {
+        let entries = std::fs::read_dir(dir)
+            .map_err(|e| Failure::Usage(format!("cannot read {}: {e}", dir.display())))?;
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                if let Ok(inner) = std::fs::read_dir(&path) {
+                    files.extend(inner.flatten().map(|e| e.path()).filter(|p| is_shard(p)));
+                }
+            } else if is_shard(&path) {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    if files.is_empty() {
+        return Err(Failure::Usage("no mlmc-shard-*.json files found".into()));
+    }
+    Ok(files)
+}
+
+/// Merges the shard files of a plan into its report: exactly the unsharded run's sums.
+pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
+    let shards: Vec<MlmcShard> = shard_files(&args.dirs)?
+        .iter()
+        .map(|f| read_json(f))
+        .collect::<Result<_, _>>()?;
+    let (identity, plan, sums) = merge(&shards)?;
+    let scene = match &args.scene_file {
+        Some(file) => Scene::from_file(file)?,
+        None => Scene::built_in(&identity.scene)?,
+    };
+    let mut settings = MlmcSettings::for_scene(&scene);
+    settings.spec.scheme = identity.scheme.clone();
+    settings.spec.observable = identity.observable.clone();
+    settings.spec.coarsest = identity.coarsest;
+    settings.spec.antithetic = identity.antithetic;
+    settings.t_end = identity.t_end;
+    settings.seed = identity.seed;
+    struct Report {
+        identity: Identity,
+        plan: Plan,
+        sums: Vec<sdae_study::mlmc::LevelSums>,
+    }
+    impl SamplerTask for Report {
+        type Output = sdae_study::mlmc::shard::PlanReport;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError> {
+            plan_report(sampler, (self.identity, self.plan), self.sums)
+        }
+    }
+    let dir = args.out.out.join("mlmc").join(&identity.scene);
+    let report = with_sampler(
+        &scene,
+        &settings,
+        Report {
+            identity,
+            plan,
+            sums,
+        },
+    )?;
+    write_plan_report(&report, &dir)
+}

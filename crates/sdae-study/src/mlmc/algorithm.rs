@@ -1,0 +1,287 @@
+//! Giles's adaptive MLMC algorithm (Acta Numerica 2015, Algorithm 1 with theta = 1/2), the
+//! runs with a fixed plan, and standard Monte Carlo on one level.
+//!
+//! With V_l the variance of P_l - P_{l-1} and C_l the cost of one sample of level l, the
+//! optimal numbers of samples for a mean square error eps^2 (half variance, half bias^2) are
+//! N_l = ceil(2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k)); a level is added while the bias
+//! estimate max_{k <= 2} |E[P_{L-k} - P_{L-k-1}]| 2^(-k alpha) / (2^alpha - 1) exceeds
+//! eps / sqrt(2). The cost C_l is the work of a sample in steps (the fine path, its antithetic
+//! twin, the coarse path), known exactly, so the algorithm's choices do not depend on the
+//! machine's timing or the thread count.
+
+use serde::{Deserialize, Serialize};
+
+use super::fit::fit_slope;
+use super::sampler::{BLOCK, LevelSampler, RunControl};
+use super::settings::{MlmcError, check_eps};
+use super::sums::LevelSums;
+use crate::stats::{Interval, t975};
+
+/// Settings of the adaptive algorithm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveSettings {
+    /// Root mean square accuracy eps.
+    pub eps: f64,
+    /// Samples on each level when it is first run (Giles's N_0).
+    pub initial_samples: u64,
+    /// Levels 0..=this to start with (Giles's L_min, at least 2 so that alpha can be fitted).
+    pub min_levels: u32,
+    /// The finest level the algorithm may add (L_max).
+    pub max_level: u32,
+}
+
+/// The result of an MLMC run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MlmcEstimate {
+    /// The accuracy asked for.
+    pub eps: f64,
+    /// sum_l mean(P_l - P_{l-1}) with its 95% interval from the sampling variance
+    /// sum_l V_l / N_l (the bias is not in it: see `bias`).
+    pub estimate: Interval,
+    /// The bias estimate at the finest level when the run stopped.
+    pub bias: f64,
+    /// False if the bias estimate still exceeded eps / sqrt(2) at L_max (Giles: "failed to
+    /// achieve weak convergence").
+    pub converged: bool,
+    /// Per level, the samples' sums.
+    pub levels: Vec<LevelSums>,
+    /// Work in steps, sum_l N_l C_l.
+    pub work: f64,
+    /// Measured seconds of all threads together.
+    pub seconds: f64,
+}
+
+/// The estimate sum_l mean_l(Y) with its interval from sum_l V_l / N_l (t quantile of the
+/// smallest sample).
+pub fn estimate_of(levels: &[LevelSums]) -> Interval {
+    let mean: f64 = levels.iter().map(LevelSums::mean_y).sum();
+    let var: f64 = levels.iter().map(|s| s.var_y() / s.samples as f64).sum();
+    let fewest = levels.iter().map(|s| s.samples).min().unwrap_or(0) as usize;
+    let half = t975(fewest.saturating_sub(1)) * var.sqrt();
+    Interval {
+        estimate: mean,
+        ci_low: mean - half,
+        ci_high: mean + half,
+    }
+}
+
+/// Giles's remaining-error estimate: max_{k <= min(2, L - 1)} m_{L-k} 2^(-k alpha) /
+/// (2^alpha - 1), from the absolute means m_l of P_l - P_{l-1}.
+pub fn bias_estimate(means: &[f64], alpha: f64) -> f64 {
+    let last = means.len() - 1;
+    (0..=2.min(last.saturating_sub(1)))
+        .map(|k| means[last - k] / 2f64.powf(k as f64 * alpha))
+        .fold(0.0, f64::max)
+        / (2f64.powf(alpha) - 1.0)
+}
+
+/// N_l = ceil(2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k)).
+pub fn optimal_samples(variances: &[f64], costs: &[f64], eps: f64) -> Vec<u64> {
+    let total: f64 = variances
+        .iter()
+        .zip(costs)
+        .map(|(v, c)| (v * c).sqrt())
+        .sum();
+    variances
+        .iter()
+        .zip(costs)
+        .map(|(v, c)| (2.0 / (eps * eps) * (v / c).sqrt() * total).ceil() as u64)
+        .collect()
+}
+
+/// The slope of log2 of `values` over levels 1.. (Giles's regression), negated.
+fn decay_rate(values: &[f64]) -> Option<f64> {
+    let x: Vec<f64> = (1..values.len()).map(|l| l as f64).collect();
+    let y: Vec<f64> = values[1..].iter().map(|v| v.log2()).collect();
+    fit_slope(&x, &y, None).map(|i| -i.estimate)
+}
+
+/// Fails if a level has no sample with a value (every pair failed).
+fn check_levels(levels: &[LevelSums]) -> Result<(), MlmcError> {
+    for (l, s) in levels.iter().enumerate() {
+        if s.samples < 2 {
+            return Err(MlmcError::Levels {
+                reason: format!(
+                    "level {l}: {} of {} samples failed, too few left for a variance",
+                    s.failed,
+                    s.attempted()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Giles's adaptive algorithm: levels 0..=L_min with N_0 samples each, then optimal N_l from
+/// the measured variances, and a new level while the bias estimate exceeds eps / sqrt(2).
+/// Samples are added in whole blocks ([`BLOCK`]).
+pub fn adaptive<L: LevelSampler>(
+    sampler: &L,
+    control: &RunControl<'_>,
+    settings: &AdaptiveSettings,
+) -> Result<MlmcEstimate, MlmcError> {
+    let eps = check_eps(settings.eps)?;
+    if settings.min_levels < 2 || settings.min_levels > settings.max_level {
+        return Err(MlmcError::Levels {
+            reason: format!(
+                "the first levels 0..={} must number at least 3 and stay within L_max = {}",
+                settings.min_levels, settings.max_level
+            ),
+        });
+    }
+    let mut top = settings.min_levels as usize;
+    let mut sums = vec![LevelSums::default(); top + 1];
+    let mut taken = vec![0u64; top + 1];
+    let mut more = vec![settings.initial_samples.max(2); top + 1];
+    let (mut alpha, mut beta) = (0.0f64, 0.0f64);
+    let mut costs: Vec<f64> = (0..=top)
+        .map(|l| sampler.pair_steps(l as u32) as f64)
+        .collect();
+    let (bias, converged) = loop {
+        for l in 0..=top {
+            if more[l] > 0 {
+                taken[l] +=
+                    control.extend(sampler, l as u32, (&mut sums[l], taken[l]), more[l], true)?;
+            }
+        }
+        check_levels(&sums)?;
+        let mut means: Vec<f64> = sums.iter().map(|s| s.mean_y().abs()).collect();
+        let mut variances: Vec<f64> = sums.iter().map(LevelSums::var_y).collect();
+        // Giles's guard against means and variances that happen to be tiny.
+        for l in 2..=top {
+            means[l] = means[l].max(0.5 * means[l - 1] / 2f64.powf(alpha));
+            variances[l] = variances[l].max(0.5 * variances[l - 1] / 2f64.powf(beta));
+        }
+        alpha = decay_rate(&means).map_or(0.5, |a| a.max(0.5));
+        beta = decay_rate(&variances).map_or(0.5, |b| b.max(0.5));
+        let wanted = optimal_samples(&variances, &costs, eps);
+        more = wanted
+            .iter()
+            .zip(&taken)
+            .map(|(w, n)| w.saturating_sub(*n))
+            .collect();
+        let settled = more
+            .iter()
+            .zip(&taken)
+            .all(|(&m, &n)| m as f64 <= 0.01 * n as f64);
+        if settled {
+            let bias = bias_estimate(&means, alpha);
+            if bias <= eps / 2f64.sqrt() {
+                break (bias, true);
+            }
+            if top as u32 == settings.max_level {
+                break (bias, false);
+            }
+            top += 1;
+            variances.push(variances[top - 1] / 2f64.powf(beta));
+            costs.push(sampler.pair_steps(top as u32) as f64);
+            sums.push(LevelSums::default());
+            taken.push(0);
+            let wanted = optimal_samples(&variances, &costs, eps);
+            more = wanted
+                .iter()
+                .zip(&taken)
+                .map(|(w, n)| w.saturating_sub(*n))
+                .collect();
+        }
+    };
+    Ok(finish(sampler, eps, sums, (bias, converged)))
+}
+
+fn finish<L: LevelSampler>(
+    sampler: &L,
+    eps: f64,
+    levels: Vec<LevelSums>,
+    (bias, converged): (f64, bool),
+) -> MlmcEstimate {
+    let work = levels
+        .iter()
+        .enumerate()
+        .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
+        .sum();
+    MlmcEstimate {
+        eps,
+        estimate: estimate_of(&levels),
+        bias,
+        converged,
+        seconds: levels.iter().map(|s| s.seconds).sum(),
+        work,
+        levels,
+    }
+}
+
+/// A run with fixed numbers of samples per level (each rounded up to whole blocks): the plan
+/// an adaptive pilot found, for a sharded main run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// The accuracy the plan is for.
+    pub eps: f64,
+    /// N_l for l = 0..=L.
+    pub samples: Vec<u64>,
+}
+
+impl Plan {
+    /// The plan of a finished run: its levels and numbers of samples.
+    pub fn of(run: &MlmcEstimate) -> Self {
+        Self {
+            eps: run.eps,
+            samples: run.levels.iter().map(LevelSums::attempted).collect(),
+        }
+    }
+}
+
+/// The sums of each level of `samples` (levels 0..samples.len()), block by block in order:
+/// the same bits as an adaptive run that took these numbers of samples.
+pub fn run_plan<L: LevelSampler>(
+    sampler: &L,
+    control: &RunControl<'_>,
+    samples: &[u64],
+) -> Result<Vec<LevelSums>, MlmcError> {
+    samples
+        .iter()
+        .enumerate()
+        .map(|(l, &n)| {
+            let mut sums = LevelSums::default();
+            control.extend(sampler, l as u32, (&mut sums, 0), n, true)?;
+            Ok(sums)
+        })
+        .collect()
+}
+
+/// The estimate of a plan's sums (merged from shards or run at once).
+pub fn estimate_of_plan<L: LevelSampler>(
+    sampler: &L,
+    plan: &Plan,
+    levels: Vec<LevelSums>,
+) -> Result<MlmcEstimate, MlmcError> {
+    check_levels(&levels)?;
+    let means: Vec<f64> = levels.iter().map(|s| s.mean_y().abs()).collect();
+    let x: Vec<f64> = (1..means.len()).map(|l| l as f64).collect();
+    let alpha = if means.len() > 2 {
+        let y: Vec<f64> = means[1..].iter().map(|m| m.log2()).collect();
+        fit_slope(&x, &y, None).map_or(0.5, |i| (-i.estimate).max(0.5))
+    } else {
+        1.0
+    };
+    let bias = bias_estimate(&means, alpha);
+    let converged = bias <= plan.eps / 2f64.sqrt();
+    Ok(finish(sampler, plan.eps, levels, (bias, converged)))
+}
+
+/// Standard Monte Carlo on level `level`: `samples` single fine paths (rounded up to whole
+/// blocks), from the same streams as the fine paths of the level's pairs.
+pub fn standard_monte_carlo<L: LevelSampler>(
+    sampler: &L,
+    control: &RunControl<'_>,
+    level: u32,
+    samples: u64,
+) -> Result<LevelSums, MlmcError> {
+    let mut sums = LevelSums::default();
+    control.extend(sampler, level, (&mut sums, 0), samples, false)?;
+    Ok(sums)
+}
+
+/// Samples rounded up to whole blocks.
+pub fn whole_blocks(samples: u64) -> u64 {
+    samples.div_ceil(BLOCK) * BLOCK
+}

@@ -1,0 +1,234 @@
+//! The level sampler of a scene: a study scheme on both paths of each pair, [`BLOCK`] pairs
+//! at a time in ensembles (SIMD lanes where the scheme and the system have a lane form).
+//!
+//! Sample i of level l draws the fine increments of path (seed, l 2^48 + i) two steps at a
+//! time: the fine path takes them in order, the coarse path one step of 2 h with their sum (as
+//! the lockstep driver sums a level's increments), and the antithetic twin the two in swapped
+//! order. Its fine value is f at the fine path's end, or with the antithetic option the mean
+//! of f over the fine path and its twin.
+
+use std::ops::Range;
+
+use sdae_model::{EnsembleIncrements, PathEnsemble};
+
+use super::observable::Observable;
+use super::sampler::{BLOCK, LevelSampler, Sample};
+use super::settings::MlmcError;
+use crate::integrator::{BoxedEnsemble, StudyScheme};
+
+/// Fine steps drawn at once.
+const CHUNK: usize = 256;
+
+/// Sample indices per level: sample i of level l is stream l 2^48 + i.
+const SAMPLES_PER_LEVEL: u64 = 1 << 48;
+
+/// |r_i| or |v_i| above this at the end of a path counts as a blow-up.
+const BLOW_UP: f64 = 1e8;
+
+/// The level sampler of a scene's system with one scheme.
+pub struct CoupledSampler<S> {
+    scheme: StudyScheme<S>,
+    start: (Vec<f64>, Vec<f64>),
+    t_end: f64,
+    coarsest: u32,
+    observable: Observable,
+    seed: u64,
+    antithetic: bool,
+}
+
+/// A worker thread's ensembles: the fine paths, their antithetic twins and the coarse paths.
+pub struct Worker<S> {
+    fine: BoxedEnsemble<S>,
+    twin: BoxedEnsemble<S>,
+    coarse: BoxedEnsemble<S>,
+    increments: Vec<f64>,
+    sum: Vec<f64>,
+    rows: Vec<f64>,
+}
+
+impl<S> CoupledSampler<S> {
+    /// Pairs of `scheme` from (r0, v0) = `start` to T = `t_end`, level 0 on 2^`coarsest`
+    /// steps, estimating `observable`, streams from `seed`; antithetic fine paths if asked.
+    pub fn new(
+        scheme: StudyScheme<S>,
+        start: (Vec<f64>, Vec<f64>),
+        (t_end, coarsest): (f64, u32),
+        observable: Observable,
+        (seed, antithetic): (u64, bool),
+    ) -> Self {
+        Self {
+            scheme,
+            start,
+            t_end,
+            coarsest,
+            observable,
+            seed,
+            antithetic,
+        }
+    }
+
+    /// The scheme's name.
+    pub fn scheme_name(&self) -> &str {
+        self.scheme.name()
+    }
+
+    /// Whether the fine paths are antithetic.
+    pub fn antithetic(&self) -> bool {
+        self.antithetic
+    }
+}
+
+/// f at the end of each path of `ensemble`, or why it has none (a failed step, a state beyond
+/// [`BLOW_UP`] or not finite).
+fn finals<S: sdae_model::System>(
+    ensemble: &dyn PathEnsemble<System = S>,
+    observable: &Observable,
+    rows: &mut Vec<f64>,
+) -> Result<Vec<Option<f64>>, MlmcError> {
+    let n = ensemble.system().constraint().dim();
+    let paths: Vec<usize> = (0..BLOCK as usize).collect();
+    rows.resize(2 * n * paths.len(), 0.0);
+    ensemble
+        .read_rows(&paths, 0, rows)
+        .map_err(crate::error::StudyError::from)?;
+    let mut out = Vec::with_capacity(paths.len());
+    for (p, row) in paths.iter().zip(rows.chunks_exact(2 * n)) {
+        let failed = ensemble
+            .failure(*p)
+            .map_err(crate::error::StudyError::from)?
+            .is_some();
+        let bounded = row.iter().all(|x| x.abs() <= BLOW_UP);
+        let value = observable.value(&row[..n], &row[n..]);
+        out.push((!failed && bounded && value.is_finite()).then_some(value));
+    }
+    Ok(out)
+}
+
+use sdae_manifold::Constraint as _;
+
+impl<S> LevelSampler for CoupledSampler<S>
+where
+    S: sdae_model::System + Send + Sync + 'static,
+{
+    type Worker = Worker<S>;
+
+    fn worker(&self) -> Result<Worker<S>, MlmcError> {
+        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
+        let build = || self.scheme.build_ensemble(BLOCK as usize, r0, v0);
+        Ok(Worker {
+            fine: build()?,
+            twin: build()?,
+            coarse: build()?,
+            increments: Vec::new(),
+            sum: Vec::new(),
+            rows: Vec::new(),
+        })
+    }
+
+    fn run_block(
+        &self,
+        worker: &mut Worker<S>,
+        level: u32,
+        indices: Range<u64>,
+        coupled: bool,
+    ) -> Result<Vec<Sample>, MlmcError> {
+        if indices.end > SAMPLES_PER_LEVEL || indices.end - indices.start != BLOCK {
+            return Err(MlmcError::Setting {
+                key: "samples",
+                value: indices.end.to_string(),
+                rule: format!("blocks of {BLOCK} samples below 2^48 per level"),
+            });
+        }
+        let study = |e: sdae_model::ModelError| MlmcError::from(crate::error::StudyError::from(e));
+        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
+        let pair = coupled && level > 0;
+        let twin = pair && self.antithetic;
+        worker.fine.restart(r0, v0).map_err(study)?;
+        if pair {
+            worker.coarse.restart(r0, v0).map_err(study)?;
+        }
+        if twin {
+            worker.twin.restart(r0, v0).map_err(study)?;
+        }
+        let streams: Vec<u64> = indices
+            .clone()
+            .map(|i| u64::from(level) * SAMPLES_PER_LEVEL + i)
+            .collect();
+        let l = worker.fine.system().noise_dim();
+        let mut noise = EnsembleIncrements::for_paths(self.seed, &streams, l);
+        let width = l * worker.fine.stride();
+        let steps = 1usize << (self.coarsest + level);
+        let h = self.t_end / steps as f64;
+        let chunk = CHUNK.min(steps);
+        worker.increments.resize(chunk * width, 0.0);
+        worker.sum.resize(width, 0.0);
+        for _ in 0..steps / chunk {
+            noise.fill(h, &mut worker.increments).map_err(study)?;
+            let dw = &worker.increments;
+            if !pair {
+                for k in 0..chunk {
+                    worker
+                        .fine
+                        .step(h, &dw[k * width..(k + 1) * width])
+                        .map_err(study)?;
+                }
+                continue;
+            }
+            for k in (0..chunk).step_by(2) {
+                let (a, b) = (
+                    &dw[k * width..(k + 1) * width],
+                    &dw[(k + 1) * width..(k + 2) * width],
+                );
+                worker.fine.step(h, a).map_err(study)?;
+                worker.fine.step(h, b).map_err(study)?;
+                for ((s, x), y) in worker.sum.iter_mut().zip(a).zip(b) {
+                    *s = x + y;
+                }
+                worker.coarse.step(2.0 * h, &worker.sum).map_err(study)?;
+                if twin {
+                    worker.twin.step(h, b).map_err(study)?;
+                    worker.twin.step(h, a).map_err(study)?;
+                }
+            }
+        }
+        let fine = finals(worker.fine.as_ref(), &self.observable, &mut worker.rows)?;
+        let coarse = if pair {
+            finals(worker.coarse.as_ref(), &self.observable, &mut worker.rows)?
+        } else {
+            vec![Some(0.0); fine.len()]
+        };
+        let twins = if twin {
+            finals(worker.twin.as_ref(), &self.observable, &mut worker.rows)?
+        } else {
+            fine.clone()
+        };
+        Ok(fine
+            .iter()
+            .zip(&twins)
+            .zip(&coarse)
+            .map(|((f, t), c)| match (f.zip(*t), c) {
+                (Some((f, t)), Some(c)) => Sample::Value {
+                    fine: if twin { 0.5 * (f + t) } else { f },
+                    coarse: *c,
+                },
+                (fine, coarse) => Sample::Failed {
+                    fine: fine.is_none(),
+                    coarse: coarse.is_none(),
+                },
+            })
+            .collect())
+    }
+
+    fn path_steps(&self, level: u32) -> u64 {
+        1 << (self.coarsest + level)
+    }
+
+    fn pair_steps(&self, level: u32) -> u64 {
+        let fine = self.path_steps(level);
+        match level {
+            0 => fine,
+            _ if self.antithetic => 2 * fine + fine / 2,
+            _ => fine + fine / 2,
+        }
+    }
+}

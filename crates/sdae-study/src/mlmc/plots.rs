@@ -1,0 +1,195 @@
+//! SVG plots of an MLMC report, as Giles's `mlmc_test` draws them: log2 of the variance and of
+//! the mean per level, N_l per level for each eps, and eps^2 x cost against eps (flat for
+//! MLMC at cost O(eps^-2)).
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::study::MlmcReport;
+use crate::error::StudyError;
+use crate::plots::COLOURS;
+
+/// How an axis's numbers are labelled: as they are, or as the power of 10 they are the
+/// logarithm of.
+type Format = fn(&f64) -> String;
+
+fn plain(v: &f64) -> String {
+    format!("{v:.0}")
+}
+
+fn power_of_ten(v: &f64) -> String {
+    format!("1e{v:.0}")
+}
+
+/// A panel: its title, axis names and formats, and its lines (label, points).
+struct Panel {
+    title: String,
+    axes: (&'static str, &'static str),
+    formats: (Format, Format),
+    lines: Vec<(String, Vec<(f64, f64)>)>,
+}
+
+/// A padded range of the finite values.
+fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if lo > hi {
+        return 0.0..1.0;
+    }
+    let pad = ((hi - lo) * 0.08).max(0.5);
+    lo - pad..hi + pad
+}
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    panel: &Panel,
+    path: &Path,
+) -> Result<(), StudyError> {
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
+    let points = || panel.lines.iter().flat_map(|(_, p)| p.iter());
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(range(points().map(|p| p.0)), range(points().map(|p| p.1)))
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .light_line_style(RGBColor(245, 245, 245))
+        .x_desc(panel.axes.0)
+        .y_desc(panel.axes.1)
+        .x_label_formatter(&panel.formats.0)
+        .y_label_formatter(&panel.formats.1)
+        .draw()
+        .map_err(|e| err(&e))?;
+    for (k, (label, line)) in panel.lines.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        let finite: Vec<(f64, f64)> = line
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        chart
+            .draw_series(LineSeries::new(finite.clone(), colour.stroke_width(2)))
+            .map_err(|e| err(&e))?
+            .label(label)
+            .legend(move |(a, b)| {
+                PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2))
+            });
+        chart
+            .draw_series(finite.iter().map(|p| Circle::new(*p, 3, colour.filled())))
+            .map_err(|e| err(&e))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 11))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Draws `panels` side by side into `path`.
+fn draw(path: &Path, title: &str, panels: &[Panel]) -> Result<(), StudyError> {
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
+    let root = SVGBackend::new(path, (480 * panels.len() as u32, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    for (area, panel) in root.split_evenly((1, panels.len())).iter().zip(panels) {
+        draw_panel(area, panel, path)?;
+    }
+    root.present().map_err(|e| err(&e))
+}
+
+/// Writes `levels.svg` (log2 variance and log2 |mean| per level), `samples.svg` (N_l per
+/// level, one line per eps) and `cost.svg` (eps^2 x cost against eps) into `dir`.
+pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
+    let per_level = |pick: fn(&super::sums::LevelStats) -> f64, from: u32| {
+        report
+            .test
+            .iter()
+            .filter(|l| l.level >= from)
+            .map(|l| (f64::from(l.level), pick(l).abs().log2()))
+            .collect::<Vec<_>>()
+    };
+    let level_axes = (plain as Format, plain as Format);
+    let levels = [
+        Panel {
+            title: "variance".into(),
+            axes: ("level l", "log2 variance"),
+            formats: level_axes,
+            lines: vec![
+                ("P_l - P_l-1".into(), per_level(|l| l.var_y, 1)),
+                ("P_l".into(), per_level(|l| l.var_p, 0)),
+            ],
+        },
+        Panel {
+            title: "mean".into(),
+            axes: ("level l", "log2 |mean|"),
+            formats: level_axes,
+            lines: vec![
+                ("P_l - P_l-1".into(), per_level(|l| l.mean_y, 1)),
+                ("P_l".into(), per_level(|l| l.mean_p, 0)),
+            ],
+        },
+    ];
+    let stem = format!(
+        "{} ({}, E[{}])",
+        report.scene, report.scheme, report.observable
+    );
+    draw(&dir.join("levels.svg"), &format!("{stem}: levels"), &levels)?;
+    let samples = Panel {
+        title: "samples per level".into(),
+        axes: ("level l", "N_l"),
+        formats: (plain, power_of_ten),
+        lines: report
+            .complexity
+            .iter()
+            .map(|row| {
+                (
+                    format!("eps = {:.0e}", row.run.eps),
+                    row.samples
+                        .iter()
+                        .enumerate()
+                        .map(|(l, &n)| (l as f64, (n as f64).log10()))
+                        .collect(),
+                )
+            })
+            .collect(),
+    };
+    draw(
+        &dir.join("samples.svg"),
+        &format!("{stem}: N_l"),
+        &[samples],
+    )?;
+    let cost = |pick: fn(&super::study::ComplexityRow) -> f64| {
+        report
+            .complexity
+            .iter()
+            .map(|row| {
+                let eps = row.run.eps;
+                (eps.log10(), (eps * eps * pick(row)).log10())
+            })
+            .collect::<Vec<_>>()
+    };
+    let costs = Panel {
+        title: "eps^2 x cost (seconds)".into(),
+        axes: ("accuracy eps", "eps^2 cost"),
+        formats: (power_of_ten, power_of_ten),
+        lines: vec![
+            ("MLMC".into(), cost(|r| r.mlmc_cost)),
+            ("standard MC".into(), cost(|r| r.standard_cost)),
+        ],
+    };
+    draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])
+}

@@ -1,0 +1,221 @@
+//! The files of an MLMC report: JSON (the whole report), CSV (the convergence test, one row
+//! per level, then the complexity table, one row per eps), a Markdown summary laid out as
+//! Giles's `mlmc_test` prints it, and the SVG plots.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::study::MlmcReport;
+use crate::error::StudyError;
+use crate::files::{write_atomically, write_json};
+use crate::output::readable;
+use crate::stats::Interval;
+
+/// "estimate [low, high]", or "-".
+pub fn describe(i: Option<&Interval>) -> String {
+    i.map_or("-".into(), |i| {
+        format!("{:.3} [{:.3}, {:.3}]", i.estimate, i.ci_low, i.ci_high)
+    })
+}
+
+/// The convergence test (`table,level,...`) and the complexity table (`complexity,eps,...`).
+pub fn csv(report: &MlmcReport) -> String {
+    let mut s = String::from(
+        "level,steps,samples,failed_fine,failed_coarse,mean_dp,var_dp,mean_p,var_p,kurtosis,consistency,seconds_per_sample\n",
+    );
+    for l in &report.test {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+            l.level,
+            l.steps,
+            l.samples,
+            l.failed_fine,
+            l.failed_coarse,
+            l.mean_y,
+            l.var_y,
+            l.mean_p,
+            l.var_p,
+            l.kurtosis,
+            l.consistency,
+            l.seconds_per_sample
+        );
+    }
+    s.push_str("\neps,estimate,ci_low,ci_high,bias,converged,levels,samples,failed,mlmc_cost,standard_cost,savings,seconds\n");
+    for row in &report.complexity {
+        let r = &row.run;
+        let joined = |v: Vec<u64>| v.iter().map(u64::to_string).collect::<Vec<_>>().join(" ");
+        let _ = writeln!(
+            s,
+            "{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e}",
+            r.eps,
+            r.estimate.estimate,
+            r.estimate.ci_low,
+            r.estimate.ci_high,
+            r.bias,
+            r.converged,
+            row.samples.len(),
+            joined(row.samples.clone()),
+            joined(r.levels.iter().map(|l| l.failed).collect()),
+            row.mlmc_cost,
+            row.standard_cost,
+            row.savings,
+            r.seconds
+        );
+    }
+    s
+}
+
+/// The Markdown summary.
+pub fn markdown(report: &MlmcReport) -> String {
+    let st = &report.settings;
+    let mut s = format!(
+        "# MLMC: {} ({}, E[{}(X_T)])\n\n",
+        report.scene, report.scheme, report.observable
+    );
+    let _ = writeln!(
+        s,
+        "T = {}, level 0 on 2^{} steps, refinement factor 2, {}antithetic, seed {}, {} threads.\n",
+        readable(st.t_end),
+        st.spec.coarsest,
+        if st.spec.antithetic { "" } else { "not " },
+        st.seed,
+        st.threads
+    );
+    s.push_str("## Convergence test\n\n");
+    let _ = writeln!(
+        s,
+        "{} samples per level; Y_l = P_l - P_l-1 (Y_0 = P_0).\n",
+        st.spec.test_samples
+    );
+    s.push_str("| l | steps | mean Y_l | var Y_l | mean P_l | var P_l | kurtosis | check | seconds/sample | failed (fine/coarse) |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for l in &report.test {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4e} | {:.4e} | {:.6} | {:.4e} | {:.2} | {:.2} | {:.3e} | {}/{} |",
+            l.level,
+            l.steps,
+            l.mean_y,
+            l.var_y,
+            l.mean_p,
+            l.var_p,
+            l.kurtosis,
+            l.consistency,
+            l.seconds_per_sample,
+            l.failed_fine,
+            l.failed_coarse
+        );
+    }
+    let r = &report.rates;
+    let _ = writeln!(
+        s,
+        "\nRates fitted over levels l >= {} (95% intervals): alpha = {}, beta = {}, gamma = {}.",
+        r.from_level,
+        describe(r.alpha.as_ref()),
+        describe(r.beta.as_ref()),
+        describe(r.gamma.as_ref())
+    );
+    if !r.unresolved.is_empty() {
+        let _ = writeln!(
+            s,
+            "Levels {:?} have |mean Y_l| below two standard errors: unresolved, not in alpha.",
+            r.unresolved
+        );
+    }
+    s.push_str("\n## Complexity\n\n| eps | estimate [95%] | bias est. | L | N_l | MLMC cost (s) | standard MC cost (s) | savings | run (s) |\n|---|---|---|---|---|---|---|---|---|\n");
+    for row in &report.complexity {
+        let e = &row.run;
+        let n: Vec<String> = row.samples.iter().map(u64::to_string).collect();
+        let _ = writeln!(
+            s,
+            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e}{} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} |",
+            e.eps,
+            e.estimate.estimate,
+            e.estimate.ci_low,
+            e.estimate.ci_high,
+            e.bias,
+            if e.converged { "" } else { " (not converged)" },
+            row.samples.len() - 1,
+            n.join(" "),
+            row.mlmc_cost,
+            row.standard_cost,
+            row.savings,
+            e.seconds
+        );
+    }
+    s.push_str(
+        "\nCosts from the convergence test's measured seconds per sample; standard Monte Carlo \
+         needs 2 V[P_L] / eps^2 paths on the finest level L of the MLMC run.\n",
+    );
+    if let Some(d) = &report.standard {
+        let _ = writeln!(
+            s,
+            "\nDirect standard Monte Carlo at eps = {:.0e} on level {} ({} paths, {} failed): \
+             {:.6} [{:.6}, {:.6}] in {:.3} s, against {:.3} s for MLMC: {:.1}x.",
+            d.eps,
+            d.level,
+            d.samples,
+            d.failed,
+            d.estimate.estimate,
+            d.estimate.ci_low,
+            d.estimate.ci_high,
+            d.seconds,
+            d.mlmc_seconds,
+            d.speedup
+        );
+    }
+    if !report.warnings.is_empty() {
+        s.push_str("\n## Warnings\n\n");
+        for w in &report.warnings {
+            let _ = writeln!(s, "- {w}");
+        }
+    }
+    s.push_str("\n![variance and mean per level](levels.svg)\n\n![N_l per eps](samples.svg)\n\n![eps^2 cost against eps](cost.svg)\n");
+    s
+}
+
+/// Prints the rates and the complexity table on the terminal.
+pub fn print_summary(report: &MlmcReport) {
+    let r = &report.rates;
+    println!(
+        "{} ({}, E[{}]): alpha = {}, beta = {}, gamma = {}",
+        report.scene,
+        report.scheme,
+        report.observable,
+        describe(r.alpha.as_ref()),
+        describe(r.beta.as_ref()),
+        describe(r.gamma.as_ref())
+    );
+    for row in &report.complexity {
+        let e = &row.run;
+        println!(
+            "  eps {:.0e}: {:.6} [{:.6}, {:.6}], L = {}, N_l = {:?}, savings {:.1}x, {:.3} s",
+            e.eps,
+            e.estimate.estimate,
+            e.estimate.ci_low,
+            e.estimate.ci_high,
+            row.samples.len() - 1,
+            row.samples,
+            row.savings,
+            e.seconds
+        );
+    }
+    if let Some(d) = &report.standard {
+        println!(
+            "  standard Monte Carlo at eps {:.0e}: {:.3} s against MLMC's {:.3} s ({:.1}x)",
+            d.eps, d.seconds, d.mlmc_seconds, d.speedup
+        );
+    }
+    for w in &report.warnings {
+        println!("  warning: {w}");
+    }
+}
+
+/// Writes `report.json`, `report.csv`, `report.md`, `levels.svg`, `samples.svg` and
+/// `cost.svg` into `dir`.
+pub fn write_report(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
+    write_json(&dir.join("report.json"), report)?;
+    write_atomically(&dir.join("report.csv"), &csv(report))?;
+    write_atomically(&dir.join("report.md"), &markdown(report))?;
+    super::plots::write_plots(report, dir)
+}

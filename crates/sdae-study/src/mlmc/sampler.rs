@@ -1,0 +1,168 @@
+//! What MLMC asks of a model: the samples of a level, block by block, and the deterministic
+//! parallel driver that runs the blocks on a thread pool.
+//!
+//! Sample i of level l draws from its own stream (seed, l, i). Samples are taken in blocks of
+//! [`BLOCK`] consecutive indices starting at multiples of [`BLOCK`]; each block's samples are
+//! summed in index order and the blocks' sums are folded in block order, so the sums of a
+//! level are the same bits whatever the thread count, and a sharded run (block b on shard
+//! b mod n) merges into exactly the unsharded sums.
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::settings::MlmcError;
+use super::sums::LevelSums;
+use crate::error::StudyError;
+
+/// Samples per block (a multiple of the widest SIMD width).
+pub const BLOCK: u64 = 32;
+
+/// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
+/// for a single path), or which path of the pair failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sample {
+    /// Both paths finished.
+    Value {
+        /// P_l (with the antithetic option, the average over the fine path and its twin).
+        fine: f64,
+        /// P_{l-1}.
+        coarse: f64,
+    },
+    /// A path of the pair failed (the sample has no value and is counted as failed).
+    Failed {
+        /// The fine path (or its antithetic twin) failed.
+        fine: bool,
+        /// The coarse path failed.
+        coarse: bool,
+    },
+}
+
+/// A model MLMC can sample: pairs of paths on levels l and l - 1 driven by one Brownian path.
+pub trait LevelSampler: Sync {
+    /// A worker thread's state (its ensembles and buffers).
+    type Worker;
+    /// A new worker (one per thread).
+    fn worker(&self) -> Result<Self::Worker, MlmcError>;
+    /// The samples `indices` of level `level`, in order; `coupled = false` runs the fine path
+    /// alone (standard Monte Carlo on level `level`: coarse values 0). Sample i draws from its
+    /// own stream (seed, level, i) only.
+    fn run_block(
+        &self,
+        worker: &mut Self::Worker,
+        level: u32,
+        indices: Range<u64>,
+        coupled: bool,
+    ) -> Result<Vec<Sample>, MlmcError>;
+    /// Steps of one path on level l (its work: the cost model of the optimal N_l, which makes
+    /// the algorithm's choices independent of the machine's timing).
+    fn path_steps(&self, level: u32) -> u64;
+    /// Steps of one sample of level l: the fine path (twice with the antithetic option) and
+    /// the coarse path.
+    fn pair_steps(&self, level: u32) -> u64;
+}
+
+/// The thread pool, the progress callback and the stop flag of a run.
+pub struct RunControl<'a> {
+    pool: rayon::ThreadPool,
+    threads: usize,
+    /// Called with the number of samples finished in each block.
+    pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
+    /// Once set, no further block starts and the run ends with [`MlmcError::Interrupted`].
+    pub stop: Option<&'a AtomicBool>,
+}
+
+impl<'a> RunControl<'a> {
+    /// A pool of `threads` worker threads.
+    pub fn new(threads: usize) -> Result<Self, MlmcError> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build()
+            .map_err(|e| StudyError::Threads {
+                threads,
+                message: e.to_string(),
+            })?;
+        Ok(Self {
+            pool,
+            threads: threads.max(1),
+            progress: None,
+            stop: None,
+        })
+    }
+
+    /// Worker threads.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    fn stopped(&self) -> bool {
+        self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+
+    /// The sums of each block `blocks` of level `level` (block b holds the samples
+    /// b BLOCK .. (b + 1) BLOCK), in the order given.
+    pub fn sample_blocks<L: LevelSampler>(
+        &self,
+        sampler: &L,
+        level: u32,
+        blocks: &[u64],
+        coupled: bool,
+    ) -> Result<Vec<LevelSums>, MlmcError> {
+        self.pool.install(|| {
+            blocks
+                .par_iter()
+                .with_max_len(1)
+                .map_init(
+                    || sampler.worker(),
+                    |worker, &b| {
+                        let worker = worker.as_mut().map_err(|e| e.clone())?;
+                        if self.stopped() {
+                            return Err(MlmcError::Interrupted);
+                        }
+                        let start = Instant::now();
+                        let samples = sampler.run_block(
+                            worker,
+                            level,
+                            b * BLOCK..(b + 1) * BLOCK,
+                            coupled,
+                        )?;
+                        let sums = LevelSums::of(&samples, start.elapsed().as_secs_f64());
+                        if let Some(progress) = self.progress {
+                            progress(BLOCK);
+                        }
+                        Ok(sums)
+                    },
+                )
+                .collect()
+        })
+    }
+
+    /// The sums of the first `samples` samples of level `level` (rounded up to whole blocks),
+    /// starting after the `done` samples already summed (a multiple of [`BLOCK`]), folded in
+    /// block order into `sums`. Returns the samples added.
+    pub fn extend<L: LevelSampler>(
+        &self,
+        sampler: &L,
+        level: u32,
+        (sums, done): (&mut LevelSums, u64),
+        samples: u64,
+        coupled: bool,
+    ) -> Result<u64, MlmcError> {
+        let (first, count) = (done / BLOCK, samples.div_ceil(BLOCK));
+        let blocks: Vec<u64> = (first..first + count).collect();
+        for block in self.sample_blocks(sampler, level, &blocks, coupled)? {
+            sums.merge(&block);
+        }
+        Ok(count * BLOCK)
+    }
+}
+
+/// The blocks of the first `samples` samples (rounded up) that shard `index` of `count` runs:
+/// block b on shard b mod count.
+pub fn shard_blocks(samples: u64, (index, count): (u64, u64)) -> Vec<u64> {
+    (0..samples.div_ceil(BLOCK))
+        .filter(|b| b % count.max(1) == index)
+        .collect()
+}

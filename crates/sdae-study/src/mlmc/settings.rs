@@ -1,0 +1,156 @@
+//! The `[mlmc]` table of a scene and the errors of an MLMC study.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::StudyError;
+
+/// Why an MLMC study refused to run or stopped.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MlmcError {
+    /// An accuracy eps that is not finite and > 0.
+    #[error("eps = {value}: the accuracy must be finite and > 0")]
+    Eps {
+        /// The value given.
+        value: f64,
+    },
+    /// Levels the scene cannot run.
+    #[error("levels: {reason}")]
+    Levels {
+        /// What is wrong, with the numbers.
+        reason: String,
+    },
+    /// An observable the study does not know.
+    #[error("unknown observable '{name}' (known: {known})")]
+    UnknownObservable {
+        /// The name given.
+        name: String,
+        /// The names known.
+        known: String,
+    },
+    /// An observable that does not apply to the scene's system.
+    #[error("observable '{name}' does not apply: {reason}")]
+    ObservableNotApplicable {
+        /// The observable.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+    /// Another setting out of range.
+    #[error("{key} = {value}: {rule}")]
+    Setting {
+        /// The setting.
+        key: &'static str,
+        /// The value given.
+        value: String,
+        /// What it must satisfy.
+        rule: String,
+    },
+    /// Shard files that do not make up one run, or a plan that does not fit the run.
+    #[error("cannot merge the MLMC shards: {reason}")]
+    Merge {
+        /// What does not fit.
+        reason: String,
+    },
+    /// A stop signal arrived; no result was written.
+    #[error("interrupted")]
+    Interrupted,
+    /// An error of the study machinery (scene, scheme, threads, files).
+    #[error(transparent)]
+    Study(#[from] StudyError),
+}
+
+impl MlmcError {
+    /// Whether the error was caused by the input (a setting, a file), before anything ran.
+    pub fn is_input(&self) -> bool {
+        match self {
+            MlmcError::Study(e) => matches!(
+                e,
+                StudyError::Setting { .. }
+                    | StudyError::Format { .. }
+                    | StudyError::Io { .. }
+                    | StudyError::Invalid { .. }
+                    | StudyError::Unknown(_)
+                    | StudyError::SchemeNotApplicable { .. }
+                    | StudyError::Read { .. }
+            ),
+            MlmcError::Interrupted => false,
+            _ => true,
+        }
+    }
+}
+
+/// The `[mlmc]` table of a scene: what an MLMC study of it estimates and on which levels.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MlmcSpec {
+    /// The observable f of E[f(X_T)] (`cos-angle`, `end-to-end`, ...).
+    #[serde(default = "default_observable")]
+    pub observable: String,
+    /// Level 0 has 2^k0 steps.
+    #[serde(default = "default_coarsest")]
+    pub coarsest: u32,
+    /// The finest level the algorithm may add (L_max).
+    #[serde(default = "default_max_level")]
+    pub max_level: u32,
+    /// Levels 0..=this of the convergence test.
+    #[serde(default = "default_test_levels")]
+    pub test_levels: u32,
+    /// Samples per level of the convergence test.
+    #[serde(default = "default_test_samples")]
+    pub test_samples: u64,
+    /// The accuracies of the complexity table (root mean square error eps).
+    #[serde(default = "default_eps")]
+    pub eps: Vec<f64>,
+    /// The scheme on both paths of a pair.
+    #[serde(default = "default_scheme")]
+    pub scheme: String,
+    /// Antithetic fine paths (for multiplicative noise).
+    #[serde(default)]
+    pub antithetic: bool,
+}
+
+fn default_observable() -> String {
+    "cos-angle".into()
+}
+fn default_coarsest() -> u32 {
+    2
+}
+fn default_max_level() -> u32 {
+    12
+}
+fn default_test_levels() -> u32 {
+    6
+}
+fn default_test_samples() -> u64 {
+    4096
+}
+fn default_eps() -> Vec<f64> {
+    vec![1e-2, 5e-3, 2e-3, 1e-3]
+}
+fn default_scheme() -> String {
+    "half-explicit-practical".into()
+}
+
+impl Default for MlmcSpec {
+    fn default() -> Self {
+        Self {
+            observable: default_observable(),
+            coarsest: default_coarsest(),
+            max_level: default_max_level(),
+            test_levels: default_test_levels(),
+            test_samples: default_test_samples(),
+            eps: default_eps(),
+            scheme: default_scheme(),
+            antithetic: false,
+        }
+    }
+}
+
+/// Checks an accuracy: finite and > 0.
+pub fn check_eps(eps: f64) -> Result<f64, MlmcError> {
+    if eps.is_finite() && eps > 0.0 {
+        Ok(eps)
+    } else {
+        Err(MlmcError::Eps { value: eps })
+    }
+}

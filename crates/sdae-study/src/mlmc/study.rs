@@ -1,0 +1,472 @@
+//! The MLMC study of a scene, as Giles's `mlmc_test` runs it: a convergence test (a fixed
+//! number of samples on levels 0..=L) with its table and the fitted rates, then the adaptive
+//! algorithm for each eps of a list (the complexity table), the savings against standard
+//! Monte Carlo from the measured variances and costs, one direct standard Monte Carlo run for
+//! comparison, and the warnings.
+
+use serde::{Deserialize, Serialize};
+
+use super::algorithm::{
+    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, optimal_samples, run_plan,
+    standard_monte_carlo,
+};
+use super::coupled::CoupledSampler;
+use super::fit::{Rates, fit_rates};
+use super::observable::Observable;
+use super::sampler::{LevelSampler, RunControl};
+use super::settings::{MlmcError, MlmcSpec, check_eps};
+use super::sums::{LevelStats, level_stats};
+use crate::integrator::{SchemeKind, StudyScheme};
+use crate::scene::{Prepared, Scene};
+use crate::stats::Interval;
+
+/// Kurtosis above which `mlmc_test` warns that a few rare paths dominate the level.
+pub const KURTOSIS_WARNING: f64 = 100.0;
+
+/// Everything an MLMC study of a scene runs with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MlmcSettings {
+    /// The scene's `[mlmc]` table (or its defaults) with the command line's changes.
+    pub spec: MlmcSpec,
+    /// Final time T.
+    pub t_end: f64,
+    /// Seed of the sample streams.
+    pub seed: u64,
+    /// Worker threads (the numbers do not depend on them).
+    pub threads: usize,
+    /// Giles's N_0: samples on a level when it is first run.
+    pub initial_samples: u64,
+    /// Run standard Monte Carlo directly at the largest eps (for the measured speed-up).
+    pub standard_run: bool,
+}
+
+/// The largest step exponent a level may have (2^24 steps per path).
+pub const MAX_STEP_EXPONENT: u32 = 24;
+
+impl MlmcSettings {
+    /// The scene's settings (its `[mlmc]` table, or the defaults), seed 2026 and every core.
+    pub fn for_scene(scene: &Scene) -> Self {
+        Self {
+            spec: scene.mlmc.clone().unwrap_or_default(),
+            t_end: scene.t_end,
+            seed: 2026,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            initial_samples: 1024,
+            standard_run: true,
+        }
+    }
+
+    /// A quick run for CI: two test levels fewer, 1024 test samples and the two largest eps.
+    pub fn quick(mut self) -> Self {
+        let s = &mut self.spec;
+        s.test_levels = s.test_levels.saturating_sub(2).max(2);
+        s.test_samples = s.test_samples.min(1024);
+        s.eps.sort_by(|a, b| b.total_cmp(a));
+        s.eps.truncate(2);
+        self.initial_samples = self.initial_samples.min(256);
+        self
+    }
+
+    /// Checks every setting before anything runs.
+    pub fn validate(&self) -> Result<(), MlmcError> {
+        let s = &self.spec;
+        if s.eps.is_empty() {
+            return Err(MlmcError::Setting {
+                key: "eps",
+                value: "[]".into(),
+                rule: "at least one accuracy".into(),
+            });
+        }
+        for &eps in &s.eps {
+            check_eps(eps)?;
+        }
+        if !(self.t_end.is_finite() && self.t_end > 0.0) {
+            return Err(MlmcError::Setting {
+                key: "T",
+                value: self.t_end.to_string(),
+                rule: "the final time must be finite and > 0".into(),
+            });
+        }
+        if s.coarsest + s.max_level > MAX_STEP_EXPONENT {
+            return Err(MlmcError::Levels {
+                reason: format!(
+                    "the finest level L_max = {} on 2^{} steps at level 0 has 2^{} steps, above \
+                     2^{MAX_STEP_EXPONENT}",
+                    s.max_level,
+                    s.coarsest,
+                    s.coarsest + s.max_level
+                ),
+            });
+        }
+        if s.test_levels < 2 || s.test_levels > s.max_level {
+            return Err(MlmcError::Levels {
+                reason: format!(
+                    "the convergence test's levels 0..={} must number at least 3 and stay within \
+                     L_max = {}",
+                    s.test_levels, s.max_level
+                ),
+            });
+        }
+        if s.test_samples < 2 || self.initial_samples < 2 {
+            return Err(MlmcError::Setting {
+                key: "samples",
+                value: s.test_samples.min(self.initial_samples).to_string(),
+                rule: "at least 2 samples per level".into(),
+            });
+        }
+        if SchemeKind::from_name(&s.scheme).is_none() {
+            return Err(MlmcError::Setting {
+                key: "scheme",
+                value: s.scheme.clone(),
+                rule: format!(
+                    "one of {}",
+                    SchemeKind::ALL.map(SchemeKind::name).join(", ")
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One row of the complexity table.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ComplexityRow {
+    /// The adaptive run.
+    pub run: MlmcEstimate,
+    /// N_l attempted per level.
+    pub samples: Vec<u64>,
+    /// MLMC cost in seconds, sum_l N_l c_l with c_l the test's measured seconds per sample.
+    pub mlmc_cost: f64,
+    /// Standard Monte Carlo's cost for the same eps on the finest level L: 2 V[P_L] / eps^2
+    /// paths at the test's measured seconds per path.
+    pub standard_cost: f64,
+    /// standard_cost / mlmc_cost.
+    pub savings: f64,
+}
+
+/// A direct standard Monte Carlo run next to the MLMC run at the same eps.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StandardRun {
+    /// The accuracy.
+    pub eps: f64,
+    /// The level run (the MLMC run's finest).
+    pub level: u32,
+    /// Paths run, 2 V[P_L] / eps^2 rounded up to whole blocks.
+    pub samples: u64,
+    /// Paths that failed.
+    pub failed: u64,
+    /// The estimate with its interval.
+    pub estimate: Interval,
+    /// Measured seconds (all threads).
+    pub seconds: f64,
+    /// The MLMC run's measured seconds at this eps.
+    pub mlmc_seconds: f64,
+    /// seconds / mlmc_seconds.
+    pub speedup: f64,
+}
+
+/// The report of an MLMC study of one scene.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MlmcReport {
+    /// The scene.
+    pub scene: String,
+    /// The scheme on both paths of each pair.
+    pub scheme: String,
+    /// The observable f of E[f(X_T)].
+    pub observable: String,
+    /// The settings.
+    pub settings: MlmcSettings,
+    /// The convergence test, level by level.
+    pub test: Vec<LevelStats>,
+    /// alpha, beta, gamma.
+    pub rates: Rates,
+    /// The adaptive runs, one per eps.
+    pub complexity: Vec<ComplexityRow>,
+    /// The direct standard Monte Carlo run at the largest eps.
+    pub standard: Option<StandardRun>,
+    /// Giles's warnings (kurtosis, consistency, weak convergence) and the failed paths.
+    pub warnings: Vec<String>,
+}
+
+/// The sampler of a scene's system for `settings` (its scheme and observable checked).
+pub fn sampler_for<S>(
+    prepared: &Prepared<S>,
+    settings: &MlmcSettings,
+) -> Result<CoupledSampler<S>, MlmcError>
+where
+    S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
+{
+    settings.validate()?;
+    let spec = &settings.spec;
+    let kind = SchemeKind::from_name(&spec.scheme).expect("validated");
+    let scheme = StudyScheme::built_in(kind, &prepared.system, &prepared.constants);
+    scheme.build()?;
+    let observable = Observable::built_in(&spec.observable, &prepared.position)?;
+    Ok(CoupledSampler::new(
+        scheme,
+        (prepared.position.clone(), prepared.velocity.clone()),
+        (settings.t_end, spec.coarsest),
+        observable,
+        (settings.seed, spec.antithetic),
+    ))
+}
+
+/// The measured seconds per sample of level l: the test's, or beyond its levels its finest
+/// level's scaled by the work.
+fn seconds_per_sample<L: LevelSampler>(sampler: &L, test: &[LevelStats], level: u32) -> f64 {
+    match test.get(level as usize) {
+        Some(s) => s.seconds_per_sample,
+        None => {
+            let last = test.last().expect("the test has levels");
+            last.seconds_per_sample * sampler.pair_steps(level) as f64
+                / sampler.pair_steps(last.level) as f64
+        }
+    }
+}
+
+/// The complexity row of an adaptive run from the test's variances and costs.
+fn complexity_row<L: LevelSampler>(
+    sampler: &L,
+    test: &[LevelStats],
+    run: MlmcEstimate,
+) -> ComplexityRow {
+    let samples: Vec<u64> = run.levels.iter().map(|s| s.attempted()).collect();
+    let top = (samples.len() - 1) as u32;
+    let mlmc_cost = samples
+        .iter()
+        .enumerate()
+        .map(|(l, &n)| n as f64 * seconds_per_sample(sampler, test, l as u32))
+        .sum::<f64>();
+    let var_p = test
+        .get(top as usize)
+        .or(test.last())
+        .map_or(f64::NAN, |s| s.var_p);
+    let per_path = seconds_per_sample(sampler, test, top) * sampler.path_steps(top) as f64
+        / sampler.pair_steps(top) as f64;
+    let standard_cost = 2.0 * var_p / (run.eps * run.eps) * per_path;
+    ComplexityRow {
+        samples,
+        mlmc_cost,
+        standard_cost,
+        savings: standard_cost / mlmc_cost,
+        run,
+    }
+}
+
+/// Giles's warnings and the failures.
+fn warnings(test: &[LevelStats], complexity: &[ComplexityRow]) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(last) = test.last()
+        && last.kurtosis > KURTOSIS_WARNING
+    {
+        out.push(format!(
+            "kurtosis on the finest level {} is {:.1} > {KURTOSIS_WARNING}: the correction is \
+             dominated by a few rare paths and its variance estimate is unreliable",
+            last.level, last.kurtosis
+        ));
+    }
+    if let Some(worst) = test
+        .iter()
+        .max_by(|a, b| a.consistency.total_cmp(&b.consistency))
+        && worst.consistency > 1.0
+    {
+        out.push(format!(
+            "consistency check on level {} is {:.2} > 1: E[P_l - P_l-1] = E[P_l] - E[P_l-1] is \
+             not satisfied (the coarse path of a pair does not have level l-1's law)",
+            worst.level, worst.consistency
+        ));
+    }
+    for s in test.iter().filter(|s| s.failed_fine + s.failed_coarse > 0) {
+        out.push(format!(
+            "convergence test, level {}: {} fine and {} coarse paths failed (those samples are \
+             left out of the sums and counted here)",
+            s.level, s.failed_fine, s.failed_coarse
+        ));
+    }
+    for row in complexity {
+        let r = &row.run;
+        if !r.converged {
+            out.push(format!(
+                "eps = {}: failed to achieve weak convergence: the bias estimate {:.3e} exceeds \
+                 eps / sqrt(2) at L_max = {}",
+                r.eps,
+                r.bias,
+                r.levels.len() - 1
+            ));
+        }
+        for (l, s) in r.levels.iter().enumerate() {
+            if s.failed > 0 {
+                out.push(format!(
+                    "eps = {}, level {l}: {} fine and {} coarse paths failed",
+                    r.eps, s.failed_fine, s.failed_coarse
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// The whole study with any level sampler: the convergence test, the adaptive runs, the
+/// direct standard Monte Carlo run and the warnings (`scene` names the report).
+pub fn run_study<L: LevelSampler>(
+    scene: &str,
+    sampler: &L,
+    settings: &MlmcSettings,
+    control: &RunControl<'_>,
+) -> Result<MlmcReport, MlmcError> {
+    settings.validate()?;
+    let spec = &settings.spec;
+    let test_sums = run_plan(
+        sampler,
+        control,
+        &vec![spec.test_samples; spec.test_levels as usize + 1],
+    )?;
+    let test = level_stats(&test_sums, |l| sampler.path_steps(l));
+    let rates = fit_rates(&test, 1);
+    let mut complexity = Vec::with_capacity(spec.eps.len());
+    for &eps in &spec.eps {
+        let run = adaptive(
+            sampler,
+            control,
+            &AdaptiveSettings {
+                eps,
+                initial_samples: settings.initial_samples,
+                min_levels: 2,
+                max_level: spec.max_level,
+            },
+        )?;
+        complexity.push(complexity_row(sampler, &test, run));
+    }
+    let standard = if settings.standard_run {
+        let row = complexity
+            .iter()
+            .max_by(|a, b| a.run.eps.total_cmp(&b.run.eps))
+            .expect("at least one eps");
+        let level = (row.samples.len() - 1) as u32;
+        let var_p = test
+            .get(level as usize)
+            .or(test.last())
+            .map_or(0.0, |s| s.var_p);
+        let eps = row.run.eps;
+        let samples = (2.0 * var_p / (eps * eps)).ceil().max(2.0) as u64;
+        let sums = standard_monte_carlo(sampler, control, level, samples)?;
+        let seconds = sums.seconds;
+        Some(StandardRun {
+            eps,
+            level,
+            samples: sums.attempted(),
+            failed: sums.failed,
+            estimate: super::algorithm::estimate_of(&[sums]),
+            seconds,
+            mlmc_seconds: row.run.seconds,
+            speedup: seconds / row.run.seconds,
+        })
+    } else {
+        None
+    };
+    Ok(MlmcReport {
+        scene: scene.into(),
+        scheme: spec.scheme.clone(),
+        observable: spec.observable.clone(),
+        settings: settings.clone(),
+        warnings: warnings(&test, &complexity),
+        test,
+        rates,
+        complexity,
+        standard,
+    })
+}
+
+/// The plan for accuracy `eps` from a convergence test (the cluster's pilot): the fewest
+/// levels 0..=L (L >= 2) whose bias estimate is within eps / sqrt(2), and the optimal N_l from
+/// the test's variances and the work per sample. Fails if the test's levels do not reach that
+/// bias.
+pub fn plan_from_test<L: LevelSampler>(
+    sampler: &L,
+    test: &[LevelStats],
+    alpha: f64,
+    eps: f64,
+) -> Result<Plan, MlmcError> {
+    let eps = check_eps(eps)?;
+    let means: Vec<f64> = test.iter().map(|s| s.mean_y.abs()).collect();
+    let top = (2..means.len())
+        .find(|&l| bias_estimate(&means[..=l], alpha) <= eps / 2f64.sqrt())
+        .ok_or_else(|| MlmcError::Levels {
+            reason: format!(
+                "the convergence test's levels 0..={} do not bring the bias estimate below \
+                 eps / sqrt(2) = {:.3e}: test more levels",
+                means.len().saturating_sub(1),
+                eps / 2f64.sqrt()
+            ),
+        })?;
+    let variances: Vec<f64> = test[..=top].iter().map(|s| s.var_y).collect();
+    let costs: Vec<f64> = (0..=top)
+        .map(|l| sampler.pair_steps(l as u32) as f64)
+        .collect();
+    Ok(Plan {
+        eps,
+        samples: optimal_samples(&variances, &costs, eps),
+    })
+}
+
+/// Work to do with the level sampler of a scene, whatever its system's type.
+pub trait SamplerTask {
+    /// What the work returns.
+    type Output;
+    /// Does the work.
+    fn run<L: LevelSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError>;
+}
+
+/// Hands a [`SamplerTask`] the sampler of a scene's system.
+struct WithSampler<'a, T> {
+    settings: &'a MlmcSettings,
+    task: T,
+}
+
+impl<T: SamplerTask> crate::scene::SceneRunner for WithSampler<'_, T> {
+    type Output = Result<T::Output, MlmcError>;
+    fn run<S>(self, _: &Scene, prepared: Prepared<S>) -> Self::Output
+    where
+        S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
+    {
+        let sampler = sampler_for(&prepared, self.settings)?;
+        self.task.run(&sampler)
+    }
+}
+
+/// Builds the scene's system and its sampler for `settings` and runs `task` with it.
+pub fn with_sampler<T: SamplerTask>(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    task: T,
+) -> Result<T::Output, MlmcError> {
+    scene.run(WithSampler { settings, task })?
+}
+
+/// The whole study of a scene ([`run_study`] with its sampler).
+pub fn run_mlmc(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    control: &RunControl<'_>,
+) -> Result<MlmcReport, MlmcError> {
+    struct Study<'a, 'b> {
+        name: &'a str,
+        settings: &'a MlmcSettings,
+        control: &'a RunControl<'b>,
+    }
+    impl SamplerTask for Study<'_, '_> {
+        type Output = MlmcReport;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<MlmcReport, MlmcError> {
+            run_study(self.name, sampler, self.settings, self.control)
+        }
+    }
+    with_sampler(
+        scene,
+        settings,
+        Study {
+            name: &scene.name,
+            settings,
+            control,
+        },
+    )
+}

@@ -97,9 +97,9 @@ pub struct MlmcMergeArgs {
 impl From<MlmcError> for Failure {
     fn from(e: MlmcError) -> Failure {
         match e {
-            MlmcError::Interrupted => {
-                Failure::Interrupted("interrupted: no MLMC result was written".into())
-            }
+            MlmcError::Interrupted => Failure::Unsaved(
+                "interrupted: an MLMC run keeps no checkpoint, so nothing was saved".into(),
+            ),
             MlmcError::Study(e) => Failure::from_study(e),
             e if e.is_input() => Failure::Usage(e.to_string()),
             e => Failure::Failed(e.to_string()),

@@ -13,6 +13,8 @@
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
+//! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
+//!   whose expectations the weak study measures.
 //! - [`stats`], [`plots`], [`output`]: statistics, SVG plots and the report files.
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
@@ -25,6 +27,7 @@ mod error;
 pub mod files;
 pub mod integrator;
 pub mod lockstep;
+pub mod observable;
 pub mod output;
 pub mod parallel;
 pub mod plots;

@@ -39,6 +39,8 @@ impl Failure {
             | StudyError::Io { .. }
             | StudyError::Invalid { .. }
             | StudyError::Unknown(_)
+            | StudyError::UnknownObservable { .. }
+            | StudyError::ObservableNeedsOutput { .. }
             | StudyError::SchemeNotApplicable { .. }
             | StudyError::Resume { .. } => Failure::Usage(e.to_string()),
             other => Failure::Failed(other.to_string()),

@@ -27,6 +27,9 @@ tasks:
   study equipartition [--quick]
         kinetic temperature of the Langevin scenes against h and C_eta:
         target/study/equipartition/
+  study weak [--quick]
+        weak errors of the scene's observables, weak orders and Richardson-Romberg
+        extrapolation (default: the pendulum): target/study/<scene>/weak.md
   study trace
         one path of each built-in scene as a picture: target/study/trace/
   study list

@@ -12,6 +12,8 @@
 //! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
+//! - [`weak`]: weak errors E[f(X_N)] - E[f(X_T)] of observables, weak orders and
+//!   Richardson-Romberg extrapolation, against exact values or the reference on the same paths.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
 //!   whose expectations the weak study measures.
@@ -36,5 +38,6 @@ pub mod scene;
 pub mod stability;
 pub mod stats;
 pub mod trace;
+pub mod weak;
 
 pub use error::StudyError;

@@ -257,7 +257,7 @@ pub struct Scene {
 }
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 13] = [
+pub const BUILT_IN: [(&str, &str); 14] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
@@ -292,6 +292,7 @@ pub const BUILT_IN: [(&str, &str); 13] = [
     ),
     ("drag-fiber", include_str!("../scenes/drag-fiber.toml")),
     ("long-fiber", include_str!("../scenes/long-fiber.toml")),
+    ("rotor", include_str!("../scenes/rotor.toml")),
 ];
 
 /// A system built from a scene, ready to run.

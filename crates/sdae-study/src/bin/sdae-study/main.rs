@@ -112,6 +112,10 @@ fn main() -> ExitCode {
             stop_on_signals();
             runs::equipartition(&args, &STOP)
         }
+        Some(Command::Weak(args)) => {
+            stop_on_signals();
+            runs::weak(&args, &STOP)
+        }
         Some(Command::Merge(args)) => runs::merge(&args.dirs, &args.out.out),
         Some(Command::Trace(args)) => runs::trace(&args),
         Some(Command::List) => {

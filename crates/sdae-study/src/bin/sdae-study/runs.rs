@@ -16,7 +16,7 @@ use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{BUILT_IN, Scene};
 use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
-use sdae_study::{equipartition, trace};
+use sdae_study::{equipartition, trace, weak};
 
 use crate::Failure;
 use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs};
@@ -328,6 +328,45 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         dir.display()
     );
     Ok(())
+}
+
+/// The weak-error study of each scene named (default: the pendulum), from its [weak] table.
+pub fn weak(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    let scenes = args.scenes.load(|s| s.name == "pendulum")?;
+    let settings = scenes
+        .iter()
+        .map(|scene| {
+            weak::weak_settings(scene, args.quick)
+                .map(|s| args.apply(s))
+                .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    checked(&scenes, &settings)?;
+    let mut uncompared = Vec::new();
+    for (scene, settings) in scenes.iter().zip(&settings) {
+        let dir = args.out.out.join(&scene.name);
+        let job = Job {
+            scene,
+            settings,
+            shard: (0, 1),
+            checkpoint: Checkpoint::new(dir.join("weak-checkpoint.json")),
+        };
+        let report = weak::build_weak_report(job.run(args.resume, stop)?)?;
+        weak::report::print_summary(&report);
+        weak::report::write_report(&report, &dir)?;
+        job.checkpoint.remove()?;
+        println!(
+            "wrote {0}/weak.json, weak.csv, weak.md, weak_error_vs_h.svg, weak_error_vs_time.svg",
+            dir.display()
+        );
+        uncompared.extend(
+            report
+                .uncompared()
+                .into_iter()
+                .map(|line| format!("scene {}: {line}", report.scene)),
+        );
+    }
+    nothing_uncompared(uncompared)
 }
 
 /// The number of steps of a scene's trace: its finest study level (default 2^10).

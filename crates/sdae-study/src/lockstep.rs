@@ -547,7 +547,7 @@ impl<'a> Lockstep<'a> {
         let Some(observing) = &self.plan.observing else {
             return;
         };
-        if fine_steps % (1usize << (self.plan.fine - observing.grid_level)) != 0 {
+        if !fine_steps.is_multiple_of(1usize << (self.plan.fine - observing.grid_level)) {
             return;
         }
         let (n, row) = (self.dims.n, self.dims.row());
@@ -744,7 +744,7 @@ impl<'a> Lockstep<'a> {
                 track.outcome.seconds += charged;
                 stopped += 1;
             } else if let Some(observing) = &self.plan.observing
-                && steps % observe_every == 0
+                && steps.is_multiple_of(observe_every)
             {
                 let n = dims.n;
                 let (r, v) = (&snapshot[..n], &snapshot[n..2 * n]);

@@ -217,7 +217,7 @@ where
             0.5 * v.iter().zip(&mv).map(|(a, b)| a * b).sum::<f64>()
         }));
     }
-    let f: Box<dyn Fn(&[f64], &[f64]) -> f64 + Send + Sync> = match (&scene.system, name) {
+    let f: Box<Function> = match (&scene.system, name) {
         (SystemSpec::Pendulum(p), "cos_angle") => {
             let (d, rho) = (p.dim, p.length);
             Box::new(move |r, _| -r[d - 1] / rho)

@@ -27,6 +27,9 @@ tasks:
   study equipartition [--quick]
         kinetic temperature of the Langevin scenes against h and C_eta:
         target/study/equipartition/
+  study weak [--quick]
+        weak errors of the scene's observables, weak orders and Richardson-Romberg
+        extrapolation (default: the pendulum): target/study/<scene>/weak.md
   study mlmc [--quick] [--scene NAME] [--eps LIST] [--antithetic]
         multilevel Monte Carlo of E[f(X_T)] (default: the pendulum's E[cos phi_T]):
         convergence test, alpha, beta, gamma, complexity table; target/study/mlmc/<scene>/

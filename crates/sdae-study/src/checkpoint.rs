@@ -317,6 +317,12 @@ fn write_f64(out: &mut impl Write, x: f64) -> std::io::Result<()> {
     out.write_all(&x.to_bits().to_le_bytes())
 }
 
+/// A count, then that many numbers bit for bit (observed values).
+fn write_values(out: &mut impl Write, values: &[f64]) -> std::io::Result<()> {
+    write_varint(out, values.len() as u64)?;
+    values.iter().try_for_each(|&x| write_f64(out, x))
+}
+
 fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Result<()> {
     write_varint(out, r.index as u64)?;
     out.write_all(&[failure_code(r.reference_failure)])?;
@@ -349,8 +355,9 @@ fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Re
         if let Some(k) = t.kinetic_energy {
             write_f64(out, k)?;
         }
+        write_values(out, &t.observed)?;
     }
-    Ok(())
+    write_values(out, &r.reference_observed)
 }
 
 /// Reads what [`write_record`] wrote, failing with a message on a short or malformed input.
@@ -389,6 +396,16 @@ impl Reader<'_> {
         Err("a count of more than 64 bits".into())
     }
 
+    /// What [`write_values`] wrote; a count beyond the rest of the file is refused before
+    /// anything is allocated for it.
+    fn values(&mut self) -> Result<Vec<f64>, String> {
+        let count = self.count()?;
+        if count > (self.bytes.len() - self.at) / 8 {
+            return Err(format!("{count} observed values do not fit in the file"));
+        }
+        (0..count).map(|_| self.f64()).collect()
+    }
+
     fn failure(&mut self) -> Result<Option<FailureKind>, String> {
         match self.byte()? {
             0 => Ok(None),
@@ -417,6 +434,7 @@ impl Reader<'_> {
             reference_failure,
             reference_seconds,
             tracks,
+            reference_observed: self.values()?,
         })
     }
 
@@ -450,6 +468,7 @@ impl Reader<'_> {
         } else {
             None
         };
+        let observed = self.values()?;
         Ok(TrackOutcome {
             distances,
             failure,
@@ -463,6 +482,7 @@ impl Reader<'_> {
             max_position_residual,
             max_velocity_residual,
             kinetic_energy,
+            observed,
         })
     }
 }
@@ -601,6 +621,7 @@ mod tests {
             max_position_residual: f64::INFINITY,
             max_velocity_residual: 3e-17,
             kinetic_energy: (!k.is_multiple_of(2)).then_some(0.25),
+            observed: (0..k).map(|j| 0.5 * j as f64 - 1.0).collect(),
         }
     }
 
@@ -611,6 +632,7 @@ mod tests {
             reference_failure: Some(FailureKind::BlowUp),
             reference_seconds: 0.5,
             tracks: (0..6).map(outcome).collect(),
+            reference_observed: vec![0.25, -0.0, f64::MIN_POSITIVE],
         };
         let mut out = BufWriter::new(Vec::new());
         write_record(&mut out, &record).unwrap();

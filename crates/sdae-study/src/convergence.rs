@@ -10,8 +10,9 @@ use sdae_model::FailureKind;
 
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
-use crate::lockstep::{BLOCK_PATHS, Limits, PathPlan, PathRecord, TrackOutcome};
+use crate::lockstep::{BLOCK_PATHS, Limits, Observing, PathPlan, PathRecord, TrackOutcome};
 use crate::memory;
+use crate::observable::Observable;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
 use crate::stats::{Interval, OrderFit, PathErrors, fit_order_and_errors, lp_error, mean_interval};
@@ -22,6 +23,9 @@ pub const MAX_THREADS: usize = 1024;
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
 /// the Monte Carlo error and by more than this.
 const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
+
+/// The finest grid observables are kept on: 2^8 points per path and track.
+const MAX_OBSERVED_LEVEL: u32 = 8;
 
 /// What to run (the scene gives the system, T and the defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,6 +57,11 @@ pub struct ConvergenceSettings {
     /// Average the kinetic energy over the grid points with t >= this time.
     #[serde(with = "crate::real::option", default)]
     pub kinetic_after: Option<f64>,
+    /// Observables evaluated on every path at the coarsest level's grid points (by name: the
+    /// scene's built-in ones, or the user's closures given to [`run_observed_on`]); none by
+    /// default.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observables: Vec<String>,
 }
 
 impl ConvergenceSettings {
@@ -74,6 +83,7 @@ impl ConvergenceSettings {
             reference_scheme: SchemeKind::HalfExplicitPractical,
             limits: Limits::default(),
             kinetic_after: None,
+            observables: Vec::new(),
         }
     }
 
@@ -152,6 +162,17 @@ impl ConvergenceSettings {
         if let Some(rule) = memory::exceeded(self.record_bytes(), "the records of the paths") {
             return bad("study.paths", self.paths.to_string(), rule);
         }
+        if !self.observables.is_empty() && self.coarsest > MAX_OBSERVED_LEVEL {
+            let rule = format!(
+                "observables are kept at the coarsest level's 2^{} grid points: at most {MAX_OBSERVED_LEVEL}",
+                self.coarsest
+            );
+            return bad(
+                "study.levels",
+                format!("{}..{}", self.coarsest, self.finest),
+                rule,
+            );
+        }
         Ok(())
     }
 
@@ -217,7 +238,8 @@ impl ConvergenceSettings {
         threads(self) == threads(other)
     }
 
-    fn levels(&self) -> Vec<u32> {
+    /// The level exponents k, coarse to fine.
+    pub(crate) fn levels(&self) -> Vec<u32> {
         (self.coarsest..=self.finest).collect()
     }
 }
@@ -272,10 +294,12 @@ impl SceneRunner for Runner<'_> {
     where
         S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
     {
-        run_convergence_on(
+        let observables =
+            crate::observable::built_in_all(scene, &prepared, &self.settings.observables)?;
+        run_observed_on(
             scene,
             &prepared,
-            &[],
+            (&[], &observables),
             self.settings,
             self.shard,
             self.control,
@@ -286,11 +310,37 @@ impl SceneRunner for Runner<'_> {
 /// The convergence study of any system (`prepared`: the system, its initial state and the
 /// constants of the built-in schemes; [`Scene::custom`] describes it for the report) with the
 /// built-in schemes of `settings` and the user's `extra` schemes, side by side on the same
-/// Brownian paths. Runs the paths of shard `index` of `count`, steered by `control`.
+/// Brownian paths. Runs the paths of shard `index` of `count`, steered by `control`. The
+/// observables `settings` names are the scene's built-in ones.
 pub fn run_convergence_on<S>(
     scene: &Scene,
     prepared: &Prepared<S>,
     extra: &[StudyScheme<S>],
+    settings: &ConvergenceSettings,
+    shard: (usize, usize),
+    control: Control<'_>,
+) -> Result<ConvergenceRun, StudyError>
+where
+    S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
+{
+    let observables = crate::observable::built_in_all(scene, prepared, &settings.observables)?;
+    run_observed_on(
+        scene,
+        prepared,
+        (extra, &observables),
+        settings,
+        shard,
+        control,
+    )
+}
+
+/// [`run_convergence_on`] with the user's `extra` schemes and the `observables` evaluated on
+/// every path (at the grid points of the coarsest level; the run's settings name them, in
+/// place of the names `settings` gives).
+pub fn run_observed_on<S>(
+    scene: &Scene,
+    prepared: &Prepared<S>,
+    (extra, observables): (&[StudyScheme<S>], &[Observable]),
     settings: &ConvergenceSettings,
     (index, count): (usize, usize),
     control: Control<'_>,
@@ -298,7 +348,11 @@ pub fn run_convergence_on<S>(
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
 {
-    let st = settings;
+    let settings = ConvergenceSettings {
+        observables: observables.iter().map(|o| o.name().to_string()).collect(),
+        ..settings.clone()
+    };
+    let st = &settings;
     st.validate()?;
     st.fits_in_memory(prepared.position.len())?;
     let (schemes, skipped) = applicable(&st.schemes, extra, prepared);
@@ -318,6 +372,10 @@ where
         kinetic_after: st
             .kinetic_after
             .filter(|_| scene.wants(Output::KineticEnergy)),
+        observing: (!observables.is_empty()).then(|| Observing {
+            observables: observables.to_vec(),
+            grid_level: st.coarsest,
+        }),
     };
     let records = run_paths(
         &plan,
@@ -466,6 +524,25 @@ pub struct ReferenceReport {
     pub seconds_per_path: f64,
 }
 
+impl ReferenceReport {
+    /// The reference of a run with `settings` from its records, `finished` of which have a
+    /// reference that finished (`None` when the run had no reference).
+    pub fn of(
+        settings: &ConvergenceSettings,
+        records: &[PathRecord],
+        finished: usize,
+    ) -> Option<ReferenceReport> {
+        settings.reference.map(|level| ReferenceReport {
+            scheme: settings.reference_scheme.name(),
+            n_steps: 1 << level,
+            failures: records.len() - finished,
+            failures_by_kind: count_kinds(records.iter().filter_map(|r| r.reference_failure)),
+            seconds_per_path: records.iter().map(|r| r.reference_seconds).sum::<f64>()
+                / records.len().max(1) as f64,
+        })
+    }
+}
+
 /// The report of a convergence study.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConvergenceReport {
@@ -557,7 +634,11 @@ fn outcomes<'a>(
 /// The paths of scheme `s` that finished at every level: one set of paths for all levels, so
 /// that a path that fails at some level (typically with the largest errors) leaves every level
 /// instead of vanishing from one level's average only.
-fn common_paths<'a>(good: &[&'a PathRecord], s: usize, levels: usize) -> Vec<&'a PathRecord> {
+pub(crate) fn common_paths<'a>(
+    good: &[&'a PathRecord],
+    s: usize,
+    levels: usize,
+) -> Vec<&'a PathRecord> {
     good.iter()
         .copied()
         .filter(|p| (0..levels).all(|j| p.tracks[s * levels + j].failure.is_none()))
@@ -770,14 +851,7 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         Ok(pool) => pool.install(|| schemes.par_iter().enumerate().map(report).collect()),
         Err(_) => schemes.iter().enumerate().map(report).collect(),
     };
-    let reference = settings.reference.map(|level| ReferenceReport {
-        scheme: settings.reference_scheme.name(),
-        n_steps: 1 << level,
-        failures: records.len() - good.len(),
-        failures_by_kind: count_kinds(records.iter().filter_map(|r| r.reference_failure)),
-        seconds_per_path: records.iter().map(|r| r.reference_seconds).sum::<f64>()
-            / records.len().max(1) as f64,
-    });
+    let reference = ReferenceReport::of(&settings, &records, good.len());
     ConvergenceReport {
         scene: scene.name.clone(),
         seed: settings.seed,

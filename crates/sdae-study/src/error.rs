@@ -113,6 +113,33 @@ pub enum StudyError {
         /// The thread pool's message.
         message: String,
     },
+    /// A scene names an observable its system does not have.
+    #[error(
+        "scene {scene}: no observable '{name}'{hint} (observables of this system: {known})",
+        hint = nearest.as_ref().map_or(String::new(), |n| format!("; did you mean '{n}'?"))
+    )]
+    UnknownObservable {
+        /// The scene's name.
+        scene: String,
+        /// The name given.
+        name: String,
+        /// The closest known name, if one is close.
+        nearest: Option<String>,
+        /// The system's observables, comma-separated.
+        known: String,
+    },
+    /// A scene names an observable that reads an output the scene does not compute.
+    #[error(
+        "scene {scene}: observable '{observable}' needs \"{output}\" in outputs, which the scene turns off"
+    )]
+    ObservableNeedsOutput {
+        /// The scene's name.
+        scene: String,
+        /// The observable.
+        observable: String,
+        /// The output it reads, as a scene file spells it.
+        output: &'static str,
+    },
     /// A time grid or path plan of a study is invalid.
     #[error(transparent)]
     Model(#[from] ModelError),

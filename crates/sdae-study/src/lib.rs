@@ -14,6 +14,10 @@
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
 //! - [`mlmc`]: multilevel Monte Carlo (Giles) for E[f(X_T)], with antithetic fine paths for
 //!   multiplicative noise.
+//! - [`weak`]: weak errors E[f(X_N)] - E[f(X_T)] of observables, weak orders and
+//!   Richardson-Romberg extrapolation, against exact values or the reference on the same paths.
+//! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
+//!   whose expectations the weak study and MLMC measure.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
 //!   paired bootstrap over paths), SVG plots and the report files.
@@ -32,6 +36,7 @@ pub mod integrator;
 pub mod lockstep;
 pub mod memory;
 pub mod mlmc;
+pub mod observable;
 pub mod output;
 pub mod parallel;
 pub mod plots;
@@ -40,5 +45,6 @@ pub mod scene;
 pub mod stability;
 pub mod stats;
 pub mod trace;
+pub mod weak;
 
 pub use error::StudyError;

@@ -25,6 +25,7 @@ use sdae_model::{
 };
 
 use crate::integrator::BoxedEnsemble;
+use crate::observable::Observable;
 use serde::{Deserialize, Serialize};
 
 /// Fine steps per chunk (fewer when the state is large, see [`chunk_len`]).
@@ -69,6 +70,32 @@ pub struct PathPlan {
     /// Average the kinetic energy v^T M v / 2 over the grid points with t >= this time (on
     /// the track's own clock where [`BlockEnsembles::own_clock`] says so).
     pub kinetic_after: Option<f64>,
+    /// Observables to evaluate on the grid of a coarse level (`None`: none, nothing more is
+    /// computed).
+    pub observing: Option<Observing>,
+}
+
+/// Observables f(r, v) evaluated on every track and the reference at the grid points
+/// t_k = k T / 2^`grid_level`, k = 1..=2^`grid_level` (the grid every level at or above
+/// `grid_level` shares; its last point is T).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observing {
+    /// The observables.
+    pub observables: Vec<Observable>,
+    /// The level whose grid the values are taken on (at most the plan's coarsest level).
+    pub grid_level: u32,
+}
+
+impl Observing {
+    /// Values per path: one per observable and grid point.
+    pub fn values_per_path(&self) -> usize {
+        self.observables.len() << self.grid_level
+    }
+
+    /// Appends f(r, v) of every observable to `out`.
+    fn evaluate(&self, r: &[f64], v: &[f64], out: &mut Vec<f64>) {
+        out.extend(self.observables.iter().map(|f| f.value(r, v)));
+    }
 }
 
 /// What one scheme at one level did on one path.
@@ -107,6 +134,15 @@ pub struct TrackOutcome {
     /// clock for a time-changed scheme).
     #[serde(with = "crate::real::option", default)]
     pub kinetic_energy: Option<f64>,
+    /// The plan's observables at the grid points of its [`Observing`] (grid-point-major:
+    /// `observed[k * observables + o]` is observable o at t_(k+1)), up to where the path
+    /// stopped; empty when the plan observes nothing.
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        with = "crate::real::vec"
+    )]
+    pub observed: Vec<f64>,
 }
 
 /// One path: the reference's fate and the outcome of every scheme at every level.
@@ -121,6 +157,13 @@ pub struct PathRecord {
     pub reference_seconds: f64,
     /// Outcomes, scheme-major: `tracks[s * levels + j]` is scheme s at level j.
     pub tracks: Vec<TrackOutcome>,
+    /// The plan's observables on the reference, laid out as [`TrackOutcome::observed`].
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        with = "crate::real::vec"
+    )]
+    pub reference_observed: Vec<f64>,
 }
 
 /// The chunk length: a power of two that keeps the buffers within [`CHUNK_BUDGET`], whatever
@@ -402,6 +445,10 @@ struct Lockstep<'a> {
     before: Vec<usize>,
     scratch_m: Vec<f64>,
     scratch_n: Vec<f64>,
+    /// Fine steps the reference has taken (whole chunks).
+    fine_done: usize,
+    /// Per path, the reference's observed values (see [`PathPlan::observing`]).
+    reference_observed: Vec<Vec<f64>>,
 }
 
 impl<'a> Lockstep<'a> {
@@ -450,6 +497,8 @@ impl<'a> Lockstep<'a> {
             before: vec![0; paths],
             scratch_m: vec![0.0; dims.m],
             scratch_n: vec![0.0; dims.n],
+            fine_done: 0,
+            reference_observed: vec![Vec::new(); live],
         })
     }
 
@@ -480,13 +529,35 @@ impl<'a> Lockstep<'a> {
                         &mut self.records[at..at + self.live * row],
                     )
                     .expect("the block's rows fit its ensembles");
+                self.observe_reference(self.fine_done + t + 1, at);
             }
         }
+        self.fine_done += self.chunk;
         let failed = |p: &usize| reference.failure(*p).is_ok_and(|f| f.is_some());
         if any_failed {
             (0..self.live).filter(failed).collect()
         } else {
             Vec::new()
+        }
+    }
+
+    /// After `fine_steps` fine steps, when they end on a point of the observed grid: evaluates
+    /// the observables on the reference's rows just recorded at `at` (paths that go on).
+    fn observe_reference(&mut self, fine_steps: usize, at: usize) {
+        let Some(observing) = &self.plan.observing else {
+            return;
+        };
+        if !fine_steps.is_multiple_of(1usize << (self.plan.fine - observing.grid_level)) {
+            return;
+        }
+        let (n, row) = (self.dims.n, self.dims.row());
+        for p in (0..self.live).filter(|&p| !self.dropped[p]) {
+            let state = &self.records[at + p * row..at + (p + 1) * row];
+            observing.evaluate(
+                &state[..n],
+                &state[n..2 * n],
+                &mut self.reference_observed[p],
+            );
         }
     }
 
@@ -558,6 +629,12 @@ impl<'a> Lockstep<'a> {
     ) {
         let width = self.dims.l * self.stride;
         let h = self.grids[level as usize].h();
+        // Steps between observations (the observed grid's spacing in this level's steps).
+        let observe_every = self
+            .plan
+            .observing
+            .as_ref()
+            .map_or(0, |o| 1usize << level.saturating_sub(o.grid_level));
         for &p in &active {
             self.before[p] = diagnostics_of(ensemble, p).steps;
         }
@@ -585,7 +662,7 @@ impl<'a> Lockstep<'a> {
                     failure.is_none()
                 });
             }
-            let step = (t, per, h);
+            let step = (t, per, h, observe_every);
             let clocks = (has_reference, own_clock);
             let block = (&*ensemble, &mut *tracks, &active[..]);
             // Small systems get loops of constant length.
@@ -610,14 +687,15 @@ impl<'a> Lockstep<'a> {
         }
     }
 
-    /// After step t of a stretch (its records `per` apart, of size h): reads every path that
+    /// After step t of a stretch (its records `per` apart, of size h; observed every
+    /// `observe_every` steps, 0 for never): reads every path that
     /// goes on (`active`) in one call, compares each with the reference and marks the tracks
     /// that broke a limit, charging them the stretch's time so far; returns how many did.
     fn compare_step<S: System, D: StateDim>(
         &mut self,
         dim: D,
         (ensemble, tracks, active): (&dyn PathEnsemble<System = S>, &mut [Track], &[usize]),
-        (t, per, h): (usize, usize, f64),
+        (t, per, h, observe_every): (usize, usize, f64, usize),
         (has_reference, own_clock): (bool, bool),
         charged: f64,
     ) -> usize {
@@ -665,6 +743,12 @@ impl<'a> Lockstep<'a> {
                 track.outcome.failure = Some(kind);
                 track.outcome.seconds += charged;
                 stopped += 1;
+            } else if let Some(observing) = &self.plan.observing
+                && steps.is_multiple_of(observe_every)
+            {
+                let n = dims.n;
+                let (r, v) = (&snapshot[..n], &snapshot[n..2 * n]);
+                observing.evaluate(r, v, &mut track.outcome.observed);
             }
         }
         stopped
@@ -705,6 +789,7 @@ pub fn run_block_until<S: System>(
             reference_failure: None,
             reference_seconds: 0.0,
             tracks: Vec::new(),
+            reference_observed: Vec::new(),
         })
         .collect();
     let BlockEnsembles {
@@ -779,6 +864,7 @@ pub fn run_block_until<S: System>(
         if record.reference_failure.is_some() {
             continue;
         }
+        record.reference_observed = std::mem::take(&mut lockstep.reference_observed[p]);
         record.tracks = tracks
             .iter()
             .zip(&mut states)

@@ -62,6 +62,25 @@ impl<'de> Deserialize<'de> for Real {
     }
 }
 
+/// A `Vec<f64>` written entry by entry as [`serialize`] writes an `f64`.
+pub mod vec {
+    use super::Real;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes the entries.
+    pub fn serialize<S: Serializer>(x: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(x.iter().map(|&v| Real(v)))
+    }
+
+    /// Reads the entries.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        Ok(Vec::<Real>::deserialize(d)?
+            .into_iter()
+            .map(|r| r.0)
+            .collect())
+    }
+}
+
 /// Writes an `f64` (see the module's documentation).
 pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
     Real(*x).serialize(s)

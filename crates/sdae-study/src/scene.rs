@@ -33,6 +33,8 @@ use sdae_systems::{
     ChainMoleculeParams, Fiber, FiberParams, MAX_PARTICLES, PendulumParams, RigidTriatomicParams,
     chain_molecule, pendulum, rigid_triatomic,
 };
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 use crate::convergence::ConvergenceSettings;
@@ -204,6 +206,33 @@ pub struct EquipartitionSpec {
     pub c_eta: Vec<f64>,
 }
 
+/// Settings of the weak-error study: the observables f whose expectations E[f(X_T)] it
+/// measures, exact values of some of them, and the study's defaults.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeakSpec {
+    /// Built-in observables of the scene's system (see
+    /// [`observable::names_for`](crate::observable::names_for)).
+    pub observables: Vec<String>,
+    /// Exact values of E[f(X_T)] for some of the observables, by name: the weak error is then
+    /// measured against them, otherwise against the reference on the same paths.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub exact: BTreeMap<String, f64>,
+    /// Monte Carlo paths.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paths: Option<usize>,
+    /// Level exponents [A, B]: N = 2^A .. 2^B.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "sdae_systems::exact::option_array"
+    )]
+    pub levels: Option<[u32; 2]>,
+    /// Reference level R (2^R steps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<u32>,
+}
+
 /// A scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -238,10 +267,13 @@ pub struct Scene {
     /// Settings of the multilevel Monte Carlo study (`mlmc`); the defaults where left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mlmc: Option<crate::mlmc::MlmcSpec>,
+    /// Settings of the weak-error study: the observables it measures.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weak: Option<WeakSpec>,
 }
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 13] = [
+pub const BUILT_IN: [(&str, &str); 14] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
@@ -276,6 +308,7 @@ pub const BUILT_IN: [(&str, &str); 13] = [
     ),
     ("drag-fiber", include_str!("../scenes/drag-fiber.toml")),
     ("long-fiber", include_str!("../scenes/long-fiber.toml")),
+    ("rotor", include_str!("../scenes/rotor.toml")),
 ];
 
 /// A system built from a scene, ready to run.
@@ -464,6 +497,9 @@ impl Scene {
                 )));
             }
         }
+        if let Some(weak) = &self.weak {
+            self.validate_weak(weak)?;
+        }
         self.validate_studies()
     }
 
@@ -488,6 +524,34 @@ impl Scene {
                 let key = key_in_table(table, key);
                 return Err(self.invalid(format!("{key} = {value}: {rule}")));
             }
+        }
+        Ok(())
+    }
+
+    /// Checks a `[weak]` table: known observables whose outputs the scene computes, exact
+    /// values finite and of named observables, non-empty levels.
+    fn validate_weak(&self, weak: &WeakSpec) -> Result<(), StudyError> {
+        if weak.observables.is_empty() {
+            return Err(self.invalid("weak.observables is empty: name at least one observable"));
+        }
+        for name in &weak.observables {
+            crate::observable::check(self, name)?;
+        }
+        for (name, value) in &weak.exact {
+            if !weak.observables.contains(name) {
+                return Err(self.invalid(format!(
+                    "weak.exact.{name}: not one of weak.observables ({})",
+                    weak.observables.join(", ")
+                )));
+            }
+            if !value.is_finite() {
+                return Err(self.invalid(format!("weak.exact.{name} = {value}: must be finite")));
+            }
+        }
+        if let Some([a, b]) = weak.levels
+            && a > b
+        {
+            return Err(self.invalid(format!("weak.levels = [{a}, {b}] is empty")));
         }
         Ok(())
     }
@@ -527,6 +591,7 @@ impl Scene {
             stability: None,
             equipartition: None,
             mlmc: None,
+            weak: None,
         };
         scene.validate()?;
         Ok(scene)

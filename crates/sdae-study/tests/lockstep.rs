@@ -49,6 +49,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         want_mu: true,
         limits: Limits::default(),
         kinetic_after: None,
+        observing: None,
     };
     let ensembles = |paths: usize| {
         let build =
@@ -155,6 +156,7 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
         want_mu: false,
         limits: Limits::default(),
         kinetic_after: Some(after),
+        observing: None,
     };
     let build = |own_clock: bool| {
         let build = |kind| build_ensemble(kind, &system, &constants, (4, &r0[..], &v0[..]));

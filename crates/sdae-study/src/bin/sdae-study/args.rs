@@ -41,6 +41,10 @@ pub enum Command {
     /// Kinetic temperature of the Langevin scenes against h and C_eta (default: every
     /// built-in scene with an [equipartition] table); writes <OUT>/equipartition/.
     Equipartition(EnsembleArgs),
+    /// Weak errors E[f(X_N)] - E[f(X_T)] of the scene's observables, weak orders and
+    /// Richardson-Romberg extrapolation (default: the pendulum scene); writes
+    /// <OUT>/<scene>/weak.json, weak.csv, weak.md and plots.
+    Weak(EnsembleArgs),
     /// Merge the shard files of `--shard I/N` runs into the unsharded report.
     Merge(MergeArgs),
     /// One path of each scene as <OUT>/trace/<scene>.svg and .csv (default: every built-in

@@ -50,6 +50,8 @@ impl Failure {
             | StudyError::Io { .. }
             | StudyError::Invalid { .. }
             | StudyError::Unknown(_)
+            | StudyError::UnknownObservable { .. }
+            | StudyError::ObservableNeedsOutput { .. }
             | StudyError::SchemeNotApplicable { .. }
             | StudyError::Resume { .. } => Failure::Usage(e.to_string()),
             other => Failure::Failed(other.to_string()),
@@ -130,6 +132,10 @@ fn main() -> ExitCode {
         Some(Command::Equipartition(args)) => {
             stop_on_signals();
             runs::equipartition(&args, &STOP)
+        }
+        Some(Command::Weak(args)) => {
+            stop_on_signals();
+            runs::weak(&args, &STOP)
         }
         Some(Command::Merge(args)) => runs::merge(&args.dirs, &args.out.out),
         Some(Command::Trace(args)) => runs::trace(&args),

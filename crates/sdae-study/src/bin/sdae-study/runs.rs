@@ -18,7 +18,7 @@ use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{BUILT_IN, Scene};
 use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
-use sdae_study::{equipartition, trace};
+use sdae_study::{equipartition, trace, weak};
 
 use crate::Failure;
 use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs};
@@ -557,6 +557,59 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         dir.display()
     );
     nothing_uncompared(results.iter().flat_map(|s| s.lost()).collect())
+}
+
+/// The files a weak-error report puts in its scene's folder.
+const WEAK_FILES: [&str; 5] = [
+    "weak.json",
+    "weak.csv",
+    "weak.md",
+    "weak_error_vs_h.svg",
+    "weak_error_vs_time.svg",
+];
+
+/// The weak-error study of each scene named (default: the pendulum), from its [weak] table.
+pub fn weak(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    let scenes = args.scenes.load(|s| s.name == "pendulum")?;
+    distinct(&scenes)?;
+    let settings = scenes
+        .iter()
+        .map(|scene| {
+            weak::weak_settings(scene, args.quick)
+                .map(|s| args.apply(s))
+                .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    checked(&scenes, &settings)?;
+    let how = Resumption::of(args);
+    let jobs = scenes
+        .iter()
+        .zip(&settings)
+        .map(|(scene, settings)| {
+            let file = args.out.out.join(&scene.name).join("weak-checkpoint.bin");
+            Job::new((scene, settings), (0, 1), file, how).ready(how, &WEAK_FILES)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut uncompared = Vec::new();
+    for mut ready in jobs {
+        let run = ready.run(stop)?;
+        let dir = args.out.out.join(&ready.job.scene.name);
+        let report = weak::build_weak_report(run.clone())?;
+        weak::report::print_summary(&report);
+        let written = weak::report::write_report(&report, &dir);
+        deliver(std::slice::from_ref(&ready), &[run], written)?;
+        println!(
+            "wrote {0}/weak.json, weak.csv, weak.md, weak_error_vs_h.svg, weak_error_vs_time.svg",
+            dir.display()
+        );
+        uncompared.extend(
+            report
+                .uncompared()
+                .into_iter()
+                .map(|line| format!("scene {}: {line}", report.scene)),
+        );
+    }
+    nothing_uncompared(uncompared)
 }
 
 /// One path of each scene as a picture and a CSV file.

@@ -1,0 +1,388 @@
+//! The weak study's files: `weak.json` (everything), `weak.csv` (one row per observable, scheme
+//! or extrapolation, and step size), `weak.md` (orders, the fastest scheme to each weak error,
+//! all levels) and the plots `weak_error_vs_h.svg` and `weak_error_vs_time.svg`; and the
+//! summary on the terminal.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakScheme};
+use crate::error::StudyError;
+use crate::files::{write_atomically, write_json};
+use crate::output::readable;
+use crate::plots::{COLOURS, log_range};
+use crate::stats::Interval;
+
+/// "order [low, high]" and the levels left out as unresolved, or "-".
+pub fn describe_order(order: Option<&WeakOrder>, row: &WeakScheme) -> String {
+    let Some(o) = order else {
+        return "-".into();
+    };
+    let i = &o.order;
+    let mut s = format!("{:.2} [{:.2}, {:.2}]", i.estimate, i.ci_low, i.ci_high);
+    if !o.unresolved.is_empty() {
+        let n: Vec<String> = o
+            .unresolved
+            .iter()
+            .filter_map(|&j| row.levels.get(j).map(|l| l.n_steps.to_string()))
+            .collect();
+        let _ = write!(s, " (unresolved at N = {})", n.join(", "));
+    }
+    s
+}
+
+fn cell(i: &Interval) -> String {
+    format!("{:.2e} [{:.1e}, {:.1e}]", i.estimate, i.ci_low, i.ci_high)
+}
+
+fn basis_text(basis: Basis) -> String {
+    match basis {
+        Basis::Exact(x) => format!("the exact value {}", readable(x)),
+        Basis::Reference => "the reference on the same paths".into(),
+    }
+}
+
+/// The CSV table: one row per observable, scheme (or extrapolation) and step size.
+pub fn csv(report: &WeakReport) -> String {
+    let mut s = String::from(
+        "observable,basis,scheme,extrapolated,n_steps,h,value,value_lo,value_hi,error,error_lo,error_hi,resolved,sup_error,sup_error_lo,sup_error_hi,seconds_per_path\n",
+    );
+    for o in &report.observables {
+        let basis = match o.basis {
+            Basis::Exact(_) => "exact",
+            Basis::Reference => "reference",
+        };
+        for row in &o.schemes {
+            for l in &row.levels {
+                let sup = l
+                    .sup_error
+                    .map_or([String::new(), String::new(), String::new()], |i| {
+                        [i.estimate, i.ci_low, i.ci_high].map(|x| format!("{x:e}"))
+                    });
+                let _ = writeln!(
+                    s,
+                    "{},{basis},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e}",
+                    o.name,
+                    row.name,
+                    row.extrapolated,
+                    l.n_steps,
+                    l.h,
+                    l.value.estimate,
+                    l.value.ci_low,
+                    l.value.ci_high,
+                    l.error.estimate,
+                    l.error.ci_low,
+                    l.error.ci_high,
+                    l.resolved,
+                    sup[0],
+                    sup[1],
+                    sup[2],
+                    l.seconds_per_path
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The largest |x| over an error's interval: the error is below it with 95% confidence.
+fn upper_bound(e: &Interval) -> f64 {
+    e.ci_low.abs().max(e.ci_high.abs())
+}
+
+/// The level of the rows `rows` that reaches |error| <= `target` (its whole interval within
+/// +-target) with the least run time per path: (seconds, scheme, N).
+fn fastest_to<'a>(
+    rows: impl Iterator<Item = &'a WeakScheme>,
+    target: f64,
+) -> Option<(f64, &'a str, usize)> {
+    rows.flat_map(|row| {
+        row.levels
+            .iter()
+            .filter(move |l| upper_bound(&l.error) <= target)
+            .map(move |l| (l.seconds_per_path, row.name.as_str(), l.n_steps))
+    })
+    .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// For each observable and each decade of weak error some row reaches: the fastest scheme
+/// without extrapolation and the fastest row with it (plain or extrapolated).
+fn fastest(report: &WeakReport) -> String {
+    let mut s = String::new();
+    for o in &report.observables {
+        let bounds: Vec<f64> = o
+            .schemes
+            .iter()
+            .flat_map(|r| r.levels.iter().map(|l| upper_bound(&l.error)))
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        let (Some(lo), Some(hi)) = (
+            bounds.iter().copied().reduce(f64::min),
+            bounds.iter().copied().reduce(f64::max),
+        ) else {
+            continue;
+        };
+        let mut decade = 10f64.powf(hi.log10().floor());
+        while decade >= lo {
+            let plain = fastest_to(o.schemes.iter().filter(|r| !r.extrapolated), decade);
+            let any = fastest_to(o.schemes.iter(), decade);
+            let show = |x: Option<(f64, &str, usize)>| {
+                x.map_or("- | - | -".into(), |(t, name, n)| {
+                    format!("{name} | {n} | {:.1}", t * 1e6)
+                })
+            };
+            if plain.is_some() || any.is_some() {
+                let _ = writeln!(
+                    s,
+                    "| {} | {decade:.0e} | {} | {} |",
+                    o.name,
+                    show(plain),
+                    show(any)
+                );
+            }
+            decade /= 10.0;
+        }
+    }
+    if s.is_empty() {
+        return s;
+    }
+    format!(
+        "## Fastest to a given weak error\n\nFor each weak error level, the row that reached it with the least run time per path, without and with Richardson-Romberg extrapolation (a level counts when the whole 95% interval of its final-time error lies within +-error).\n\n| observable | error <= | scheme | N | us/path | with extrapolation | N | us/path |\n|---|---|---|---|---|---|---|---|\n{s}"
+    )
+}
+
+fn level_row(observable: &str, row: &WeakScheme, l: &WeakLevel) -> String {
+    format!(
+        "| {observable} | {} | {} | {:.2e} | {} | {} | {} | {} | {:.1} |\n",
+        row.name,
+        l.n_steps,
+        l.h,
+        cell(&l.value),
+        cell(&l.error),
+        if l.resolved { "yes" } else { "no" },
+        l.sup_error.as_ref().map_or("-".into(), cell),
+        l.seconds_per_path * 1e6,
+    )
+}
+
+/// The Markdown summary.
+pub fn markdown(report: &WeakReport) -> String {
+    let st = &report.settings;
+    let r = &report.reference;
+    let grid: Vec<String> = report.grid.iter().map(|t| readable(*t)).collect();
+    let mut s = format!(
+        "# Weak-error study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference {} with {} steps on the same Brownian paths, T = {}, seed {}. Weak errors E[f(X_N)] - E[f(X_T)] with 95% intervals: at T against the exact value where the scene gives one, otherwise against the reference from the per-path differences f(X_N) - f(X_ref); the largest error over the grid always against the reference, over the grid of the coarsest level, t = {}. Orders are fitted over the resolved levels (|error| above the half-width of its interval), with 95% bootstrap intervals over whole paths. Each scheme is followed by its Richardson-Romberg extrapolation 2 E[f(X_(h/2))] - E[f(X_h)] (labelled with the finer N; its run time is both levels').\n\n",
+        report.scene,
+        report.scene_definition.description,
+        report.paths,
+        st.coarsest,
+        st.finest,
+        r.scheme,
+        r.n_steps,
+        readable(report.t_end),
+        report.seed,
+        grid.join(", "),
+    );
+    for o in &report.observables {
+        s += &observable_section(o);
+    }
+    s += &fastest(report);
+    s += "\n## All levels\n\n| observable | scheme | N | h | E[f(X_N)] | error at T | resolved | largest error over the grid | us/path |\n|---|---|---|---|---|---|---|---|---|\n";
+    for o in &report.observables {
+        for row in &o.schemes {
+            for l in &row.levels {
+                s += &level_row(&o.name, row, l);
+            }
+        }
+    }
+    let _ = write!(
+        s,
+        "\nReference: {} failures of {} paths; {:.1} ms per path.\n",
+        r.failures,
+        report.paths,
+        r.seconds_per_path * 1e3
+    );
+    for skipped in &report.skipped {
+        let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
+    }
+    s += "\n![weak error against h](weak_error_vs_h.svg)\n\n![weak error against run time](weak_error_vs_time.svg)\n";
+    s
+}
+
+fn observable_section(o: &ObservableReport) -> String {
+    let mut s = format!(
+        "## {}\n\nErrors at T against {}; E[f(X_ref)] = {}.\n\n| scheme | weak order at T | weak order of the largest error over the grid | paths |\n|---|---|---|---|\n",
+        o.name,
+        basis_text(o.basis),
+        o.reference_value.as_ref().map_or("-".into(), cell),
+    );
+    for row in &o.schemes {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            row.name,
+            describe_order(row.order.as_ref(), row),
+            describe_order(row.sup_order.as_ref(), row),
+            row.paths
+        );
+    }
+    s += "\n";
+    s
+}
+
+/// A short table on the terminal: per observable and scheme, its weak orders, its finest level's
+/// error and run time.
+pub fn print_summary(report: &WeakReport) {
+    for o in &report.observables {
+        println!(
+            "{} (errors at T against {})",
+            o.name,
+            match o.basis {
+                Basis::Exact(_) => "the exact value",
+                Basis::Reference => "the reference",
+            }
+        );
+        println!(
+            "  {:<40} {:>22} {:>22} {:>24} {:>10}",
+            "scheme", "weak order", "order of sup", "finest error", "us/path"
+        );
+        for row in &o.schemes {
+            let f = |w: Option<&WeakOrder>| {
+                w.map_or("-".into(), |w| {
+                    format!(
+                        "{:.2} [{:.2}, {:.2}]",
+                        w.order.estimate, w.order.ci_low, w.order.ci_high
+                    )
+                })
+            };
+            let finest = row.levels.last();
+            println!(
+                "  {:<40} {:>22} {:>22} {:>24} {:>10.1}",
+                row.name,
+                f(row.order.as_ref()),
+                f(row.sup_order.as_ref()),
+                finest.map_or("-".into(), |l| cell(&l.error)),
+                finest.map_or(0.0, |l| l.seconds_per_path * 1e6)
+            );
+        }
+    }
+    let r = &report.reference;
+    if r.failures > 0 {
+        println!(
+            "the reference failed on {} of {} paths: they are left out of every error",
+            r.failures, report.paths
+        );
+    }
+    for skipped in &report.skipped {
+        println!("left out {}: {}", skipped.name, skipped.reason);
+    }
+}
+
+/// What the x axis shows.
+#[derive(Clone, Copy)]
+enum Axis {
+    StepSize,
+    RunTime,
+}
+
+/// One panel per observable: |final-time error| of every row on log-log axes, with 95% error
+/// bars clipped to positive values; extrapolated rows dashed in the colour of their scheme.
+fn draw(report: &WeakReport, path: &Path, axis: Axis) -> Result<(), StudyError> {
+    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
+    let panels = report.observables.len().max(1);
+    let root = SVGBackend::new(path, (480 * panels as u32, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let title = match axis {
+        Axis::StepSize => format!("{}: weak error at T against step size", report.scene),
+        Axis::RunTime => format!("{}: weak error at T against run time", report.scene),
+    };
+    let root = root
+        .titled(&title, ("sans-serif", 20))
+        .map_err(|e| err(&e))?;
+    let x_of = |l: &WeakLevel| match axis {
+        Axis::StepSize => l.h,
+        Axis::RunTime => l.seconds_per_path,
+    };
+    for (area, o) in root
+        .split_evenly((1, panels))
+        .iter()
+        .zip(&report.observables)
+    {
+        let levels = || o.schemes.iter().flat_map(|r| r.levels.iter());
+        let x_range = log_range(levels().map(x_of));
+        let y_range =
+            log_range(levels().flat_map(|l| [l.error.estimate.abs(), upper_bound(&l.error)]));
+        let mut chart = ChartBuilder::on(area)
+            .caption(&o.name, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x_range.log_scale(), y_range.clone().log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(match axis {
+                Axis::StepSize => "h",
+                Axis::RunTime => "seconds per path",
+            })
+            .y_desc("|weak error| at T")
+            .x_label_formatter(&|x| format!("{x:.0e}"))
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .draw()
+            .map_err(|e| err(&e))?;
+        let floor = y_range.start;
+        for (k, row) in o.schemes.iter().enumerate() {
+            let colour = COLOURS[(k / 2) % COLOURS.len()];
+            let style = if row.extrapolated {
+                colour.mix(0.6).stroke_width(1)
+            } else {
+                colour.stroke_width(2)
+            };
+            let points: Vec<(f64, f64)> = row
+                .levels
+                .iter()
+                .map(|l| (x_of(l), l.error.estimate.abs().max(floor)))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(points.clone(), style))
+                .map_err(|e| err(&e))?
+                .label(&row.name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+            chart
+                .draw_series(row.levels.iter().map(|l| {
+                    let low = (l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low))
+                        .max(floor);
+                    ErrorBar::new_vertical(
+                        x_of(l),
+                        low,
+                        l.error.estimate.abs().max(floor),
+                        upper_bound(&l.error),
+                        style,
+                        4,
+                    )
+                }))
+                .map_err(|e| err(&e))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 9))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))
+}
+
+/// Writes `weak.json`, `weak.csv`, `weak.md`, `weak_error_vs_h.svg` and
+/// `weak_error_vs_time.svg` into `dir`.
+pub fn write_report(report: &WeakReport, dir: &Path) -> Result<(), StudyError> {
+    write_json(&dir.join("weak.json"), report)?;
+    write_atomically(&dir.join("weak.csv"), &csv(report))?;
+    write_atomically(&dir.join("weak.md"), &markdown(report))?;
+    draw(report, &dir.join("weak_error_vs_h.svg"), Axis::StepSize)?;
+    draw(report, &dir.join("weak_error_vs_time.svg"), Axis::RunTime)
+}

@@ -16,14 +16,12 @@
 //! - [`fit`]: the rates alpha, beta, gamma with intervals.
 //! - [`coupled`]: the level sampler of a scene: any study scheme on both paths of a pair, in
 //!   SIMD-lane ensembles.
-//! - [`observable`]: the functions f of the state a study estimates.
 //! - [`study`], [`report`], [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums.
 
 pub mod algorithm;
 pub mod coupled;
 pub mod fit;
-pub mod observable;
 pub mod plots;
 pub mod report;
 pub mod sampler;
@@ -37,7 +35,6 @@ pub use algorithm::{
 };
 pub use coupled::CoupledSampler;
 pub use fit::{Rates, fit_rates};
-pub use observable::Observable;
 pub use sampler::{BLOCK, LevelSampler, RunControl, Sample};
 pub use settings::{MlmcError, MlmcSpec};
 pub use study::{MlmcReport, MlmcSettings, SamplerTask, run_mlmc, run_study, with_sampler};

@@ -6,6 +6,7 @@
 use std::ops::Range;
 
 use sdae_model::{PathStreams, StandardNormals};
+use sdae_study::StudyError;
 use sdae_study::mlmc::algorithm::{AdaptiveSettings, Plan, adaptive, run_plan};
 use sdae_study::mlmc::fit::fit_rates;
 use sdae_study::mlmc::shard::{Identity, merge, run_shard};
@@ -377,8 +378,14 @@ fn bad_settings_are_named_errors() {
     settings.spec.coarsest = 20;
     assert!(matches!(settings.validate(), Err(MlmcError::Levels { .. })));
     settings.spec.coarsest = 2;
-    settings.spec.observable = "energy".into();
+    settings.spec.observable = "energie".into();
     let control = RunControl::new(1).unwrap();
     let err = sdae_study::mlmc::run_mlmc(&scene, &settings, &control).unwrap_err();
-    assert!(matches!(err, MlmcError::UnknownObservable { .. }), "{err}");
+    assert!(
+        matches!(
+            &err,
+            MlmcError::Study(StudyError::UnknownObservable { nearest: Some(n), .. }) if n == "energy"
+        ),
+        "{err}"
+    );
 }

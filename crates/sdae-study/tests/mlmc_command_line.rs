@@ -46,8 +46,8 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
     usage_error(&["mlmc", "--eps=-1e-3", "--out", out], &["eps = -0.001"]);
     usage_error(&["mlmc", "--eps", "nan", "--out", out], &["eps = NaN"]);
     usage_error(
-        &["mlmc", "--observable", "energy", "--quick", "--out", out],
-        &["unknown observable 'energy'", "cos-angle"],
+        &["mlmc", "--observable", "energie", "--quick", "--out", out],
+        &["energie", "did you mean 'energy'?", "cos_angle"],
     );
     usage_error(
         &[
@@ -65,12 +65,12 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
         &[
             "mlmc",
             "--observable",
-            "end-to-end",
+            "end_to_end",
             "--quick",
             "--out",
             out,
         ],
-        &["observable 'end-to-end' does not apply"],
+        &["end_to_end", "cos_angle"],
     );
 }
 

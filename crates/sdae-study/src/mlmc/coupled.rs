@@ -11,10 +11,10 @@ use std::ops::Range;
 
 use sdae_model::{EnsembleIncrements, PathEnsemble};
 
-use super::observable::Observable;
 use super::sampler::{BLOCK, LevelSampler, Sample};
 use super::settings::MlmcError;
 use crate::integrator::{BoxedEnsemble, StudyScheme};
+use crate::observable::Observable;
 
 /// Fine steps drawn at once.
 const CHUNK: usize = 256;

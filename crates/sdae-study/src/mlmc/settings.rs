@@ -19,22 +19,6 @@ pub enum MlmcError {
         /// What is wrong, with the numbers.
         reason: String,
     },
-    /// An observable the study does not know.
-    #[error("unknown observable '{name}' (known: {known})")]
-    UnknownObservable {
-        /// The name given.
-        name: String,
-        /// The names known.
-        known: String,
-    },
-    /// An observable that does not apply to the scene's system.
-    #[error("observable '{name}' does not apply: {reason}")]
-    ObservableNotApplicable {
-        /// The observable.
-        name: String,
-        /// Why.
-        reason: String,
-    },
     /// Another setting out of range.
     #[error("{key} = {value}: {rule}")]
     Setting {
@@ -72,6 +56,8 @@ impl MlmcError {
                     | StudyError::Unknown(_)
                     | StudyError::SchemeNotApplicable { .. }
                     | StudyError::Read { .. }
+                    | StudyError::UnknownObservable { .. }
+                    | StudyError::ObservableNeedsOutput { .. }
             ),
             MlmcError::Interrupted => false,
             _ => true,
@@ -83,7 +69,7 @@ impl MlmcError {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MlmcSpec {
-    /// The observable f of E[f(X_T)] (`cos-angle`, `end-to-end`, ...).
+    /// The observable f of E[f(X_T)] (a built-in observable of the scene's system: `cos_angle`, `end_to_end`, ...).
     #[serde(default = "default_observable")]
     pub observable: String,
     /// Level 0 has 2^k0 steps.
@@ -110,7 +96,7 @@ pub struct MlmcSpec {
 }
 
 fn default_observable() -> String {
-    "cos-angle".into()
+    "cos_angle".into()
 }
 fn default_coarsest() -> u32 {
     2

@@ -12,7 +12,6 @@ use super::algorithm::{
 };
 use super::coupled::CoupledSampler;
 use super::fit::{Rates, fit_rates};
-use super::observable::Observable;
 use super::sampler::{LevelSampler, RunControl};
 use super::settings::{MlmcError, MlmcSpec, check_eps};
 use super::sums::{LevelStats, level_stats};
@@ -190,6 +189,7 @@ pub struct MlmcReport {
 
 /// The sampler of a scene's system for `settings` (its scheme and observable checked).
 pub fn sampler_for<S>(
+    scene: &Scene,
     prepared: &Prepared<S>,
     settings: &MlmcSettings,
 ) -> Result<CoupledSampler<S>, MlmcError>
@@ -201,7 +201,7 @@ where
     let kind = SchemeKind::from_name(&spec.scheme).expect("validated");
     let scheme = StudyScheme::built_in(kind, &prepared.system, &prepared.constants);
     scheme.build()?;
-    let observable = Observable::built_in(&spec.observable, &prepared.position)?;
+    let observable = crate::observable::built_in(scene, prepared, &spec.observable)?;
     Ok(CoupledSampler::new(
         scheme,
         (prepared.position.clone(), prepared.velocity.clone()),
@@ -425,11 +425,11 @@ struct WithSampler<'a, T> {
 
 impl<T: SamplerTask> crate::scene::SceneRunner for WithSampler<'_, T> {
     type Output = Result<T::Output, MlmcError>;
-    fn run<S>(self, _: &Scene, prepared: Prepared<S>) -> Self::Output
+    fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> Self::Output
     where
         S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
     {
-        let sampler = sampler_for(&prepared, self.settings)?;
+        let sampler = sampler_for(scene, &prepared, self.settings)?;
         self.task.run(&sampler)
     }
 }

@@ -22,7 +22,8 @@ use crate::shard::ShardArg;
 pub struct MlmcArgs {
     #[command(flatten)]
     pub scenes: SceneArgs,
-    /// Observable f of E[f(X_T)]: cos-angle, end-to-end (default: the scene's, cos-angle).
+    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (docs/scenes.md
+    /// names them; default: the scene's, else cos_angle).
     #[arg(long, value_name = "NAME")]
     pub observable: Option<String>,
     /// Scheme on both paths of each pair (default: the scene's, half-explicit-practical).

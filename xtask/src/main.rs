@@ -27,7 +27,7 @@ tasks:
   study equipartition [--quick]
         kinetic temperature of the Langevin scenes against h and C_eta:
         target/study/equipartition/
-  study weak [--quick]
+  study weak [--quick] [--shard I/N|auto]
         weak errors of the scene's observables, weak orders and Richardson-Romberg
         extrapolation (default: the pendulum): target/study/<scene>/weak.md
   study mlmc [--quick] [--scene NAME] [--eps LIST] [--antithetic]

@@ -942,6 +942,13 @@ impl ConvergenceRun {
 /// Merges shards into exactly the report an unsharded run gives (timings aside): same scene
 /// and settings (the thread count may differ), every path index present exactly once.
 pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, StudyError> {
+    merge_runs(shards).map(build_report)
+}
+
+/// The shards of one study merged into the unsharded run (every path once, as [`merge_shards`]
+/// checks them), for a report built from the records: the convergence report or the weak-error
+/// report.
+pub fn merge_runs(shards: Vec<ConvergenceRun>) -> Result<ConvergenceRun, StudyError> {
     let merge = |reason: String| StudyError::Merge { reason };
     let within = |shard: &ConvergenceRun, reason: String| {
         merge(format!(
@@ -973,5 +980,5 @@ pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, St
             "path {missing} is missing: merge needs all {count} shards"
         )));
     }
-    Ok(build_report(merged))
+    Ok(merged)
 }

@@ -97,3 +97,34 @@ fn shards_holding_non_finite_numbers_are_written_read_and_merged() {
     assert!(json.contains("\"max_position_residual\":\"inf\""), "{json}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn merged_weak_shards_reproduce_the_unsharded_weak_report() {
+    use sdae_study::convergence::merge_runs;
+    use sdae_study::files::numbers_of;
+    use sdae_study::scene::Scene;
+    use sdae_study::weak::{build_weak_report, weak_settings};
+
+    let scene = Scene::built_in("pendulum").unwrap();
+    let mut settings = weak_settings(&scene, true).unwrap();
+    settings.paths = 48;
+    let run = |index: usize, count: usize| -> ConvergenceRun {
+        let run = common::run(&scene, &settings, index, count);
+        serde_json::from_str(&serde_json::to_string(&run).unwrap()).unwrap()
+    };
+    let report = |run: ConvergenceRun| {
+        let report = build_weak_report(run).unwrap();
+        numbers_of(&serde_json::to_string(&report).unwrap()).unwrap()
+    };
+    let whole = report(run(0, 1));
+    let merged = report(merge_runs((0..3).map(|i| run(i, 3)).collect()).unwrap());
+    assert_eq!(whole, merged);
+    // The weak report holds every observable the scene names, with values on every level.
+    let observables = whole["observables"].as_array().unwrap();
+    assert_eq!(
+        observables.len(),
+        scene.weak.as_ref().unwrap().observables.len()
+    );
+    // Two of three shards are not the whole study.
+    assert!(merge_runs((0..2).map(|i| run(i, 3)).collect()).is_err());
+}

@@ -44,7 +44,7 @@ pub enum Command {
     /// Weak errors E[f(X_N)] - E[f(X_T)] of the scene's observables, weak orders and
     /// Richardson-Romberg extrapolation (default: the pendulum scene); writes
     /// <OUT>/<scene>/weak.json, weak.csv, weak.md and plots.
-    Weak(EnsembleArgs),
+    Weak(WeakArgs),
     /// Merge the shard files of `--shard I/N` runs into the unsharded report.
     Merge(MergeArgs),
     /// One path of each scene as <OUT>/trace/<scene>.svg and .csv (default: every built-in
@@ -149,10 +149,22 @@ pub struct ConvergenceArgs {
     pub shard: Option<ShardArg>,
 }
 
+/// Options of the weak-error study.
+#[derive(Debug, Clone, Args)]
+pub struct WeakArgs {
+    #[command(flatten)]
+    pub ensemble: EnsembleArgs,
+    /// Run only paths i with i % N == I and write <OUT>/<scene>/weak-shard-I-of-N.json
+    /// (`merge` makes the unsharded weak report of them); `auto` takes I and N from a Slurm job
+    /// array (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT).
+    #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse)]
+    pub shard: Option<ShardArg>,
+}
+
 /// Options of `merge`.
 #[derive(Debug, Clone, Args)]
 pub struct MergeArgs {
-    /// Folders holding shard-*.json files (searched one level deep).
+    /// Folders holding shard-*.json and weak-shard-*.json files (searched one level deep).
     #[arg(value_name = "DIR", required = true)]
     pub dirs: Vec<PathBuf>,
     #[command(flatten)]

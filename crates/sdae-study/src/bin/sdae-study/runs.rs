@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::StudyError;
 use sdae_study::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::convergence::{
-    ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_shards,
+    ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_runs,
 };
 use sdae_study::files::{check_writable, read_json, remove_stale_temporaries, write_json};
 use sdae_study::integrator::SchemeKind;
@@ -21,7 +21,7 @@ use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_set
 use sdae_study::{equipartition, trace, weak};
 
 use crate::Failure;
-use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs};
+use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
 
 /// A progress bar of `len` items on stderr, drawn when stderr is a terminal (CI logs stay
 /// clean).
@@ -379,7 +379,9 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
             let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
             if path.is_dir() && deeper {
                 subdirs.push(path);
-            } else if name.starts_with("shard-") && name.ends_with(".json") {
+            } else if (name.starts_with("shard-") || name.starts_with("weak-shard-"))
+                && name.ends_with(".json")
+            {
                 files.push(path);
             }
         }
@@ -391,15 +393,19 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
         }
     }
     if files.is_empty() {
-        return Err(Failure::Usage("no shard-*.json files found".into()));
+        return Err(Failure::Usage(
+            "no shard-*.json or weak-shard-*.json files found".into(),
+        ));
     }
     files.sort();
     Ok(files)
 }
 
-/// Merges the shard files under `dirs`, one report per scene.
+/// Merges the shard files under `dirs`, one report per scene and study: the convergence report
+/// of `shard-*.json` files, the weak-error report of `weak-shard-*.json` files (shards that
+/// measure observables).
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
-    let mut by_scene: BTreeMap<String, Vec<ConvergenceRun>> = BTreeMap::new();
+    let mut by_study: BTreeMap<(String, bool), Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
         let shard: ConvergenceRun = read_json(&file).map_err(refused)?;
         // An absurd setting in a shard file (say its paths) is refused before merging.
@@ -407,17 +413,25 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
             .settings
             .validate()
             .map_err(|e| Failure::Usage(format!("shard file {}: {e}", file.display())))?;
-        by_scene
-            .entry(shard.scene.name.clone())
+        let weak = !shard.settings.observables.is_empty();
+        by_study
+            .entry((shard.scene.name.clone(), weak))
             .or_default()
             .push(shard);
     }
     let mut uncompared = Vec::new();
-    for (name, shards) in by_scene {
+    for ((name, weak), shards) in by_study {
         let context = format!("scene {name}");
-        let report = merge_shards(shards).map_err(|e| refused(e).within(&context))?;
-        print_summary(&report);
+        let run = merge_runs(shards).map_err(|e| refused(e).within(&context))?;
         let dir = out.join(&name);
+        if weak {
+            let report = weak::build_weak_report(run).map_err(|e| refused(e).within(&context))?;
+            write_weak(&report, &dir)?;
+            uncompared.extend(weak_uncompared(&report));
+            continue;
+        }
+        let report = build_report(run);
+        print_summary(&report);
         write_report(&report, &dir)?;
         println!("wrote {}/report.{{json,csv,md}} and plots", dir.display());
         uncompared.extend(uncompared_in(&report));
@@ -568,48 +582,86 @@ const WEAK_FILES: [&str; 5] = [
     "weak_error_vs_time.svg",
 ];
 
-/// The weak-error study of each scene named (default: the pendulum), from its [weak] table.
-pub fn weak(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    let scenes = args.scenes.load(|s| s.name == "pendulum")?;
+/// The weak-error study of each scene named (default: the pendulum), from its [weak] table, or
+/// one shard of it.
+pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    let e = &args.ensemble;
+    let scenes = e.scenes.load(|s| s.name == "pendulum")?;
     distinct(&scenes)?;
     let settings = scenes
         .iter()
         .map(|scene| {
-            weak::weak_settings(scene, args.quick)
-                .map(|s| args.apply(s))
+            weak::weak_settings(scene, e.quick)
+                .map(|s| e.apply(s))
                 .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
         })
         .collect::<Result<Vec<_>, _>>()?;
     checked(&scenes, &settings)?;
-    let how = Resumption::of(args);
+    let shard = args
+        .shard
+        .map(|s| s.resolve(|name| std::env::var(name).ok()))
+        .transpose()
+        .map_err(Failure::Usage)?;
+    let (index, count) = shard.unwrap_or((0, 1));
+    let how = Resumption::of(e);
+    let shard_file = format!("weak-shard-{index}-of-{count}.json");
+    let outputs: Vec<&str> = match shard {
+        Some(_) => vec![&shard_file],
+        None => WEAK_FILES.to_vec(),
+    };
     let jobs = scenes
         .iter()
         .zip(&settings)
         .map(|(scene, settings)| {
-            let file = args.out.out.join(&scene.name).join("weak-checkpoint.bin");
-            Job::new((scene, settings), (0, 1), file, how).ready(how, &WEAK_FILES)
+            let dir = e.out.out.join(&scene.name);
+            let file = dir.join(format!("weak-checkpoint-{index}-of-{count}.bin"));
+            Job::new((scene, settings), (index, count), file, how).ready(how, &outputs)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let mut uncompared = Vec::new();
     for mut ready in jobs {
         let run = ready.run(stop)?;
-        let dir = args.out.out.join(&ready.job.scene.name);
+        let dir = e.out.out.join(&ready.job.scene.name);
+        if shard.is_some() {
+            let file = dir.join(&shard_file);
+            deliver(
+                std::slice::from_ref(&ready),
+                std::slice::from_ref(&run),
+                write_json(&file, &run),
+            )?;
+            println!(
+                "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
+                file.display(),
+                run.records.len()
+            );
+            continue;
+        }
         let report = weak::build_weak_report(run.clone())?;
-        weak::report::print_summary(&report);
-        let written = weak::report::write_report(&report, &dir);
+        let written = write_weak(&report, &dir);
         deliver(std::slice::from_ref(&ready), &[run], written)?;
-        println!(
-            "wrote {0}/weak.json, weak.csv, weak.md, weak_error_vs_h.svg, weak_error_vs_time.svg",
-            dir.display()
-        );
-        uncompared.extend(
-            report
-                .uncompared()
-                .into_iter()
-                .map(|line| format!("scene {}: {line}", report.scene)),
-        );
+        uncompared.extend(weak_uncompared(&report));
     }
     nothing_uncompared(uncompared)
+}
+
+/// Prints the summary of a weak-error report and writes its files to `dir`.
+fn write_weak(report: &weak::WeakReport, dir: &Path) -> Result<(), StudyError> {
+    weak::report::print_summary(report);
+    weak::report::write_report(report, dir)?;
+    println!(
+        "wrote {0}/weak.json, weak.csv, weak.md, weak_error_vs_h.svg, weak_error_vs_time.svg",
+        dir.display()
+    );
+    Ok(())
+}
+
+/// What of a weak-error report could not be compared, prefixed by the scene.
+fn weak_uncompared(report: &weak::WeakReport) -> Vec<String> {
+    report
+        .uncompared()
+        .into_iter()
+        .map(|line| format!("scene {}: {line}", report.scene))
+        .collect()
 }
 
 /// One path of each scene as a picture and a CSV file.

@@ -22,6 +22,7 @@ use sdae_study::{equipartition, trace, weak};
 
 use crate::Failure;
 use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
+use crate::shard::ShardArg;
 
 /// A progress bar of `len` items on stderr, drawn when stderr is a terminal (CI logs stay
 /// clean).
@@ -291,27 +292,71 @@ fn checked(scenes: &[Scene], settings: &[ConvergenceSettings]) -> Result<(), Fai
 pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let e = &args.ensemble;
     let scenes = e.scenes.load(|s| s.name == "pendulum")?;
-    distinct(&scenes)?;
     let settings: Vec<_> = scenes.iter().map(|s| args.settings(s)).collect();
-    checked(&scenes, &settings)?;
-    let shard = args
-        .shard
+    let study = SceneStudy {
+        prefix: "",
+        outputs: &REPORT_FILES,
+    };
+    run_scenes(
+        e,
+        (&scenes, &settings),
+        args.shard,
+        study,
+        stop,
+        |run, dir| {
+            let report = build_report(run);
+            print_summary(&report);
+            write_report(&report, dir)?;
+            println!(
+                "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
+                dir.display()
+            );
+            Ok(uncompared_in(&report))
+        },
+    )
+}
+
+/// The files of a study that writes one report per scene (the convergence or the weak-error
+/// study).
+struct SceneStudy<'a> {
+    /// What its shard and checkpoint files' names start with.
+    prefix: &'a str,
+    /// The files its report puts in a scene's folder.
+    outputs: &'a [&'a str],
+}
+
+/// Runs `study` on each scene with its settings (checked first), or shard `shard` of it: a
+/// shard's paths are written as `<prefix>shard-I-of-N.json` for `merge`; an unsharded run goes
+/// to `report(run, scene's folder)`, which writes the report and returns what could not be
+/// compared. A report that cannot be written leaves the paths in the checkpoint.
+fn run_scenes(
+    e: &EnsembleArgs,
+    (scenes, settings): (&[Scene], &[ConvergenceSettings]),
+    shard: Option<ShardArg>,
+    study: SceneStudy<'_>,
+    stop: &AtomicBool,
+    mut report: impl FnMut(ConvergenceRun, &Path) -> Result<Vec<String>, StudyError>,
+) -> Result<(), Failure> {
+    distinct(scenes)?;
+    checked(scenes, settings)?;
+    let shard = shard
         .map(|s| s.resolve(|name| std::env::var(name).ok()))
         .transpose()
         .map_err(Failure::Usage)?;
     let (index, count) = shard.unwrap_or((0, 1));
     let how = Resumption::of(e);
-    let shard_file = format!("shard-{index}-of-{count}.json");
+    let prefix = study.prefix;
+    let shard_file = format!("{prefix}shard-{index}-of-{count}.json");
     let outputs: Vec<&str> = match shard {
         Some(_) => vec![&shard_file],
-        None => REPORT_FILES.to_vec(),
+        None => study.outputs.to_vec(),
     };
     let jobs = scenes
         .iter()
-        .zip(&settings)
+        .zip(settings)
         .map(|(scene, settings)| {
             let dir = e.out.out.join(&scene.name);
-            let file = dir.join(format!("checkpoint-{index}-of-{count}.bin"));
+            let file = dir.join(format!("{prefix}checkpoint-{index}-of-{count}.bin"));
             Job::new((scene, settings), (index, count), file, how).ready(how, &outputs)
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -333,15 +378,8 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
             );
             continue;
         }
-        let report = build_report(run.clone());
-        print_summary(&report);
-        let written = write_report(&report, &dir);
+        let written = report(run.clone(), &dir).map(|lines| uncompared.extend(lines));
         deliver(std::slice::from_ref(&ready), &[run], written)?;
-        println!(
-            "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
-            dir.display()
-        );
-        uncompared.extend(uncompared_in(&report));
     }
     nothing_uncompared(uncompared)
 }
@@ -587,7 +625,6 @@ const WEAK_FILES: [&str; 5] = [
 pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let e = &args.ensemble;
     let scenes = e.scenes.load(|s| s.name == "pendulum")?;
-    distinct(&scenes)?;
     let settings = scenes
         .iter()
         .map(|scene| {
@@ -596,52 +633,22 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
                 .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    checked(&scenes, &settings)?;
-    let shard = args
-        .shard
-        .map(|s| s.resolve(|name| std::env::var(name).ok()))
-        .transpose()
-        .map_err(Failure::Usage)?;
-    let (index, count) = shard.unwrap_or((0, 1));
-    let how = Resumption::of(e);
-    let shard_file = format!("weak-shard-{index}-of-{count}.json");
-    let outputs: Vec<&str> = match shard {
-        Some(_) => vec![&shard_file],
-        None => WEAK_FILES.to_vec(),
+    let study = SceneStudy {
+        prefix: "weak-",
+        outputs: &WEAK_FILES,
     };
-    let jobs = scenes
-        .iter()
-        .zip(&settings)
-        .map(|(scene, settings)| {
-            let dir = e.out.out.join(&scene.name);
-            let file = dir.join(format!("weak-checkpoint-{index}-of-{count}.bin"));
-            Job::new((scene, settings), (index, count), file, how).ready(how, &outputs)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut uncompared = Vec::new();
-    for mut ready in jobs {
-        let run = ready.run(stop)?;
-        let dir = e.out.out.join(&ready.job.scene.name);
-        if shard.is_some() {
-            let file = dir.join(&shard_file);
-            deliver(
-                std::slice::from_ref(&ready),
-                std::slice::from_ref(&run),
-                write_json(&file, &run),
-            )?;
-            println!(
-                "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
-                file.display(),
-                run.records.len()
-            );
-            continue;
-        }
-        let report = weak::build_weak_report(run.clone())?;
-        let written = write_weak(&report, &dir);
-        deliver(std::slice::from_ref(&ready), &[run], written)?;
-        uncompared.extend(weak_uncompared(&report));
-    }
-    nothing_uncompared(uncompared)
+    run_scenes(
+        e,
+        (&scenes, &settings),
+        args.shard,
+        study,
+        stop,
+        |run, dir| {
+            let report = weak::build_weak_report(run)?;
+            write_weak(&report, dir)?;
+            Ok(weak_uncompared(&report))
+        },
+    )
 }
 
 /// Prints the summary of a weak-error report and writes its files to `dir`.

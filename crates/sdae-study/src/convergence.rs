@@ -15,7 +15,10 @@ use crate::memory;
 use crate::observable::Observable;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
-use crate::stats::{Interval, OrderFit, PathErrors, fit_order_and_errors, lp_error, mean_interval};
+use crate::stats::{
+    INDICATIVE_BELOW, Interval, OrderFit, PathErrors, effective_paths, fit_order_and_errors, lp_error,
+    mean_interval,
+};
 
 /// The most worker threads a study starts.
 pub const MAX_THREADS: usize = 1024;
@@ -410,6 +413,10 @@ pub struct Errors {
     pub v: Option<Interval>,
     /// Multiplier.
     pub mu: Option<Interval>,
+    /// The outputs ("r", "v", "mu") whose interval is indicative only: it rests on fewer than
+    /// [`INDICATIVE_BELOW`](crate::stats::INDICATIVE_BELOW) effective paths
+    /// ([`effective_paths`]), too few for its 95% on errors this heavy-tailed.
+    pub indicative: Vec<&'static str>,
 }
 
 /// Fitted orders of r, v and mu.
@@ -752,6 +759,9 @@ fn fit_levels(
     Some((fit, level_errors))
 }
 
+/// The outputs' names, in the order of [`Errors::output`].
+const OUTPUT_NAMES: [&str; 3] = ["r", "v", "mu"];
+
 impl Errors {
     /// The error of output `c` (0: r, 1: v, 2: mu).
     fn output(&mut self, c: usize) -> &mut Option<Interval> {
@@ -786,6 +796,7 @@ fn scheme_report(
                 r: None,
                 v: None,
                 mu: None,
+                indicative: Vec::new(),
             };
             level_report(1usize << k, settings, paths, (errors, common.len()))
         })
@@ -805,9 +816,14 @@ fn scheme_report(
             }
         }
         for (j, report) in reports.iter_mut().enumerate() {
+            let distances = distances(&common, (s, j, count), c);
             let error = report.error.output(c);
             if error.is_none() {
-                *error = lp_error(&distances(&common, (s, j, count), c), settings.p);
+                *error = lp_error(&distances, settings.p);
+            }
+            if error.is_some() && effective_paths(&distances, settings.p) < INDICATIVE_BELOW as f64
+            {
+                report.error.indicative.push(OUTPUT_NAMES[c]);
             }
         }
     }

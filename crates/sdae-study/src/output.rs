@@ -69,7 +69,10 @@ pub fn describe_fit(fit: &OrderFit) -> String {
     let o = &fit.order;
     let mut flags = Vec::new();
     if fit.indicative {
-        flags.push("indicative".to_string());
+        flags.push(format!(
+            "indicative: {:.0} effective paths",
+            fit.effective_paths
+        ));
     }
     if !fit.pre_asymptotic.is_empty() {
         flags.push(format!(
@@ -169,13 +172,18 @@ pub fn truncated_cell(fraction: f64) -> String {
 }
 
 fn level_row(scheme: &str, l: &LevelReport) -> String {
+    let e = &l.error;
+    let marked = |i: Option<Interval>, name: &str| {
+        let mark = if e.indicative.contains(&name) { "*" } else { "" };
+        format!("{}{mark}", cell(i))
+    };
     format!(
         "| {scheme} | {} | {:.2e} | {} | {} | {} | {:.1} | {} | {} | {:.2} | {:.1e} |\n",
         l.n_steps,
         l.h,
-        cell(l.error.r),
-        cell(l.error.v),
-        cell(l.error.mu),
+        marked(e.r, "r"),
+        marked(e.v, "v"),
+        marked(e.mu, "mu"),
         l.seconds_per_path * 1e6,
         l.failures,
         truncated_cell(l.truncated_fraction),
@@ -209,7 +217,7 @@ pub fn markdown(report: &ConvergenceReport) -> String {
     if any_indicative(report) {
         let _ = write!(
             s,
-            "Intervals marked indicative rest on fewer than {INDICATIVE_BELOW} paths (or a degenerate bootstrap): their coverage falls short of 95%.\n\n"
+            "Intervals marked indicative rest on fewer than {INDICATIVE_BELOW} effective paths (errors too heavy-tailed for the paths run, or a degenerate bootstrap): their coverage falls short of 95%.\n\n"
         );
     }
     s += "| scheme | r | v | mu |\n|---|---|---|---|\n";
@@ -247,6 +255,16 @@ pub fn markdown(report: &ConvergenceReport) -> String {
         for l in &scheme.levels {
             s += &level_row(&scheme.name, l);
         }
+    }
+    if report
+        .schemes
+        .iter()
+        .any(|scheme| scheme.levels.iter().any(|l| !l.error.indicative.is_empty()))
+    {
+        let _ = writeln!(
+            s,
+            "\n\\* indicative: the error rests on fewer than {INDICATIVE_BELOW} effective paths (a few heavy paths make up the mean of d^p); its interval's coverage falls short of 95%."
+        );
     }
     if let Some(r) = &report.reference {
         let _ = write!(
@@ -307,7 +325,7 @@ pub fn print_summary(report: &ConvergenceReport) {
     }
     if any_indicative(report) {
         println!(
-            "* indicative: fewer than {INDICATIVE_BELOW} paths (or a degenerate bootstrap); the interval's coverage falls short of 95%"
+            "* indicative: fewer than {INDICATIVE_BELOW} effective paths (errors too heavy-tailed for the paths run, or a degenerate bootstrap); the interval's coverage falls short of 95%"
         );
     }
     for scheme in &report.schemes {
@@ -381,11 +399,16 @@ mod tests {
             pre_asymptotic: Vec::new(),
             local_slopes: Vec::new(),
             curvature: Vec::new(),
+            effective_paths: 150.0,
             indicative: false,
         };
         assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20]");
         fit.indicative = true;
-        assert_eq!(describe_fit(&fit), "1.00 [0.90, 1.20] (indicative)");
+        fit.effective_paths = 6.4;
+        assert_eq!(
+            describe_fit(&fit),
+            "1.00 [0.90, 1.20] (indicative: 6 effective paths)"
+        );
         let json = serde_json::to_string(&fit).unwrap();
         assert!(json.contains("\"indicative\":true"), "{json}");
     }

@@ -393,6 +393,25 @@ impl LogErrors {
         (Some(intervals), level_intervals)
     }
 
+    /// The effective number of paths behind the functional sum_j w_j y_j
+    /// ([`lognormal_effective_paths`] of the shares psi_i = sum_j w_j (x_ij - m_j) / (p m_j),
+    /// path i's part of the functional's Monte Carlo error: its influence, the delta method's
+    /// linearization). A heavy path factor that the levels share cancels in a slope and leaves
+    /// the shares small.
+    fn effective_paths(&self, w: &[(usize, f64)]) -> f64 {
+        lognormal_effective_paths(
+            (0..self.n)
+                .map(|i| {
+                    let share: f64 = w
+                        .iter()
+                        .map(|&(j, wj)| wj * (self.powered[j][i] / self.means[j] - 1.0))
+                        .sum();
+                    share / self.p
+                })
+                .collect(),
+        )
+    }
+
     /// Whether the functionals `a` and `b` differ by more than the Monte Carlo error allows
     /// (95%, delta method) and by more than `tolerance`.
     fn disagree(&self, a: &[(usize, f64)], b: &[(usize, f64)], tolerance: f64) -> bool {
@@ -414,9 +433,52 @@ fn quadratic_form(w: &[(usize, f64)], c: impl Fn(usize, usize) -> f64) -> f64 {
         .sum()
 }
 
-/// Below this many paths an order's interval is indicative: its coverage falls short of 95%
-/// by more than a few points on heavy-tailed errors (docs/studies.md, tests/coverage.rs).
+/// The effective number of paths behind a mean of n shares psi_i (each path's part of an
+/// estimate's Monte Carlo error): sigma = ln(q_0.9 / q_0.5) / z_0.9, the log-normal spread that
+/// the upper body of |psi| shows (z_0.9 = 1.2816), gives n e^(-sigma^2), the effective sample
+/// size E[w]^2 / E[w^2] of log-normal weights of that spread. The spread is read from the body,
+/// which every sample of a heavy law shows, not from the largest values, which a sample of a
+/// heavy law lacks (an estimate from those looks light exactly when the sample missed the heavy
+/// paths). n when every share is 0 (no Monte Carlo error), 0 when more than half are.
+fn lognormal_effective_paths(mut shares: Vec<f64>) -> f64 {
+    let n = shares.len() as f64;
+    shares.iter_mut().for_each(|x| *x = x.abs());
+    shares.sort_by(f64::total_cmp);
+    if shares.is_empty() {
+        return 0.0;
+    }
+    let (body, upper) = (quantile(&shares, 0.5), quantile(&shares, 0.9));
+    if upper == 0.0 {
+        return n;
+    }
+    if body == 0.0 || upper.is_nan() {
+        return 0.0;
+    }
+    let sigma = (upper / body).ln() / Z_90;
+    n * (-sigma * sigma).exp()
+}
+
+/// The effective number of paths behind the L^p error of per-path errors `errors`
+/// ([`lognormal_effective_paths`] of the shares (d_i / d_max)^p / m, m their mean): about n for
+/// errors of one size, far fewer when a few heavy paths make up the mean of d^p. The error's
+/// interval is indicative below [`INDICATIVE_BELOW`].
+pub fn effective_paths(errors: &[f64], p: f64) -> f64 {
+    let scale = largest(errors);
+    if !(scale.is_finite() && scale > 0.0) {
+        return errors.len() as f64;
+    }
+    let powered: Vec<f64> = errors.iter().map(|d| (d / scale).powf(p)).collect();
+    let mean = powered.iter().sum::<f64>() / powered.len() as f64;
+    lognormal_effective_paths(powered.iter().map(|x| x / mean).collect())
+}
+
+/// Below this many effective paths an order's interval is indicative: its coverage falls
+/// short of 95% by more than a few points on heavy-tailed errors (docs/studies.md,
+/// tests/coverage.rs).
 pub const INDICATIVE_BELOW: usize = 20;
+
+/// The standard normal's 90% quantile.
+const Z_90: f64 = 1.281_551_565_544_600_5;
 
 /// The slope between two neighbouring levels, with its Monte Carlo interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -448,8 +510,13 @@ pub struct OrderFit {
     /// Carlo error: the error curve bends there, and the order's interval does not cover that
     /// model error.
     pub curvature: Vec<usize>,
-    /// The intervals are indicative only: fewer than [`INDICATIVE_BELOW`] paths, or a
-    /// bootstrap with too few usable resamples (the delta-method t intervals stand in).
+    /// The effective number of paths behind the order: n e^(-sigma^2), with sigma the
+    /// log-normal spread of the paths' shares of the order's Monte Carlo error (read from the
+    /// body of their law). Heavy-tailed errors whose heavy paths do not cancel between levels
+    /// leave few effective paths of many.
+    pub effective_paths: f64,
+    /// The intervals are indicative only: fewer than [`INDICATIVE_BELOW`] effective paths, or
+    /// a bootstrap with too few usable resamples (the delta-method t intervals stand in).
     pub indicative: bool,
 }
 
@@ -499,7 +566,8 @@ pub fn fit_order_and_errors(
         .chain(neighbours.iter().map(|&(a, b)| logs.local_weights(a, b)))
         .collect();
     let (bootstrapped, errors) = logs.bootstrap(&functionals);
-    let indicative = bootstrapped.is_none() || logs.n < INDICATIVE_BELOW;
+    let effective_paths = logs.effective_paths(&functionals[0]);
+    let indicative = bootstrapped.is_none() || effective_paths < INDICATIVE_BELOW as f64;
     let mut intervals = bootstrapped
         .unwrap_or_else(|| functionals.iter().map(|w| logs.interval(w)).collect())
         .into_iter();
@@ -518,6 +586,7 @@ pub fn fit_order_and_errors(
             })
             .collect(),
         curvature,
+        effective_paths,
         indicative,
     };
     Some((fit, errors))
@@ -593,7 +662,9 @@ mod tests {
 
     #[test]
     fn the_fits_level_intervals_are_lp_errors_and_its_intervals_hold_the_estimates() {
-        for paths in [INDICATIVE_BELOW, 300] {
+        // The path factors 1..=n spread the paths' shares: 300 paths give about 54 effective
+        // ones, 100 fewer than 20.
+        for paths in [300, 1000] {
             let (h, errors) = noisy_power_law(paths);
             let data = PathErrors {
                 h: &h,
@@ -601,7 +672,7 @@ mod tests {
                 p: 2.0,
             };
             let (fit, levels) = fit_order_and_errors(data, 0.05).unwrap();
-            assert!(!fit.indicative, "{paths} paths");
+            assert!(!fit.indicative, "{paths} paths: {}", fit.effective_paths);
             for (e, d) in levels.iter().zip(&errors) {
                 let alone = lp_error(d, 2.0).unwrap();
                 for (a, b) in [

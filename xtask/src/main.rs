@@ -30,9 +30,10 @@ tasks:
   study weak [--quick] [--shard I/N|auto]
         weak errors of the scene's observables, weak orders and Richardson-Romberg
         extrapolation (default: the pendulum): target/study/<scene>/weak.md
-  study mlmc [--quick] [--scene NAME] [--eps LIST] [--antithetic]
+  study mlmc [--quick] [--scene NAME] [--eps LIST] [--antithetic] [--resume|--fresh]
         multilevel Monte Carlo of E[f(X_T)] (default: the pendulum's E[cos phi_T]):
-        convergence test, alpha, beta, gamma, complexity table; target/study/mlmc/<scene>/
+        convergence test, alpha, beta, gamma, complexity table; target/study/mlmc/<scene>/;
+        an interrupted run saves its finished samples, --resume carries on from them
   study trace
         one path of each built-in scene as a picture: target/study/trace/
   study list

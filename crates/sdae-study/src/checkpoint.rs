@@ -110,7 +110,7 @@ impl Checkpoint {
     /// exists and its header can be read (for messages; [`Checkpoint::load`] checks it).
     pub fn holds(&self) -> Option<(usize, usize)> {
         let bytes = std::fs::read(&self.path).ok()?;
-        let (header, _) = parse_header(&bytes).ok()?;
+        let (header, _): (Header, _) = parse_header(&bytes, MAGIC).ok()?;
         Some((
             header.records,
             selected(header.shard, header.settings.paths),
@@ -127,23 +127,20 @@ impl Checkpoint {
         settings: &ConvergenceSettings,
         shard: (usize, usize),
     ) -> Result<Option<SavedPaths>, StudyError> {
-        let bytes = match std::fs::read(&self.path) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            other => other.map_err(|e| self.unreadable(e.to_string()))?,
+        let Some(bytes) = read_bytes(&self.path)? else {
+            return Ok(None);
         };
-        let (header, body) = parse_header(&bytes).map_err(|m| self.unreadable(m))?;
-        let mut reader = Reader { bytes: body, at: 0 };
+        let unreadable = |m| not_whole(&self.path, m);
+        let (header, body): (Header, _) = parse_header(&bytes, MAGIC).map_err(unreadable)?;
+        let mut reader = Reader::new(body);
         let records = (0..header.records)
             .map(|k| {
                 reader
                     .record()
-                    .map_err(|m| self.unreadable(format!("record {k} of {}: {m}", header.records)))
+                    .map_err(|m| unreadable(format!("record {k} of {}: {m}", header.records)))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        if reader.at != body.len() {
-            let extra = body.len() - reader.at;
-            return Err(self.unreadable(format!("{extra} bytes after the last record")));
-        }
+        reader.end().map_err(unreadable)?;
         let differs = |what: &str| StudyError::Resume {
             path: self.path.clone(),
             reason: format!("it was saved by a run with another {what}"),
@@ -176,13 +173,6 @@ impl Checkpoint {
             }
         }
         Ok(Some(SavedPaths { records }))
-    }
-
-    fn unreadable(&self, message: String) -> StudyError {
-        StudyError::Read {
-            path: self.path.clone(),
-            message: format!("not a whole checkpoint: {message}"),
-        }
     }
 
     /// Runs shard `shard` of the study of `scene` with `settings`, steered by `control`, but
@@ -256,36 +246,69 @@ impl Checkpoint {
             shard,
             records: records.len(),
         };
-        write_with(&self.path, |out| {
-            out.write_all(MAGIC)?;
-            serde_json::to_writer(&mut *out, &header)?;
-            out.write_all(b"\n")?;
+        write_checkpoint(&self.path, (MAGIC, &header), |out| {
             records.iter().try_for_each(|r| write_record(out, r))
         })
     }
 
     /// Removes the checkpoint file (once the results it holds are in a report).
     pub fn remove(&self) -> Result<(), StudyError> {
-        match std::fs::remove_file(&self.path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                Err(StudyError::write(&self.path, e))
-            }
-            _ => Ok(()),
-        }
+        remove_checkpoint(&self.path)
     }
 
     /// Takes the lock of this checkpoint (and so of the run's results): see [`RunLock`].
     pub fn lock(&self) -> Result<RunLock, StudyError> {
-        let mut name = self.path.as_os_str().to_owned();
-        name.push(".lock");
-        RunLock::take(PathBuf::from(name))
+        RunLock::beside(&self.path)
     }
 }
 
-/// The magic line and the JSON header, and the bytes after them.
-fn parse_header(bytes: &[u8]) -> Result<(Header, &[u8]), String> {
+/// Writes a checkpoint file atomically: the `magic` line, the JSON `header` on one line, then
+/// what `records` writes.
+pub(crate) fn write_checkpoint<H: Serialize>(
+    path: &Path,
+    (magic, header): (&[u8], &H),
+    records: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), StudyError> {
+    write_with(path, |out| {
+        out.write_all(magic)?;
+        serde_json::to_writer(&mut *out, header)?;
+        out.write_all(b"\n")?;
+        records(out)
+    })
+}
+
+/// Removes a checkpoint file; one that is not there is no error.
+pub(crate) fn remove_checkpoint(path: &Path) -> Result<(), StudyError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(StudyError::write(path, e)),
+        _ => Ok(()),
+    }
+}
+
+/// The bytes of a checkpoint file, `None` when there is none; an unreadable one is a
+/// [`StudyError::Read`].
+pub(crate) fn read_bytes(path: &Path) -> Result<Option<Vec<u8>>, StudyError> {
+    match std::fs::read(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        other => other.map(Some).map_err(|e| not_whole(path, e.to_string())),
+    }
+}
+
+/// The [`StudyError::Read`] of a checkpoint file that is not whole, saying why.
+pub(crate) fn not_whole(path: &Path, message: String) -> StudyError {
+    StudyError::Read {
+        path: path.to_path_buf(),
+        message: format!("not a whole checkpoint: {message}"),
+    }
+}
+
+/// The `magic` line and the JSON header, and the bytes after them.
+pub(crate) fn parse_header<'a, H: serde::de::DeserializeOwned>(
+    bytes: &'a [u8],
+    magic: &[u8],
+) -> Result<(H, &'a [u8]), String> {
     let rest = bytes
-        .strip_prefix(MAGIC)
+        .strip_prefix(magic)
         .ok_or("it does not begin with the checkpoint line")?;
     let end = rest
         .iter()
@@ -302,7 +325,8 @@ fn failure_code(kind: Option<FailureKind>) -> u8 {
         .map_or(0, |i| i as u8 + 1)
 }
 
-fn write_varint(out: &mut impl Write, mut value: u64) -> std::io::Result<()> {
+/// A count as an LEB128 varint.
+pub(crate) fn write_varint(out: &mut impl Write, mut value: u64) -> std::io::Result<()> {
     loop {
         let byte = (value & 0x7f) as u8;
         value >>= 7;
@@ -313,7 +337,8 @@ fn write_varint(out: &mut impl Write, mut value: u64) -> std::io::Result<()> {
     }
 }
 
-fn write_f64(out: &mut impl Write, x: f64) -> std::io::Result<()> {
+/// A number bit for bit (its IEEE bits, little-endian).
+pub(crate) fn write_f64(out: &mut impl Write, x: f64) -> std::io::Result<()> {
     out.write_all(&x.to_bits().to_le_bytes())
 }
 
@@ -360,13 +385,32 @@ fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Re
     write_values(out, &r.reference_observed)
 }
 
-/// Reads what [`write_record`] wrote, failing with a message on a short or malformed input.
-struct Reader<'a> {
+/// Reads what [`write_record`] (and the other checkpoints' writers) wrote, failing with a
+/// message on a short or malformed input.
+pub(crate) struct Reader<'a> {
     bytes: &'a [u8],
     at: usize,
 }
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
+    /// A reader of `bytes` from their start.
+    pub(crate) fn new(bytes: &'a [u8]) -> Self {
+        Reader { bytes, at: 0 }
+    }
+
+    /// Bytes not read yet.
+    pub(crate) fn left(&self) -> usize {
+        self.bytes.len() - self.at
+    }
+
+    /// Fails if bytes are left after the last record.
+    pub(crate) fn end(&self) -> Result<(), String> {
+        match self.left() {
+            0 => Ok(()),
+            extra => Err(format!("{extra} bytes after the last record")),
+        }
+    }
+
     fn take(&mut self, n: usize) -> Result<&[u8], String> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
         let end = end.ok_or("the file is cut short")?;
@@ -375,16 +419,19 @@ impl Reader<'_> {
         Ok(taken)
     }
 
-    fn byte(&mut self) -> Result<u8, String> {
+    /// One byte.
+    pub(crate) fn byte(&mut self) -> Result<u8, String> {
         Ok(self.take(1)?[0])
     }
 
-    fn f64(&mut self) -> Result<f64, String> {
+    /// What [`write_f64`] wrote.
+    pub(crate) fn f64(&mut self) -> Result<f64, String> {
         let bytes: [u8; 8] = self.take(8)?.try_into().map_err(|_| "short f64")?;
         Ok(f64::from_bits(u64::from_le_bytes(bytes)))
     }
 
-    fn count(&mut self) -> Result<usize, String> {
+    /// What [`write_varint`] wrote.
+    pub(crate) fn count(&mut self) -> Result<usize, String> {
         let mut value = 0u64;
         for shift in (0..64).step_by(7) {
             let byte = self.byte()?;
@@ -400,7 +447,7 @@ impl Reader<'_> {
     /// anything is allocated for it.
     fn values(&mut self) -> Result<Vec<f64>, String> {
         let count = self.count()?;
-        if count > (self.bytes.len() - self.at) / 8 {
+        if count > self.left() / 8 {
             return Err(format!("{count} observed values do not fit in the file"));
         }
         (0..count).map(|_| self.f64()).collect()
@@ -423,7 +470,7 @@ impl Reader<'_> {
         let tracks = self.count()?;
         // Each track takes at least 2 + 8 * 4 + 5 bytes: a count beyond the rest of the file
         // is refused before anything is allocated for it.
-        if tracks > (self.bytes.len() - self.at) / 39 {
+        if tracks > self.left() / 39 {
             return Err(format!("{tracks} tracks do not fit in the file"));
         }
         let tracks = (0..tracks)
@@ -523,6 +570,13 @@ fn host() -> String {
 }
 
 impl RunLock {
+    /// Takes the lock of the checkpoint `checkpoint`: the file `<checkpoint>.lock`.
+    pub fn beside(checkpoint: &Path) -> Result<RunLock, StudyError> {
+        let mut name = checkpoint.as_os_str().to_owned();
+        name.push(".lock");
+        RunLock::take(PathBuf::from(name))
+    }
+
     /// Takes the lock file `path`, creating its folder.
     pub fn take(path: PathBuf) -> Result<RunLock, StudyError> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -637,20 +691,11 @@ mod tests {
         let mut out = BufWriter::new(Vec::new());
         write_record(&mut out, &record).unwrap();
         let bytes = out.into_inner().unwrap();
-        let read = Reader {
-            bytes: &bytes,
-            at: 0,
-        }
-        .record()
-        .unwrap();
+        let read = Reader::new(&bytes).record().unwrap();
         // NaN != NaN: compare the bits through the debug text.
         assert_eq!(format!("{read:?}"), format!("{record:?}"));
         for cut in [1, 10, bytes.len() / 2, bytes.len() - 1] {
-            let short = Reader {
-                bytes: &bytes[..cut],
-                at: 0,
-            }
-            .record();
+            let short = Reader::new(&bytes[..cut]).record();
             assert!(short.is_err(), "cut at {cut} of {}", bytes.len());
         }
     }

@@ -110,8 +110,21 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Study
     serde_json::from_str(&text).map_err(|e| fail(e.to_string()))
 }
 
-/// The fields of a report that differ between runs of one study: timings and the thread count.
-pub const RUN_DEPENDENT: [&str; 3] = ["seconds_per_path", "steps_per_second", "threads"];
+/// The fields of a report that differ between runs of one study: timings, what is computed
+/// from them (an MLMC report's costs, savings, speed-up and cost rate gamma), and the thread count.
+pub const RUN_DEPENDENT: [&str; 11] = [
+    "seconds_per_path",
+    "steps_per_second",
+    "threads",
+    "seconds",
+    "seconds_per_sample",
+    "mlmc_seconds",
+    "speedup",
+    "mlmc_cost",
+    "standard_cost",
+    "savings",
+    "gamma",
+];
 
 /// A report (or shard) in JSON without its [`RUN_DEPENDENT`] fields: what is equal for every
 /// run of one study, sharded and merged, interrupted and resumed, on any thread count.

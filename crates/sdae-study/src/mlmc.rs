@@ -18,8 +18,11 @@
 //!   SIMD-lane ensembles.
 //! - [`study`], [`report`], [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums.
+//! - [`checkpoint`]: the blocks a run finished, saved so that a stopped run resumes to exactly
+//!   the numbers of an uninterrupted one.
 
 pub mod algorithm;
+pub mod checkpoint;
 pub mod coupled;
 pub mod fit;
 pub mod plots;
@@ -35,7 +38,7 @@ pub use algorithm::{
 };
 pub use coupled::CoupledSampler;
 pub use fit::{Rates, fit_rates};
-pub use sampler::{BLOCK, LevelSampler, RunControl, Sample};
+pub use sampler::{BLOCK, BlockKey, BlockStore, LevelSampler, RunControl, Sample};
 pub use settings::{MlmcError, MlmcSpec};
 pub use study::{MlmcReport, MlmcSettings, SamplerTask, run_mlmc, run_study, with_sampler};
 pub use sums::{LevelStats, LevelSums};

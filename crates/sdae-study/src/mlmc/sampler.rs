@@ -64,14 +64,40 @@ pub trait LevelSampler: Sync {
     fn pair_steps(&self, level: u32) -> u64;
 }
 
-/// The thread pool, the progress callback and the stop flag of a run.
+/// One block of samples: its level, its index b (samples b BLOCK .. (b + 1) BLOCK), and
+/// whether its samples are pairs (`coupled`) or fine paths alone (standard Monte Carlo).
+/// Its sums depend on nothing else (and the seed and the sampler's settings).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct BlockKey {
+    /// Level l.
+    pub level: u32,
+    /// Block index b.
+    pub block: u64,
+    /// Pairs of paths (true) or the fine path alone (false).
+    pub coupled: bool,
+}
+
+/// Where a run keeps the sums of its blocks (a checkpoint): blocks it has are not run again,
+/// and each block run is handed to it.
+pub trait BlockStore: Sync {
+    /// The saved sums of block `key`, if any.
+    fn saved(&self, key: BlockKey) -> Option<LevelSums>;
+    /// Called with the sums of each block run, as it finishes.
+    fn finished(&self, key: BlockKey, sums: &LevelSums);
+}
+
+/// The thread pool, the progress callback, the stop flag and the block store of a run.
 pub struct RunControl<'a> {
     pool: rayon::ThreadPool,
     threads: usize,
-    /// Called with the number of samples finished in each block.
+    /// Called with the number of samples finished (or taken from the store) in each block.
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
     /// Once set, no further block starts and the run ends with [`MlmcError::Interrupted`].
     pub stop: Option<&'a AtomicBool>,
+    /// Blocks saved by an interrupted run are taken from it instead of run, and each block
+    /// run is handed to it: a run resumed from a checkpoint folds exactly the sums of an
+    /// uninterrupted one.
+    pub store: Option<&'a dyn BlockStore>,
 }
 
 impl<'a> RunControl<'a> {
@@ -89,6 +115,7 @@ impl<'a> RunControl<'a> {
             threads: threads.max(1),
             progress: None,
             stop: None,
+            store: None,
         })
     }
 
@@ -102,7 +129,8 @@ impl<'a> RunControl<'a> {
     }
 
     /// The sums of each block `blocks` of level `level` (block b holds the samples
-    /// b BLOCK .. (b + 1) BLOCK), in the order given.
+    /// b BLOCK .. (b + 1) BLOCK), in the order given: from the store when it has them, else
+    /// run (and handed to the store).
     pub fn sample_blocks<L: LevelSampler>(
         &self,
         sampler: &L,
@@ -117,6 +145,17 @@ impl<'a> RunControl<'a> {
                 .map_init(
                     || sampler.worker(),
                     |worker, &b| {
+                        let key = BlockKey {
+                            level,
+                            block: b,
+                            coupled,
+                        };
+                        if let Some(saved) = self.store.and_then(|s| s.saved(key)) {
+                            if let Some(progress) = self.progress {
+                                progress(BLOCK);
+                            }
+                            return Ok(saved);
+                        }
                         let worker = worker.as_mut().map_err(|e| e.clone())?;
                         if self.stopped() {
                             return Err(MlmcError::Interrupted);
@@ -129,6 +168,9 @@ impl<'a> RunControl<'a> {
                             coupled,
                         )?;
                         let sums = LevelSums::of(&samples, start.elapsed().as_secs_f64());
+                        if let Some(store) = self.store {
+                            store.finished(key, &sums);
+                        }
                         if let Some(progress) = self.progress {
                             progress(BLOCK);
                         }

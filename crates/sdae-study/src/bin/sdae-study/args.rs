@@ -54,7 +54,9 @@ pub enum Command {
     List,
     /// Multilevel Monte Carlo of E[f(X_T)] (Giles): convergence test, rates, complexity
     /// table, savings against standard Monte Carlo (default: the pendulum's E[cos phi_T]);
-    /// writes <OUT>/mlmc/<scene>/.
+    /// writes <OUT>/mlmc/<scene>/. An interrupted run saves the blocks of samples it finished
+    /// (exit code 130) and --resume carries on from them to the numbers of an uninterrupted
+    /// run.
     Mlmc(crate::mlmc_cli::MlmcArgs),
     /// Merge the shard files of `mlmc --plan FILE --shard I/N` runs into the plan's report.
     MlmcMerge(crate::mlmc_cli::MlmcMergeArgs),
@@ -105,19 +107,27 @@ pub struct EnsembleArgs {
     /// finer than the finest level.
     #[arg(long)]
     pub quick: bool,
-    /// Carry on from the paths an interrupted run of the same command saved.
-    #[arg(long, conflicts_with = "fresh")]
-    pub resume: bool,
-    /// Start afresh over the checkpoint of an interrupted run, discarding its paths (without
-    /// --resume or --fresh such a checkpoint is refused).
-    #[arg(long)]
-    pub fresh: bool,
-    /// Save the finished paths every SECONDS while the study runs (0: after every block of
-    /// paths).
-    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds)]
-    pub checkpoint_every: f64,
+    #[command(flatten)]
+    pub checkpoint: CheckpointArgs,
     #[command(flatten)]
     pub out: OutArgs,
+}
+
+/// Options of a study that saves checkpoints.
+#[derive(Debug, Clone, Args)]
+pub struct CheckpointArgs {
+    /// Carry on from what an interrupted run of the same command saved (its finished paths,
+    /// or for mlmc its finished blocks of samples).
+    #[arg(long, conflicts_with = "fresh")]
+    pub resume: bool,
+    /// Start afresh over the checkpoint of an interrupted run, discarding what it saved
+    /// (without --resume or --fresh such a checkpoint is refused).
+    #[arg(long)]
+    pub fresh: bool,
+    /// Save what is finished every SECONDS while the study runs (0: after every block of
+    /// paths or samples).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds)]
+    pub checkpoint_every: f64,
 }
 
 /// Options of the convergence study.

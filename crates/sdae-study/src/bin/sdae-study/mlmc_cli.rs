@@ -5,8 +5,11 @@ use std::sync::atomic::AtomicBool;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use sdae_study::StudyError;
+use sdae_study::checkpoint::RunLock;
 use sdae_study::files::{read_json, write_atomically, write_json};
 use sdae_study::mlmc::algorithm::Plan;
+use sdae_study::mlmc::checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{Identity, MlmcShard, merge, plan_markdown, plan_report, run_shard};
 use sdae_study::mlmc::study::{MlmcSettings, SamplerTask, plan_from_test, run_mlmc, with_sampler};
@@ -14,7 +17,8 @@ use sdae_study::mlmc::{LevelSampler, MlmcError, RunControl, run_plan};
 use sdae_study::scene::Scene;
 
 use crate::Failure;
-use crate::args::{OutArgs, SceneArgs};
+use crate::args::{CheckpointArgs, OutArgs, SceneArgs};
+use crate::runs::{Resumable, Resumption, prepare};
 use crate::shard::ShardArg;
 
 /// Options of `mlmc`.
@@ -79,6 +83,8 @@ pub struct MlmcArgs {
     #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse, requires = "plan")]
     pub shard: Option<ShardArg>,
     #[command(flatten)]
+    pub checkpoint: CheckpointArgs,
+    #[command(flatten)]
     pub out: OutArgs,
 }
 
@@ -98,9 +104,7 @@ pub struct MlmcMergeArgs {
 impl From<MlmcError> for Failure {
     fn from(e: MlmcError) -> Failure {
         match e {
-            MlmcError::Interrupted => Failure::Unsaved(
-                "interrupted: an MLMC run keeps no checkpoint, so nothing was saved".into(),
-            ),
+            MlmcError::Interrupted => Failure::Unsaved("interrupted: nothing was saved".into()),
             MlmcError::Study(e) => Failure::from_study(e),
             e if e.is_input() => Failure::Usage(e.to_string()),
             e => Failure::Failed(e.to_string()),
@@ -159,7 +163,101 @@ fn control<'a>(
     Ok(c)
 }
 
-/// The MLMC study of one scene (the pendulum by default), a plan's run or one of its shards.
+/// The files the MLMC study writes in its scene's folder.
+const REPORT_FILES: [&str; 6] = [
+    "report.json",
+    "report.csv",
+    "report.md",
+    "levels.svg",
+    "samples.svg",
+    "cost.svg",
+];
+
+/// The files a plan's unsharded run writes.
+const PLAN_FILES: [&str; 2] = ["plan-report.json", "plan-report.md"];
+
+/// An MLMC run's checkpoint with the run it belongs to, as [`prepare`] sees it.
+struct Saved<'a> {
+    checkpoint: &'a MlmcCheckpoint,
+    run: &'a MlmcRun,
+}
+
+impl Resumable for Saved<'_> {
+    type Saved = SavedBlocks;
+    fn file(&self) -> &Path {
+        self.checkpoint.path()
+    }
+    fn lock(&self) -> Result<RunLock, StudyError> {
+        self.checkpoint.lock()
+    }
+    fn holds(&self) -> Option<String> {
+        Some(format!("{} blocks of samples", self.checkpoint.holds()?))
+    }
+    fn load(&self) -> Result<Option<SavedBlocks>, StudyError> {
+        self.checkpoint.load(self.run)
+    }
+    fn describe(&self, saved: &SavedBlocks) -> String {
+        format!("{} blocks of samples", saved.blocks.len())
+    }
+    fn remove(&self) -> Result<(), StudyError> {
+        self.checkpoint.remove()
+    }
+}
+
+/// The failure of a run that ended with `error`: when it was stopped, the blocks it finished
+/// (with those it resumed from) are saved in the checkpoint first (exit code 130; 131 when
+/// there are none or they cannot be saved).
+fn stopped(
+    error: MlmcError,
+    journal: &Journal<'_>,
+    checkpoint: &MlmcCheckpoint,
+    scene: &str,
+) -> Failure {
+    if error != MlmcError::Interrupted {
+        return Failure::from(error).within(&format!("scene {scene}"));
+    }
+    let blocks = journal.blocks();
+    if blocks == 0 {
+        return Failure::Unsaved(format!(
+            "{scene}: interrupted before any block of samples finished: nothing saved"
+        ));
+    }
+    match journal.save() {
+        Ok(()) => Failure::Interrupted(format!(
+            "{scene}: interrupted; {blocks} blocks of samples are saved in {}: run the same \
+             command with --resume to carry on",
+            checkpoint.path().display()
+        )),
+        Err(e) => Failure::Unsaved(format!(
+            "{scene}: interrupted, and the finished samples could not be saved: {e}"
+        )),
+    }
+}
+
+/// After a finished run's results were written (`written`): removes the checkpoint; if they
+/// could not be written, saves every block in it instead, so that --resume writes the results
+/// without running again.
+fn deliver(
+    written: Result<(), StudyError>,
+    journal: &Journal<'_>,
+    checkpoint: &MlmcCheckpoint,
+) -> Result<(), Failure> {
+    let Err(e) = written else {
+        return Ok(checkpoint.remove()?);
+    };
+    Err(Failure::Failed(match journal.save() {
+        Ok(()) => format!(
+            "{e}; the samples are saved in {}: --resume writes the results without running \
+             again",
+            checkpoint.path().display()
+        ),
+        Err(saving) => format!("{e}; nor could the samples be saved: {saving}"),
+    }))
+}
+
+/// The MLMC study of one scene (the pendulum by default), a plan's run or one of its shards,
+/// saved in a checkpoint while it runs and when it is stopped, and resumed from it with
+/// --resume.
 pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let scenes = args.scenes.load(|s| s.name == "pendulum")?;
     let [scene] = &scenes[..] else {
@@ -172,15 +270,54 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     settings
         .validate()
         .map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
+    let plan: Option<Plan> = args.plan.as_deref().map(read_json).transpose()?;
+    let shard = args
+        .shard
+        .map(|s| s.resolve(|name| std::env::var(name).ok()))
+        .transpose()
+        .map_err(Failure::Usage)?
+        .map(|(i, n)| (i as u64, n as u64));
     let dir = args.out.out.join("mlmc").join(&scene.name);
+    let (file, shard_file) = match (&plan, shard) {
+        (None, _) => ("mlmc-checkpoint.bin".to_string(), None),
+        (Some(_), None) => ("mlmc-plan-checkpoint.bin".to_string(), None),
+        (Some(_), Some((i, n))) => (
+            format!("mlmc-plan-checkpoint-{i}-of-{n}.bin"),
+            Some(format!("mlmc-shard-{i}-of-{n}.json")),
+        ),
+    };
+    let outputs: Vec<&str> = match (&plan, &shard_file) {
+        (None, _) => REPORT_FILES.to_vec(),
+        (Some(_), None) => PLAN_FILES.to_vec(),
+        (Some(_), Some(f)) => vec![f],
+    };
+    let how = Resumption::of(&args.checkpoint);
+    let checkpoint = MlmcCheckpoint::new(dir.join(file)).every(how.every);
+    let run = MlmcRun {
+        scene: scene.clone(),
+        settings: settings.clone(),
+        plan,
+        shard,
+    };
+    let saved = Saved {
+        checkpoint: &checkpoint,
+        run: &run,
+    };
+    let (saved, _lock) = prepare(&saved, &scene.name, how, &outputs)?;
+    let journal = checkpoint.journal(&run, saved);
     let bar = spinner(&scene.name);
     let progress = |n: u64| bar.inc(n);
-    let control = control(settings.threads, &progress, stop)?;
-    if let Some(plan_file) = &args.plan {
-        let plan: Plan = read_json(plan_file)?;
-        let result = run_plan_file(scene, &settings, &control, (plan, args.shard), &dir);
+    let mut control = control(settings.threads, &progress, stop)?;
+    control.store = Some(&journal);
+    if let Some(plan) = &run.plan {
+        let done = run_plan_file(scene, &settings, &control, (plan.clone(), shard));
         bar.finish_and_clear();
-        return result;
+        let done = done.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
+        let written = match done {
+            Done::Shard(s) => write_shard(&s, &dir),
+            Done::Report(r) => write_plan_report(&r, &dir),
+        };
+        return deliver(written, &journal, &checkpoint);
     }
     let s = &settings.spec;
     eprintln!(
@@ -195,20 +332,14 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     );
     let report = run_mlmc(scene, &settings, &control);
     bar.finish_and_clear();
-    let report = report.map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
-    write_report(&report, &dir)?;
+    let report = report.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
+    deliver(write_report(&report, &dir), &journal, &checkpoint)?;
     print_summary(&report);
     println!("wrote {}", dir.join("report.md").display());
     if let Some(file) = &args.write_plan {
         let eps = s.eps.iter().copied().fold(f64::INFINITY, f64::min);
-        let plan = with_sampler(
-            scene,
-            &settings,
-            PlanFromReport {
-                report: &report,
-                eps,
-            },
-        )?;
+        let report = &report;
+        let plan = with_sampler(scene, &settings, PlanFromReport { report, eps })?;
         write_json(file, &plan)?;
         println!(
             "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
@@ -233,34 +364,35 @@ impl SamplerTask for PlanFromReport<'_> {
     }
 }
 
-/// Runs a plan, all of it or one shard, and writes its report or shard file.
+/// What a plan's run gives: a shard's blocks or the whole plan's report.
+enum Done {
+    Shard(Box<MlmcShard>),
+    Report(Box<sdae_study::mlmc::shard::PlanReport>),
+}
+
+/// Runs a plan, all of it or shard (i, n) of it.
 fn run_plan_file(
     scene: &Scene,
     settings: &MlmcSettings,
     control: &RunControl<'_>,
-    (plan, shard): (Plan, Option<ShardArg>),
-    dir: &Path,
-) -> Result<(), Failure> {
+    (plan, shard): (Plan, Option<(u64, u64)>),
+) -> Result<Done, MlmcError> {
     let identity = Identity::of(&scene.name, settings);
     struct Task<'a, 'b> {
         control: &'a RunControl<'b>,
         identity: Identity,
         plan: Plan,
-        shard: Option<(usize, usize)>,
-    }
-    enum Done {
-        Shard(Box<MlmcShard>),
-        Report(Box<sdae_study::mlmc::shard::PlanReport>),
+        shard: Option<(u64, u64)>,
     }
     impl SamplerTask for Task<'_, '_> {
         type Output = Done;
         fn run<L: LevelSampler>(self, sampler: &L) -> Result<Done, MlmcError> {
             match self.shard {
-                Some((i, n)) => Ok(Done::Shard(Box::new(run_shard(
+                Some(shard) => Ok(Done::Shard(Box::new(run_shard(
                     sampler,
                     self.control,
                     (self.identity, self.plan),
-                    (i as u64, n as u64),
+                    shard,
                 )?))),
                 None => {
                     let sums = run_plan(sampler, self.control, &self.plan.samples)?;
@@ -273,34 +405,34 @@ fn run_plan_file(
             }
         }
     }
-    let shard = shard
-        .map(|s| s.resolve(|name| std::env::var(name).ok()))
-        .transpose()
-        .map_err(Failure::Usage)?;
     let task = Task {
         control,
         identity,
         plan,
         shard,
     };
-    match with_sampler(scene, settings, task)? {
-        Done::Shard(s) => {
-            let file = dir.join(format!("mlmc-shard-{}-of-{}.json", s.shard.0, s.shard.1));
-            write_json(&file, &s)?;
-            println!(
-                "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
-                file.display()
-            );
-        }
-        Done::Report(r) => write_plan_report(&r, dir)?,
-    }
+    with_sampler(scene, settings, task)
+}
+
+/// Writes a shard's file.
+fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
+    let file = dir.join(format!(
+        "mlmc-shard-{}-of-{}.json",
+        shard.shard.0, shard.shard.1
+    ));
+    write_json(&file, shard)?;
+    println!(
+        "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
+        file.display()
+    );
     Ok(())
 }
 
+/// Writes a plan's report (JSON and Markdown) and says where.
 fn write_plan_report(
     report: &sdae_study::mlmc::shard::PlanReport,
     dir: &Path,
-) -> Result<(), Failure> {
+) -> Result<(), StudyError> {
     write_json(&dir.join("plan-report.json"), report)?;
     write_atomically(&dir.join("plan-report.md"), &plan_markdown(report))?;
     let e = &report.estimate;
@@ -385,5 +517,5 @@ pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
             sums,
         },
     )?;
-    write_plan_report(&report, &dir)
+    Ok(write_plan_report(&report, &dir)?)
 }

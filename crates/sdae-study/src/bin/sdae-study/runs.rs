@@ -21,7 +21,7 @@ use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_set
 use sdae_study::{equipartition, trace, weak};
 
 use crate::Failure;
-use crate::args::{ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
+use crate::args::{CheckpointArgs, ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
 use crate::shard::ShardArg;
 
 /// A progress bar of `len` items on stderr, drawn when stderr is a terminal (CI logs stay
@@ -43,17 +43,18 @@ struct Job<'a> {
 
 /// What the command line says about checkpoints.
 #[derive(Debug, Clone, Copy)]
-struct Resumption {
+pub struct Resumption {
     /// Carry on from a checkpoint.
-    resume: bool,
+    pub resume: bool,
     /// Discard a checkpoint.
-    fresh: bool,
-    /// Save the finished paths this often.
-    every: Duration,
+    pub fresh: bool,
+    /// Save what is finished this often.
+    pub every: Duration,
 }
 
 impl Resumption {
-    fn of(args: &EnsembleArgs) -> Self {
+    /// The command line's checkpoint options.
+    pub fn of(args: &CheckpointArgs) -> Self {
         Resumption {
             resume: args.resume,
             fresh: args.fresh,
@@ -63,7 +64,7 @@ impl Resumption {
 }
 
 /// A library error met before anything ran: a refusal (exit code 2), whatever its kind.
-fn refused(e: StudyError) -> Failure {
+pub fn refused(e: StudyError) -> Failure {
     match Failure::from(e) {
         Failure::Failed(message) => Failure::Usage(message),
         other => other,
@@ -96,67 +97,9 @@ impl<'a> Job<'a> {
         }
     }
 
-    /// Before anything runs: checks that the job's folder is writable, takes the lock of its
-    /// checkpoint, removes the temporary files of `outputs` (and of the checkpoint) that
-    /// killed runs left, and reads the checkpoint with --resume. A checkpoint found without
-    /// --resume is refused, or discarded with --fresh.
+    /// Before anything runs: see [`prepare`].
     fn ready(self, how: Resumption, outputs: &[&str]) -> Result<Ready<'a>, Failure> {
-        let path = self.checkpoint.path().to_path_buf();
-        let dir = path.parent().unwrap_or(Path::new("."));
-        check_writable(dir).map_err(refused)?;
-        let lock = self.checkpoint.lock().map_err(refused)?;
-        if let Some(pid) = lock.took_over {
-            eprintln!(
-                "note: {} was left by process {pid}, which is gone: taken over",
-                lock.path().display()
-            );
-        }
-        let own = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        let names: Vec<&str> = outputs.iter().copied().chain([own]).collect();
-        let removed = remove_stale_temporaries(dir, &names);
-        if removed > 0 {
-            eprintln!(
-                "note: removed {removed} temporary file(s) in {} left by a killed run",
-                dir.display()
-            );
-        }
-        let name = &self.scene.name;
-        let saved = if how.resume {
-            let saved = self
-                .checkpoint
-                .load(self.scene, self.settings, self.shard)
-                .map_err(|e| refused(e).within(&format!("scene {name}")))?;
-            match &saved {
-                Some(s) => eprintln!(
-                    "{name}: resuming from {} of {} paths saved in {}",
-                    s.records.len(),
-                    self.selected(),
-                    path.display()
-                ),
-                None => eprintln!(
-                    "{name}: nothing to resume ({} does not exist): starting from the first path",
-                    path.display()
-                ),
-            }
-            saved
-        } else if path.exists() {
-            let what = self.checkpoint.holds().map_or_else(
-                || "a file that is not a checkpoint".into(),
-                |(n, m)| format!("{n} of {m} paths of an interrupted run"),
-            );
-            if !how.fresh {
-                return Err(Failure::Usage(format!(
-                    "scene {name}: {} holds {what}: --resume carries on from them, --fresh \
-                     discards them",
-                    path.display()
-                )));
-            }
-            eprintln!("note: --fresh: discarding {} ({what})", path.display());
-            self.checkpoint.remove().map_err(refused)?;
-            None
-        } else {
-            None
-        };
+        let (saved, lock) = prepare(&self, &self.scene.name, how, outputs)?;
         Ok(Ready {
             job: self,
             saved,
@@ -170,6 +113,114 @@ impl<'a> Job<'a> {
         let (index, count) = self.shard;
         (index..self.settings.paths).step_by(count).count()
     }
+}
+
+/// A run's checkpoint as [`prepare`] sees it: the paths of a convergence-type study, or the
+/// blocks of samples of an MLMC run.
+pub trait Resumable {
+    /// What the checkpoint holds, read back.
+    type Saved;
+    /// The checkpoint file.
+    fn file(&self) -> &Path;
+    /// Takes the lock of the checkpoint.
+    fn lock(&self) -> Result<RunLock, StudyError>;
+    /// What the checkpoint file holds ("8 of 30 paths"), if its header can be read.
+    fn holds(&self) -> Option<String>;
+    /// What the checkpoint holds for this run, checked; `None` when there is no checkpoint.
+    fn load(&self) -> Result<Option<Self::Saved>, StudyError>;
+    /// What `saved` holds ("8 of 30 paths").
+    fn describe(&self, saved: &Self::Saved) -> String;
+    /// Removes the checkpoint file.
+    fn remove(&self) -> Result<(), StudyError>;
+}
+
+impl Resumable for Job<'_> {
+    type Saved = SavedPaths;
+    fn file(&self) -> &Path {
+        self.checkpoint.path()
+    }
+    fn lock(&self) -> Result<RunLock, StudyError> {
+        self.checkpoint.lock()
+    }
+    fn holds(&self) -> Option<String> {
+        let (n, m) = self.checkpoint.holds()?;
+        Some(format!("{n} of {m} paths"))
+    }
+    fn load(&self) -> Result<Option<SavedPaths>, StudyError> {
+        self.checkpoint.load(self.scene, self.settings, self.shard)
+    }
+    fn describe(&self, saved: &SavedPaths) -> String {
+        format!("{} of {} paths", saved.records.len(), self.selected())
+    }
+    fn remove(&self) -> Result<(), StudyError> {
+        self.checkpoint.remove()
+    }
+}
+
+/// Before a run of scene `name` starts: checks that its checkpoint's folder is writable, takes
+/// the lock of the checkpoint (held until the lock returned is dropped), removes the temporary
+/// files of `outputs` (and of the checkpoint) that killed runs left, and reads the checkpoint
+/// with --resume. A checkpoint found without --resume is refused, or discarded with --fresh.
+pub fn prepare<R: Resumable>(
+    checkpoint: &R,
+    name: &str,
+    how: Resumption,
+    outputs: &[&str],
+) -> Result<(Option<R::Saved>, RunLock), Failure> {
+    let path = checkpoint.file().to_path_buf();
+    let dir = path.parent().unwrap_or(Path::new("."));
+    check_writable(dir).map_err(refused)?;
+    let lock = checkpoint.lock().map_err(refused)?;
+    if let Some(pid) = lock.took_over {
+        eprintln!(
+            "note: {} was left by process {pid}, which is gone: taken over",
+            lock.path().display()
+        );
+    }
+    let own = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let names: Vec<&str> = outputs.iter().copied().chain([own]).collect();
+    let removed = remove_stale_temporaries(dir, &names);
+    if removed > 0 {
+        eprintln!(
+            "note: removed {removed} temporary file(s) in {} left by a killed run",
+            dir.display()
+        );
+    }
+    let saved = if how.resume {
+        let saved = checkpoint
+            .load()
+            .map_err(|e| refused(e).within(&format!("scene {name}")))?;
+        match &saved {
+            Some(s) => eprintln!(
+                "{name}: resuming from {} saved in {}",
+                checkpoint.describe(s),
+                path.display()
+            ),
+            None => eprintln!(
+                "{name}: nothing to resume ({} does not exist): starting from the beginning",
+                path.display()
+            ),
+        }
+        saved
+    } else if path.exists() {
+        let what = checkpoint.holds().map_or_else(
+            || "a file that is not a checkpoint".into(),
+            |held| format!("{held} of an interrupted run"),
+        );
+        if !how.fresh {
+            return Err(Failure::Usage(format!(
+                "scene {name}: {} holds {what}: --resume carries on from them, --fresh \
+                 discards them",
+                path.display()
+            )));
+        }
+        eprintln!("note: --fresh: discarding {} ({what})", path.display());
+        checkpoint.remove().map_err(refused)?;
+        None
+    } else {
+        None
+    };
+    Ok((saved, lock))
 }
 
 impl Ready<'_> {
@@ -344,7 +395,7 @@ fn run_scenes(
         .transpose()
         .map_err(Failure::Usage)?;
     let (index, count) = shard.unwrap_or((0, 1));
-    let how = Resumption::of(e);
+    let how = Resumption::of(&e.checkpoint);
     let prefix = study.prefix;
     let shard_file = format!("{prefix}shard-{index}-of-{count}.json");
     let outputs: Vec<&str> = match shard {
@@ -519,7 +570,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
         .collect::<Result<Vec<_>, _>>()?;
     checked(&scenes, &settings)?;
     let dir = args.out.out.join("stability");
-    let how = Resumption::of(args);
+    let how = Resumption::of(&args.checkpoint);
     let mut jobs = scenes
         .iter()
         .zip(&settings)
@@ -570,7 +621,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         all.push((scene, variants, settings));
     }
     let dir = args.out.out.join("equipartition");
-    let how = Resumption::of(args);
+    let how = Resumption::of(&args.checkpoint);
     let mut jobs = Vec::new();
     for (scene, variants, settings) in &all {
         for (k, (variant, settings)) in variants.iter().zip(settings).enumerate() {

@@ -1,0 +1,248 @@
+//! Nothing lost when an MLMC run is stopped: stopped by SIGTERM it saves the blocks of samples
+//! it finished (exit code 130) and `--resume` ends with exactly the numbers of an uninterrupted
+//! run; a checkpoint of another run is refused (exit code 2, naming what differs), and one
+//! found without `--resume` is refused unless `--fresh` discards it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The study binary with the test's environment cleared of what would change its output.
+fn binary() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sdae-study"));
+    command
+        .env_remove("SDAE_STUDY_OUT")
+        .env_remove("SLURM_JOB_ID")
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    command
+}
+
+/// A quick MLMC study of the pendulum at `eps` (on one thread unless `extra` says otherwise),
+/// writing to `out`.
+fn mlmc(out: &Path, eps: &str, extra: &[&str]) -> Command {
+    let threads = if extra.contains(&"--threads") {
+        &[][..]
+    } else {
+        &["--threads", "1"][..]
+    };
+    let mut command = binary();
+    command
+        .args(["mlmc", "--quick", "--test-samples", "512", "--eps", eps])
+        .args(threads)
+        .arg("--out")
+        .arg(out)
+        .args(extra);
+    command
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A report's numbers: its JSON without timings and the thread count.
+fn numbers(file: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{file:?}: {e}"));
+    sdae_study::files::numbers_of(&text).unwrap()
+}
+
+/// Waits until `file` exists (the child saved a checkpoint) or the child ended.
+fn wait_for(file: &Path, child: &mut Child) {
+    let start = Instant::now();
+    while !file.exists() && child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(60), "no {file:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+fn terminate(child: &Child) {
+    let sent = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+/// Runs the command and requires exit code 2 with every one of `words` in its message.
+fn refused(command: &mut Command, words: &[&str]) {
+    let out = command.output().unwrap();
+    let text = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{text}");
+    for word in words {
+        assert!(text.contains(word), "'{word}' not in\n{text}");
+    }
+}
+
+#[test]
+fn an_mlmc_study_stopped_by_sigterm_resumes_to_the_numbers_of_an_uninterrupted_run() {
+    let dir = scratch("mlmc-resume-study");
+    // Long enough (a few seconds) that the signal, sent as soon as the first block is saved,
+    // comes while it runs.
+    let eps = "4e-3";
+    let whole = mlmc(&dir.join("whole"), eps, &[]).output().unwrap();
+    assert_eq!(whole.status.code(), Some(0), "{}", stderr(&whole));
+    let out = dir.join("stopped");
+    let scene = out.join("mlmc/pendulum");
+    let checkpoint = scene.join("mlmc-checkpoint.bin");
+    let mut child = mlmc(&out, eps, &["--checkpoint-every", "0"])
+        .spawn()
+        .unwrap();
+    wait_for(&checkpoint, &mut child);
+    terminate(&child);
+    let stopped = child.wait_with_output().unwrap();
+    let text = stderr(&stopped);
+    assert_eq!(stopped.status.code(), Some(130), "{text}");
+    assert!(text.contains("blocks of samples are saved in"), "{text}");
+    assert!(text.contains("--resume"), "{text}");
+    assert!(checkpoint.exists() && !scene.join("report.json").exists());
+    // Resumed on two threads: the same numbers.
+    let resumed = mlmc(&out, eps, &["--resume", "--threads", "2"])
+        .output()
+        .unwrap();
+    let text = stderr(&resumed);
+    assert_eq!(resumed.status.code(), Some(0), "{text}");
+    assert!(text.contains("resuming from"), "{text}");
+    assert_eq!(
+        numbers(&dir.join("whole/mlmc/pendulum/report.json")),
+        numbers(&scene.join("report.json"))
+    );
+    // The report is written, then the checkpoint and its lock are gone.
+    let left: Vec<_> = std::fs::read_dir(&scene)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("checkpoint") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_plan_shard_stopped_by_sigterm_resumes_to_the_same_shard() {
+    let dir = scratch("mlmc-resume-plan");
+    let plan = dir.join("plan.json");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        &plan,
+        r#"{"eps": 0.004, "samples": [1500000, 150000, 40000, 10000]}"#,
+    )
+    .unwrap();
+    let shard = |out: &Path, extra: &[&str]| {
+        let mut command = binary();
+        command
+            .args(["mlmc", "--plan"])
+            .arg(&plan)
+            .args(["--shard", "1/2", "--threads", "1", "--out"])
+            .arg(out)
+            .args(extra);
+        command
+    };
+    let whole = shard(&dir.join("whole"), &[]).output().unwrap();
+    assert_eq!(whole.status.code(), Some(0), "{}", stderr(&whole));
+    let out = dir.join("stopped");
+    let scene = out.join("mlmc/pendulum");
+    let checkpoint = scene.join("mlmc-plan-checkpoint-1-of-2.bin");
+    let mut child = shard(&out, &["--checkpoint-every", "0"]).spawn().unwrap();
+    wait_for(&checkpoint, &mut child);
+    terminate(&child);
+    let stopped = child.wait_with_output().unwrap();
+    assert_eq!(stopped.status.code(), Some(130), "{}", stderr(&stopped));
+    // Another shard's run does not take this checkpoint.
+    std::fs::rename(&checkpoint, scene.join("mlmc-plan-checkpoint-0-of-2.bin")).unwrap();
+    refused(
+        binary()
+            .args(["mlmc", "--plan"])
+            .arg(&plan)
+            .args(["--shard", "0/2", "--resume", "--out"])
+            .arg(&out),
+        &["cannot resume", "shard"],
+    );
+    std::fs::rename(scene.join("mlmc-plan-checkpoint-0-of-2.bin"), &checkpoint).unwrap();
+    let resumed = shard(&out, &["--resume"]).output().unwrap();
+    assert_eq!(resumed.status.code(), Some(0), "{}", stderr(&resumed));
+    let file = "mlmc/pendulum/mlmc-shard-1-of-2.json";
+    assert_eq!(
+        numbers(&dir.join("whole").join(file)),
+        numbers(&out.join(file))
+    );
+    assert!(!checkpoint.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
+    let dir = scratch("mlmc-resume-refused");
+    let eps = "2e-2";
+    let whole = mlmc(&dir.join("whole"), eps, &[]).output().unwrap();
+    assert_eq!(whole.status.code(), Some(0), "{}", stderr(&whole));
+    // A report that cannot be written (a folder in its place) leaves every block in the
+    // checkpoint (exit code 1).
+    let out = dir.join("run");
+    let scene = out.join("mlmc/pendulum");
+    let checkpoint = scene.join("mlmc-checkpoint.bin");
+    std::fs::create_dir_all(scene.join("report.json")).unwrap();
+    let failed = mlmc(&out, eps, &[]).output().unwrap();
+    let text = stderr(&failed);
+    assert_eq!(failed.status.code(), Some(1), "{text}");
+    assert!(text.contains("without running again"), "{text}");
+    assert!(checkpoint.exists());
+    std::fs::remove_dir(scene.join("report.json")).unwrap();
+    // Another seed or observable: refused, naming what differs.
+    refused(
+        &mut mlmc(&out, eps, &["--resume", "--seed", "7"]),
+        &["cannot resume", "mlmc-checkpoint.bin", "another seed"],
+    );
+    refused(
+        &mut mlmc(&out, eps, &["--resume", "--observable", "energy"]),
+        &["cannot resume", "another observable"],
+    );
+    // Without --resume: refused, saying what the checkpoint holds.
+    refused(
+        &mut mlmc(&out, eps, &[]),
+        &[
+            "mlmc-checkpoint.bin",
+            "blocks of samples",
+            "--resume",
+            "--fresh",
+        ],
+    );
+    assert!(checkpoint.exists());
+    // A corrupt checkpoint is refused too.
+    let bytes = std::fs::read(&checkpoint).unwrap();
+    std::fs::write(&checkpoint, &bytes[..bytes.len() - 5]).unwrap();
+    refused(
+        &mut mlmc(&out, eps, &["--resume"]),
+        &["mlmc-checkpoint.bin", "not a whole checkpoint"],
+    );
+    std::fs::write(&checkpoint, &bytes).unwrap();
+    // --resume writes the report from the saved blocks: the uninterrupted run's numbers.
+    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
+    let text = stderr(&resumed);
+    assert_eq!(resumed.status.code(), Some(0), "{text}");
+    assert!(text.contains("resuming from"), "{text}");
+    let report = |d: &Path| numbers(&d.join("mlmc/pendulum/report.json"));
+    assert_eq!(report(&dir.join("whole")), report(&out));
+    assert!(!checkpoint.exists());
+    // --fresh discards a checkpoint (here of another seed) and runs afresh.
+    std::fs::write(&checkpoint, &bytes).unwrap();
+    let fresh = mlmc(&out, eps, &["--fresh", "--seed", "7"])
+        .output()
+        .unwrap();
+    let text = stderr(&fresh);
+    assert_eq!(fresh.status.code(), Some(0), "{text}");
+    assert!(text.contains("discarding"), "{text}");
+    assert!(!checkpoint.exists());
+    // --resume with nothing to resume says so.
+    let nothing = mlmc(&out, eps, &["--resume"]).output().unwrap();
+    assert_eq!(nothing.status.code(), Some(0), "{}", stderr(&nothing));
+    assert!(stderr(&nothing).contains("nothing to resume"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

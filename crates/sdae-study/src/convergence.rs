@@ -16,8 +16,8 @@ use crate::observable::Observable;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
 use crate::stats::{
-    INDICATIVE_BELOW, Interval, OrderFit, PathErrors, effective_paths, fit_order_and_errors, lp_error,
-    mean_interval,
+    INDICATIVE_BELOW, Interval, OrderFit, PathErrors, effective_paths, fit_order_and_errors,
+    lp_error, mean_interval,
 };
 
 /// The most worker threads a study starts.
@@ -500,7 +500,7 @@ pub struct SchemeReport {
     /// Levels from coarse to fine.
     pub levels: Vec<LevelReport>,
     /// Least-squares slope of log(error) against log(h) with 95% intervals from the Monte Carlo
-    /// error (percentile-t of the paired bootstrap of the compared paths, every level of a path
+    /// error (symmetric percentile-t of the paired bootstrap of the compared paths, every level of a path
     /// drawn together; `indicative` below [`INDICATIVE_BELOW`](crate::stats::INDICATIVE_BELOW)
     /// paths); coarse levels whose local slope departs from the finer ones beyond that error
     /// (and by more than 0.05) are flagged, not fitted.

@@ -174,7 +174,11 @@ pub fn truncated_cell(fraction: f64) -> String {
 fn level_row(scheme: &str, l: &LevelReport) -> String {
     let e = &l.error;
     let marked = |i: Option<Interval>, name: &str| {
-        let mark = if e.indicative.contains(&name) { "*" } else { "" };
+        let mark = if e.indicative.contains(&name) {
+            "*"
+        } else {
+            ""
+        };
         format!("{}{mark}", cell(i))
     };
     format!(

@@ -7,7 +7,7 @@
 //!   d^p under-covers badly at small samples), scaled by the largest error so that no p
 //!   underflows;
 //! - [`fit_order`]: the observed order of convergence from the per-path errors of all levels
-//!   of one set of paths, its interval from the Monte Carlo error (percentile-t of the paired
+//!   of one set of paths, its interval from the Monte Carlo error (symmetric percentile-t of the paired
 //!   bootstrap of whole paths, [`crate::bootstrap`]), and the local slopes with theirs, so that
 //!   curvature is flagged as pre-asymptotic rather than hidden in an interval.
 
@@ -303,13 +303,17 @@ impl LogErrors {
         }
     }
 
-    /// Percentile-t intervals of the functionals sum_j w_j y_j from the paired bootstrap of the
-    /// paths (every level of a path drawn together): with f and se the functional's value and
-    /// delta-method standard error, the 2.5% and 97.5% quantiles q of (f* - f) / se* over the
-    /// resamples give [f - q_97.5 se, f - q_2.5 se]. The resampled statistic is studentized
-    /// by its own se*, so a resample that draws a heavy path twice widens its se* with its
-    /// shift, and the quantiles carry the skew and the excess spread of the slope that the
-    /// delta method's normal quantiles miss at heavy tails. A functional without Monte Carlo
+    /// Symmetric percentile-t intervals of the functionals sum_j w_j y_j from the paired
+    /// bootstrap of the paths (every level of a path drawn together): with f and se the
+    /// functional's value and delta-method standard error, the 95% quantile q of
+    /// |f* - f| / se* over the resamples gives f +- q se. The resampled statistic is
+    /// studentized by its own se*, so a resample that draws a heavy path twice widens its se*
+    /// with its shift, and q carries the excess spread of the slope that the delta method's
+    /// normal quantile misses at heavy tails. The symmetric form's coverage error is of a
+    /// higher order in 1/n than the equal-tailed [f - q_97.5 se, f - q_2.5 se] (Hall 1988),
+    /// and on slopes of heavy-tailed errors it covers by several points more (measured in
+    /// tests/coverage.rs: 94.8% against 91.4% at 200 paths with a log-normal path factor,
+    /// 94.4% against 86.8% with a heavier one). A functional without Monte Carlo
     /// error (se = 0) keeps a zero-width interval; `None` when fewer than half of the
     /// resamples are usable (a degenerate sample). The same resamples give each level's L^p
     /// error interval (second; exactly [`lp_error`]'s, whose stream of n paths this is).
@@ -381,12 +385,13 @@ impl LogErrors {
             .iter()
             .enumerate()
             .map(|(f, &(value, se))| {
-                let mut t: Vec<f64> = usable.iter().map(|s| s[f]).collect();
+                let mut t: Vec<f64> = usable.iter().map(|s| s[f].abs()).collect();
                 t.sort_by(f64::total_cmp);
+                let half = quantile(&t, 0.95) * se;
                 Interval {
                     estimate: value,
-                    ci_low: value - quantile(&t, 0.975) * se,
-                    ci_high: value - quantile(&t, 0.025) * se,
+                    ci_low: value - half,
+                    ci_high: value + half,
                 }
             })
             .collect();
@@ -495,7 +500,7 @@ pub struct LocalSlope {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OrderFit {
     /// Least-squares slope of log(error) against log(h) over the fitted levels, with its 95%
-    /// percentile-t interval from the paired bootstrap of the paths (the Monte Carlo error of
+    /// symmetric percentile-t interval from the paired bootstrap of the paths (the Monte Carlo error of
     /// the errors, not the regression residuals).
     pub order: Interval,
     /// Indices (into the input) of the levels used in the fit.
@@ -524,7 +529,7 @@ pub struct OrderFit {
 /// Starting from all levels, the coarsest level is left out as pre-asymptotic while its local
 /// slope disagrees with the slope of the remaining finer levels (beyond the delta-method Monte
 /// Carlo error and by more than `tolerance`) and at least three levels remain. The intervals
-/// of the order and of the local slopes are percentile-t intervals of the paired bootstrap of
+/// of the order and of the local slopes are symmetric percentile-t intervals of the paired bootstrap of
 /// the paths ([`paired_bootstrap`]). `None` without >= 2 paths, >= 2 levels and positive finite
 /// errors at every level.
 pub fn fit_order(data: PathErrors<'_>, tolerance: f64) -> Option<OrderFit> {

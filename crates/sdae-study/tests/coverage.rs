@@ -293,7 +293,7 @@ fn floor(n: usize, measured: f64, replications: u64) -> f64 {
 /// Checks the coverage of each law at each (paths, largest share of indicative fits, smallest
 /// share, the order's and the local slope's coverage among the fits not marked indicative, or
 /// among all fits where every fit is), returning the failures.
-fn check(cases: &[(&str, usize, (f64, f64), (f64, f64))], replications: u64) -> Vec<String> {
+fn check(cases: &[Case], replications: u64) -> Vec<String> {
     let mut failures = Vec::new();
     for &(name, n, (fewest, most), (order, local)) in cases {
         let c = measured(name, n, replications);
@@ -310,51 +310,52 @@ fn check(cases: &[(&str, usize, (f64, f64), (f64, f64))], replications: u64) -> 
             let c = covered.unwrap_or(all);
             let floor = floor(n, base, replications);
             if c < floor || c > 0.99 {
-                failures.push(format!("{name}: {what}, n = {n}: {c:.3} (floor {floor:.3})"));
+                failures.push(format!(
+                    "{name}: {what}, n = {n}: {c:.3} (floor {floor:.3})"
+                ));
             }
         }
     }
     failures
 }
 
+/// (law, paths, the share of fits marked indicative: at least, at most; the coverage of the
+/// order and of the finest local slope measured over 1000 replications by the thorough
+/// variant, among the firm fits where at least 40 are, else among all).
+type Case = (&'static str, usize, (f64, f64), (f64, f64));
+
+/// The measured cases. The log-normal path factor reaches the targets with firm intervals
+/// from 200 paths on; the heavier factor reaches them too, though its fits are marked
+/// indicative (few effective paths: a conservative mark there). GBM falls short at every n
+/// (its heavy paths shift the slope, not only its spread: the misses lie above the interval),
+/// and its fits are marked. At 20 paths every fit is marked (20 effective paths need equal
+/// shares); coverage there is of all fits.
+const CASES: [Case; 9] = [
+    ("GBM Euler-Maruyama", 20, (1.0, 1.0), (0.778, 0.895)),
+    ("GBM Euler-Maruyama", 200, (0.95, 1.0), (0.795, 0.917)),
+    ("GBM Euler-Maruyama", 2000, (0.95, 1.0), (0.850, 0.925)),
+    ("log-normal path factor", 20, (1.0, 1.0), (0.931, 0.931)),
+    ("log-normal path factor", 200, (0.0, 0.1), (0.948, 0.954)),
+    ("log-normal path factor", 2000, (0.0, 0.01), (0.954, 0.953)),
+    ("heavy path factor", 20, (1.0, 1.0), (0.896, 0.897)),
+    ("heavy path factor", 200, (0.95, 1.0), (0.944, 0.945)),
+    ("heavy path factor", 2000, (0.9, 1.0), (0.953, 0.962)),
+];
+
 #[test]
 fn order_intervals_cover_or_say_they_are_indicative() {
-    // The log-normal path factor's fits at 200 paths are firm and cover (measured over 1000
-    // replications by the thorough variant: 0.916 and 0.933); GBM's and the heavy factor's
-    // are marked indicative (their effective paths are few: the heavy paths are rare and do
-    // not cancel between levels), as is every fit of 20 paths (20 effective paths need
-    // identical shares). Coverage at 20 paths is of all fits: 0.903 and 0.909 for the
-    // log-normal factor; GBM (0.673, 0.848) and the heavy factor (0.823, 0.832) fall short,
-    // which their marks say.
-    let cases = [
-        ("GBM Euler-Maruyama", 20, (1.0, 1.0), (0.673, 0.848)),
-        ("GBM Euler-Maruyama", 200, (0.95, 1.0), (0.0, 0.0)),
-        ("log-normal path factor", 20, (1.0, 1.0), (0.903, 0.909)),
-        ("log-normal path factor", 200, (0.0, 0.1), (0.916, 0.933)),
-        ("heavy path factor", 20, (1.0, 1.0), (0.823, 0.832)),
-        ("heavy path factor", 200, (0.95, 1.0), (0.0, 0.0)),
-    ];
+    // 400 replications of the cases up to 200 paths (a few seconds).
+    let cases: Vec<Case> = CASES.into_iter().filter(|c| c.1 <= 200).collect();
     let failures = check(&cases, 400);
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// The thorough variant: 1000 replications at 20, 200 and 2000 paths (several minutes in the
-/// test profile): `cargo test -p sdae-study --test coverage -- --ignored --nocapture`.
+/// The thorough variant: 1000 replications of every case (about 30 s in the test profile):
+/// `cargo test -p sdae-study --test coverage -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn order_intervals_cover_or_say_they_are_indicative_thoroughly() {
-    let cases = [
-        ("GBM Euler-Maruyama", 20, (1.0, 1.0), (0.673, 0.848)),
-        ("GBM Euler-Maruyama", 200, (0.95, 1.0), (0.0, 0.0)),
-        ("GBM Euler-Maruyama", 2000, (0.95, 1.0), (0.0, 0.0)),
-        ("log-normal path factor", 20, (1.0, 1.0), (0.903, 0.909)),
-        ("log-normal path factor", 200, (0.0, 0.1), (0.916, 0.933)),
-        ("log-normal path factor", 2000, (0.0, 0.01), (0.93, 0.93)),
-        ("heavy path factor", 20, (1.0, 1.0), (0.823, 0.832)),
-        ("heavy path factor", 200, (0.95, 1.0), (0.0, 0.0)),
-        ("heavy path factor", 2000, (0.9, 1.0), (0.0, 0.0)),
-    ];
-    let failures = check(&cases, 1000);
+    let failures = check(&CASES, 1000);
     assert!(failures.is_empty(), "{failures:#?}");
 }
 

@@ -5,9 +5,13 @@
 
 mod common;
 
+mod process;
+
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
+
+use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
 use sdae_study::StudyError;
 use sdae_study::checkpoint::{Checkpoint, Resumed};
@@ -20,19 +24,6 @@ fn folder(name: &str) -> PathBuf {
     dir
 }
 
-/// The study binary with the test's environment cleared of what would change its output.
-fn binary() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_sdae-study"));
-    command
-        .env_remove("SDAE_STUDY_OUT")
-        .env_remove("SLURM_JOB_ID")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
-    command
-}
-
 /// A pendulum study of a few seconds, in blocks of 64 paths on one thread, saved after every
 /// block.
 fn long_study(out: &Path, extra: &[&str]) -> Command {
@@ -43,32 +34,6 @@ fn long_study(out: &Path, extra: &[&str]) -> Command {
         .arg(out)
         .args(extra);
     command
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn numbers(file: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(file).unwrap();
-    sdae_study::files::numbers_of(&text).unwrap()
-}
-
-fn signal(child: &Child, name: &str) {
-    let sent = Command::new("kill")
-        .args([&format!("-{name}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-}
-
-/// Waits until `file` exists (the child saved a checkpoint) or the child ended.
-fn wait_for(file: &Path, child: &mut Child) {
-    let start = Instant::now();
-    while !file.exists() && child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(60), "no {file:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// Delays from a seeded splitmix64 stream, in `range` milliseconds.
@@ -131,12 +96,7 @@ fn killed_at_random_moments_and_resumed_it_ends_with_the_uninterrupted_report() 
         numbers(&scene_dir.join("report.json"))
     );
     // Nothing left behind: no checkpoint, lock or temporary file.
-    let left: Vec<_> = std::fs::read_dir(&scene_dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains("checkpoint") || n.ends_with(".tmp"))
-        .collect();
+    let left = leftovers(&scene_dir);
     assert!(left.is_empty(), "{left:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

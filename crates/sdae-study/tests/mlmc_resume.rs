@@ -3,22 +3,12 @@
 //! run; a checkpoint of another run is refused (exit code 2, naming what differs), and one
 //! found without `--resume` is refused unless `--fresh` discards it.
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+mod process;
 
-/// The study binary with the test's environment cleared of what would change its output.
-fn binary() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_sdae-study"));
-    command
-        .env_remove("SDAE_STUDY_OUT")
-        .env_remove("SLURM_JOB_ID")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
-    command
-}
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
 /// A quick MLMC study of the pendulum at `eps` (on one thread unless `extra` says otherwise),
 /// writing to `out`.
@@ -42,33 +32,6 @@ fn scratch(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     dir
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// A report's numbers: its JSON without timings and the thread count.
-fn numbers(file: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{file:?}: {e}"));
-    sdae_study::files::numbers_of(&text).unwrap()
-}
-
-/// Waits until `file` exists (the child saved a checkpoint) or the child ended.
-fn wait_for(file: &Path, child: &mut Child) {
-    let start = Instant::now();
-    while !file.exists() && child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(60), "no {file:?}");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
-
-fn terminate(child: &Child) {
-    let sent = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
 }
 
 /// Runs the command and requires exit code 2 with every one of `words` in its message.
@@ -96,7 +59,7 @@ fn an_mlmc_study_stopped_by_sigterm_resumes_to_the_numbers_of_an_uninterrupted_r
         .spawn()
         .unwrap();
     wait_for(&checkpoint, &mut child);
-    terminate(&child);
+    signal(&child, "TERM");
     let stopped = child.wait_with_output().unwrap();
     let text = stderr(&stopped);
     assert_eq!(stopped.status.code(), Some(130), "{text}");
@@ -115,12 +78,7 @@ fn an_mlmc_study_stopped_by_sigterm_resumes_to_the_numbers_of_an_uninterrupted_r
         numbers(&scene.join("report.json"))
     );
     // The report is written, then the checkpoint and its lock are gone.
-    let left: Vec<_> = std::fs::read_dir(&scene)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.contains("checkpoint") || n.ends_with(".tmp"))
-        .collect();
+    let left = leftovers(&scene);
     assert!(left.is_empty(), "{left:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -152,7 +110,7 @@ fn a_plan_shard_stopped_by_sigterm_resumes_to_the_same_shard() {
     let checkpoint = scene.join("mlmc-plan-checkpoint-1-of-2.bin");
     let mut child = shard(&out, &["--checkpoint-every", "0"]).spawn().unwrap();
     wait_for(&checkpoint, &mut child);
-    terminate(&child);
+    signal(&child, "TERM");
     let stopped = child.wait_with_output().unwrap();
     assert_eq!(stopped.status.code(), Some(130), "{}", stderr(&stopped));
     // Another shard's run does not take this checkpoint.

@@ -2,23 +2,13 @@
 
 use sdae_manifold::{Constraint, check_state};
 
-use crate::driver::{INITIAL_STATE_TOLERANCE, PathDiagnostics, PathState};
+use crate::diagnostics::PathDiagnostics;
+use crate::driver::{INITIAL_STATE_TOLERANCE, PathState};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
+use crate::lanes::lane_stride;
 use crate::normals::EnsembleIncrements;
 use crate::scheme::Scheme;
 use crate::system::System;
-
-/// Paths are laid out in blocks of this many lanes, the widest SIMD width (8 f64 with
-/// AVX-512).
-pub const LANE_BLOCK: usize = 8;
-
-/// The stride of an ensemble of `paths` paths: `paths` rounded up to a multiple of
-/// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to [`PathEnsemble::step`]
-/// is entry `j * stride + p`. (An ensemble's constructor refuses a count too large to round
-/// up, [`ModelError::Allocation`].)
-pub fn lane_stride(paths: usize) -> usize {
-    paths.next_multiple_of(LANE_BLOCK)
-}
 
 /// P independent paths of one scheme, each with its state (r, v), its mu (seed eq. 1.4), its
 /// [`PathDiagnostics`] and, once a step has failed, its [`StepFailure`]: a failed path keeps

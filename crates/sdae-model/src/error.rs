@@ -1,13 +1,11 @@
 //! Errors shared by every scheme: bad settings and inputs ([`ModelError`]), why a step failed
-//! ([`StepFailure`], classified by [`FailureKind`]), and where along a path ([`StepError`],
-//! [`PathFailure`]).
+//! ([`StepFailure`], classified by [`FailureKind`]), and where along a path ([`StepError`]; a
+//! whole path's [`PathFailure`](crate::PathFailure) carries its diagnostics too).
 
 use sdae_ift::IftError;
 use sdae_manifold::{LinearError, ManifoldError};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
-
-use crate::driver::PathDiagnostics;
 
 /// A setting or input that a system or scheme cannot run with.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -279,24 +277,3 @@ pub struct StepError {
     /// What went wrong.
     pub failure: StepFailure,
 }
-
-/// A path that stopped early: the error and what was done before it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PathFailure {
-    /// The failing step.
-    pub error: StepError,
-    /// Diagnostics of the steps that succeeded.
-    pub diagnostics: Box<PathDiagnostics>,
-}
-
-impl std::fmt::Display for PathFailure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} (after {} good steps)",
-            self.error, self.diagnostics.steps
-        )
-    }
-}
-
-impl std::error::Error for PathFailure {}

@@ -3,9 +3,6 @@
 //! Path i of a study draws from its own streams [`PathStreams::for_path`]`(seed, i)`, so
 //! results do not depend on the thread count or on which paths run where.
 
-use rand::{RngExt, SeedableRng};
-use rand_xoshiro::{SplitMix64, Xoshiro256PlusPlus};
-
 use crate::path_streams::{PathStreams, StandardNormals};
 
 /// Something that fills the next Brownian increment over a step of size h.
@@ -18,20 +15,6 @@ pub trait IncrementSource {
     fn remaining(&self) -> Option<usize> {
         None
     }
-}
-
-/// The random-number stream of path `index` of a study with seed `seed`: a xoshiro256++ whose
-/// 256-bit state comes from SplitMix64 applied to the pair (seed, index). It is the main
-/// stream of the path's [`PathStreams`], which draw its standard normals.
-pub fn path_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
-    let mut mixer = SplitMix64::seed_from_u64(seed);
-    let base: u64 = mixer.random();
-    let mut stream = SplitMix64::seed_from_u64(base ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    let mut state = [0u8; 32];
-    for chunk in state.chunks_exact_mut(8) {
-        chunk.copy_from_slice(&stream.random::<u64>().to_le_bytes());
-    }
-    Xoshiro256PlusPlus::from_seed(state)
 }
 
 /// Gaussian increments sqrt(h) N(0, I_l) from a source of standard normals: a path's

@@ -6,7 +6,7 @@
 
 use pulp::Simd;
 
-use crate::driver::{ITERATION_BINS, PathDiagnostics};
+use crate::diagnostics::{ITERATION_BINS, PathDiagnostics};
 use crate::error::{ModelError, try_filled};
 use crate::lanes::{LaneMask, Lanes};
 use crate::scheme::StepOutcome;

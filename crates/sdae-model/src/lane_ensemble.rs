@@ -5,10 +5,11 @@ use std::mem::take;
 use pulp::Simd;
 use sdae_manifold::Constraint;
 
-use crate::driver::PathDiagnostics;
-use crate::ensemble::{LANE_BLOCK, PathEnsemble, check_initial_state, check_path, for_each_row};
+use crate::diagnostics::PathDiagnostics;
+use crate::ensemble::{PathEnsemble, check_initial_state, check_path, for_each_row};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
+use crate::lanes::LANE_BLOCK;
 use crate::lanes::{LaneMask, LaneWidth, Lanes};
 use crate::scheme::Scheme;
 use crate::system::System;
@@ -36,7 +37,7 @@ impl<T: LaneScheme + ?Sized> LaneScheme for Box<T> {
 /// LANE_BLOCK`: a block's n rows
 /// of LANE_BLOCK lanes are contiguous, so that a group of W = LANE_BLOCK lanes is stepped where
 /// it lies), with each path's mu (seed eq. 1.4, constraint j of path p at `j * stride + p`,
-/// stride = [`lane_stride`]`(P)`), [`PathDiagnostics`] and, once a step has failed, its
+/// stride = [`lane_stride`](crate::lane_stride)`(P)`), [`PathDiagnostics`] and, once a step has failed, its
 /// [`StepFailure`].
 #[derive(Debug, Clone)]
 pub struct LanePaths {
@@ -142,7 +143,7 @@ impl LanePaths {
         self.paths
     }
 
-    /// The stride of the layout, [`lane_stride`]`(P)`.
+    /// The stride of the layout, [`lane_stride`](crate::lane_stride)`(P)`.
     pub fn stride(&self) -> usize {
         self.stride
     }

@@ -11,6 +11,18 @@ use std::ops::{Add, Div, Mul, Neg, Not, Sub};
 use pulp::bytemuck;
 use pulp::{Simd, WithSimd};
 
+/// Paths are laid out in blocks of this many lanes, the widest SIMD width (8 f64 with
+/// AVX-512).
+pub const LANE_BLOCK: usize = 8;
+
+/// The stride of an ensemble of `paths` paths: `paths` rounded up to a multiple of
+/// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to [`PathEnsemble::step`](crate::PathEnsemble::step)
+/// is entry `j * stride + p`. (An ensemble's constructor refuses a count too large to round
+/// up, [`ModelError::Allocation`](crate::ModelError::Allocation).)
+pub fn lane_stride(paths: usize) -> usize {
+    paths.next_multiple_of(LANE_BLOCK)
+}
+
 /// The instruction set, and with it the number W of paths stepped at once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LaneWidth {

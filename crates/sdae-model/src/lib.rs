@@ -75,6 +75,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod diagnostics;
 mod driver;
 mod ensemble;
 mod error;
@@ -92,28 +93,21 @@ mod system;
 mod tangent;
 mod ziggurat;
 
-pub use driver::{
-    INITIAL_STATE_TOLERANCE, ITERATION_BINS, PathDiagnostics, PathState, TRUNCATION_DOMINATED,
-    advance, run_path,
-};
-pub use ensemble::{
-    LANE_BLOCK, PathEnsemble, PathLoop, check_initial_state, check_path, lane_stride,
-};
-pub use error::{
-    FailureKind, ModelError, PathFailure, StepError, StepFailure, check_dim, check_step_size,
-};
+pub use diagnostics::{ITERATION_BINS, PathDiagnostics, PathFailure, TRUNCATION_DOMINATED};
+pub use driver::{INITIAL_STATE_TOLERANCE, PathState, advance, run_path};
+pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};
+pub use error::{FailureKind, ModelError, StepError, StepFailure, check_dim, check_step_size};
 pub use grid::TimeGrid;
-pub use increments::{
-    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, path_rng,
-};
+pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 pub use lane_diagnostics::LaneRecord;
 pub use lane_ensemble::{
     GroupState, LaneEnsemble, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore,
     WideKernel,
 };
+pub use lanes::{LANE_BLOCK, lane_stride};
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
-pub use path_streams::{PathStreams, StandardNormals};
+pub use path_streams::{PathStreams, StandardNormals, path_rng};
 pub use scheme::{Scheme, StepOutcome};
 pub use sphere_root::{RootLanes, SphereRoot};
 pub use system::{

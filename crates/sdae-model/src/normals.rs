@@ -6,9 +6,8 @@ use pulp::{Simd, bytemuck};
 use rand::{SeedableRng, TryRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use crate::ensemble::{LANE_BLOCK, lane_stride};
 use crate::error::{ModelError, check_step_size};
-use crate::lanes::LaneWidth;
+use crate::lanes::{LANE_BLOCK, LaneWidth, lane_stride};
 use crate::path_streams::PathStreams;
 use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 
@@ -546,7 +545,8 @@ fn store_words<S: Simd>(v: S::u64s, to: &mut [u64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::increments::{GaussianIncrements, IncrementSource, path_rng};
+    use crate::increments::{GaussianIncrements, IncrementSource};
+    use crate::path_streams::path_rng;
 
     #[test]
     fn the_lanes_fast_path_is_the_one_words() {

@@ -4,30 +4,29 @@ use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::{
-    KappaProblem, LaneStore, Scheme, StepFailure, StepOutcome, System, check_dimensions,
-    check_step_input, lambda_right_hand_side,
+    KappaProblem, LaneStore, StepFailure, StepOutcome, System, check_dimensions, check_step_input,
+    lambda_right_hand_side,
 };
 
 use crate::config::StepperConfig;
-use crate::ensemble::sphere;
 use crate::error::SchemeError;
 
 /// The stepper: a system, the scheme's constants and all buffers of one path.
 #[derive(Debug, Clone)]
 pub struct Stepper<S: System> {
-    system: S,
+    pub(crate) system: S,
     config: StepperConfig,
     solver: BallSolver<<S::Constraint as Constraint>::Gram>,
     drift: Vec<f64>,
     y: Vec<f64>,
     x: Vec<f64>,
     force: Vec<f64>,
-    lambda: Vec<f64>,
+    pub(crate) lambda: Vec<f64>,
     /// Dg(r') v' when monitored.
     tangency: Vec<f64>,
     scratch: Vec<f64>,
     /// kappa_{k+1} when the last step was decided in one lane (else the solver holds it).
-    lane_root: Option<[f64; 1]>,
+    pub(crate) lane_root: Option<[f64; 1]>,
     /// The buffers of the lane form of an ensemble's step ([`crate::Ensemble`]).
     pub(crate) lanes: LaneStore,
 }
@@ -94,7 +93,7 @@ impl<S: System> Stepper<S> {
     /// The general path after the input checks: fixed-size buffers for one constraint in the
     /// plane or in space (the pendulums; every pass over a vector unrolled), the stepper's
     /// buffers otherwise.
-    fn general_step(
+    pub(crate) fn general_step(
         &mut self,
         r: &mut [f64],
         v: &mut [f64],
@@ -175,45 +174,6 @@ impl<S: System> Stepper<S> {
         )?;
         self.lambda.copy_from_slice(&lambda);
         Ok(outcome)
-    }
-}
-
-impl<S: System> Scheme for Stepper<S> {
-    type System = S;
-
-    fn system(&self) -> &S {
-        &self.system
-    }
-
-    /// Advances (r, v) by one step of size h with Brownian increment dw (seed eq. 3.1):
-    ///
-    /// r' = r + eta v h + M^-1 grad g(r) kappa,                    g(r') = 0
-    /// v' = v + M^-1 [eta a(r, v) h + B(r, v) dw + grad g(r) lambda], Dg(r') v' = 0
-    ///
-    /// On failure (r, v) are left unchanged.
-    ///
-    /// A sphere with a diagonal mass (the pendulums) steps through the lane form at W = 1 (the
-    /// ensemble's code in plain f64); what it does not decide, and every other system, goes
-    /// through the general path ([`Stepper::step_general`]).
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
-        check_step_input(&self.system, r, v, h, dw)?;
-        if let Some(step) = sphere::step_one_lane(self, r, v, h, dw) {
-            self.lane_root = Some([step.kappa]);
-            self.lambda[0] = step.lambda;
-            return Ok(step.outcome);
-        }
-        self.general_step(r, v, h, dw)
-    }
-
-    /// lambda_{k+1} of the last successful step (the increment of mu, eq. 1.4).
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.lambda
     }
 }
 

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use sdae_model::ModelError;
 use thiserror::Error;
 
-use crate::scene::BUILT_IN;
+use crate::catalog::BUILT_IN;
 
 /// Why a study cannot run, or cannot save what it computed.
 #[derive(Debug, Clone, PartialEq, Error)]

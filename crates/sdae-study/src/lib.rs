@@ -27,6 +27,7 @@
 //! thread count or the sharding.
 
 pub mod bootstrap;
+mod catalog;
 pub mod checkpoint;
 pub mod convergence;
 pub mod equipartition;
@@ -42,6 +43,7 @@ pub mod parallel;
 pub mod plots;
 pub mod real;
 pub mod scene;
+mod scene_load;
 pub mod stability;
 pub mod stats;
 pub mod trace;

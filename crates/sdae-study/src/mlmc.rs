@@ -38,7 +38,7 @@ pub use algorithm::{
 };
 pub use coupled::CoupledSampler;
 pub use fit::{Rates, fit_rates};
-pub use sampler::{BLOCK, BlockKey, BlockStore, LevelSampler, RunControl, Sample};
+pub use sampler::{BLOCK, BlockKey, BlockStore, LevelSampler, RunControl};
 pub use settings::{MlmcError, MlmcSpec};
 pub use study::{MlmcReport, MlmcSettings, SamplerTask, run_mlmc, run_study, with_sampler};
-pub use sums::{LevelStats, LevelSums};
+pub use sums::{LevelStats, LevelSums, Sample};

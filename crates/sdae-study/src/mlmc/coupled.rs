@@ -11,8 +11,9 @@ use std::ops::Range;
 
 use sdae_model::{EnsembleIncrements, PathEnsemble};
 
-use super::sampler::{BLOCK, LevelSampler, Sample};
+use super::sampler::{BLOCK, LevelSampler};
 use super::settings::MlmcError;
+use super::sums::Sample;
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
 

@@ -14,31 +14,11 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::settings::MlmcError;
-use super::sums::LevelSums;
+use super::sums::{LevelSums, Sample};
 use crate::error::StudyError;
 
 /// Samples per block (a multiple of the widest SIMD width).
 pub const BLOCK: u64 = 32;
-
-/// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
-/// for a single path), or which path of the pair failed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Sample {
-    /// Both paths finished.
-    Value {
-        /// P_l (with the antithetic option, the average over the fine path and its twin).
-        fine: f64,
-        /// P_{l-1}.
-        coarse: f64,
-    },
-    /// A path of the pair failed (the sample has no value and is counted as failed).
-    Failed {
-        /// The fine path (or its antithetic twin) failed.
-        fine: bool,
-        /// The coarse path failed.
-        coarse: bool,
-    },
-}
 
 /// A model MLMC can sample: pairs of paths on levels l and l - 1 driven by one Brownian path.
 pub trait LevelSampler: Sync {

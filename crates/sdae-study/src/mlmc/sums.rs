@@ -6,7 +6,25 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::sampler::Sample;
+/// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
+/// for a single path), or which path of the pair failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sample {
+    /// Both paths finished.
+    Value {
+        /// P_l (with the antithetic option, the average over the fine path and its twin).
+        fine: f64,
+        /// P_{l-1}.
+        coarse: f64,
+    },
+    /// A path of the pair failed (the sample has no value and is counted as failed).
+    Failed {
+        /// The fine path (or its antithetic twin) failed.
+        fine: bool,
+        /// The coarse path failed.
+        coarse: bool,
+    },
+}
 
 /// Power sums of a level's samples: Y = P_l - P_{l-1} (Y = P_0 on level 0) and P_l, the
 /// failures on either path of a pair, and the measured run time.

@@ -57,9 +57,9 @@ pub enum Command {
     /// writes <OUT>/mlmc/<scene>/. An interrupted run saves the blocks of samples it finished
     /// (exit code 130) and --resume carries on from them to the numbers of an uninterrupted
     /// run.
-    Mlmc(crate::mlmc_cli::MlmcArgs),
+    Mlmc(MlmcArgs),
     /// Merge the shard files of `mlmc --plan FILE --shard I/N` runs into the plan's report.
-    MlmcMerge(crate::mlmc_cli::MlmcMergeArgs),
+    MlmcMerge(MlmcMergeArgs),
 }
 
 /// Which scenes to run.
@@ -328,4 +328,84 @@ mod tests {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         assert_eq!(started_threads(1024, 1 << 20), 1024.min(4 * cores));
     }
+}
+
+/// Options of `mlmc`.
+#[derive(Debug, Clone, Args)]
+pub struct MlmcArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (docs/scenes.md
+    /// names them; default: the scene's, else cos_angle).
+    #[arg(long, value_name = "NAME")]
+    pub observable: Option<String>,
+    /// Scheme on both paths of each pair (default: the scene's, half-explicit-practical).
+    #[arg(long, value_name = "NAME")]
+    pub scheme: Option<String>,
+    /// Accuracies eps of the complexity table, comma-separated (default: the scene's).
+    #[arg(
+        long,
+        value_name = "EPS",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub eps: Vec<f64>,
+    /// Antithetic fine paths (for multiplicative noise).
+    #[arg(long)]
+    pub antithetic: bool,
+    /// Level 0 on 2^K steps (default: the scene's, 2).
+    #[arg(long, value_name = "K")]
+    pub coarsest: Option<u32>,
+    /// The finest level the algorithm may add (default: the scene's, 12).
+    #[arg(long = "max-level", value_name = "L")]
+    pub max_level: Option<u32>,
+    /// The convergence test runs levels 0..=L (default: the scene's, 6).
+    #[arg(long = "test-levels", value_name = "L")]
+    pub test_levels: Option<u32>,
+    /// Samples per level of the convergence test (default: the scene's, 4096).
+    #[arg(long = "test-samples", value_name = "N")]
+    pub test_samples: Option<u64>,
+    /// Final time (default: the scene's).
+    #[arg(long = "t-end", alias = "T", value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Seed of the sample streams.
+    #[arg(long, value_name = "S", default_value_t = 2026)]
+    pub seed: u64,
+    /// Worker threads (default: the available cores); the numbers do not depend on it.
+    #[arg(long, value_name = "K")]
+    pub threads: Option<usize>,
+    /// A run of seconds: two test levels fewer, 1024 test samples, the two largest eps.
+    #[arg(long)]
+    pub quick: bool,
+    /// Leave out the direct standard Monte Carlo run at the largest eps.
+    #[arg(long = "no-standard")]
+    pub no_standard: bool,
+    /// After the study, write the plan (levels and N_l) for the smallest eps, from the
+    /// convergence test, to this file (the pilot of a cluster run, docs/cluster.md).
+    #[arg(long = "write-plan", value_name = "FILE")]
+    pub write_plan: Option<PathBuf>,
+    /// Run this plan (from --write-plan) instead of the study; with --shard, only a shard.
+    #[arg(long, value_name = "FILE")]
+    pub plan: Option<PathBuf>,
+    /// With --plan: run the blocks b with b % N == I and write
+    /// <OUT>/mlmc/<scene>/mlmc-shard-I-of-N.json; `auto` reads a Slurm job array.
+    #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse, requires = "plan")]
+    pub shard: Option<ShardArg>,
+    #[command(flatten)]
+    pub checkpoint: CheckpointArgs,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Options of `mlmc-merge`.
+#[derive(Debug, Clone, Args)]
+pub struct MlmcMergeArgs {
+    /// Folders holding mlmc-shard-*.json files (searched one level deep).
+    #[arg(value_name = "DIR", required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// The scene of the shards, if not built in (a scene file).
+    #[arg(long = "scene-file", value_name = "PATH")]
+    pub scene_file: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: OutArgs,
 }

@@ -1,0 +1,259 @@
+//! Reading a scene, from TOML text, a file or the built-in ones, and checking it: ranges and
+//! consistency of its values, the observables of its `[weak]` table, and the settings each of
+//! its study tables gives as the studies will run them. (The checks of the study tables use the
+//! studies' settings, so they sit here, above the studies, not in [`crate::scene`].)
+
+use sdae_systems::MAX_PARTICLES;
+
+use crate::catalog::BUILT_IN;
+use crate::convergence::ConvergenceSettings;
+use crate::equipartition;
+use crate::error::StudyError;
+use crate::scene::{InitialSpec, Output, Scene, SchemeSpec, StudyDefaults, SystemSpec, WeakSpec};
+use crate::stability::stability_settings;
+
+impl Scene {
+    /// Reads a scene from TOML text.
+    pub fn from_toml(text: &str) -> Result<Self, StudyError> {
+        Self::parse(text, "<inline>")
+    }
+
+    fn parse(text: &str, file: &str) -> Result<Self, StudyError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| StudyError::Format {
+            file: file.to_string(),
+            message: e.to_string(),
+        })?;
+        scene.validate().map_err(|e| match e {
+            StudyError::Invalid { scene, message } => StudyError::Invalid {
+                scene,
+                message: format!("{message} (scene file {file})"),
+            },
+            other => other,
+        })?;
+        Ok(scene)
+    }
+
+    /// Reads a scene file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self, StudyError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, &file)
+    }
+
+    /// A built-in scene by name.
+    pub fn built_in(name: &str) -> Result<Self, StudyError> {
+        let (_, text) = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .ok_or_else(|| StudyError::Unknown(name.to_string()))?;
+        Self::parse(text, &format!("scenes/{name}.toml"))
+    }
+
+    /// The scene of a system built in code: its name, T and outputs, the practical C_eta of
+    /// the half-explicit scheme, the study defaults (`paths`, `levels`, `reference`) left to the
+    /// studies' settings. Checked like a scene file.
+    pub fn custom(
+        name: &str,
+        t_end: f64,
+        outputs: Vec<Output>,
+        practical_c_eta: f64,
+    ) -> Result<Self, StudyError> {
+        let scene = Scene {
+            name: name.into(),
+            description: format!("custom system {name}"),
+            t_end,
+            outputs,
+            system: SystemSpec::Custom(name.into()),
+            initial: InitialSpec::default(),
+            scheme: SchemeSpec {
+                practical_c_eta,
+                ..SchemeSpec::default()
+            },
+            study: StudyDefaults::default(),
+            stability: None,
+            equipartition: None,
+            mlmc: None,
+            weak: None,
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Checks what the types cannot: ranges and consistency.
+    fn validate(&self) -> Result<(), StudyError> {
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(self.invalid(format!(
+                "name = '{}': use letters, digits, '-' and '_' (it names the report's files)",
+                self.name
+            )));
+        }
+        if !(self.t_end.is_finite() && self.t_end > 0.0) {
+            return Err(self.invalid(format!("T = {}: must be finite and > 0", self.t_end)));
+        }
+        if self.initial.shape.is_some() && self.initial.position.is_some() {
+            return Err(self.invalid("initial: give either shape or position, not both"));
+        }
+        let chain_like = matches!(
+            self.system,
+            SystemSpec::ChainMolecule(_) | SystemSpec::Fiber(_)
+        );
+        if self.initial.shape.is_some() && !chain_like {
+            return Err(self
+                .invalid("initial.shape applies to chains of beads (chain-molecule, fiber) only"));
+        }
+        let particles = match &self.system {
+            SystemSpec::ChainMolecule(p) => Some(("chain-molecule.atoms", p.atoms)),
+            SystemSpec::Fiber(p) => Some(("fiber.beads", p.beads)),
+            _ => None,
+        };
+        if let Some((key, count)) = particles
+            && count > MAX_PARTICLES
+        {
+            return Err(self.invalid(format!(
+                "system.{key} = {count}: must be at most {MAX_PARTICLES} (the largest system built)"
+            )));
+        }
+        if self.outputs.is_empty() {
+            return Err(self.invalid("outputs is empty: name at least one output"));
+        }
+        let c_eta = self.scheme.practical_c_eta;
+        if !(c_eta.is_finite() && c_eta > 0.0) {
+            return Err(self.invalid(format!(
+                "scheme.practical_c_eta = {c_eta}: must be finite and > 0"
+            )));
+        }
+        let local = self.scheme.local_c_eta;
+        if !(local.is_finite() && local > 0.0) {
+            return Err(self.invalid(format!(
+                "scheme.local_c_eta = {local}: must be finite and > 0"
+            )));
+        }
+        if let Some(c) = self.scheme.c_kappa
+            && (c.is_nan() || c <= 0.0)
+        {
+            return Err(self.invalid(format!("scheme.c_kappa = {c}: must be > 0")));
+        }
+        if let Some([a, b]) = self.study.levels
+            && a > b
+        {
+            return Err(self.invalid(format!("study.levels = [{a}, {b}] is empty")));
+        }
+        if let Some(st) = &self.stability {
+            let [a, b] = st.levels;
+            if a > b {
+                return Err(self.invalid(format!("stability.levels = [{a}, {b}] is empty")));
+            }
+            for (name, x) in [
+                ("drift_tolerance", st.drift_tolerance),
+                ("blow_up", st.blow_up),
+            ] {
+                if x.is_nan() || x <= 0.0 {
+                    return Err(self.invalid(format!("stability.{name} = {x}: must be > 0")));
+                }
+            }
+        }
+        if let Some(eq) = &self.equipartition {
+            if !self.wants(Output::KineticEnergy) {
+                return Err(
+                    self.invalid("an [equipartition] table needs \"kinetic-energy\" in outputs")
+                );
+            }
+            let [a, b] = eq.levels;
+            if a > b {
+                return Err(self.invalid(format!("equipartition.levels = [{a}, {b}] is empty")));
+            }
+            if !(eq.burn_in >= 0.0 && eq.burn_in < eq.t_end) {
+                return Err(self.invalid(format!(
+                    "equipartition.burn_in = {}: must be in [0, equipartition.T = {})",
+                    eq.burn_in, eq.t_end
+                )));
+            }
+            if let Some(c) = eq.c_eta.iter().find(|c| !(c.is_finite() && **c > 0.0)) {
+                return Err(self.invalid(format!(
+                    "equipartition.c_eta contains {c}: each must be finite and > 0"
+                )));
+            }
+        }
+        if let Some(weak) = &self.weak {
+            self.validate_weak(weak)?;
+        }
+        self.validate_studies()
+    }
+
+    /// Checks the study settings each table of the scene gives ([study], [stability],
+    /// [equipartition]) as the studies will run them (before the command line changes them),
+    /// naming a bad value by its key in that table.
+    fn validate_studies(&self) -> Result<(), StudyError> {
+        let tables = [
+            ("study", Some(ConvergenceSettings::for_scene(self))),
+            ("stability", stability_settings(self, false)),
+            (
+                "equipartition",
+                equipartition::variants(self, false)
+                    .and_then(|v| v.into_iter().next())
+                    .map(|v| v.settings),
+            ),
+        ];
+        for (table, settings) in tables {
+            if let Some(Err(StudyError::Setting { key, value, rule })) =
+                settings.map(|s| s.validate())
+            {
+                let key = key_in_table(table, key);
+                return Err(self.invalid(format!("{key} = {value}: {rule}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks a `[weak]` table: known observables whose outputs the scene computes, exact
+    /// values finite and of named observables, non-empty levels.
+    fn validate_weak(&self, weak: &WeakSpec) -> Result<(), StudyError> {
+        if weak.observables.is_empty() {
+            return Err(self.invalid("weak.observables is empty: name at least one observable"));
+        }
+        for name in &weak.observables {
+            crate::observable::check(self, name)?;
+        }
+        for (name, value) in &weak.exact {
+            if !weak.observables.contains(name) {
+                return Err(self.invalid(format!(
+                    "weak.exact.{name}: not one of weak.observables ({})",
+                    weak.observables.join(", ")
+                )));
+            }
+            if !value.is_finite() {
+                return Err(self.invalid(format!("weak.exact.{name} = {value}: must be finite")));
+            }
+        }
+        if let Some([a, b]) = weak.levels
+            && a > b
+        {
+            return Err(self.invalid(format!("weak.levels = [{a}, {b}] is empty")));
+        }
+        Ok(())
+    }
+}
+
+/// The key in the scene file's table `table` of a study setting that
+/// [`ConvergenceSettings::validate`] names by its [study] key (`study.paths`) or field (`T`).
+fn key_in_table(table: &str, key: &'static str) -> &'static str {
+    match (table, key) {
+        ("stability", "study.paths") => "stability.paths",
+        ("stability", "study.levels") => "stability.levels",
+        ("stability", "study.reference") => "stability.reference",
+        ("stability", "limits.drift_tolerance") => "stability.drift_tolerance",
+        ("stability", "limits.blow_up") => "stability.blow_up",
+        ("equipartition", "study.paths") => "equipartition.paths",
+        ("equipartition", "study.levels") => "equipartition.levels",
+        ("equipartition", "T") => "equipartition.T",
+        (_, key) => key,
+    }
+}

@@ -17,7 +17,7 @@
 //!   [`PathDiagnostics`];
 //! - many paths of one scheme at once: [`PathEnsemble`], with [`LaneEnsemble`] (structure of
 //!   arrays, W paths per step in SIMD lanes where the scheme has a lane form, [`LaneScheme`],
-//!   with the kappa root of a sphere in lanes, [`SphereRoot`]) and [`PathLoop`] for any scheme;
+//!   with the building blocks of a lane form in [`engine`]) and [`PathLoop`] for any scheme;
 //! - the tangent bundle: [`project_state`], [`TangentProjector`] and the [`KappaProblem`] of
 //!   seed eq. 3.1.
 //!
@@ -99,19 +99,29 @@ pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};
 pub use error::{FailureKind, ModelError, StepError, StepFailure, check_dim, check_step_size};
 pub use grid::TimeGrid;
 pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
-pub use lane_diagnostics::LaneRecord;
-pub use lane_ensemble::{
-    GroupState, LaneEnsemble, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore,
-    WideKernel,
-};
+pub use lane_ensemble::{LaneEnsemble, LaneScheme};
 pub use lanes::{LANE_BLOCK, lane_stride};
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use path_streams::{PathStreams, StandardNormals, path_rng};
 pub use scheme::{Scheme, StepOutcome};
-pub use sphere_root::{RootLanes, SphereRoot};
 pub use system::{
     AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
     check_dimensions, check_step_input,
 };
 pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, project_state};
+
+/// The building blocks of a scheme's lane form (what [`LaneScheme`] implementations are written
+/// with): the paths' layout ([`LanePaths`](engine::LanePaths), [`LaneRows`](engine::LaneRows)),
+/// a group of lanes in a step ([`GroupState`](engine::GroupState), [`LaneStep`](engine::LaneStep)),
+/// the kernels ([`LaneKernel`](engine::LaneKernel) at a fixed width, [`WideKernel`](engine::WideKernel)
+/// over an instruction set), the per-lane diagnostics ([`LaneRecord`](engine::LaneRecord)), the
+/// buffers a scheme keeps for them ([`LaneStore`](engine::LaneStore)) and the kappa root of a
+/// sphere in lanes ([`SphereRoot`](engine::SphereRoot), [`RootLanes`](engine::RootLanes)).
+pub mod engine {
+    pub use crate::lane_diagnostics::LaneRecord;
+    pub use crate::lane_ensemble::{
+        GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, WideKernel,
+    };
+    pub use crate::sphere_root::{RootLanes, SphereRoot};
+}

@@ -23,7 +23,7 @@ pub fn path_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
 /// The random numbers of one path: a main xoshiro256++ stream that gives exactly one 64-bit
 /// word per standard normal, and a side stream (the main one 2^192 words ahead, its
 /// `long_jump`) that finishes the 0.23% of draws whose word the ziggurat's fast path rejects
-/// ([`crate::ziggurat`]).
+/// (a ziggurat of 2048 layers).
 ///
 /// One word per normal on the main stream is what lets W paths draw in the lanes of a SIMD
 /// register without waiting on each other ([`EnsembleIncrements`](crate::EnsembleIncrements)):

@@ -16,10 +16,9 @@
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
-use sdae_model::{
-    LaneKernel, LanePaths, LaneRecord, LaneScheme, LaneStep, Scheme, SphereRoot, System,
-};
+use sdae_model::{LaneScheme, Scheme, System};
 
 use crate::euler::EulerMaruyama;
 use crate::heun::StochasticHeun;

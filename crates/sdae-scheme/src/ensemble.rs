@@ -8,8 +8,9 @@ pub(crate) mod sphere;
 mod tridiagonal;
 
 use sdae_manifold::{Constraint, Mass};
+use sdae_model::engine::LanePaths;
 use sdae_model::lanes::LaneWidth;
-use sdae_model::{LaneEnsemble, LanePaths, LaneScheme, Scheme, System};
+use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
 
 use crate::stepper::Stepper;
 

@@ -4,9 +4,11 @@ use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::{
-    KappaProblem, LaneStore, StepFailure, StepOutcome, System, check_dimensions, check_step_input,
+    KappaProblem, StepFailure, StepOutcome, System, check_dimensions, check_step_input,
     lambda_right_hand_side,
 };
+
+use sdae_model::engine::LaneStore;
 
 use crate::config::StepperConfig;
 use crate::error::SchemeError;
@@ -67,7 +69,7 @@ impl<S: System> Stepper<S> {
         }
     }
 
-    /// Whether the last successful step was decided by the lane form at W = 1 ([`Scheme::step`]
+    /// Whether the last successful step was decided by the lane form at W = 1 ([`Scheme::step`](sdae_model::Scheme::step)
     /// on a sphere with a diagonal mass), not by the general path.
     pub fn last_step_in_one_lane(&self) -> bool {
         self.lane_root.is_some()
@@ -75,7 +77,7 @@ impl<S: System> Stepper<S> {
 
     /// One step through the general path, which every system can take: the ball solver
     /// (closed form, Newton, the homotopy fallback) on the system's constraint, mass, drift
-    /// and noise as traits. [`Scheme::step`] takes it wherever the lane form (the code the
+    /// and noise as traits. [`Scheme::step`](sdae_model::Scheme::step) takes it wherever the lane form (the code the
     /// [`Ensemble`](crate::Ensemble) runs W paths at a time, here at W = 1) does not apply or
     /// does not decide the step; where the lane form decides, both give the same numbers bit
     /// for bit (tests/tests/one_lane.rs). For cross-checks.
@@ -141,7 +143,7 @@ impl<S: System> Stepper<S> {
         eta(&self.config, v_norm, a_norm, None, h)
     }
 
-    /// [`Scheme::step`] for n = N, m = 1 with the buffers on the stack.
+    /// [`Scheme::step`](sdae_model::Scheme::step) for n = N, m = 1 with the buffers on the stack.
     fn step_sized<const N: usize>(
         &mut self,
         r: &mut [f64],
@@ -191,7 +193,7 @@ struct Buffers<'a> {
     scratch: &'a mut [f64],
 }
 
-/// The body of [`Scheme::step`] of [`Stepper`] after the input checks, inlined into each caller so that
+/// The body of [`Scheme::step`](sdae_model::Scheme::step) of [`Stepper`] after the input checks, inlined into each caller so that
 /// fixed-size buffers give fixed-size loops.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]

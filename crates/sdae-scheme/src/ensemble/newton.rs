@@ -22,8 +22,9 @@ use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
 use sdae_manifold::Mass;
+use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, WideKernel};
 use sdae_model::lanes::{LaneMask, Lanes, per_path};
-use sdae_model::{GroupState, LanePaths, LaneRecord, LaneRows, Scheme, System, WideKernel};
+use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
 use crate::stepper::Stepper;

@@ -11,10 +11,9 @@
 use pulp::{Simd, WithSimd};
 use sdae_ift::{Certificate, Method};
 use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot};
 use sdae_model::lanes::{Lanes, dot};
-use sdae_model::{
-    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, Scheme, SphereRoot, StepOutcome, System,
-};
+use sdae_model::{Scheme, StepOutcome, System};
 
 use super::newton::kappa_ratio;
 use crate::stepper::Stepper;

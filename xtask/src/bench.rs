@@ -75,29 +75,55 @@ fn parse(args: &[String]) -> Result<Options, TaskError> {
 /// Runs the benchmarks, then writes and prints the summary.
 pub fn run(args: &[String]) -> Result<(), TaskError> {
     let options = parse(args)?;
-    let root = workspace_root()?;
     let target = target_dir()?;
     let criterion_home = match std::env::var_os("CRITERION_HOME") {
         Some(dir) if !dir.is_empty() => PathBuf::from(dir),
         _ => target.join("criterion"),
     };
-
     let mut criterion_args: Vec<String> = Vec::new();
     if options.quick {
         criterion_args.extend(QUICK_OPTIONS.iter().map(|s| s.to_string()));
     }
     criterion_args.extend(options.criterion.iter().cloned());
+    // Results older than this were not written by this run.
+    let started = SystemTime::now();
+    run_criterion(&target, &criterion_home, &criterion_args)?;
+    let results = Results {
+        criterion_home: &criterion_home,
+        started,
+    };
+    let figures = Figures::read(&results)?;
+    let out_dir = target.join("bench");
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| TaskError::Failed(format!("cannot create {}: {e}", out_dir.display())))?;
+    let out = out_dir.join("summary.json");
+    let text = serde_json::to_string_pretty(&figures.summary(options.quick, &criterion_args))
+        .map_err(|e| TaskError::Failed(format!("cannot serialize the summary: {e}")))?;
+    std::fs::write(&out, text + "\n")
+        .map_err(|e| TaskError::Failed(format!("cannot write {}: {e}", out.display())))?;
+    figures.print();
+    println!("\nsummary written to {}", out.display());
+    Ok(())
+}
 
+/// Runs `cargo bench` on the benchmark packages with `criterion_args`, its results in
+/// `criterion_home`.
+fn run_criterion(
+    target: &Path,
+    criterion_home: &Path,
+    criterion_args: &[String],
+) -> Result<(), TaskError> {
+    let root = workspace_root()?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut command = Command::new(&cargo);
     command
         .current_dir(&root)
         .args(["bench", "--benches"])
         .args(PACKAGES.iter().flat_map(|p| ["-p", p]))
-        .env("CARGO_TARGET_DIR", &target)
-        .env("CRITERION_HOME", &criterion_home);
+        .env("CARGO_TARGET_DIR", target)
+        .env("CRITERION_HOME", criterion_home);
     if !criterion_args.is_empty() {
-        command.arg("--").args(&criterion_args);
+        command.arg("--").args(criterion_args);
     }
     let bench_command = format!(
         "{} bench --benches {}",
@@ -112,8 +138,6 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
             format!(" -- {}", criterion_args.join(" "))
         }
     );
-    // Results older than this were not written by this run.
-    let started = SystemTime::now();
     let status = command.status().map_err(|e| {
         TaskError::Failed(format!(
             "cannot start `{}`: {e}",
@@ -125,212 +149,250 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
             "`{bench_command}` failed ({status})"
         )));
     }
-
-    let pendulum = read_mean_ns(&criterion_home, "pendulum_step", None, started)?;
-    let mut per_step = Vec::new();
-    for beads in CHAIN_SIZES {
-        let ns = read_mean_ns(
-            &criterion_home,
-            "chain_step",
-            Some(&beads.to_string()),
-            started,
-        )?;
-        per_step.push((beads, ns));
-    }
-
-    // Criterion's time per iteration of an ensemble step is for every path of the ensemble.
-    let ensemble_paths = ENSEMBLE_PATHS as f64;
-    let ensemble = |id: &str| -> Result<f64, TaskError> {
-        Ok(read_mean_ns(&criterion_home, "pendulum_ensemble", Some(id), started)? / ensemble_paths)
-    };
-    let ensemble_with_normals = ensemble("with_normals")?;
-    let ensemble_step_only = ensemble("step_only")?;
-    let ensemble_normals = ensemble("normals_only")?;
-    let ensemble_normals_per_path = ensemble("normals_one_path_at_a_time")?;
-    let ensemble_one_lane = ensemble("step_only_one_lane")?;
-    let ensemble_closure = ensemble("step_only_closure_drift")?;
-
-    let mut inherent = Vec::new();
-    for solver in INHERENT_SOLVERS {
-        let per_path_step = |id: &str| -> Result<f64, TaskError> {
-            Ok(
-                read_mean_ns(&criterion_home, "inherent_ensemble", Some(id), started)?
-                    / ensemble_paths,
-            )
-        };
-        let lanes = per_path_step(solver)?;
-        let path_by_path = per_path_step(&format!("{solver}_path_by_path"))?;
-        inherent.push((solver, lanes, path_by_path));
-    }
-    let inherent_summary: Map<String, Value> = inherent
-        .iter()
-        .map(|&(solver, lanes, path_by_path)| {
-            (
-                solver.to_string(),
-                json!({ "lanes": lanes, "path_by_path": path_by_path }),
-            )
-        })
-        .collect();
-
-    let mut per_bead = Map::new();
-    let mut chain_step = Map::new();
-    for &(beads, ns) in &per_step {
-        per_bead.insert(beads.to_string(), json!(ns / beads as f64));
-        chain_step.insert(beads.to_string(), json!(ns));
-    }
-    // Criterion's time per iteration of `chain_ensemble/K` is one step of every path.
-    let mut chain_ensemble = Vec::new();
-    for beads in CHAIN_ENSEMBLE_SIZES {
-        let ns = read_mean_ns(
-            &criterion_home,
-            "chain_ensemble",
-            Some(&beads.to_string()),
-            started,
-        )?;
-        chain_ensemble.push((beads, ns / (beads * CHAIN_ENSEMBLE_PATHS) as f64));
-    }
-    // The increments alone of `chain_ensemble/1000` (benches/step.rs), per bead and path.
-    let chain_ensemble_normals = read_mean_ns(
-        &criterion_home,
-        "chain_ensemble",
-        Some("normals_only/1000"),
-        started,
-    )? / (1000 * CHAIN_ENSEMBLE_PATHS) as f64;
-    let chain_ensemble_per_bead: Map<String, Value> = chain_ensemble
-        .iter()
-        .map(|&(beads, ns)| (beads.to_string(), json!(ns)))
-        .collect();
-    // The fiber in lanes with its lane forms and with its forces path by path, per bead and
-    // path, against one path of `fiber_step`.
-    let mut fiber = Vec::new();
-    for beads in FIBER_ENSEMBLE_SIZES {
-        let id = beads.to_string();
-        let per_bead_path = |group: &str| -> Result<f64, TaskError> {
-            Ok(read_mean_ns(&criterion_home, group, Some(&id), started)?
-                / (beads * FIBER_ENSEMBLE_PATHS) as f64)
-        };
-        let step = read_mean_ns(&criterion_home, "fiber_step", Some(&id), started)? / beads as f64;
-        let lanes = per_bead_path("fiber_ensemble")?;
-        let path_by_path = per_bead_path("fiber_ensemble_path_by_path")?;
-        fiber.push((beads, step, lanes, path_by_path));
-    }
-    let fiber_summary: Map<String, Value> = fiber
-        .iter()
-        .map(|&(beads, step, lanes, path_by_path)| {
-            (
-                beads.to_string(),
-                json!({ "fiber_step": step, "lanes": lanes, "path_by_path": path_by_path }),
-            )
-        })
-        .collect();
-    // (molecule, its scalar step, the ensemble in lanes, the ensemble path by path), ns per
-    // path-step.
-    let mut molecules = Vec::new();
-    for molecule in MOLECULES {
-        let step = read_mean_ns(&criterion_home, &format!("{molecule}_step"), None, started)?;
-        let per_path = |group: String| -> Result<f64, TaskError> {
-            Ok(
-                read_mean_ns(&criterion_home, &group, Some("default"), started)?
-                    / MOLECULE_ENSEMBLE_PATHS as f64,
-            )
-        };
-        let lanes = per_path(format!("{molecule}_ensemble"))?;
-        let path_by_path = per_path(format!("{molecule}_ensemble_path_by_path"))?;
-        molecules.push((molecule, step, lanes, path_by_path));
-    }
-    let mut summary = json!({
-        "pendulum_step_ns": pendulum,
-        "chain_step_ns_per_bead": per_bead,
-        "chain_step_ns": chain_step,
-        "pendulum_ensemble_ns_per_path_step": ensemble_with_normals,
-        "pendulum_ensemble_step_only_ns_per_path_step": ensemble_step_only,
-        "pendulum_ensemble_one_lane_ns_per_path_step": ensemble_one_lane,
-        "pendulum_ensemble_closure_drift_ns_per_path_step": ensemble_closure,
-        "pendulum_ensemble_normals_ns_per_path_step": ensemble_normals,
-        "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": ensemble_normals_per_path,
-        "pendulum_ensemble_speedup": pendulum / ensemble_with_normals,
-        "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
-        "chain_ensemble_normals_ns_per_bead_path_step": { "1000": chain_ensemble_normals },
-        "inherent_ensemble_ns_per_path_step": inherent_summary,
-        "fiber_ensemble_ns_per_bead_path_step": fiber_summary,
-        "quick": options.quick,
-        "criterion_args": criterion_args,
-        "machine": machine(),
-    });
-
-    for &(molecule, step, lanes, path_by_path) in &molecules {
-        summary[format!("{molecule}_ensemble_ns_per_path_step")] = json!({
-            format!("{molecule}_step"): step,
-            "lanes": lanes,
-            "path_by_path": path_by_path,
-        });
-    }
-
-    let out_dir = target.join("bench");
-    std::fs::create_dir_all(&out_dir)
-        .map_err(|e| TaskError::Failed(format!("cannot create {}: {e}", out_dir.display())))?;
-    let out = out_dir.join("summary.json");
-    let text = serde_json::to_string_pretty(&summary)
-        .map_err(|e| TaskError::Failed(format!("cannot serialize the summary: {e}")))?;
-    std::fs::write(&out, text + "\n")
-        .map_err(|e| TaskError::Failed(format!("cannot write {}: {e}", out.display())))?;
-
-    println!();
-    println!(
-        "{:<20} {:>14} {:>16}",
-        "benchmark", "ns/step", "ns/bead/step"
-    );
-    println!("{:<20} {:>14.1} {:>16}", "pendulum_step", pendulum, "");
-    for &(beads, ns) in &per_step {
-        let name = format!("chain_step/{beads}");
-        println!("{name:<20} {ns:>14.1} {:>16.2}", ns / beads as f64);
-    }
-    println!(
-        "{:<20} {:>14.1} {:>16}   ({:.1}x pendulum_step)",
-        "pendulum_ensemble",
-        ensemble_with_normals,
-        "",
-        pendulum / ensemble_with_normals
-    );
-    println!(
-        "{:<20} {:>14.1} {:>16}   (one lane: {:.1}; closure drift: {:.1})",
-        "  step only", ensemble_step_only, "", ensemble_one_lane, ensemble_closure
-    );
-    println!(
-        "{:<20} {:>14.1} {:>16}   (one path at a time: {:.1})",
-        "  normals only", ensemble_normals, "", ensemble_normals_per_path
-    );
-    for &(beads, ns) in &chain_ensemble {
-        let name = format!("chain_ensemble/{beads}");
-        println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
-    }
-    println!(
-        "{:<20} {:>14} {chain_ensemble_normals:>16.2}   (K = 1000, per bead and path)",
-        "  normals only", ""
-    );
-    for &(beads, step, lanes, path_by_path) in &fiber {
-        let name = format!("fiber_ensemble/{beads}");
-        println!(
-            "{name:<20} {:>14} {lanes:>16.2}   (per bead and path; path by path: {path_by_path:.2}; fiber_step: {step:.2})",
-            ""
-        );
-    }
-    for &(molecule, step, lanes, path_by_path) in &molecules {
-        let name = format!("{molecule}_ensemble");
-        println!(
-            "{name:<20} {lanes:>14.1} {:>16}   (per path; path by path: {path_by_path:.1}; {molecule}_step: {step:.1})",
-            ""
-        );
-    }
-    for &(solver, lanes, path_by_path) in &inherent {
-        println!(
-            "{solver:<25} {lanes:>9.1} {:>16}   (path by path: {path_by_path:.1}, {:.1}x)",
-            "",
-            path_by_path / lanes
-        );
-    }
-    println!("\nsummary written to {}", out.display());
     Ok(())
+}
+
+/// Where this run's criterion results are, and when it started (older results are not its).
+struct Results<'a> {
+    criterion_home: &'a Path,
+    started: SystemTime,
+}
+
+impl Results<'_> {
+    /// The mean time in ns of benchmark `group[/id]` ([`read_mean_ns`]).
+    fn mean_ns(&self, group: &str, id: Option<&str>) -> Result<f64, TaskError> {
+        read_mean_ns(self.criterion_home, group, id, self.started)
+    }
+}
+
+/// The figures of one run, in ns.
+struct Figures {
+    /// One path's step of the pendulum.
+    pendulum: f64,
+    /// (beads, one path's step of the chain).
+    chain_step: Vec<(u64, f64)>,
+    /// The pendulum ensemble per path-step: with its normals, the step only, the normals only,
+    /// the normals one path at a time, the step at one lane, the step with a closure drift.
+    ensemble: EnsembleFigures,
+    /// (beads, the chain ensemble per bead and path-step).
+    chain_ensemble: Vec<(u64, f64)>,
+    /// The increments alone of the chain ensemble at K = 1000, per bead and path-step.
+    chain_ensemble_normals: f64,
+    /// (beads, fiber_step per bead, the fiber ensemble in lanes and path by path, per bead
+    /// and path-step).
+    fiber: Vec<(u64, f64, f64, f64)>,
+    /// (molecule, its scalar step, the ensemble in lanes, the ensemble path by path), per
+    /// path-step.
+    molecules: Vec<(&'static str, f64, f64, f64)>,
+    /// (solver, in lanes, path by path), per path-step.
+    inherent: Vec<(&'static str, f64, f64)>,
+}
+
+/// The pendulum ensemble's figures, per path-step.
+struct EnsembleFigures {
+    with_normals: f64,
+    step_only: f64,
+    normals: f64,
+    normals_per_path: f64,
+    one_lane: f64,
+    closure: f64,
+}
+
+impl Figures {
+    fn read(results: &Results<'_>) -> Result<Self, TaskError> {
+        let mut chain_step = Vec::new();
+        for beads in CHAIN_SIZES {
+            chain_step.push((
+                beads,
+                results.mean_ns("chain_step", Some(&beads.to_string()))?,
+            ));
+        }
+        // Criterion's time per iteration of an ensemble step is for every path of the ensemble.
+        let ensemble_paths = ENSEMBLE_PATHS as f64;
+        let ensemble = |id: &str| -> Result<f64, TaskError> {
+            Ok(results.mean_ns("pendulum_ensemble", Some(id))? / ensemble_paths)
+        };
+        let mut inherent = Vec::new();
+        for solver in INHERENT_SOLVERS {
+            let per_path_step = |id: &str| -> Result<f64, TaskError> {
+                Ok(results.mean_ns("inherent_ensemble", Some(id))? / ensemble_paths)
+            };
+            let lanes = per_path_step(solver)?;
+            let path_by_path = per_path_step(&format!("{solver}_path_by_path"))?;
+            inherent.push((solver, lanes, path_by_path));
+        }
+        // Criterion's time per iteration of `chain_ensemble/K` is one step of every path.
+        let mut chain_ensemble = Vec::new();
+        for beads in CHAIN_ENSEMBLE_SIZES {
+            let ns = results.mean_ns("chain_ensemble", Some(&beads.to_string()))?;
+            chain_ensemble.push((beads, ns / (beads * CHAIN_ENSEMBLE_PATHS) as f64));
+        }
+        // The fiber in lanes with its lane forms and with its forces path by path, per bead
+        // and path, against one path of `fiber_step`.
+        let mut fiber = Vec::new();
+        for beads in FIBER_ENSEMBLE_SIZES {
+            let id = beads.to_string();
+            let per_bead_path = |group: &str| -> Result<f64, TaskError> {
+                Ok(results.mean_ns(group, Some(&id))? / (beads * FIBER_ENSEMBLE_PATHS) as f64)
+            };
+            let step = results.mean_ns("fiber_step", Some(&id))? / beads as f64;
+            let lanes = per_bead_path("fiber_ensemble")?;
+            let path_by_path = per_bead_path("fiber_ensemble_path_by_path")?;
+            fiber.push((beads, step, lanes, path_by_path));
+        }
+        let mut molecules = Vec::new();
+        for molecule in MOLECULES {
+            let step = results.mean_ns(&format!("{molecule}_step"), None)?;
+            let per_path = |group: String| -> Result<f64, TaskError> {
+                Ok(results.mean_ns(&group, Some("default"))? / MOLECULE_ENSEMBLE_PATHS as f64)
+            };
+            let lanes = per_path(format!("{molecule}_ensemble"))?;
+            let path_by_path = per_path(format!("{molecule}_ensemble_path_by_path"))?;
+            molecules.push((molecule, step, lanes, path_by_path));
+        }
+        Ok(Self {
+            pendulum: results.mean_ns("pendulum_step", None)?,
+            chain_step,
+            ensemble: EnsembleFigures {
+                with_normals: ensemble("with_normals")?,
+                step_only: ensemble("step_only")?,
+                normals: ensemble("normals_only")?,
+                normals_per_path: ensemble("normals_one_path_at_a_time")?,
+                one_lane: ensemble("step_only_one_lane")?,
+                closure: ensemble("step_only_closure_drift")?,
+            },
+            chain_ensemble,
+            // The increments alone of `chain_ensemble/1000` (benches/step.rs), per bead and
+            // path.
+            chain_ensemble_normals: results.mean_ns("chain_ensemble", Some("normals_only/1000"))?
+                / (1000 * CHAIN_ENSEMBLE_PATHS) as f64,
+            fiber,
+            molecules,
+            inherent,
+        })
+    }
+
+    /// The summary written to `target/bench/summary.json`.
+    fn summary(&self, quick: bool, criterion_args: &[String]) -> Value {
+        let inherent_summary: Map<String, Value> = self
+            .inherent
+            .iter()
+            .map(|&(solver, lanes, path_by_path)| {
+                (
+                    solver.to_string(),
+                    json!({ "lanes": lanes, "path_by_path": path_by_path }),
+                )
+            })
+            .collect();
+        let mut per_bead = Map::new();
+        let mut chain_step = Map::new();
+        for &(beads, ns) in &self.chain_step {
+            per_bead.insert(beads.to_string(), json!(ns / beads as f64));
+            chain_step.insert(beads.to_string(), json!(ns));
+        }
+        let chain_ensemble_per_bead: Map<String, Value> = self
+            .chain_ensemble
+            .iter()
+            .map(|&(beads, ns)| (beads.to_string(), json!(ns)))
+            .collect();
+        let fiber_summary: Map<String, Value> = self
+            .fiber
+            .iter()
+            .map(|&(beads, step, lanes, path_by_path)| {
+                (
+                    beads.to_string(),
+                    json!({ "fiber_step": step, "lanes": lanes, "path_by_path": path_by_path }),
+                )
+            })
+            .collect();
+        let e = &self.ensemble;
+        let mut summary = json!({
+            "pendulum_step_ns": self.pendulum,
+            "chain_step_ns_per_bead": per_bead,
+            "chain_step_ns": chain_step,
+            "pendulum_ensemble_ns_per_path_step": e.with_normals,
+            "pendulum_ensemble_step_only_ns_per_path_step": e.step_only,
+            "pendulum_ensemble_one_lane_ns_per_path_step": e.one_lane,
+            "pendulum_ensemble_closure_drift_ns_per_path_step": e.closure,
+            "pendulum_ensemble_normals_ns_per_path_step": e.normals,
+            "pendulum_ensemble_normals_one_path_at_a_time_ns_per_path_step": e.normals_per_path,
+            "pendulum_ensemble_speedup": self.pendulum / e.with_normals,
+            "chain_ensemble_ns_per_bead_path_step": chain_ensemble_per_bead,
+            "chain_ensemble_normals_ns_per_bead_path_step": { "1000": self.chain_ensemble_normals },
+            "inherent_ensemble_ns_per_path_step": inherent_summary,
+            "fiber_ensemble_ns_per_bead_path_step": fiber_summary,
+            "quick": quick,
+            "criterion_args": criterion_args,
+            "machine": machine(),
+        });
+        for &(molecule, step, lanes, path_by_path) in &self.molecules {
+            summary[format!("{molecule}_ensemble_ns_per_path_step")] = json!({
+                format!("{molecule}_step"): step,
+                "lanes": lanes,
+                "path_by_path": path_by_path,
+            });
+        }
+        summary
+    }
+
+    /// The figures as a table on the terminal.
+    fn print(&self) {
+        let e = &self.ensemble;
+        println!();
+        println!(
+            "{:<20} {:>14} {:>16}",
+            "benchmark", "ns/step", "ns/bead/step"
+        );
+        println!("{:<20} {:>14.1} {:>16}", "pendulum_step", self.pendulum, "");
+        for &(beads, ns) in &self.chain_step {
+            let name = format!("chain_step/{beads}");
+            println!("{name:<20} {ns:>14.1} {:>16.2}", ns / beads as f64);
+        }
+        println!(
+            "{:<20} {:>14.1} {:>16}   ({:.1}x pendulum_step)",
+            "pendulum_ensemble",
+            e.with_normals,
+            "",
+            self.pendulum / e.with_normals
+        );
+        println!(
+            "{:<20} {:>14.1} {:>16}   (one lane: {:.1}; closure drift: {:.1})",
+            "  step only", e.step_only, "", e.one_lane, e.closure
+        );
+        println!(
+            "{:<20} {:>14.1} {:>16}   (one path at a time: {:.1})",
+            "  normals only", e.normals, "", e.normals_per_path
+        );
+        for &(beads, ns) in &self.chain_ensemble {
+            let name = format!("chain_ensemble/{beads}");
+            println!("{name:<20} {:>14} {ns:>16.2}   (per bead and path)", "");
+        }
+        println!(
+            "{:<20} {:>14} {:>16.2}   (K = 1000, per bead and path)",
+            "  normals only", "", self.chain_ensemble_normals
+        );
+        for &(beads, step, lanes, path_by_path) in &self.fiber {
+            let name = format!("fiber_ensemble/{beads}");
+            println!(
+                "{name:<20} {:>14} {lanes:>16.2}   (per bead and path; path by path: {path_by_path:.2}; fiber_step: {step:.2})",
+                ""
+            );
+        }
+        for &(molecule, step, lanes, path_by_path) in &self.molecules {
+            let name = format!("{molecule}_ensemble");
+            println!(
+                "{name:<20} {lanes:>14.1} {:>16}   (per path; path by path: {path_by_path:.1}; {molecule}_step: {step:.1})",
+                ""
+            );
+        }
+        for &(solver, lanes, path_by_path) in &self.inherent {
+            println!(
+                "{solver:<25} {lanes:>9.1} {:>16}   (path by path: {path_by_path:.1}, {:.1}x)",
+                "",
+                path_by_path / lanes
+            );
+        }
+    }
 }
 
 /// The mean time in ns of benchmark `group[/id]` from criterion's
@@ -446,6 +508,101 @@ mod tests {
         assert!(read_mean_ns(&dir, "g", Some("7"), SystemTime::UNIX_EPOCH).is_err());
         std::fs::write(&file, "not json").unwrap();
         assert!(read_mean_ns(&dir, "g", Some("7"), SystemTime::UNIX_EPOCH).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_summary_holds_every_figure_per_path_step() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-summary-{}", std::process::id()));
+        let write = |group: &str, id: Option<&str>| {
+            let mut new = dir.join(group);
+            if let Some(id) = id {
+                new.push(id);
+            }
+            new.push("new");
+            std::fs::create_dir_all(&new).unwrap();
+            std::fs::write(
+                new.join("estimates.json"),
+                r#"{"mean": {"point_estimate": 1000.0}}"#,
+            )
+            .unwrap();
+        };
+        write("pendulum_step", None);
+        for id in [
+            "with_normals",
+            "step_only",
+            "normals_only",
+            "normals_one_path_at_a_time",
+            "step_only_one_lane",
+            "step_only_closure_drift",
+        ] {
+            write("pendulum_ensemble", Some(id));
+        }
+        for solver in INHERENT_SOLVERS {
+            write("inherent_ensemble", Some(solver));
+            write("inherent_ensemble", Some(&format!("{solver}_path_by_path")));
+        }
+        for beads in CHAIN_SIZES {
+            write("chain_step", Some(&beads.to_string()));
+        }
+        for beads in CHAIN_ENSEMBLE_SIZES {
+            write("chain_ensemble", Some(&beads.to_string()));
+        }
+        write("chain_ensemble", Some("normals_only/1000"));
+        for beads in FIBER_ENSEMBLE_SIZES {
+            for group in [
+                "fiber_step",
+                "fiber_ensemble",
+                "fiber_ensemble_path_by_path",
+            ] {
+                write(group, Some(&beads.to_string()));
+            }
+        }
+        for molecule in MOLECULES {
+            write(&format!("{molecule}_step"), None);
+            write(&format!("{molecule}_ensemble"), Some("default"));
+            write(
+                &format!("{molecule}_ensemble_path_by_path"),
+                Some("default"),
+            );
+        }
+        let results = Results {
+            criterion_home: &dir,
+            started: SystemTime::UNIX_EPOCH,
+        };
+        let summary = Figures::read(&results).unwrap().summary(true, &[]);
+        let at = |path: &[&str]| -> f64 {
+            path.iter()
+                .fold(&summary, |v, key| &v[*key])
+                .as_f64()
+                .unwrap_or_else(|| panic!("{path:?} in {summary:#}"))
+        };
+        let per_path = 1000.0 / ENSEMBLE_PATHS as f64;
+        assert_eq!(at(&["pendulum_step_ns"]), 1000.0);
+        assert_eq!(at(&["pendulum_ensemble_ns_per_path_step"]), per_path);
+        assert_eq!(at(&["pendulum_ensemble_speedup"]), ENSEMBLE_PATHS as f64);
+        assert_eq!(at(&["chain_step_ns_per_bead", "100"]), 10.0);
+        assert_eq!(
+            at(&["chain_ensemble_ns_per_bead_path_step", "10"]),
+            1000.0 / (10 * CHAIN_ENSEMBLE_PATHS) as f64
+        );
+        assert_eq!(
+            at(&["fiber_ensemble_ns_per_bead_path_step", "100", "fiber_step"]),
+            10.0
+        );
+        assert_eq!(
+            at(&["molecule_ensemble_ns_per_path_step", "lanes"]),
+            1000.0 / MOLECULE_ENSEMBLE_PATHS as f64
+        );
+        assert_eq!(
+            at(&[
+                "inherent_ensemble_ns_per_path_step",
+                INHERENT_SOLVERS[0],
+                "path_by_path"
+            ]),
+            per_path
+        );
+        assert_eq!(summary["quick"], Value::Bool(true));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

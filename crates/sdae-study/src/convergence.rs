@@ -67,6 +67,11 @@ pub struct ConvergenceSettings {
     pub observables: Vec<String>,
 }
 
+/// A setting that does not hold: `key = value` breaks `rule`.
+fn setting_error(key: &'static str, value: String, rule: String) -> Result<(), StudyError> {
+    Err(StudyError::Setting { key, value, rule })
+}
+
 impl ConvergenceSettings {
     /// The scene's defaults: its paths, levels and reference (else 1000 paths, levels 3..8,
     /// reference 13), its T, seed 2026, p = 2, all schemes, the practical half-explicit scheme
@@ -96,9 +101,13 @@ impl ConvergenceSettings {
     /// threads, and the paths' records must fit in the available memory
     /// ([`memory::available`]; see [`ConvergenceSettings::fits_in_memory`]).
     pub fn validate(&self) -> Result<(), StudyError> {
-        let bad = |key: &'static str, value: String, rule: String| {
-            Err(StudyError::Setting { key, value, rule })
-        };
+        self.validate_levels()?;
+        self.validate_run()
+    }
+
+    /// The paths, the levels and the reference.
+    fn validate_levels(&self) -> Result<(), StudyError> {
+        let bad = setting_error;
         if self.paths < 2 {
             return bad("study.paths", self.paths.to_string(), "must be >= 2".into());
         }
@@ -125,6 +134,13 @@ impl ConvergenceSettings {
             }
             _ => {}
         }
+        Ok(())
+    }
+
+    /// The limits, T and the step sizes it gives, p, the threads, the schemes, the memory of
+    /// the records and the observed grid.
+    fn validate_run(&self) -> Result<(), StudyError> {
+        let bad = setting_error;
         if let Some(tol) = self.limits.drift_tolerance
             && (tol.is_nan() || tol <= 0.0)
         {

@@ -84,6 +84,17 @@ impl Scene {
 
     /// Checks what the types cannot: ranges and consistency.
     fn validate(&self) -> Result<(), StudyError> {
+        self.validate_system()?;
+        self.validate_scheme()?;
+        self.validate_tables()?;
+        if let Some(weak) = &self.weak {
+            self.validate_weak(weak)?;
+        }
+        self.validate_studies()
+    }
+
+    /// The name, T, the initial state's form and the system's size.
+    fn validate_system(&self) -> Result<(), StudyError> {
         if self.name.is_empty()
             || !self
                 .name
@@ -121,6 +132,11 @@ impl Scene {
                 "system.{key} = {count}: must be at most {MAX_PARTICLES} (the largest system built)"
             )));
         }
+        Ok(())
+    }
+
+    /// The outputs and the scheme's constants.
+    fn validate_scheme(&self) -> Result<(), StudyError> {
         if self.outputs.is_empty() {
             return Err(self.invalid("outputs is empty: name at least one output"));
         }
@@ -141,6 +157,11 @@ impl Scene {
         {
             return Err(self.invalid(format!("scheme.c_kappa = {c}: must be > 0")));
         }
+        Ok(())
+    }
+
+    /// The ranges of the [study], [stability] and [equipartition] tables.
+    fn validate_tables(&self) -> Result<(), StudyError> {
         if let Some([a, b]) = self.study.levels
             && a > b
         {
@@ -182,10 +203,7 @@ impl Scene {
                 )));
             }
         }
-        if let Some(weak) = &self.weak {
-            self.validate_weak(weak)?;
-        }
-        self.validate_studies()
+        Ok(())
     }
 
     /// Checks the study settings each table of the scene gives ([study], [stability],

@@ -288,6 +288,24 @@ impl StateDim for RunTime {
     }
 }
 
+/// How a track's steps are compared: with the reference's records where there is a reference,
+/// and on the track's own clock (the truncated drift's time) where its scheme keeps one.
+#[derive(Debug, Clone, Copy)]
+struct Clocks {
+    has_reference: bool,
+    own_clock: bool,
+}
+
+/// Step t of a stretch: records `per` apart, of size h, observed every `observe_every` steps
+/// (0 for never).
+#[derive(Debug, Clone, Copy)]
+struct StepAt {
+    t: usize,
+    per: usize,
+    h: f64,
+    observe_every: usize,
+}
+
 /// Where a track is in time after a step, and the step's weight in time averages.
 #[derive(Clone, Copy)]
 struct Clock {
@@ -568,7 +586,7 @@ impl<'a> Lockstep<'a> {
         ensemble: &mut dyn PathEnsemble<System = S>,
         (tracks, index): (&mut [Track], usize),
         level: u32,
-        (has_reference, own_clock): (bool, bool),
+        clocks: Clocks,
     ) {
         let (plan, chunk) = (self.plan, self.chunk);
         let stride = 1usize << (plan.fine - level);
@@ -605,7 +623,7 @@ impl<'a> Lockstep<'a> {
             (tracks, active),
             (&rows, per),
             (level, count),
-            (has_reference, own_clock),
+            clocks,
         );
         if stride <= chunk {
             self.pyramid[at] = rows;
@@ -625,7 +643,7 @@ impl<'a> Lockstep<'a> {
         (tracks, mut active): (&mut [Track], Vec<usize>),
         (rows, per): (&[f64], usize),
         (level, count): (u32, usize),
-        (has_reference, own_clock): (bool, bool),
+        clocks: Clocks,
     ) {
         let width = self.dims.l * self.stride;
         let h = self.grids[level as usize].h();
@@ -662,8 +680,12 @@ impl<'a> Lockstep<'a> {
                     failure.is_none()
                 });
             }
-            let step = (t, per, h, observe_every);
-            let clocks = (has_reference, own_clock);
+            let step = StepAt {
+                t,
+                per,
+                h,
+                observe_every,
+            };
             let block = (&*ensemble, &mut *tracks, &active[..]);
             // Small systems get loops of constant length.
             let stopped = match self.dims.n {
@@ -695,10 +717,20 @@ impl<'a> Lockstep<'a> {
         &mut self,
         dim: D,
         (ensemble, tracks, active): (&dyn PathEnsemble<System = S>, &mut [Track], &[usize]),
-        (t, per, h, observe_every): (usize, usize, f64, usize),
-        (has_reference, own_clock): (bool, bool),
+        step: StepAt,
+        clocks: Clocks,
         charged: f64,
     ) -> usize {
+        let StepAt {
+            t,
+            per,
+            h,
+            observe_every,
+        } = step;
+        let Clocks {
+            has_reference,
+            own_clock,
+        } = clocks;
         let dims = Dims {
             n: dim.n(self.dims),
             ..self.dims
@@ -853,11 +885,11 @@ pub fn run_block_until<S: System>(
         }
         for (index, (ensemble, track)) in tracks.iter_mut().zip(&mut states).enumerate() {
             let level = plan.levels[index % levels];
-            let flags = (
+            let clocks = Clocks {
                 has_reference,
-                own_clock.get(index).copied().unwrap_or(false),
-            );
-            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, flags);
+                own_clock: own_clock.get(index).copied().unwrap_or(false),
+            };
+            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, clocks);
         }
     }
     for (p, record) in records.iter_mut().enumerate() {

@@ -507,10 +507,11 @@ impl std::fmt::Debug for LaneStore {
 ///
 /// ```
 /// use sdae_manifold::{IdentityMass, Sphere};
+/// use sdae_model::engine::LanePaths;
 /// use sdae_model::lanes::LaneWidth;
 /// use sdae_model::{
-///     LaneEnsemble, LanePaths, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme,
-///     StepFailure, StepOutcome, ZeroDrift,
+///     LaneEnsemble, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme, StepFailure,
+///     StepOutcome, ZeroDrift,
 /// };
 ///
 /// // A scheme without a lane form: every path steps through `step`.

@@ -348,10 +348,7 @@ impl TheoryBound for RigidBonds {
         }
         let gram = self.gram_from_lengths(&inverse_mass)?;
         let m = self.bonds.len();
-        let matrix = faer::Mat::<f64>::from_fn(m, m, |a, b| gram[a * m + b]);
-        let eigenvalues = matrix.self_adjoint_eigenvalues(faer::Side::Lower).ok()?;
-        let lo = eigenvalues.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = eigenvalues.iter().copied().fold(0.0, f64::max);
+        let (lo, hi) = crate::mass::eigenvalue_range(m, &gram).ok()?;
         // Not positive definite, or NaN: no bound.
         if lo.is_nan() || lo <= 1e-12 * hi {
             return None;

@@ -221,13 +221,11 @@ impl DenseMass {
                 if j <= i { l[(i, j)] } else { 0.0 }
             })
             .collect();
-        let eig = a.self_adjoint_eigenvalues(faer::Side::Lower).map_err(|e| {
+        let (lo, hi) = eigenvalue_range(n, &row_major).map_err(|detail| {
             ManifoldError::NotPositiveDefinite {
-                detail: format!("eigenvalue computation failed ({e:?})"),
+                detail: format!("eigenvalue computation failed ({detail})"),
             }
         })?;
-        let lo = eig.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = eig.iter().copied().fold(0.0, f64::max);
         check_positive("smallest eigenvalue of the mass matrix", lo).map_err(|_| {
             ManifoldError::NotPositiveDefinite {
                 detail: format!("smallest eigenvalue is {lo:e}"),
@@ -331,4 +329,19 @@ mod tests {
         assert!((full.inverse_inner(&a, &b, &mut s) - exact).abs() < 1e-15);
         assert_eq!(IdentityMass.inverse_inner(&a, &b, &mut s), 1.0);
     }
+}
+
+/// The smallest and the largest eigenvalue (the latter at least 0) of the symmetric n x n
+/// matrix `row_major` (its lower triangle is read), or why they could not be computed.
+///
+/// Not generic, so that the eigenvalue solver is compiled once, here, and not in every crate
+/// whose generic code asks for a bound.
+pub(crate) fn eigenvalue_range(n: usize, row_major: &[f64]) -> Result<(f64, f64), String> {
+    let a = faer::Mat::<f64>::from_fn(n, n, |i, j| row_major[i * n + j]);
+    let eig = a
+        .self_adjoint_eigenvalues(faer::Side::Lower)
+        .map_err(|e| format!("{e:?}"))?;
+    let lo = eig.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = eig.iter().copied().fold(0.0, f64::max);
+    Ok((lo, hi))
 }

@@ -32,14 +32,19 @@ pub enum LaneWidth {
     Best,
     /// One path at a time, in plain f64.
     One,
-    /// Four paths (AVX2 where the processor has it, else four f64 in turn).
+    /// Four paths with AVX2; one at a time on a processor without it.
     Four,
-    /// Eight paths (AVX-512 where the processor has it, else eight f64 in turn).
+    /// Eight paths with AVX-512; on a processor without it, as [`LaneWidth::Best`].
     Eight,
 }
 
 impl LaneWidth {
     /// Runs `op` with the instruction set of this width.
+    ///
+    /// Only the instruction sets of [`LaneWidth::Best`] are used (AVX-512, AVX2 and plain
+    /// f64), so a kernel is compiled three times and not again for emulated widths: a width
+    /// the processor lacks falls back to one it has, with the same numbers (a path's results
+    /// do not depend on W).
     pub fn dispatch<Op: WithSimd>(self, op: Op) -> Op::Output {
         match self {
             LaneWidth::Best => pulp::Arch::new().dispatch(op),
@@ -49,14 +54,14 @@ impl LaneWidth {
                 if let Some(simd) = pulp::x86::V3::try_new() {
                     return Simd::vectorize(simd, op);
                 }
-                Simd::vectorize(pulp::Scalar256b, op)
+                Simd::vectorize(pulp::Scalar, op)
             }
             LaneWidth::Eight => {
                 #[cfg(target_arch = "x86_64")]
                 if let Some(simd) = pulp::x86::V4::try_new() {
                     return Simd::vectorize(simd, op);
                 }
-                Simd::vectorize(pulp::Scalar512b, op)
+                pulp::Arch::new().dispatch(op)
             }
         }
     }

@@ -18,6 +18,7 @@
 //!   SIMD-lane ensembles.
 //! - [`study`], [`report`], [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums.
+//! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
 //! - [`checkpoint`]: the blocks a run finished, saved so that a stopped run resumes to exactly
 //!   the numbers of an uninterrupted one.
 
@@ -25,6 +26,7 @@ pub mod algorithm;
 pub mod checkpoint;
 pub mod coupled;
 pub mod fit;
+pub mod plan_runs;
 pub mod plots;
 pub mod report;
 pub mod sampler;

@@ -60,6 +60,10 @@ pub enum Command {
     Mlmc(MlmcArgs),
     /// Merge the shard files of `mlmc --plan FILE --shard I/N` runs into the plan's report.
     MlmcMerge(MlmcMergeArgs),
+    /// Compare the numbers of two reports or shards (JSON), leaving out what differs between
+    /// runs (timings, thread counts): exit code 0 if they are equal, 1 with the first
+    /// difference.
+    Compare(CompareArgs),
 }
 
 /// Which scenes to run.
@@ -179,6 +183,17 @@ pub struct MergeArgs {
     pub dirs: Vec<PathBuf>,
     #[command(flatten)]
     pub out: OutArgs,
+}
+
+/// Options of `compare`.
+#[derive(Debug, Clone, Args)]
+pub struct CompareArgs {
+    /// The first report.
+    #[arg(value_name = "A")]
+    pub first: PathBuf,
+    /// The second report.
+    #[arg(value_name = "B")]
+    pub second: PathBuf,
 }
 
 /// Options of `trace`.

@@ -144,6 +144,7 @@ fn main() -> ExitCode {
             mlmc_cli::mlmc(&args, &STOP)
         }
         Some(Command::MlmcMerge(args)) => mlmc_cli::mlmc_merge(&args),
+        Some(Command::Compare(args)) => runs::compare(&args.first, &args.second),
         Some(Command::List) => {
             runs::list();
             Ok(())

@@ -9,10 +9,11 @@ use sdae_study::checkpoint::RunLock;
 use sdae_study::files::{read_json, write_atomically, write_json};
 use sdae_study::mlmc::algorithm::Plan;
 use sdae_study::mlmc::checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
+use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
-use sdae_study::mlmc::shard::{Identity, MlmcShard, merge, plan_markdown, plan_report, run_shard};
-use sdae_study::mlmc::study::{MlmcSettings, SamplerTask, plan_from_test, run_mlmc, with_sampler};
-use sdae_study::mlmc::{LevelSampler, MlmcError, RunControl, run_plan};
+use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
+use sdae_study::mlmc::study::{MlmcSettings, run_mlmc};
+use sdae_study::mlmc::{MlmcError, RunControl};
 use sdae_study::scene::Scene;
 
 use crate::Failure;
@@ -228,12 +229,12 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let mut control = control(settings.threads, &progress, stop)?;
     control.store = Some(&journal);
     if let Some(plan) = &run.plan {
-        let done = run_plan_file(scene, &settings, &control, (plan.clone(), shard));
+        let done = run_scene_plan(scene, &settings, &control, plan.clone(), shard);
         bar.finish_and_clear();
         let done = done.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
         let written = match done {
-            Done::Shard(s) => write_shard(&s, &dir),
-            Done::Report(r) => write_plan_report(&r, &dir),
+            PlanRun::Shard(s) => write_shard(&s, &dir),
+            PlanRun::Whole(r) => write_plan_report(&r, &dir),
         };
         return deliver(written, &journal, &checkpoint);
     }
@@ -256,8 +257,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     println!("wrote {}", dir.join("report.md").display());
     if let Some(file) = &args.write_plan {
         let eps = s.eps.iter().copied().fold(f64::INFINITY, f64::min);
-        let report = &report;
-        let plan = with_sampler(scene, &settings, PlanFromReport { report, eps })?;
+        let plan = plan_for_eps(scene, &settings, &report, eps)?;
         write_json(file, &plan)?;
         println!(
             "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
@@ -266,70 +266,6 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         );
     }
     Ok(())
-}
-
-/// The plan for eps from a report's convergence test.
-struct PlanFromReport<'a> {
-    report: &'a sdae_study::mlmc::MlmcReport,
-    eps: f64,
-}
-
-impl SamplerTask for PlanFromReport<'_> {
-    type Output = Plan;
-    fn run<L: LevelSampler>(self, sampler: &L) -> Result<Plan, MlmcError> {
-        let alpha = self.report.rates.alpha.map_or(1.0, |a| a.estimate.max(0.5));
-        plan_from_test(sampler, &self.report.test, alpha, self.eps)
-    }
-}
-
-/// What a plan's run gives: a shard's blocks or the whole plan's report.
-enum Done {
-    Shard(Box<MlmcShard>),
-    Report(Box<sdae_study::mlmc::shard::PlanReport>),
-}
-
-/// Runs a plan, all of it or shard (i, n) of it.
-fn run_plan_file(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    control: &RunControl<'_>,
-    (plan, shard): (Plan, Option<(u64, u64)>),
-) -> Result<Done, MlmcError> {
-    let identity = Identity::of(&scene.name, settings);
-    struct Task<'a, 'b> {
-        control: &'a RunControl<'b>,
-        identity: Identity,
-        plan: Plan,
-        shard: Option<(u64, u64)>,
-    }
-    impl SamplerTask for Task<'_, '_> {
-        type Output = Done;
-        fn run<L: LevelSampler>(self, sampler: &L) -> Result<Done, MlmcError> {
-            match self.shard {
-                Some(shard) => Ok(Done::Shard(Box::new(run_shard(
-                    sampler,
-                    self.control,
-                    (self.identity, self.plan),
-                    shard,
-                )?))),
-                None => {
-                    let sums = run_plan(sampler, self.control, &self.plan.samples)?;
-                    Ok(Done::Report(Box::new(plan_report(
-                        sampler,
-                        (self.identity, self.plan),
-                        sums,
-                    )?)))
-                }
-            }
-        }
-    }
-    let task = Task {
-        control,
-        identity,
-        plan,
-        shard,
-    };
-    with_sampler(scene, settings, task)
 }
 
 /// Writes a shard's file.
@@ -414,26 +350,7 @@ pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     settings.spec.antithetic = identity.antithetic;
     settings.t_end = identity.t_end;
     settings.seed = identity.seed;
-    struct Report {
-        identity: Identity,
-        plan: Plan,
-        sums: Vec<sdae_study::mlmc::LevelSums>,
-    }
-    impl SamplerTask for Report {
-        type Output = sdae_study::mlmc::shard::PlanReport;
-        fn run<L: LevelSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError> {
-            plan_report(sampler, (self.identity, self.plan), self.sums)
-        }
-    }
     let dir = args.out.out.join("mlmc").join(&identity.scene);
-    let report = with_sampler(
-        &scene,
-        &settings,
-        Report {
-            identity,
-            plan,
-            sums,
-        },
-    )?;
+    let report = merged_report(&scene, &settings, (identity, plan), sums)?;
     Ok(write_plan_report(&report, &dir)?)
 }

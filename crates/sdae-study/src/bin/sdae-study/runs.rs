@@ -12,7 +12,9 @@ use sdae_study::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_runs,
 };
-use sdae_study::files::{check_writable, read_json, remove_stale_temporaries, write_json};
+use sdae_study::files::{
+    check_writable, first_difference, numbers_of, read_json, remove_stale_temporaries, write_json,
+};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
@@ -755,6 +757,31 @@ pub fn trace(args: &TraceArgs) -> Result<(), Failure> {
     }
     bar.finish_and_clear();
     Ok(())
+}
+
+/// Compares the numbers of two reports: equal, or the first difference (exit code 1).
+pub fn compare(first: &Path, second: &Path) -> Result<(), Failure> {
+    let numbers = |file: &Path| -> Result<serde_json::Value, Failure> {
+        let text = std::fs::read_to_string(file)
+            .map_err(|e| Failure::Usage(format!("cannot read {}: {e}", file.display())))?;
+        numbers_of(&text)
+            .map_err(|e| Failure::Usage(format!("{} is not JSON: {e}", file.display())))
+    };
+    match first_difference(&numbers(first)?, &numbers(second)?) {
+        None => {
+            println!(
+                "{} and {} hold the same numbers",
+                first.display(),
+                second.display()
+            );
+            Ok(())
+        }
+        Some(at) => Err(Failure::Failed(format!(
+            "{} and {} differ at {at}",
+            first.display(),
+            second.display()
+        ))),
+    }
 }
 
 /// The built-in scenes and the schemes.

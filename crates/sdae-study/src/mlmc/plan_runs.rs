@@ -1,0 +1,112 @@
+//! A scene's plans through its sampler: the plan for an eps from a study's convergence test,
+//! a plan run whole or by shard, and the report of merged shards.
+//!
+//! These take a scene, not a sampler, so that the samplers of the built-in systems are
+//! compiled here once and not again in every program that calls them.
+
+use super::algorithm::{Plan, run_plan};
+use super::sampler::{LevelSampler, RunControl};
+use super::settings::MlmcError;
+use super::shard::{Identity, MlmcShard, PlanReport, plan_report, run_shard};
+use super::study::{MlmcReport, MlmcSettings, SamplerTask, plan_from_test, with_sampler};
+use super::sums::LevelSums;
+use crate::scene::Scene;
+
+/// The plan that reaches `eps` by the convergence test of `report` (its alpha, at least 0.5;
+/// 1 where none was fitted).
+pub fn plan_for_eps(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    report: &MlmcReport,
+    eps: f64,
+) -> Result<Plan, MlmcError> {
+    struct FromTest<'a> {
+        report: &'a MlmcReport,
+        eps: f64,
+    }
+    impl SamplerTask for FromTest<'_> {
+        type Output = Plan;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<Plan, MlmcError> {
+            let alpha = self.report.rates.alpha.map_or(1.0, |a| a.estimate.max(0.5));
+            plan_from_test(sampler, &self.report.test, alpha, self.eps)
+        }
+    }
+    with_sampler(scene, settings, FromTest { report, eps })
+}
+
+/// What a plan's run gives: a shard's blocks or the whole plan's report.
+#[derive(Debug)]
+pub enum PlanRun {
+    /// Shard i of n: its blocks, to be merged.
+    Shard(Box<MlmcShard>),
+    /// The whole plan: its report.
+    Whole(Box<PlanReport>),
+}
+
+/// Runs `plan` on `scene`: all of it, or shard (i, n) of it.
+pub fn run_scene_plan(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    control: &RunControl<'_>,
+    plan: Plan,
+    shard: Option<(u64, u64)>,
+) -> Result<PlanRun, MlmcError> {
+    struct Task<'a, 'b> {
+        control: &'a RunControl<'b>,
+        identity: Identity,
+        plan: Plan,
+        shard: Option<(u64, u64)>,
+    }
+    impl SamplerTask for Task<'_, '_> {
+        type Output = PlanRun;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<PlanRun, MlmcError> {
+            let whose = (self.identity, self.plan);
+            match self.shard {
+                Some(shard) => Ok(PlanRun::Shard(Box::new(run_shard(
+                    sampler,
+                    self.control,
+                    whose,
+                    shard,
+                )?))),
+                None => {
+                    let sums = run_plan(sampler, self.control, &whose.1.samples)?;
+                    Ok(PlanRun::Whole(Box::new(plan_report(sampler, whose, sums)?)))
+                }
+            }
+        }
+    }
+    let identity = Identity::of(&scene.name, settings);
+    let task = Task {
+        control,
+        identity,
+        plan,
+        shard,
+    };
+    with_sampler(scene, settings, task)
+}
+
+/// The report of a plan from its merged sums (see [`super::shard::merge`]).
+pub fn merged_report(
+    scene: &Scene,
+    settings: &MlmcSettings,
+    (identity, plan): (Identity, Plan),
+    sums: Vec<LevelSums>,
+) -> Result<PlanReport, MlmcError> {
+    struct Report {
+        identity: Identity,
+        plan: Plan,
+        sums: Vec<LevelSums>,
+    }
+    impl SamplerTask for Report {
+        type Output = PlanReport;
+        fn run<L: LevelSampler>(self, sampler: &L) -> Result<PlanReport, MlmcError> {
+            plan_report(sampler, (self.identity, self.plan), self.sums)
+        }
+    }
+    let task = Report {
+        identity,
+        plan,
+        sums,
+    };
+    with_sampler(scene, settings, task)
+}

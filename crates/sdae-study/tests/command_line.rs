@@ -563,3 +563,48 @@ fn scene_file_values_are_named_by_their_key_and_file_not_by_a_flag() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn compare_finds_runs_equal_across_thread_counts_and_names_the_first_difference() {
+    let dir = folder("compare");
+    let run = |threads: &str, out: &str| {
+        let out_dir = dir.join(out);
+        let args = [
+            "--quick",
+            "--paths",
+            "16",
+            "--threads",
+            threads,
+            "--out",
+            path(&out_dir),
+        ];
+        let done = study(&args);
+        assert_eq!(done.status.code(), Some(0), "{}", text(&done.stderr));
+        out_dir.join("pendulum").join("report.json")
+    };
+    let (one, two) = (run("1", "one"), run("2", "two"));
+    let same = study(&["compare", path(&one), path(&two)]);
+    assert_eq!(same.status.code(), Some(0), "{}", text(&same.stderr));
+    assert!(text(&same.stdout).contains("hold the same numbers"));
+
+    // One number changed in its ninth digit: exit 1, the number named by its JSON pointer.
+    let json = std::fs::read_to_string(&one).unwrap();
+    let at = json.find("\"estimate\": ").unwrap() + "\"estimate\": ".len();
+    let end = at + json[at..].find([',', '\n', '}']).unwrap();
+    let value: f64 = json[at..end].trim().parse().unwrap();
+    let changed = value + 1e-9 * value.abs().max(1.0);
+    let other = dir.join("other.json");
+    let edited = format!("{}{changed:?}{}", &json[..at], &json[end..]);
+    std::fs::write(&other, edited).unwrap();
+    let stderr = ran_but_failed(&["compare", path(&one), path(&other)]);
+    assert!(
+        stderr.contains("differ at /") && stderr.contains("/estimate: "),
+        "{stderr}"
+    );
+
+    usage_error(
+        &["compare", path(&one), path(&dir.join("missing.json"))],
+        &["cannot read", "missing.json"],
+    );
+    usage_error(&["compare", path(&one)], &["<B>"]);
+}

@@ -220,20 +220,8 @@ pub fn run_check(args: &[String]) -> Result<(), TaskError> {
             "cluster-check takes no options, got `{extra}`"
         )));
     }
-    let root = workspace_root()?;
     let target = target_dir()?;
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    eprintln!("building sdae-study (release)");
-    let built = Command::new(cargo)
-        .current_dir(&root)
-        .args(["build", "--release", "--quiet", "-p", "sdae-study"])
-        .env("CARGO_TARGET_DIR", &target)
-        .status()
-        .map_err(|e| failed(format!("cannot start cargo: {e}")))?;
-    if !built.success() {
-        return Err(failed(format!("building sdae-study failed ({built})")));
-    }
-    let study = target.join("release").join("sdae-study");
+    let study = build_study(&target)?;
     install()?;
     let dir = target.join("cluster-check");
     let _ = std::fs::remove_dir_all(&dir);
@@ -251,9 +239,41 @@ pub fn run_check(args: &[String]) -> Result<(), TaskError> {
     write(&conf, slurm_conf(&dir, &host, cpus))?;
     write(&script, array_script(&study, &dir.join("array")))?;
 
+    let daemons = start_cluster(&dir, &conf)?;
+    eprintln!("one-node cluster up on {host} ({cpus} CPUs); submitting a {TASKS}-task array");
+    run_array(&dir, &script, &conf)?;
+    let merged = merge_and_compare(&study, &dir)?;
+    drop(daemons);
+    println!(
+        "cluster-check passed: {TASKS} Slurm array tasks merged to exactly the unsharded \
+         report ({})",
+        merged.join("pendulum").join("report.json").display()
+    );
+    Ok(())
+}
+
+/// Builds the study binary in release mode; its path.
+fn build_study(target: &Path) -> Result<PathBuf, TaskError> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    eprintln!("building sdae-study (release)");
+    let built = Command::new(cargo)
+        .current_dir(workspace_root()?)
+        .args(["build", "--release", "--quiet", "-p", "sdae-study"])
+        .env("CARGO_TARGET_DIR", target)
+        .status()
+        .map_err(|e| failed(format!("cannot start cargo: {e}")))?;
+    if !built.success() {
+        return Err(failed(format!("building sdae-study failed ({built})")));
+    }
+    Ok(target.join("release").join("sdae-study"))
+}
+
+/// Starts munged, slurmctld and slurmd with the configuration `conf` and waits for the node;
+/// the daemons stop when the returned value is dropped.
+fn start_cluster(dir: &Path, conf: &Path) -> Result<Daemons, TaskError> {
     let mut daemons = Daemons::default();
     munge(&mut daemons)?;
-    let env = [("SLURM_CONF", conf.as_path())];
+    let env = [("SLURM_CONF", conf)];
     let conf_arg = conf.display().to_string();
     run("slurmctld", &["-f", &conf_arg], &env)?;
     daemons.started(dir.join("slurmctld.pid"));
@@ -262,8 +282,13 @@ pub fn run_check(args: &[String]) -> Result<(), TaskError> {
     wait_for("the node to be idle", Duration::from_secs(60), || {
         run("sinfo", &["-h", "-o", "%t"], &env).is_ok_and(|s| s.trim() == "idle")
     })?;
-    eprintln!("one-node cluster up on {host} ({cpus} CPUs); submitting a {TASKS}-task array");
+    Ok(daemons)
+}
 
+/// Submits the job array `script`, waits for it and checks that every task wrote its shard
+/// (a task that did not is named with its log).
+fn run_array(dir: &Path, script: &Path, conf: &Path) -> Result<(), TaskError> {
+    let env = [("SLURM_CONF", conf)];
     let log = dir.join("task-%a.log").display().to_string();
     let job = run(
         "sbatch",
@@ -291,20 +316,24 @@ pub fn run_check(args: &[String]) -> Result<(), TaskError> {
             )));
         }
     }
+    Ok(())
+}
 
+/// Merges the array's shards, runs the unsharded study and compares the two reports with the
+/// study's own comparison (the numbers without timings and thread counts); the merged folder.
+fn merge_and_compare(study: &Path, dir: &Path) -> Result<PathBuf, TaskError> {
     let path = |p: &Path| p.display().to_string();
     let merged = dir.join("merged");
     run(
-        &path(&study),
+        &path(study),
         &["merge", &path(&dir.join("array")), "--out", &path(&merged)],
         &[],
     )?;
     let single = dir.join("single");
-    run(&path(&study), &["--quick", "--out", &path(&single)], &[])?;
-    // The study's own comparison: the numbers without timings and thread counts.
+    run(&path(study), &["--quick", "--out", &path(&single)], &[])?;
     let report = |d: &Path| path(&d.join("pendulum").join("report.json"));
     run(
-        &path(&study),
+        &path(study),
         &["compare", &report(&merged), &report(&single)],
         &[],
     )
@@ -313,11 +342,5 @@ pub fn run_check(args: &[String]) -> Result<(), TaskError> {
             "the merged report differs from the unsharded one: {e}"
         ))
     })?;
-    drop(daemons);
-    println!(
-        "cluster-check passed: {TASKS} Slurm array tasks merged to exactly the unsharded \
-         report ({})",
-        merged.join("pendulum").join("report.json").display()
-    );
-    Ok(())
+    Ok(merged)
 }

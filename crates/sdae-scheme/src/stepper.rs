@@ -194,7 +194,9 @@ struct Buffers<'a> {
 }
 
 /// The body of [`Scheme::step`](sdae_model::Scheme::step) of [`Stepper`] after the input checks, inlined into each caller so that
-/// fixed-size buffers give fixed-size loops.
+/// fixed-size buffers give fixed-size loops. Seed eq. 3.1: y = r + eta h v, the kappa root
+/// r' = y + M^-1 grad g(r) kappa on g = 0, v' = v~ + M^-1 grad g(r) lambda with
+/// Dg(r') v' = 0.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn half_explicit_step<S: System>(
@@ -219,21 +221,7 @@ fn half_explicit_step<S: System>(
     let constraint = system.constraint();
     let mass = system.mass();
 
-    let v_norm2 = norm2_squared(v);
-    if !v_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "velocity v_k",
-            size: v_norm2.sqrt(),
-        });
-    }
-    system.drift(r, v, drift);
-    let a_norm2 = norm2_squared(drift);
-    if !a_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "drift a(r, v)",
-            size: a_norm2.sqrt(),
-        });
-    }
+    let (v_norm2, a_norm2) = checked_motion(system, r, v, drift)?;
     let local = if config.local_size {
         constraint.local_motion(r, v, drift)
     } else {
@@ -247,31 +235,10 @@ fn half_explicit_step<S: System>(
     // NaN when y is (then so is g(y), and the step fails on it whatever the floor).
     let max_abs_y = max_abs(y);
 
-    // Velocity: v~ = v + M^-1 (eta a h + B dw) (sqrt(eta) B dw when rescaled), formed before
-    // the root (it does not depend on it) so that the solver can solve the lambda system
-    // Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton matrix at the root,
-    // in the pass that factors that matrix.
-    if config.rescale_noise && eta < 1.0 {
-        // sqrt(eta) (sqrt(eta) h a + B dw) = eta h a + sqrt(eta) B dw: in law a step of eta h.
-        let scale = eta.sqrt();
-        let scaled_h = scale * h;
-        for (f, a) in force.iter_mut().zip(drift.iter()) {
-            *f = scaled_h * a;
-        }
-        system.add_noise(r, v, dw, force);
-        for f in force.iter_mut() {
-            *f *= scale;
-        }
-    } else {
-        for (f, a) in force.iter_mut().zip(drift.iter()) {
-            *f = eta_h * a;
-        }
-        system.add_noise(r, v, dw, force);
-    }
-    mass.apply_inverse(force);
-    for (f, vi) in force.iter_mut().zip(v.iter()) {
-        *f += vi;
-    }
+    // v~ is formed before the root (it does not depend on it) so that the solver can solve
+    // the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton
+    // matrix at the root, in the pass that factors that matrix.
+    free_velocity(system, config, (eta, h), (r, v), dw, drift, force);
 
     let (certificate, at_y) = {
         let mut problem = KappaProblem {
@@ -294,24 +261,8 @@ fn half_explicit_step<S: System>(
         (certificate, problem.at_y)
     };
     let r_new: &[f64] = if at_y { y } else { x };
-
-    // lambda, solved by the root solver where it could, with the root's factors otherwise.
-    match solver.companion() {
-        Some(solution) => lambda.copy_from_slice(solution),
-        None => {
-            lambda_right_hand_side(constraint, r_new, force, lambda);
-            solver.root_factor().solve_in_place(lambda);
-        }
-    }
-    // v' = v~ + M^-1 grad g(r) lambda, into the drift buffer (a is no longer needed).
-    constraint.displace(r, lambda, mass, force, drift);
-    let new_v_norm2 = norm2_squared(drift);
-    if !new_v_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "velocity after the step",
-            size: new_v_norm2.sqrt(),
-        });
-    }
+    // v' into the drift buffer (a is no longer needed).
+    constrained_velocity(system, solver, (r, r_new), force, lambda, drift)?;
     r.copy_from_slice(r_new);
     v.copy_from_slice(drift);
     let velocity_residual = config.monitor_velocity_constraint.then(|| {
@@ -325,6 +276,101 @@ fn half_explicit_step<S: System>(
         certificate: Some(certificate),
         velocity_residual,
     })
+}
+
+/// The new velocity v' = v~ + M^-1 grad g(r) lambda with Dg(r') v' = 0 (seed eq. 3.1, lower
+/// part), written into `new_v`: lambda from the root solver where it solved the lambda system
+/// in its last pass, else from the root's factors. A failure if v' is not finite.
+#[inline(always)]
+fn constrained_velocity<S: System>(
+    system: &S,
+    solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
+    (r, r_new): (&[f64], &[f64]),
+    free_velocity: &[f64],
+    lambda: &mut [f64],
+    new_v: &mut [f64],
+) -> Result<(), StepFailure> {
+    let constraint = system.constraint();
+    match solver.companion() {
+        Some(solution) => lambda.copy_from_slice(solution),
+        None => {
+            lambda_right_hand_side(constraint, r_new, free_velocity, lambda);
+            solver.root_factor().solve_in_place(lambda);
+        }
+    }
+    constraint.displace(r, lambda, system.mass(), free_velocity, new_v);
+    let new_v_norm2 = norm2_squared(new_v);
+    if !new_v_norm2.is_finite() {
+        return Err(StepFailure::NonFinite {
+            what: "velocity after the step",
+            size: new_v_norm2.sqrt(),
+        });
+    }
+    Ok(())
+}
+
+/// |v|^2 and |a|^2 with the drift a(r, v) written into `drift`; a failure if either is not
+/// finite.
+#[inline(always)]
+fn checked_motion<S: System>(
+    system: &S,
+    r: &[f64],
+    v: &[f64],
+    drift: &mut [f64],
+) -> Result<(f64, f64), StepFailure> {
+    let v_norm2 = norm2_squared(v);
+    if !v_norm2.is_finite() {
+        return Err(StepFailure::NonFinite {
+            what: "velocity v_k",
+            size: v_norm2.sqrt(),
+        });
+    }
+    system.drift(r, v, drift);
+    let a_norm2 = norm2_squared(drift);
+    if !a_norm2.is_finite() {
+        return Err(StepFailure::NonFinite {
+            what: "drift a(r, v)",
+            size: a_norm2.sqrt(),
+        });
+    }
+    Ok((v_norm2, a_norm2))
+}
+
+/// The velocity before the constraint force, v~ = v + M^-1 (eta h a + B dw) (seed eq. 3.1),
+/// written into `force`; with rescaled noise and eta < 1, v + M^-1 (eta h a + sqrt(eta) B dw),
+/// in law a step of eta h.
+#[inline(always)]
+fn free_velocity<S: System>(
+    system: &S,
+    config: &StepperConfig,
+    (eta, h): (f64, f64),
+    (r, v): (&[f64], &[f64]),
+    dw: &[f64],
+    drift: &[f64],
+    force: &mut [f64],
+) {
+    if config.rescale_noise && eta < 1.0 {
+        // sqrt(eta) (sqrt(eta) h a + B dw) = eta h a + sqrt(eta) B dw.
+        let scale = eta.sqrt();
+        let scaled_h = scale * h;
+        for (f, a) in force.iter_mut().zip(drift.iter()) {
+            *f = scaled_h * a;
+        }
+        system.add_noise(r, v, dw, force);
+        for f in force.iter_mut() {
+            *f *= scale;
+        }
+    } else {
+        let eta_h = eta * h;
+        for (f, a) in force.iter_mut().zip(drift.iter()) {
+            *f = eta_h * a;
+        }
+        system.add_noise(r, v, dw, force);
+    }
+    system.mass().apply_inverse(force);
+    for (f, vi) in force.iter_mut().zip(v.iter()) {
+        *f += vi;
+    }
 }
 
 /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)), or with

@@ -367,31 +367,25 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let floor = self.splat(4.0 * f64::EPSILON) * max_abs_y / self.constraint.roundoff_length();
         let tolerance = self.splat(settings.tolerance).max(floor);
 
-        // R(0), J(0) at x = y and the first Newton step.
         let mut step = std::mem::take(&mut self.step);
-        let at_y = self.constraint.evaluate_and_factor(
-            (y, r),
-            &mut self.residual,
-            &mut self.jacobian,
-            &mut self.factor_at_zero,
-            &mut step,
-        );
-        self.factor_at_zero.back_substitute(&mut step);
-        let (residual_at_zero, mut ok) = (at_y.largest, at_y.ok);
-        let first_step = sum_squares(&step).sqrt();
+        let (at_y, first_step) = self.first_newton_step(y, &mut step);
+        let (residual_at_zero, ok) = (at_y.largest, at_y.ok);
         let at_zero = residual_at_zero.le(tolerance);
         for (g, s) in self.gamma.iter_mut().zip(&step) {
             *g = Lanes::select(at_zero, zero, zero - *s);
         }
-        let mut iterations = zero;
-        let mut residual = residual_at_zero;
-        let mut active = ok.and(!at_zero);
-        let mut previous = residual_at_zero;
+        let mut lanes = Iterates {
+            ok,
+            active: ok.and(!at_zero),
+            iterations: zero,
+            residual: residual_at_zero,
+            previous: residual_at_zero,
+        };
         let mut iterated = false;
         let stagnation = self.splat(settings.stagnation_tolerance);
         let max_iterations = settings.max_iterations;
         for k in 1..=max_iterations {
-            if !active_any(active) {
+            if !active_any(lanes.active) {
                 break;
             }
             iterated = true;
@@ -405,14 +399,14 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 &mut step,
             );
             let r_k = at_x.largest;
-            let stagnated = (previous * 0.5).lt(r_k).and(r_k.le(stagnation));
+            let stagnated = (lanes.previous * 0.5).lt(r_k).and(r_k.le(stagnation));
             let mut converged = r_k.le(tolerance);
             if k < max_iterations {
                 converged = converged.or(stagnated);
             }
             // The next Newton step only if a lane goes on (most often none does: one
             // iteration converges); the factors at the root are kept for the velocity either way.
-            if active_any(active.and(!converged)) {
+            if active_any(lanes.active.and(!converged)) {
                 self.factor.back_substitute(&mut step);
             }
             // A lane that fails now (no finite residual, a rejected pivot, the last
@@ -422,26 +416,94 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             } else {
                 !one.eq(one)
             });
-            ok = ok.and(!active.and(fails));
-            let finished = active.and(converged).and(!fails);
-            let k_lanes = self.splat(k as f64);
-            iterations = Lanes::select(finished, k_lanes, iterations);
-            residual = Lanes::select(finished, r_k, residual);
-            active = active.and(!converged).and(!fails);
-            previous = Lanes::select(active, r_k, previous);
-            if active.all() {
-                for (g, s) in self.gamma.iter_mut().zip(&step) {
-                    *g = *g - *s;
-                }
-            } else if active_any(active) {
-                for (g, s) in self.gamma.iter_mut().zip(&step) {
-                    *g = *g - Lanes::select(active, *s, zero);
-                }
-            }
+            lanes.record(self.splat(k as f64), r_k, converged, fails);
+            self.newton_update(lanes.active, &step);
         }
         self.step = step;
+        let (ok, norm, contraction) = self.certificate(config, first_step, lanes.ok);
+        KappaLanes {
+            ok,
+            iterated,
+            at_zero: lanes.iterations.eq(zero),
+            iterations: lanes.iterations,
+            residual: lanes.residual,
+            norm,
+            contraction,
+        }
+    }
 
-        // The certificate: the ball, the plausibility bound and the contraction estimate.
+    /// R(0) and J(0) at x = y, J(0) factored into `factor_at_zero`, and the first Newton step
+    /// J(0)^-1 R(0) into `step`: the evaluation's result and the step's length.
+    #[inline(always)]
+    fn first_newton_step(
+        &mut self,
+        y: &Drifted<'_, Sd>,
+        step: &mut [Lanes<Sd>],
+    ) -> (Evaluation<Sd>, Lanes<Sd>) {
+        let at_y = self.constraint.evaluate_and_factor(
+            (y, y.r),
+            &mut self.residual,
+            &mut self.jacobian,
+            &mut self.factor_at_zero,
+            step,
+        );
+        self.factor_at_zero.back_substitute(step);
+        (at_y, sum_squares(step).sqrt())
+    }
+
+    /// eta of eq. 3.2 from v, a and their squared norms, or with the constraint's local
+    /// measure of the motion.
+    #[inline(always)]
+    fn eta(
+        &self,
+        config: &StepperConfig,
+        (v, a): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (v_norm2, a_norm2): (Lanes<Sd>, Lanes<Sd>),
+    ) -> Lanes<Sd> {
+        let one = self.splat(1.0);
+        match config.c_eta {
+            None => one,
+            Some(c_eta) => {
+                let motion = if config.local_size {
+                    self.constraint.local_motion(v, a)
+                } else {
+                    let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
+                    speed.max(speed * speed).max(force)
+                };
+                let size = motion * self.h;
+                let c = self.splat(c_eta);
+                Lanes::select(c.lt(size), c / size, one)
+            }
+        }
+    }
+
+    /// gamma <- gamma - step in the `active` lanes (the Newton update).
+    #[inline(always)]
+    fn newton_update(&mut self, active: LaneMask<Sd>, step: &[Lanes<Sd>]) {
+        if active.all() {
+            for (g, s) in self.gamma.iter_mut().zip(step) {
+                *g = *g - *s;
+            }
+        } else if active_any(active) {
+            let zero = self.splat(0.0);
+            for (g, s) in self.gamma.iter_mut().zip(step) {
+                *g = *g - Lanes::select(active, *s, zero);
+            }
+        }
+    }
+
+    /// The root's certificate in the lanes `ok` (`BallSolver`'s): |gamma*| inside the ball of
+    /// radius C_kappa, within the plausibility bound of the first Newton step, and a
+    /// contraction estimate below its maximum where the radius is finite. The lanes that
+    /// pass, |gamma*| and the contraction estimate.
+    #[inline(always)]
+    fn certificate(
+        &mut self,
+        config: &StepperConfig,
+        first_step: Lanes<Sd>,
+        mut ok: LaneMask<Sd>,
+    ) -> (LaneMask<Sd>, Lanes<Sd>, Lanes<Sd>) {
+        let settings = &config.solver;
         let norm = sum_squares(&self.gamma).sqrt();
         let radius = config.c_kappa;
         ok = ok.and(norm.lt(self.splat(radius)));
@@ -453,15 +515,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             // NaN (no probes) passes, as in the scalar check.
             ok = ok.and(!self.splat(settings.max_contraction).le(contraction));
         }
-        KappaLanes {
-            ok,
-            iterated,
-            at_zero: iterations.eq(zero),
-            iterations,
-            residual,
-            norm,
-            contraction,
-        }
+        (ok, norm, contraction)
     }
 
     /// Power iteration on J(0)^-1 J(gamma*) - I started along gamma* (`BallSolver`'s
@@ -649,6 +703,40 @@ struct Velocity<Sd: Simd> {
     root: KappaLanes<Sd>,
 }
 
+/// The kappa root's Newton iteration, per lane, while it runs.
+struct Iterates<Sd: Simd> {
+    /// The lanes not failed so far.
+    ok: LaneMask<Sd>,
+    /// The lanes still iterating.
+    active: LaneMask<Sd>,
+    /// The iteration at which a lane converged (0 while it runs, and at a root of 0).
+    iterations: Lanes<Sd>,
+    /// The residual at which a lane converged.
+    residual: Lanes<Sd>,
+    /// The residual of the last iteration of the lanes still iterating.
+    previous: Lanes<Sd>,
+}
+
+impl<Sd: Simd> Iterates<Sd> {
+    /// Iteration k with residual `r_k`: the active lanes that `fails` drop out of `ok`, those
+    /// `converged` (and not failed) record k and r_k, the rest go on.
+    #[inline(always)]
+    fn record(
+        &mut self,
+        k: Lanes<Sd>,
+        r_k: Lanes<Sd>,
+        converged: LaneMask<Sd>,
+        fails: LaneMask<Sd>,
+    ) {
+        self.ok = self.ok.and(!self.active.and(fails));
+        let finished = self.active.and(converged).and(!fails);
+        self.iterations = Lanes::select(finished, k, self.iterations);
+        self.residual = Lanes::select(finished, r_k, self.residual);
+        self.active = self.active.and(!converged).and(!fails);
+        self.previous = Lanes::select(self.active, r_k, self.previous);
+    }
+}
+
 /// What the kappa root's Newton iteration decided, per lane.
 struct KappaLanes<Sd: Simd> {
     ok: LaneMask<Sd>,
@@ -694,21 +782,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let a_norm2 = sum_squares(force);
         let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
 
-        // eta of eq. 3.2, or with the constraint's local measure of the motion.
-        let eta = match config.c_eta {
-            None => one,
-            Some(c_eta) => {
-                let motion = if config.local_size {
-                    self.constraint.local_motion(v, force)
-                } else {
-                    let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
-                    speed.max(speed * speed).max(force)
-                };
-                let size = motion * h;
-                let c = self.splat(c_eta);
-                Lanes::select(c.lt(size), c / size, one)
-            }
-        };
+        let eta = self.eta(config, (v, force), (v_norm2, a_norm2));
         let eta_h = eta * h;
         // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
         // the force here, v~ in the velocity update.

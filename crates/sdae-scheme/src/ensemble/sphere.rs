@@ -153,6 +153,46 @@ impl<const N: usize> Kernel<N> {
         Lanes::select(c.lt(size), c / size, one)
     }
 
+    /// v~ = v + M^-1 (eta a h + B dw) of eq. 3.1, or v + M^-1 sqrt(eta) (sqrt(eta) h a + B dw)
+    /// when the noise is rescaled; `None` where the system has no lane form of its noise.
+    #[inline(always)]
+    fn free_velocity<S: System, Sd: Simd>(
+        &self,
+        system: &S,
+        r: &[Lanes<Sd>; N],
+        v: &[Lanes<Sd>; N],
+        dw: &[Lanes<Sd>],
+        a: &[Lanes<Sd>; N],
+        eta: Lanes<Sd>,
+    ) -> Option<[Lanes<Sd>; N]> {
+        let one = eta.splat_like(1.0);
+        let truncated = eta.lt(one);
+        let scale = if self.rescale_noise && !(!truncated).all() {
+            Lanes::select(truncated, eta.sqrt(), one)
+        } else {
+            one
+        };
+        let drift_h = if self.rescale_noise {
+            scale * self.h
+        } else {
+            eta * self.h
+        };
+        let mut force = [eta.splat_like(0.0); N];
+        for i in 0..N {
+            force[i] = drift_h * a[i];
+        }
+        if !system.add_noise_lanes(r, v, dw, &mut force) {
+            return None;
+        }
+        for i in 0..N {
+            if self.rescale_noise {
+                force[i] = force[i] * scale;
+            }
+            force[i] = force[i] * self.inverse_mass[i] + v[i];
+        }
+        Some(force)
+    }
+
     /// [`LaneKernel::step`], with the kappa root.
     #[inline(always)]
     fn step_with_root<S: System, Sd: Simd>(
@@ -197,31 +237,7 @@ impl<const N: usize> Kernel<N> {
             ..
         } = root;
 
-        // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled.
-        let truncated = eta.lt(one);
-        let scale = if self.rescale_noise && !(!truncated).all() {
-            Lanes::select(truncated, eta.sqrt(), one)
-        } else {
-            one
-        };
-        let drift_h = if self.rescale_noise {
-            scale * self.h
-        } else {
-            eta_h
-        };
-        let mut force = [zero; N];
-        for i in 0..N {
-            force[i] = drift_h * a[i];
-        }
-        if !system.add_noise_lanes(r, v, dw, &mut force) {
-            return None;
-        }
-        for i in 0..N {
-            if self.rescale_noise {
-                force[i] = force[i] * scale;
-            }
-            force[i] = force[i] * self.inverse_mass[i] + v[i];
-        }
+        let force = self.free_velocity(system, r, v, dw, &a, eta)?;
         // lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)), v' = v~ + M^-1 grad g(r) lambda.
         let lambda = -(-dot(&x, &force) * self.inv_r2) * (one / gram);
         let t = -lambda * self.inv_r2;

@@ -174,6 +174,44 @@ fn deliver(
     }))
 }
 
+/// The checkpoint and result files of a run: the study's, a whole plan's or a shard's.
+struct RunFiles {
+    /// The checkpoint's file name.
+    checkpoint: String,
+    /// A shard's result file, `None` for a study or a whole plan.
+    shard: Option<String>,
+    /// Whether a plan is run.
+    plan: bool,
+}
+
+impl RunFiles {
+    /// The files of a study (`plan` false) or of a plan's run, whole or shard (i, n).
+    fn of(plan: bool, shard: Option<(u64, u64)>) -> Self {
+        let (checkpoint, shard) = match (plan, shard) {
+            (false, _) => ("mlmc-checkpoint.bin".to_string(), None),
+            (true, None) => ("mlmc-plan-checkpoint.bin".to_string(), None),
+            (true, Some((i, n))) => (
+                format!("mlmc-plan-checkpoint-{i}-of-{n}.bin"),
+                Some(format!("mlmc-shard-{i}-of-{n}.json")),
+            ),
+        };
+        Self {
+            checkpoint,
+            shard,
+            plan,
+        }
+    }
+
+    /// The files the run writes (a run refuses to start over another run's).
+    fn outputs(&self) -> Vec<&str> {
+        match (self.plan, &self.shard) {
+            (false, _) => REPORT_FILES.to_vec(),
+            (true, None) => PLAN_FILES.to_vec(),
+            (true, Some(f)) => vec![f],
+        }
+    }
+}
+
 /// The MLMC study of one scene (the pendulum by default), a plan's run or one of its shards,
 /// saved in a checkpoint while it runs and when it is stopped, and resumed from it with
 /// --resume.
@@ -197,21 +235,10 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         .map_err(Failure::Usage)?
         .map(|(i, n)| (i as u64, n as u64));
     let dir = args.out.out.join("mlmc").join(&scene.name);
-    let (file, shard_file) = match (&plan, shard) {
-        (None, _) => ("mlmc-checkpoint.bin".to_string(), None),
-        (Some(_), None) => ("mlmc-plan-checkpoint.bin".to_string(), None),
-        (Some(_), Some((i, n))) => (
-            format!("mlmc-plan-checkpoint-{i}-of-{n}.bin"),
-            Some(format!("mlmc-shard-{i}-of-{n}.json")),
-        ),
-    };
-    let outputs: Vec<&str> = match (&plan, &shard_file) {
-        (None, _) => REPORT_FILES.to_vec(),
-        (Some(_), None) => PLAN_FILES.to_vec(),
-        (Some(_), Some(f)) => vec![f],
-    };
+    let files = RunFiles::of(plan.is_some(), shard);
+    let outputs = files.outputs();
     let how = Resumption::of(&args.checkpoint);
-    let checkpoint = MlmcCheckpoint::new(dir.join(file)).every(how.every);
+    let checkpoint = MlmcCheckpoint::new(dir.join(&files.checkpoint)).every(how.every);
     let run = MlmcRun {
         scene: scene.clone(),
         settings: settings.clone(),

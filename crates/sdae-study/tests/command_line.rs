@@ -1,40 +1,15 @@
 //! The study binary on good and bad command lines: exit codes (0 ran, 1 ran but nothing to
 //! compare, 2 usage), and messages that name the option and the nearest valid name.
 
+mod cli;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+use cli::{study, text, usage_error};
 
 /// The built-in pendulum scene under another name (so that its results get their own folder).
 fn scene() -> String {
     include_str!("../scenes/pendulum.toml").replace("name = \"pendulum\"", "name = \"test\"")
-}
-
-fn study(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sdae-study"))
-        .args(args)
-        .env_remove("SDAE_STUDY_OUT")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .output()
-        .expect("the study binary starts")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// Asserts a usage error (exit code 2) whose message contains every one of `words`.
-fn usage_error(args: &[&str], words: &[&str]) {
-    let out = study(args);
-    let stderr = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    for word in words {
-        assert!(stderr.contains(word), "{args:?}: '{word}' not in\n{stderr}");
-    }
-    assert!(
-        stderr.matches("Usage:").count() <= 1,
-        "two help texts:\n{stderr}"
-    );
 }
 
 /// Runs the study, requires exit code 1 (it ran, nothing to compare) and returns stderr.

@@ -2,32 +2,11 @@
 //! input is a named error with exit code 2, and a plan run merged from shards gives exactly
 //! the unsharded estimate.
 
+mod cli;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn study(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sdae-study"))
-        .args(args)
-        .env_remove("SDAE_STUDY_OUT")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("SLURM_ARRAY_TASK_COUNT")
-        .output()
-        .expect("the study binary starts")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// Asserts exit code 2 and a message containing every one of `words`.
-fn usage_error(args: &[&str], words: &[&str]) {
-    let out = study(args);
-    let stderr = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    for word in words {
-        assert!(stderr.contains(word), "{args:?}: '{word}' not in\n{stderr}");
-    }
-}
+use cli::{study, text, usage_error};
 
 fn scratch(name: &str) -> std::path::PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);

@@ -511,22 +511,24 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    #[test]
-    fn the_summary_holds_every_figure_per_path_step() {
-        let dir = std::env::temp_dir().join(format!("xtask-bench-summary-{}", std::process::id()));
-        let write = |group: &str, id: Option<&str>| {
-            let mut new = dir.join(group);
-            if let Some(id) = id {
-                new.push(id);
-            }
-            new.push("new");
-            std::fs::create_dir_all(&new).unwrap();
-            std::fs::write(
-                new.join("estimates.json"),
-                r#"{"mean": {"point_estimate": 1000.0}}"#,
-            )
-            .unwrap();
-        };
+    /// Writes criterion's estimate of 1000 ns for benchmark `group` (and `id`) under `dir`.
+    fn write_estimate(dir: &Path, group: &str, id: Option<&str>) {
+        let mut new = dir.join(group);
+        if let Some(id) = id {
+            new.push(id);
+        }
+        new.push("new");
+        std::fs::create_dir_all(&new).unwrap();
+        std::fs::write(
+            new.join("estimates.json"),
+            r#"{"mean": {"point_estimate": 1000.0}}"#,
+        )
+        .unwrap();
+    }
+
+    /// Writes an estimate of 1000 ns under `dir` for every benchmark the summary reads.
+    fn write_every_estimate(dir: &Path) {
+        let write = |group: &str, id: Option<&str>| write_estimate(dir, group, id);
         write("pendulum_step", None);
         for id in [
             "with_normals",
@@ -566,6 +568,12 @@ mod tests {
                 Some("default"),
             );
         }
+    }
+
+    #[test]
+    fn the_summary_holds_every_figure_per_path_step() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-summary-{}", std::process::id()));
+        write_every_estimate(&dir);
         let results = Results {
             criterion_home: &dir,
             started: SystemTime::UNIX_EPOCH,

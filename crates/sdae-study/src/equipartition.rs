@@ -5,8 +5,10 @@
 //! the right temperature and where truncation biases it (design notes, Section 6).
 
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 
@@ -19,7 +21,7 @@ use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::parallel::Control;
-use crate::plots::{COLOURS, log_range};
+use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
 use crate::scene::{Prepared, Scene};
 use crate::stats::Interval;
 
@@ -296,94 +298,104 @@ pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), StudyError
         .titled("measured over set temperature", ("sans-serif", 20))
         .map_err(|e| err(&e))?;
     for (area, sc) in root.split_evenly((1, count)).iter().zip(scenes) {
-        let finite = |x: f64| x.is_finite().then_some(x);
-        let xs = log_range(sc.rows.iter().map(|r| r.h));
-        let ys: Vec<f64> = sc
-            .rows
-            .iter()
-            .filter_map(|r| r.temperature_ratio)
-            .flat_map(|i| [i.ci_low, i.ci_high])
-            .filter_map(finite)
-            .chain([0.9, 1.1])
-            .collect();
-        // Log scale: ratios from well below 1 to thousands; the top is capped at 1e3.
-        let lo = ys
-            .iter()
-            .copied()
-            .filter(|y| *y > 0.0)
-            .fold(f64::INFINITY, f64::min)
-            / 1.2;
-        let hi = ys.iter().copied().fold(0.0, f64::max).min(1e3) * 1.2;
-        let mut chart = ChartBuilder::on(area)
-            .caption(&sc.scene, ("sans-serif", 15))
-            .margin(10)
-            .x_label_area_size(32)
-            .y_label_area_size(48)
-            .build_cartesian_2d(xs.clone().log_scale(), (lo..hi).log_scale())
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .light_line_style(RGBColor(245, 245, 245))
-            .x_desc("h")
-            .y_desc("T measured / T")
-            .y_label_formatter(&|v| format!("{v:.2}"))
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| err(&e))?;
-        chart
-            .draw_series(LineSeries::new(
-                [(xs.start, 1.0), (xs.end, 1.0)],
-                BLACK.mix(0.5),
-            ))
-            .map_err(|e| err(&e))?;
-        let mut labels: Vec<&str> = sc.rows.iter().map(|r| r.scheme.as_str()).collect();
-        labels.dedup();
-        for (k, name) in labels.iter().enumerate() {
-            let colour = COLOURS[k % COLOURS.len()];
-            let rows: Vec<(f64, Interval)> = sc
-                .rows
-                .iter()
-                .filter(|r| r.scheme == *name)
-                .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
-                .filter(|(_, t)| t.estimate.is_finite() && t.estimate > 0.0)
-                .collect();
-            chart
-                .draw_series(LineSeries::new(
-                    rows.iter().map(|(h, t)| (*h, t.estimate.clamp(lo, hi))),
-                    colour.stroke_width(2),
-                ))
-                .map_err(|e| err(&e))?
-                .label(*name)
-                .legend(move |(a, b)| {
-                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
-                });
-            // Error bars only where the interval is finite (two or more paths finished).
-            let bounded = rows
-                .iter()
-                .filter(|(_, t)| t.ci_low.is_finite() && t.ci_high.is_finite() && t.ci_low > 0.0);
-            chart
-                .draw_series(bounded.map(|(h, t)| {
-                    ErrorBar::new_vertical(
-                        *h,
-                        t.ci_low.clamp(lo, hi),
-                        t.estimate.clamp(lo, hi),
-                        t.ci_high.clamp(lo, hi),
-                        colour.filled(),
-                        5,
-                    )
-                }))
-                .map_err(|e| err(&e))?;
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 10))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| err(&e))?;
+        scene_panel(area, sc).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
+}
+
+/// The y range of a scene's panel: every finite interval bound and 0.9..1.1, padded, on a log
+/// scale (so above 0), its top capped at 1e3 (ratios run from well below 1 to thousands).
+fn ratio_range(sc: &EquipartitionScene) -> Range<f64> {
+    let ys: Vec<f64> = sc
+        .rows
+        .iter()
+        .filter_map(|r| r.temperature_ratio)
+        .flat_map(|i| [i.ci_low, i.ci_high])
+        .filter(|x| x.is_finite())
+        .chain([0.9, 1.1])
+        .collect();
+    let lo = ys
+        .iter()
+        .copied()
+        .filter(|y| *y > 0.0)
+        .fold(f64::INFINITY, f64::min)
+        / 1.2;
+    let hi = ys.iter().copied().fold(0.0, f64::max).min(1e3) * 1.2;
+    lo..hi
+}
+
+/// A scene's panel: the line ratio = 1, one line per variant with its error bars, the legend.
+fn scene_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    sc: &EquipartitionScene,
+) -> DrawResult<()> {
+    let xs = log_range(sc.rows.iter().map(|r| r.h));
+    let ys = ratio_range(sc);
+    let mut chart = ChartBuilder::on(area)
+        .caption(&sc.scene, ("sans-serif", 15))
+        .margin(10)
+        .x_label_area_size(32)
+        .y_label_area_size(48)
+        .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())?;
+    chart
+        .configure_mesh()
+        .light_line_style(RGBColor(245, 245, 245))
+        .x_desc("h")
+        .y_desc("T measured / T")
+        .y_label_formatter(&|v| format!("{v:.2}"))
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .draw()?;
+    chart.draw_series(LineSeries::new(
+        [(xs.start, 1.0), (xs.end, 1.0)],
+        BLACK.mix(0.5),
+    ))?;
+    let mut labels: Vec<&str> = sc.rows.iter().map(|r| r.scheme.as_str()).collect();
+    labels.dedup();
+    for (k, name) in labels.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        draw_variant(&mut chart, sc, name, colour, &ys)?;
+    }
+    draw_legend(&mut chart, 10, SeriesLabelPosition::UpperLeft)
+}
+
+/// The temperature ratio of the variant `name` against h in `colour`, clamped to `ys`, with 95%
+/// error bars where its interval is finite (two or more paths finished).
+fn draw_variant(
+    chart: &mut LogChart<'_, '_>,
+    sc: &EquipartitionScene,
+    name: &str,
+    colour: RGBColor,
+    ys: &Range<f64>,
+) -> DrawResult<()> {
+    let (lo, hi) = (ys.start, ys.end);
+    let rows: Vec<(f64, Interval)> = sc
+        .rows
+        .iter()
+        .filter(|r| r.scheme == name)
+        .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
+        .filter(|(_, t)| t.estimate.is_finite() && t.estimate > 0.0)
+        .collect();
+    chart
+        .draw_series(LineSeries::new(
+            rows.iter().map(|(h, t)| (*h, t.estimate.clamp(lo, hi))),
+            colour.stroke_width(2),
+        ))?
+        .label(name)
+        .legend(move |(a, b)| PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2)));
+    let bounded = rows
+        .iter()
+        .filter(|(_, t)| t.ci_low.is_finite() && t.ci_high.is_finite() && t.ci_low > 0.0);
+    chart.draw_series(bounded.map(|(h, t)| {
+        ErrorBar::new_vertical(
+            *h,
+            t.ci_low.clamp(lo, hi),
+            t.estimate.clamp(lo, hi),
+            t.ci_high.clamp(lo, hi),
+            colour.filled(),
+            5,
+        )
+    }))?;
+    Ok(())
 }
 
 /// Writes `report.json`, `report.md` and `equipartition.svg` into `dir`.

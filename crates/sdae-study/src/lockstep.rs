@@ -809,21 +809,12 @@ pub fn run_block<S: System>(
 pub fn run_block_until<S: System>(
     plan: &PathPlan,
     ensembles: &mut BlockEnsembles<S>,
-    (r0, v0): (&[f64], &[f64]),
+    start: (&[f64], &[f64]),
     seed: u64,
     indices: &[usize],
     abandon: &dyn Fn() -> bool,
 ) -> Result<Option<Vec<PathRecord>>, ModelError> {
-    let mut records: Vec<PathRecord> = indices
-        .iter()
-        .map(|&index| PathRecord {
-            index,
-            reference_failure: None,
-            reference_seconds: 0.0,
-            tracks: Vec::new(),
-            reference_observed: Vec::new(),
-        })
-        .collect();
+    let mut records: Vec<PathRecord> = indices.iter().map(|&i| PathRecord::empty(i)).collect();
     let BlockEnsembles {
         tracks,
         own_clock,
@@ -841,14 +832,9 @@ pub fn run_block_until<S: System>(
         });
     }
     let dims = Dims::of(first.system(), plan.want_mu);
-    let levels = plan.levels.len();
     let mut lockstep = Lockstep::new(plan, dims, (paths, live), tracks.len())?;
     for ensemble in tracks.iter_mut().chain(reference.as_mut()) {
-        ensemble.restart(r0, v0)?;
-        // Lanes beyond the block's paths stay idle.
-        for p in live..paths {
-            ensemble.stop(p)?;
-        }
+        lockstep.restart(ensemble.as_mut(), start)?;
     }
     let mut states: Vec<Vec<Track>> = (0..tracks.len())
         .map(|_| (0..live).map(|_| Track::default()).collect())
@@ -866,25 +852,10 @@ pub fn run_block_until<S: System>(
         }
         fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine)?;
         if let Some(reference) = reference.as_deref_mut() {
-            let clock = Instant::now();
-            let failed = lockstep.reference_chunk(reference);
-            let seconds = clock.elapsed().as_secs_f64() / live as f64;
-            for record in &mut records {
-                record.reference_seconds += seconds;
-            }
-            for p in failed {
-                if !lockstep.dropped[p] {
-                    records[p].reference_failure = reference.failure(p)?.map(|f| f.kind());
-                    // The path is left out of the errors: its schemes stop here.
-                    lockstep.dropped[p] = true;
-                    for ensemble in tracks.iter_mut() {
-                        ensemble.stop(p)?;
-                    }
-                }
-            }
+            lockstep.run_reference(reference, tracks, &mut records)?;
         }
         for (index, (ensemble, track)) in tracks.iter_mut().zip(&mut states).enumerate() {
-            let level = plan.levels[index % levels];
+            let level = plan.levels[index % plan.levels.len()];
             let clocks = Clocks {
                 has_reference,
                 own_clock: own_clock.get(index).copied().unwrap_or(false),
@@ -892,21 +863,89 @@ pub fn run_block_until<S: System>(
             lockstep.level_chunk(ensemble.as_mut(), (track, index), level, clocks);
         }
     }
-    for (p, record) in records.iter_mut().enumerate() {
-        if record.reference_failure.is_some() {
-            continue;
-        }
-        record.reference_observed = std::mem::take(&mut lockstep.reference_observed[p]);
-        record.tracks = tracks
-            .iter()
-            .zip(&mut states)
-            .map(|(ensemble, track)| {
-                let diagnostics = ensemble.diagnostics(p).expect("p is a path of the block");
-                std::mem::take(&mut track[p]).finish(&diagnostics, has_reference)
-            })
-            .collect();
-    }
+    lockstep.finish_records(&mut records, tracks, &mut states, has_reference);
     Ok(Some(records))
+}
+
+impl PathRecord {
+    /// The record of path `index` before it runs: no failure, no time, no outcome.
+    fn empty(index: usize) -> Self {
+        Self {
+            index,
+            reference_failure: None,
+            reference_seconds: 0.0,
+            tracks: Vec::new(),
+            reference_observed: Vec::new(),
+        }
+    }
+}
+
+impl Lockstep<'_> {
+    /// Restarts `ensemble` at (r0, v0) = `start` and stops its lanes beyond the block's paths
+    /// (they stay idle).
+    fn restart<S: System>(
+        &self,
+        ensemble: &mut dyn PathEnsemble<System = S>,
+        (r0, v0): (&[f64], &[f64]),
+    ) -> Result<(), ModelError> {
+        ensemble.restart(r0, v0)?;
+        for p in self.live..self.paths {
+            ensemble.stop(p)?;
+        }
+        Ok(())
+    }
+
+    /// Runs the reference over the chunk and charges each path of the block its share of the
+    /// time; a path whose reference failed gets the failure in its record and is left out of
+    /// the errors: its schemes (`tracks`) stop there.
+    fn run_reference<S: System>(
+        &mut self,
+        reference: &mut dyn PathEnsemble<System = S>,
+        tracks: &mut [BoxedEnsemble<S>],
+        records: &mut [PathRecord],
+    ) -> Result<(), ModelError> {
+        let clock = Instant::now();
+        let failed = self.reference_chunk(reference);
+        let seconds = clock.elapsed().as_secs_f64() / self.live as f64;
+        for record in records.iter_mut() {
+            record.reference_seconds += seconds;
+        }
+        for p in failed {
+            if !self.dropped[p] {
+                records[p].reference_failure = reference.failure(p)?.map(|f| f.kind());
+                self.dropped[p] = true;
+                for ensemble in tracks.iter_mut() {
+                    ensemble.stop(p)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// At the end of the block: fills in the record of every path whose reference finished,
+    /// its observed values and the outcome of each track (`states`, one per ensemble).
+    fn finish_records<S: System>(
+        &mut self,
+        records: &mut [PathRecord],
+        tracks: &[BoxedEnsemble<S>],
+        states: &mut [Vec<Track>],
+        has_reference: bool,
+    ) {
+        for (p, record) in records.iter_mut().enumerate() {
+            if record.reference_failure.is_some() {
+                continue;
+            }
+            record.reference_observed = std::mem::take(&mut self.reference_observed[p]);
+            record.tracks = tracks
+                .iter()
+                .zip(states.iter_mut())
+                .map(|(ensemble, track)| {
+                    let diagnostics = ensemble.diagnostics(p).expect("p is a path of the block");
+                    std::mem::take(&mut track[p]).finish(&diagnostics, has_reference)
+                })
+                .collect();
+        }
+    }
 }
 
 #[cfg(test)]

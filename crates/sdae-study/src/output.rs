@@ -8,6 +8,7 @@ use std::path::Path;
 use crate::convergence::{ConvergenceReport, Errors, LevelReport};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
+use crate::parallel::Skipped;
 use crate::stats::{INDICATIVE_BELOW, Interval, OrderFit};
 
 fn fmt_interval(i: Option<Interval>) -> [String; 3] {
@@ -60,6 +61,14 @@ pub fn readable(x: f64) -> String {
     } else {
         format!("{x:e}")
     }
+}
+
+/// A Markdown paragraph per scheme left out, with the reason.
+pub fn left_out(skipped: &[Skipped]) -> String {
+    skipped
+        .iter()
+        .map(|x| format!("\nLeft out: {}: {}.\n", x.name, x.reason))
+        .collect()
 }
 
 /// "order [low, high]", the pre-asymptotic levels left out, the fitted levels where the
@@ -198,6 +207,18 @@ fn level_row(scheme: &str, l: &LevelReport) -> String {
 
 /// The Markdown summary.
 pub fn markdown(report: &ConvergenceReport) -> String {
+    let mut s = heading(report);
+    s += &orders_section(report);
+    s += "\n";
+    s += &fastest(report);
+    s += &levels_section(report);
+    s += &footnotes(report);
+    s += "\n![error against h](error_vs_h.svg)\n\n![error against run time](error_vs_time.svg)\n";
+    s
+}
+
+/// The title, the scene's description and one paragraph of the study's settings.
+fn heading(report: &ConvergenceReport) -> String {
     let st = &report.settings;
     let reference = match &report.reference {
         Some(r) => format!(
@@ -206,7 +227,7 @@ pub fn markdown(report: &ConvergenceReport) -> String {
         ),
         None => "no reference".into(),
     };
-    let mut s = format!(
+    format!(
         "# Convergence study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, {reference}, T = {}, seed {}; errors are the L^{} norm over paths of the sup over the grid, with 95% confidence intervals.\n\n",
         report.scene,
         report.scene_definition.description,
@@ -216,8 +237,12 @@ pub fn markdown(report: &ConvergenceReport) -> String {
         readable(report.t_end),
         report.seed,
         report.p,
-    );
-    s += "## Observed orders (95% intervals)\n\n";
+    )
+}
+
+/// The observed orders per scheme and the levels left out of the fits as truncation-dominated.
+fn orders_section(report: &ConvergenceReport) -> String {
+    let mut s = String::from("## Observed orders (95% intervals)\n\n");
     if any_indicative(report) {
         let _ = write!(
             s,
@@ -252,14 +277,26 @@ pub fn markdown(report: &ConvergenceReport) -> String {
             );
         }
     }
-    s += "\n";
-    s += &fastest(report);
-    s += "\n## All levels\n\n| scheme | N | h | error r | error v | error mu | us/path | failures | truncated | Newton it./step | max abs g |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    s
+}
+
+/// The table of every scheme and level.
+fn levels_section(report: &ConvergenceReport) -> String {
+    let mut s = String::from(
+        "\n## All levels\n\n| scheme | N | h | error r | error v | error mu | us/path | failures | truncated | Newton it./step | max abs g |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
     for scheme in &report.schemes {
         for l in &scheme.levels {
             s += &level_row(&scheme.name, l);
         }
     }
+    s
+}
+
+/// The notes below the levels: indicative errors, the reference's failures and run time, the
+/// schemes left out.
+fn footnotes(report: &ConvergenceReport) -> String {
+    let mut s = String::new();
     if report
         .schemes
         .iter()
@@ -279,10 +316,7 @@ pub fn markdown(report: &ConvergenceReport) -> String {
             r.seconds_per_path * 1e3
         );
     }
-    for skipped in &report.skipped {
-        let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
-    }
-    s += "\n![error against h](error_vs_h.svg)\n\n![error against run time](error_vs_time.svg)\n";
+    s += &left_out(&report.skipped);
     s
 }
 

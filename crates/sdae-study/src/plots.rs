@@ -26,17 +26,52 @@ pub const COLOURS: [RGBColor; 10] = [
 ];
 
 /// A component: its name, how to pick its error from a level and its fit from the orders.
-type Component = (
-    &'static str,
-    fn(&Errors) -> Option<Interval>,
-    fn(&Orders) -> Option<&OrderFit>,
-);
+#[derive(Clone, Copy)]
+struct Component {
+    name: &'static str,
+    pick: fn(&Errors) -> Option<Interval>,
+    fit: fn(&Orders) -> Option<&OrderFit>,
+}
 
 const COMPONENTS: [Component; 3] = [
-    ("r", |e| e.r, |o| o.r.as_ref()),
-    ("v", |e| e.v, |o| o.v.as_ref()),
-    ("mu", |e| e.mu, |o| o.mu.as_ref()),
+    Component {
+        name: "r",
+        pick: |e| e.r,
+        fit: |o| o.r.as_ref(),
+    },
+    Component {
+        name: "v",
+        pick: |e| e.v,
+        fit: |o| o.v.as_ref(),
+    },
+    Component {
+        name: "mu",
+        pick: |e| e.mu,
+        fit: |o| o.mu.as_ref(),
+    },
 ];
+
+/// What drawing into an SVG chart gives back.
+pub type DrawResult<T> = Result<T, DrawingAreaErrorKind<std::io::Error>>;
+
+/// A chart with logarithmic x and y axes drawn into an SVG file.
+pub type LogChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// Draws the legend of `chart` at `position`: its labels in `font_size` on a light, framed box.
+pub fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'b>, CT>,
+    font_size: u32,
+    position: SeriesLabelPosition,
+) -> DrawResult<()> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font_size))
+        .position(position)
+        .draw()
+}
 
 /// Padded logarithmic range covering the positive finite values.
 pub fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
@@ -112,17 +147,38 @@ fn fitted_line(
         .collect()
 }
 
+/// One panel: the error of `component` against `axis`, one line per scheme with its error bars
+/// (and its fitted slope against h), and the legend.
 fn panel(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
     report: &ConvergenceReport,
-    (name, pick, order): Component,
+    component: Component,
     axis: Axis,
 ) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(name, e);
+    let err = |e: &dyn std::fmt::Display| StudyError::write(component.name, e);
+    let mut chart = panel_chart(area, report, component, axis).map_err(|e| err(&e))?;
+    for (k, scheme) in report.schemes.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        draw_scheme(&mut chart, scheme, component, axis, colour).map_err(|e| err(&e))?;
+    }
+    let position = match axis {
+        Axis::StepSize => SeriesLabelPosition::LowerRight,
+        Axis::RunTime => SeriesLabelPosition::UpperRight,
+    };
+    draw_legend(&mut chart, 11, position).map_err(|e| err(&e))
+}
+
+/// A panel's log-log chart with its mesh, its axes covering every scheme's points.
+fn panel_chart<'a, 'b>(
+    area: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    report: &ConvergenceReport,
+    component: Component,
+    axis: Axis,
+) -> DrawResult<LogChart<'a, 'b>> {
     let all: Vec<(f64, Interval)> = report
         .schemes
         .iter()
-        .flat_map(|s| points(s, pick, axis))
+        .flat_map(|s| points(s, component.pick, axis))
         .collect();
     let xs = log_range(all.iter().map(|p| p.0));
     let ys = log_range(
@@ -130,12 +186,11 @@ fn panel(
             .flat_map(|p| [p.1.ci_low, p.1.ci_high, p.1.estimate]),
     );
     let mut chart = ChartBuilder::on(area)
-        .caption(format!("error of {name}"), ("sans-serif", 18))
+        .caption(format!("error of {}", component.name), ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(xs.log_scale(), ys.log_scale())
-        .map_err(|e| err(&e))?;
+        .build_cartesian_2d(xs.log_scale(), ys.log_scale())?;
     chart
         .configure_mesh()
         .light_line_style(RGBColor(245, 245, 245))
@@ -145,63 +200,53 @@ fn panel(
         .y_desc(format!("L^{} norm of the sup error", report.p))
         .x_label_formatter(&|v| format!("{v:.0e}"))
         .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()
-        .map_err(|e| err(&e))?;
-    for (k, scheme) in report.schemes.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        let pts = points(scheme, pick, axis);
-        if pts.is_empty() {
-            continue;
-        }
-        let fit = order(&scheme.observed_order);
-        let label = match (axis, fit) {
-            (Axis::StepSize, Some(f)) if f.order.estimate.is_finite() => {
-                format!("{} ({:.2})", scheme.name, f.order.estimate)
-            }
-            _ => scheme.name.to_string(),
-        };
-        chart
-            .draw_series(LineSeries::new(
-                pts.iter().map(|(x, e)| (*x, e.estimate)),
-                colour.stroke_width(2),
-            ))
-            .map_err(|e| err(&e))?
-            .label(label)
-            .legend(move |(a, b)| {
-                PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2))
-            });
-        chart
-            .draw_series(pts.iter().map(|(x, i)| {
-                ErrorBar::new_vertical(
-                    *x,
-                    i.ci_low.max(f64::MIN_POSITIVE),
-                    i.estimate,
-                    i.ci_high,
-                    colour.filled(),
-                    5,
-                )
-            }))
-            .map_err(|e| err(&e))?;
-        if let (Axis::StepSize, Some(fit)) = (axis, fit) {
-            chart
-                .draw_series(LineSeries::new(
-                    fitted_line(scheme, pick, fit),
-                    colour.mix(0.45).stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?;
-        }
+        .draw()?;
+    Ok(chart)
+}
+
+/// A scheme's line in `colour` (labelled with its fitted order against h), its 95% error bars
+/// and, against h, its fitted slope; nothing if it has no point.
+fn draw_scheme(
+    chart: &mut LogChart<'_, '_>,
+    scheme: &SchemeReport,
+    component: Component,
+    axis: Axis,
+    colour: RGBColor,
+) -> DrawResult<()> {
+    let pts = points(scheme, component.pick, axis);
+    if pts.is_empty() {
+        return Ok(());
     }
+    let fit = (component.fit)(&scheme.observed_order);
+    let label = match (axis, fit) {
+        (Axis::StepSize, Some(f)) if f.order.estimate.is_finite() => {
+            format!("{} ({:.2})", scheme.name, f.order.estimate)
+        }
+        _ => scheme.name.to_string(),
+    };
     chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 11))
-        .position(match axis {
-            Axis::StepSize => SeriesLabelPosition::LowerRight,
-            Axis::RunTime => SeriesLabelPosition::UpperRight,
-        })
-        .draw()
-        .map_err(|e| err(&e))?;
+        .draw_series(LineSeries::new(
+            pts.iter().map(|(x, e)| (*x, e.estimate)),
+            colour.stroke_width(2),
+        ))?
+        .label(label)
+        .legend(move |(a, b)| PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2)));
+    chart.draw_series(pts.iter().map(|(x, i)| {
+        ErrorBar::new_vertical(
+            *x,
+            i.ci_low.max(f64::MIN_POSITIVE),
+            i.estimate,
+            i.ci_high,
+            colour.filled(),
+            5,
+        )
+    }))?;
+    if let (Axis::StepSize, Some(fit)) = (axis, fit) {
+        chart.draw_series(LineSeries::new(
+            fitted_line(scheme, component.pick, fit),
+            colour.mix(0.45).stroke_width(1),
+        ))?;
+    }
     Ok(())
 }
 
@@ -213,11 +258,11 @@ fn draw(
 ) -> Result<(), StudyError> {
     let components: Vec<Component> = COMPONENTS
         .into_iter()
-        .filter(|(_, pick, _)| {
+        .filter(|c| {
             report
                 .schemes
                 .iter()
-                .any(|s| s.levels.iter().any(|l| pick(&l.error).is_some()))
+                .any(|s| s.levels.iter().any(|l| (c.pick)(&l.error).is_some()))
         })
         .collect();
     let width = 480 * components.len().max(1) as u32;

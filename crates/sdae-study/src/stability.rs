@@ -19,7 +19,7 @@ use crate::files::{write_atomically, write_json};
 use crate::integrator::StudyScheme;
 use crate::lockstep::Limits;
 use crate::parallel::Control;
-use crate::plots::{COLOURS, log_range};
+use crate::plots::{COLOURS, draw_legend, log_range};
 use crate::scene::{Prepared, Scene};
 
 /// The stability settings of a scene (`None` if it has no `[stability]` table); `quick` keeps
@@ -121,8 +121,20 @@ fn largest_stable_h(levels: &[LevelReport]) -> Option<f64> {
 /// table of every scheme and step size.
 pub fn markdown(report: &StabilityReport) -> String {
     let mut s = String::from("# Stability study\n\n");
-    s += "Largest step size h up to which every path finished (failures: no root, spurious root, \
-          no convergence, singular, non-finite, blow-up, constraint drift beyond tolerance):\n\n";
+    s += &overview(report);
+    for sc in &report.scenes {
+        s += &scene_section(sc);
+    }
+    s += "\n![share of paths that finish](stability.svg)\n";
+    s
+}
+
+/// The overview: per scene and scheme, the largest h up to which every path finished.
+fn overview(report: &StabilityReport) -> String {
+    let mut s = String::from(
+        "Largest step size h up to which every path finished (failures: no root, spurious root, \
+          no convergence, singular, non-finite, blow-up, constraint drift beyond tolerance):\n\n",
+    );
     let schemes: Vec<&str> = report
         .scenes
         .iter()
@@ -154,51 +166,52 @@ pub fn markdown(report: &StabilityReport) -> String {
         }
         s += "\n";
     }
-    for sc in &report.scenes {
-        let r = &sc.report;
-        let tol = r.settings.limits.drift_tolerance.unwrap_or(f64::INFINITY);
-        let _ = write!(
-            s,
-            "\n## {}\n\n{}. {} paths, T = {}, drift tolerance {tol:e}, blow-up bound {:e}{}.\n\n",
-            r.scene,
-            sc.case,
-            r.paths,
-            crate::output::readable(r.t_end),
-            r.settings.limits.blow_up,
-            r.reference
-                .as_ref()
-                .map_or(", no reference".into(), |x| format!(
-                    ", reference {} with {} steps",
-                    x.scheme, x.n_steps
-                ))
-        );
-        s += "| scheme | h | finished | failures | max abs g | max abs Dg v | truncated | error r | us/path |\n|---|---|---|---|---|---|---|---|---|\n";
-        for scheme in &r.schemes {
-            for l in &scheme.levels {
-                let error = l
-                    .error
-                    .r
-                    .filter(|e| e.estimate.is_finite())
-                    .map_or("-".into(), |e| format!("{:.2e}", e.estimate));
-                let _ = writeln!(
-                    s,
-                    "| {} | {:.1e} | {:.0}% | {} | {:.1e} | {:.1e} | {} | {error} | {:.0} |",
-                    scheme.name,
-                    l.h,
-                    100.0 * l.finished_fraction,
-                    failures(l),
-                    l.max_position_residual,
-                    l.max_velocity_residual,
-                    crate::output::truncated_cell(l.truncated_fraction),
-                    l.seconds_per_path * 1e6,
-                );
-            }
-        }
-        for skipped in &r.skipped {
-            let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
+    s
+}
+
+/// A scene's heading, its settings and the table of every scheme and step size.
+fn scene_section(sc: &StabilityScene) -> String {
+    let mut s = String::new();
+    let r = &sc.report;
+    let tol = r.settings.limits.drift_tolerance.unwrap_or(f64::INFINITY);
+    let _ = write!(
+        s,
+        "\n## {}\n\n{}. {} paths, T = {}, drift tolerance {tol:e}, blow-up bound {:e}{}.\n\n",
+        r.scene,
+        sc.case,
+        r.paths,
+        crate::output::readable(r.t_end),
+        r.settings.limits.blow_up,
+        r.reference
+            .as_ref()
+            .map_or(", no reference".into(), |x| format!(
+                ", reference {} with {} steps",
+                x.scheme, x.n_steps
+            ))
+    );
+    s += "| scheme | h | finished | failures | max abs g | max abs Dg v | truncated | error r | us/path |\n|---|---|---|---|---|---|---|---|---|\n";
+    for scheme in &r.schemes {
+        for l in &scheme.levels {
+            let error = l
+                .error
+                .r
+                .filter(|e| e.estimate.is_finite())
+                .map_or("-".into(), |e| format!("{:.2e}", e.estimate));
+            let _ = writeln!(
+                s,
+                "| {} | {:.1e} | {:.0}% | {} | {:.1e} | {:.1e} | {} | {error} | {:.0} |",
+                scheme.name,
+                l.h,
+                100.0 * l.finished_fraction,
+                failures(l),
+                l.max_position_residual,
+                l.max_velocity_residual,
+                crate::output::truncated_cell(l.truncated_fraction),
+                l.seconds_per_path * 1e6,
+            );
         }
     }
-    s += "\n![share of paths that finish](stability.svg)\n";
+    s += &crate::output::left_out(&r.skipped);
     s
 }
 
@@ -250,14 +263,7 @@ pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), StudyError> {
                     PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
                 });
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 10))
-            .position(SeriesLabelPosition::LowerLeft)
-            .draw()
-            .map_err(|e| err(&e))?;
+        draw_legend(&mut chart, 10, SeriesLabelPosition::LowerLeft).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
 }

@@ -552,6 +552,91 @@ fn rows_of(
     (levels, analysis.order, analysis.sup_order)
 }
 
+/// What the weak report's tables are computed from.
+struct WeakInputs<'a> {
+    /// The run's settings.
+    settings: &'a ConvergenceSettings,
+    /// The paths whose reference finished, by index.
+    good: &'a [&'a PathRecord],
+    /// The schemes that ran, in the order of the records' tracks.
+    schemes: &'a [String],
+    /// Per observable, what its errors are measured against.
+    bases: Vec<Basis>,
+    /// Where the observables sit in a path's values.
+    layout: Layout,
+}
+
+impl WeakInputs<'_> {
+    /// The rows of every observable and scheme (observable-major), on the settings' threads.
+    fn rows(&self) -> Vec<Vec<WeakScheme>> {
+        let jobs: Vec<(usize, usize)> = (0..self.layout.count)
+            .flat_map(|o| (0..self.schemes.len()).map(move |s| (o, s)))
+            .collect();
+        let rows = |&(o, s): &(usize, usize)| {
+            scheme_rows(
+                (s, &self.schemes[s]),
+                (o, self.bases[o], self.layout),
+                self.good,
+                self.settings,
+            )
+        };
+        let on_threads = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.settings.threads.max(1))
+            .build();
+        match on_threads {
+            Ok(pool) => pool.install(|| jobs.par_iter().map(rows).collect()),
+            Err(_) => jobs.iter().map(rows).collect(),
+        }
+    }
+
+    /// One report per observable: the reference's value at T and the rows of every scheme.
+    fn observables(&self) -> Vec<ObservableReport> {
+        let layout = self.layout;
+        let mut computed = self.rows().into_iter();
+        self.settings
+            .observables
+            .iter()
+            .enumerate()
+            .map(|(o, name)| {
+                let reference: Vec<f64> = self
+                    .good
+                    .iter()
+                    .map(|p| p.reference_observed[layout.at(layout.points - 1, o)])
+                    .collect();
+                ObservableReport {
+                    name: name.clone(),
+                    basis: self.bases[o],
+                    reference_value: mean_interval(&reference),
+                    schemes: computed
+                        .by_ref()
+                        .take(self.schemes.len())
+                        .flatten()
+                        .collect(),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Per observable of `settings`: its exact value if the scene's weak table gives one, else the
+/// reference.
+fn bases(scene: &Scene, settings: &ConvergenceSettings) -> Vec<Basis> {
+    let exact = scene
+        .weak
+        .as_ref()
+        .map(|w| w.exact.clone())
+        .unwrap_or_default();
+    settings
+        .observables
+        .iter()
+        .map(|name| {
+            exact
+                .get(name)
+                .map_or(Basis::Reference, |&x| Basis::Exact(x))
+        })
+        .collect()
+}
+
 /// The weak report from the records of all paths (in any order). Fails without observables or
 /// a reference in the run's settings.
 pub fn build_weak_report(run: ConvergenceRun) -> Result<WeakReport, StudyError> {
@@ -573,51 +658,14 @@ pub fn build_weak_report(run: ConvergenceRun) -> Result<WeakReport, StudyError> 
         count: settings.observables.len(),
         points: 1 << settings.coarsest,
     };
-    let exact = scene
-        .weak
-        .as_ref()
-        .map(|w| w.exact.clone())
-        .unwrap_or_default();
-    let bases: Vec<Basis> = settings
-        .observables
-        .iter()
-        .map(|name| {
-            exact
-                .get(name)
-                .map_or(Basis::Reference, |&x| Basis::Exact(x))
-        })
-        .collect();
-    let jobs: Vec<(usize, usize)> = (0..layout.count)
-        .flat_map(|o| (0..schemes.len()).map(move |s| (o, s)))
-        .collect();
-    let rows = |&(o, s): &(usize, usize)| {
-        scheme_rows((s, &schemes[s]), (o, bases[o], layout), &good, &settings)
-    };
-    let on_threads = rayon::ThreadPoolBuilder::new()
-        .num_threads(settings.threads.max(1))
-        .build();
-    let computed: Vec<Vec<WeakScheme>> = match on_threads {
-        Ok(pool) => pool.install(|| jobs.par_iter().map(rows).collect()),
-        Err(_) => jobs.iter().map(rows).collect(),
-    };
-    let mut computed = computed.into_iter();
-    let observables = settings
-        .observables
-        .iter()
-        .enumerate()
-        .map(|(o, name)| {
-            let reference: Vec<f64> = good
-                .iter()
-                .map(|p| p.reference_observed[layout.at(layout.points - 1, o)])
-                .collect();
-            ObservableReport {
-                name: name.clone(),
-                basis: bases[o],
-                reference_value: mean_interval(&reference),
-                schemes: computed.by_ref().take(schemes.len()).flatten().collect(),
-            }
-        })
-        .collect();
+    let observables = WeakInputs {
+        settings: &settings,
+        good: &good,
+        schemes: &schemes,
+        bases: bases(&scene, &settings),
+        layout,
+    }
+    .observables();
     let reference = ReferenceReport::of(&settings, &records, good.len()).ok_or_else(|| {
         StudyError::Setting {
             key: "study.reference",

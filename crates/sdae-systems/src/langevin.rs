@@ -453,10 +453,19 @@ mod tests {
         assert_eq!(two.noise_dim(), 6);
     }
 
+    /// The error of building a chain molecule from `params`.
+    fn chain_error(params: ChainMoleculeParams) -> SystemError {
+        chain_molecule(&params).unwrap_err()
+    }
+
+    /// The error of building a rigid triatomic molecule from `params`.
+    fn triatomic_error(params: RigidTriatomicParams) -> SystemError {
+        rigid_triatomic(&params).unwrap_err()
+    }
+
     #[test]
-    fn bad_parameters_are_named() {
-        let chain = |p: ChainMoleculeParams| chain_molecule(&p).unwrap_err();
-        let e = chain(ChainMoleculeParams {
+    fn bad_chain_parameters_are_named() {
+        let e = chain_error(ChainMoleculeParams {
             atoms: 1,
             ..ChainMoleculeParams::default()
         });
@@ -464,7 +473,7 @@ mod tests {
             matches!(e, SystemError::InvalidParameter { name: "atoms", .. }),
             "{e}"
         );
-        let e = chain(ChainMoleculeParams {
+        let e = chain_error(ChainMoleculeParams {
             temperature: -1.0,
             ..ChainMoleculeParams::default()
         });
@@ -476,23 +485,31 @@ mod tests {
                 rule: "must be finite and >= 0"
             }
         );
-        let e = chain(ChainMoleculeParams {
+        let e = chain_error(ChainMoleculeParams {
             friction: f64::INFINITY,
             ..ChainMoleculeParams::default()
         });
         assert_eq!(e.parameter(), Some("friction"), "{e}");
-        let e = chain(ChainMoleculeParams {
+        let e = chain_error(ChainMoleculeParams {
+            bond_length: 0.0,
+            ..ChainMoleculeParams::default()
+        });
+        assert_eq!(e.parameter(), Some("bond_length"), "{e}");
+    }
+
+    #[test]
+    fn an_overflowing_chain_noise_is_a_model_error() {
+        let e = chain_error(ChainMoleculeParams {
             friction: 1e300,
             temperature: 1e300,
             ..ChainMoleculeParams::default()
         });
         assert!(matches!(e, SystemError::Model(_)), "sigma overflows: {e}");
-        let e = chain(ChainMoleculeParams {
-            bond_length: 0.0,
-            ..ChainMoleculeParams::default()
-        });
-        assert_eq!(e.parameter(), Some("bond_length"), "{e}");
-        let e = chain(ChainMoleculeParams {
+    }
+
+    #[test]
+    fn chain_masses_of_the_wrong_length_are_named() {
+        let e = chain_error(ChainMoleculeParams {
             masses: Masses::PerParticle(vec![1.0; 3]),
             ..ChainMoleculeParams::default()
         });
@@ -507,38 +524,33 @@ mod tests {
             ),
             "{e}"
         );
-        let triatomic = |p: RigidTriatomicParams| rigid_triatomic(&p).unwrap_err();
-        let e = triatomic(RigidTriatomicParams {
-            bond_lengths: [1.0, 1.0, 2.0],
-            ..RigidTriatomicParams::default()
-        });
-        assert!(
-            matches!(
-                e,
-                SystemError::InvalidEntry {
-                    name: "bond_lengths",
-                    index: 2,
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        let e = triatomic(RigidTriatomicParams {
-            bond_lengths: [1.0, f64::NAN, 1.0],
-            ..RigidTriatomicParams::default()
-        });
-        assert!(
-            matches!(
-                e,
-                SystemError::InvalidEntry {
-                    name: "bond_lengths",
-                    index: 1,
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        let e = triatomic(RigidTriatomicParams {
+    }
+
+    #[test]
+    fn bad_triatomic_bond_lengths_are_named_with_their_entry() {
+        // Lengths of a flat triangle (1 + 1 = 2), then one that is not a number.
+        for (bond_lengths, entry) in [([1.0, 1.0, 2.0], 2), ([1.0, f64::NAN, 1.0], 1)] {
+            let e = triatomic_error(RigidTriatomicParams {
+                bond_lengths,
+                ..RigidTriatomicParams::default()
+            });
+            assert!(
+                matches!(
+                    e,
+                    SystemError::InvalidEntry {
+                        name: "bond_lengths",
+                        index,
+                        ..
+                    } if index == entry
+                ),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_bad_triatomic_trap_is_named() {
+        let e = triatomic_error(RigidTriatomicParams {
             trap: TrapParams {
                 stiffness: f64::NAN,
                 center: [0.0; 3],

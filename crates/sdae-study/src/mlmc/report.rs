@@ -68,6 +68,16 @@ pub fn csv(report: &MlmcReport) -> String {
 
 /// The Markdown summary.
 pub fn markdown(report: &MlmcReport) -> String {
+    let mut s = heading(report);
+    s += &test_section(report);
+    s += &complexity_section(report);
+    s += &warnings(report);
+    s.push_str("\n![variance and mean per level](levels.svg)\n\n![N_l per eps](samples.svg)\n\n![eps^2 cost against eps](cost.svg)\n");
+    s
+}
+
+/// The title and one paragraph of the run's settings.
+fn heading(report: &MlmcReport) -> String {
     let st = &report.settings;
     let mut s = format!(
         "# MLMC: {} ({}, E[{}(X_T)])\n\n",
@@ -82,7 +92,13 @@ pub fn markdown(report: &MlmcReport) -> String {
         st.seed,
         st.threads
     );
-    s.push_str("## Convergence test\n\n");
+    s
+}
+
+/// The convergence test: one row per level, then the fitted rates and the unresolved levels.
+fn test_section(report: &MlmcReport) -> String {
+    let st = &report.settings;
+    let mut s = String::from("## Convergence test\n\n");
     let _ = writeln!(
         s,
         "{} samples per level; Y_l = P_l - P_l-1 (Y_0 = P_0).\n",
@@ -122,7 +138,14 @@ pub fn markdown(report: &MlmcReport) -> String {
             r.unresolved
         );
     }
-    s.push_str("\n## Complexity\n\n| eps | estimate [95%] | bias est. | L | N_l | MLMC cost (s) | standard MC cost (s) | savings | run (s) |\n|---|---|---|---|---|---|---|---|---|\n");
+    s
+}
+
+/// The complexity table, one row per eps, and the direct standard Monte Carlo run if any.
+fn complexity_section(report: &MlmcReport) -> String {
+    let mut s = String::from(
+        "\n## Complexity\n\n| eps | estimate [95%] | bias est. | L | N_l | MLMC cost (s) | standard MC cost (s) | savings | run (s) |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
     for row in &report.complexity {
         let e = &row.run;
         let n: Vec<String> = row.samples.iter().map(u64::to_string).collect();
@@ -164,13 +187,18 @@ pub fn markdown(report: &MlmcReport) -> String {
             d.speedup
         );
     }
+    s
+}
+
+/// The run's warnings as a list, or nothing without any.
+fn warnings(report: &MlmcReport) -> String {
+    let mut s = String::new();
     if !report.warnings.is_empty() {
         s.push_str("\n## Warnings\n\n");
         for w in &report.warnings {
             let _ = writeln!(s, "- {w}");
         }
     }
-    s.push_str("\n![variance and mean per level](levels.svg)\n\n![N_l per eps](samples.svg)\n\n![eps^2 cost against eps](cost.svg)\n");
     s
 }
 

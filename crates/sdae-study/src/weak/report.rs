@@ -6,13 +6,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakScheme};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
-use crate::output::readable;
-use crate::plots::{COLOURS, log_range};
+use crate::output::{left_out, readable};
+use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
 use crate::stats::Interval;
 
 /// "order [low, high]" and the levels left out as unresolved, or "-".
@@ -204,9 +205,7 @@ pub fn markdown(report: &WeakReport) -> String {
         report.paths,
         r.seconds_per_path * 1e3
     );
-    for skipped in &report.skipped {
-        let _ = writeln!(s, "\nLeft out: {}: {}.", skipped.name, skipped.reason);
-    }
+    s += &left_out(&report.skipped);
     s += "\n![weak error against h](weak_error_vs_h.svg)\n\n![weak error against run time](weak_error_vs_time.svg)\n";
     s
 }
@@ -287,6 +286,16 @@ enum Axis {
     RunTime,
 }
 
+impl Axis {
+    /// A level's value on this axis.
+    fn of(self, l: &WeakLevel) -> f64 {
+        match self {
+            Axis::StepSize => l.h,
+            Axis::RunTime => l.seconds_per_path,
+        }
+    }
+}
+
 /// One panel per observable: |final-time error| of every row on log-log axes, with 95% error
 /// bars clipped to positive values; extrapolated rows dashed in the colour of their scheme.
 fn draw(report: &WeakReport, path: &Path, axis: Axis) -> Result<(), StudyError> {
@@ -301,80 +310,83 @@ fn draw(report: &WeakReport, path: &Path, axis: Axis) -> Result<(), StudyError> 
     let root = root
         .titled(&title, ("sans-serif", 20))
         .map_err(|e| err(&e))?;
-    let x_of = |l: &WeakLevel| match axis {
-        Axis::StepSize => l.h,
-        Axis::RunTime => l.seconds_per_path,
-    };
     for (area, o) in root
         .split_evenly((1, panels))
         .iter()
         .zip(&report.observables)
     {
-        let levels = || o.schemes.iter().flat_map(|r| r.levels.iter());
-        let x_range = log_range(levels().map(x_of));
-        let y_range =
-            log_range(levels().flat_map(|l| [l.error.estimate.abs(), upper_bound(&l.error)]));
-        let mut chart = ChartBuilder::on(area)
-            .caption(&o.name, ("sans-serif", 16))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x_range.log_scale(), y_range.clone().log_scale())
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc(match axis {
-                Axis::StepSize => "h",
-                Axis::RunTime => "seconds per path",
-            })
-            .y_desc("|weak error| at T")
-            .x_label_formatter(&|x| format!("{x:.0e}"))
-            .y_label_formatter(&|y| format!("{y:.0e}"))
-            .draw()
-            .map_err(|e| err(&e))?;
-        let floor = y_range.start;
-        for (k, row) in o.schemes.iter().enumerate() {
-            let colour = COLOURS[(k / 2) % COLOURS.len()];
-            let style = if row.extrapolated {
-                colour.mix(0.6).stroke_width(1)
-            } else {
-                colour.stroke_width(2)
-            };
-            let points: Vec<(f64, f64)> = row
-                .levels
-                .iter()
-                .map(|l| (x_of(l), l.error.estimate.abs().max(floor)))
-                .collect();
-            chart
-                .draw_series(LineSeries::new(points.clone(), style))
-                .map_err(|e| err(&e))?
-                .label(&row.name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-            chart
-                .draw_series(row.levels.iter().map(|l| {
-                    let low = (l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low))
-                        .max(floor);
-                    ErrorBar::new_vertical(
-                        x_of(l),
-                        low,
-                        l.error.estimate.abs().max(floor),
-                        upper_bound(&l.error),
-                        style,
-                        4,
-                    )
-                }))
-                .map_err(|e| err(&e))?;
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 9))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        observable_panel(area, o, axis).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
+}
+
+/// An observable's panel: every row's |error| against `axis`, its error bars, the legend.
+fn observable_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    o: &ObservableReport,
+    axis: Axis,
+) -> DrawResult<()> {
+    let levels = || o.schemes.iter().flat_map(|r| r.levels.iter());
+    let x_range = log_range(levels().map(|l| axis.of(l)));
+    let y_range = log_range(levels().flat_map(|l| [l.error.estimate.abs(), upper_bound(&l.error)]));
+    let mut chart = ChartBuilder::on(area)
+        .caption(&o.name, ("sans-serif", 16))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x_range.log_scale(), y_range.clone().log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc(match axis {
+            Axis::StepSize => "h",
+            Axis::RunTime => "seconds per path",
+        })
+        .y_desc("|weak error| at T")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .draw()?;
+    for (k, row) in o.schemes.iter().enumerate() {
+        let colour = COLOURS[(k / 2) % COLOURS.len()];
+        draw_row(&mut chart, row, axis, colour, y_range.start)?;
+    }
+    draw_legend(&mut chart, 9, SeriesLabelPosition::LowerRight)
+}
+
+/// A row's |error| against `axis` and its error bars, kept above `floor`: in `colour`, thinner
+/// and lighter if extrapolated.
+fn draw_row(
+    chart: &mut LogChart<'_, '_>,
+    row: &WeakScheme,
+    axis: Axis,
+    colour: RGBColor,
+    floor: f64,
+) -> DrawResult<()> {
+    let style = if row.extrapolated {
+        colour.mix(0.6).stroke_width(1)
+    } else {
+        colour.stroke_width(2)
+    };
+    let points: Vec<(f64, f64)> = row
+        .levels
+        .iter()
+        .map(|l| (axis.of(l), l.error.estimate.abs().max(floor)))
+        .collect();
+    chart
+        .draw_series(LineSeries::new(points, style))?
+        .label(&row.name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+    chart.draw_series(row.levels.iter().map(|l| {
+        let low = (l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low)).max(floor);
+        ErrorBar::new_vertical(
+            axis.of(l),
+            low,
+            l.error.estimate.abs().max(floor),
+            upper_bound(&l.error),
+            style,
+            4,
+        )
+    }))?;
+    Ok(())
 }
 
 /// Writes `weak.json`, `weak.csv`, `weak.md`, `weak_error_vs_h.svg` and

@@ -271,6 +271,21 @@ impl Mass for DenseMass {
     }
 }
 
+/// The smallest and the largest eigenvalue (the latter at least 0) of the symmetric n x n
+/// matrix `row_major` (its lower triangle is read), or why they could not be computed.
+///
+/// Not generic, so that the eigenvalue solver is compiled once, here, and not in every crate
+/// whose generic code asks for a bound.
+pub(crate) fn eigenvalue_range(n: usize, row_major: &[f64]) -> Result<(f64, f64), String> {
+    let a = faer::Mat::<f64>::from_fn(n, n, |i, j| row_major[i * n + j]);
+    let eig = a
+        .self_adjoint_eigenvalues(faer::Side::Lower)
+        .map_err(|e| format!("{e:?}"))?;
+    let lo = eig.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = eig.iter().copied().fold(0.0, f64::max);
+    Ok((lo, hi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -329,19 +344,4 @@ mod tests {
         assert!((full.inverse_inner(&a, &b, &mut s) - exact).abs() < 1e-15);
         assert_eq!(IdentityMass.inverse_inner(&a, &b, &mut s), 1.0);
     }
-}
-
-/// The smallest and the largest eigenvalue (the latter at least 0) of the symmetric n x n
-/// matrix `row_major` (its lower triangle is read), or why they could not be computed.
-///
-/// Not generic, so that the eigenvalue solver is compiled once, here, and not in every crate
-/// whose generic code asks for a bound.
-pub(crate) fn eigenvalue_range(n: usize, row_major: &[f64]) -> Result<(f64, f64), String> {
-    let a = faer::Mat::<f64>::from_fn(n, n, |i, j| row_major[i * n + j]);
-    let eig = a
-        .self_adjoint_eigenvalues(faer::Side::Lower)
-        .map_err(|e| format!("{e:?}"))?;
-    let lo = eig.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = eig.iter().copied().fold(0.0, f64::max);
-    Ok((lo, hi))
 }

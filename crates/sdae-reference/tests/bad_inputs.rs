@@ -105,7 +105,7 @@ fn step_inputs_are_checked_by_every_solver() {
 }
 
 #[test]
-fn path_inputs_are_checked() {
+fn grid_and_truncation_settings_are_checked() {
     for t in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let e = TimeGrid::new(t, 10).unwrap_err();
         assert!(
@@ -118,6 +118,32 @@ fn path_inputs_are_checked() {
         matches!(e, ModelError::InvalidSetting { name: "N", .. }),
         "{e}"
     );
+    // Truncation scale.
+    for c in [0.0, -1.0, f64::NAN] {
+        let e = TruncatedEulerMaruyama::new(planar(1.0, 1.0))
+            .unwrap()
+            .with_scale(c)
+            .unwrap_err();
+        assert!(
+            matches!(e, ReferenceError::Model(ModelError::InvalidSetting { .. })),
+            "{e}"
+        );
+    }
+}
+
+/// The input error of a path's failure, which must be at step 0.
+fn input(e: &PathFailure) -> ModelError {
+    match &e.error.failure {
+        StepFailure::Input(m) => {
+            assert_eq!(e.error.step, 0);
+            m.clone()
+        }
+        other => panic!("not an input error: {other}"),
+    }
+}
+
+#[test]
+fn path_states_and_noise_dimensions_are_checked() {
     let mut solver = TruncatedEulerMaruyama::new(planar(1.0, 1.0)).unwrap();
     let grid = TimeGrid::new(1.0, 10).unwrap();
     let mut run = |r: &[f64], v: &[f64], dim: usize| {
@@ -133,13 +159,6 @@ fn path_inputs_are_checked() {
         )
         .map(|_| ())
         .unwrap_err()
-    };
-    let input = |e: &PathFailure| match &e.error.failure {
-        StepFailure::Input(m) => {
-            assert_eq!(e.error.step, 0);
-            m.clone()
-        }
-        other => panic!("not an input error: {other}"),
     };
     let e = run(&[1.1, 0.0], &V, 2);
     assert!(
@@ -176,7 +195,12 @@ fn path_inputs_are_checked() {
         ),
         "{e}"
     );
-    // Too few recorded increments.
+}
+
+#[test]
+fn too_few_recorded_increments_are_refused() {
+    let mut solver = TruncatedEulerMaruyama::new(planar(1.0, 1.0)).unwrap();
+    let grid = TimeGrid::new(1.0, 10).unwrap();
     let data = vec![0.0; 2 * 5];
     let (mut r, mut v) = (R.to_vec(), V.to_vec());
     let e = run_path(
@@ -199,17 +223,6 @@ fn path_inputs_are_checked() {
         ),
         "{e}"
     );
-    // Truncation scale.
-    for c in [0.0, -1.0, f64::NAN] {
-        let e = TruncatedEulerMaruyama::new(planar(1.0, 1.0))
-            .unwrap()
-            .with_scale(c)
-            .unwrap_err();
-        assert!(
-            matches!(e, ReferenceError::Model(ModelError::InvalidSetting { .. })),
-            "{e}"
-        );
-    }
 }
 
 #[test]

@@ -75,8 +75,34 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         assert_eq!((a.distances, a.steps), (b.distances, b.steps));
     }
     assert!(record.reference_failure.is_none());
+    let (r0, v0) = (&r0[..], &v0[..]);
+    let direct = direct_distances(system, (r0, v0), (seed, index), fine, levels);
+    for (j, (&level, sup)) in levels.iter().zip(direct).enumerate() {
+        let lockstep = record.tracks[j].distances.unwrap();
+        assert_eq!(record.tracks[j].steps, 1usize << level);
+        for c in 0..3 {
+            // Pairwise and sequential sums of the increments differ by rounding only.
+            assert!(
+                (lockstep[c] - sup[c]).abs() <= 1e-9 * sup[c].max(1e-3),
+                "level {level}, component {c}: lockstep {} direct {}",
+                lockstep[c],
+                sup[c]
+            );
+        }
+        assert!(sup[0] > 0.0);
+    }
+}
 
-    // Direct: all fine increments in memory, the reference recorded on the finest level's grid.
+/// The largest distances of r, v and mu between each level and the reference on the finest
+/// level's grid, computed directly: all 2^fine increments of path `index` in memory, each
+/// level run on their sums.
+fn direct_distances<S: System>(
+    system: S,
+    (r0, v0): (&[f64], &[f64]),
+    (seed, index): (u64, usize),
+    fine: u32,
+    levels: &[u32],
+) -> Vec<[f64; 3]> {
     let fine_steps = 1usize << fine;
     let mut increments = vec![0.0; 2 * fine_steps];
     let mut noise = GaussianIncrements::for_path(seed, index as u64, 2);
@@ -87,7 +113,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
     let mut stepper = Stepper::new(system, config).unwrap();
     let finest = *levels.last().unwrap();
     let mut reference_path = Recorder::every(1 << (fine - finest)).with_mu();
-    let (mut r, mut v) = (r0.clone(), v0.clone());
+    let (mut r, mut v) = (r0.to_vec(), v0.to_vec());
     let grid = TimeGrid::new(1.0, fine_steps).unwrap();
     let mut source = RecordedIncrements::new(&increments, 2);
     run_path(
@@ -100,39 +126,31 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
     )
     .unwrap();
 
-    for (j, &level) in levels.iter().enumerate() {
-        let steps = 1usize << level;
-        let mut coarse = Recorder::every(1).with_mu();
-        let mut source =
-            Coarsened::new(RecordedIncrements::new(&increments, 2), fine_steps / steps);
-        let (mut r, mut v) = (r0.clone(), v0.clone());
-        let grid = TimeGrid::new(1.0, steps).unwrap();
-        run_path(&mut stepper, &mut r, &mut v, grid, &mut source, &mut coarse).unwrap();
-        let stride = 1 << (finest - level);
-        let mut sup = [0.0_f64; 3];
-        for k in 0..=steps {
-            let d = [
-                distance(coarse.position(k), reference_path.position(k * stride)),
-                distance(coarse.velocity(k), reference_path.velocity(k * stride)),
-                distance(coarse.multiplier(k), reference_path.multiplier(k * stride)),
-            ];
-            for (s, x) in sup.iter_mut().zip(d) {
-                *s = s.max(x);
+    levels
+        .iter()
+        .map(|&level| {
+            let steps = 1usize << level;
+            let mut coarse = Recorder::every(1).with_mu();
+            let mut source =
+                Coarsened::new(RecordedIncrements::new(&increments, 2), fine_steps / steps);
+            let (mut r, mut v) = (r0.to_vec(), v0.to_vec());
+            let grid = TimeGrid::new(1.0, steps).unwrap();
+            run_path(&mut stepper, &mut r, &mut v, grid, &mut source, &mut coarse).unwrap();
+            let stride = 1 << (finest - level);
+            let mut sup = [0.0_f64; 3];
+            for k in 0..=steps {
+                let d = [
+                    distance(coarse.position(k), reference_path.position(k * stride)),
+                    distance(coarse.velocity(k), reference_path.velocity(k * stride)),
+                    distance(coarse.multiplier(k), reference_path.multiplier(k * stride)),
+                ];
+                for (s, x) in sup.iter_mut().zip(d) {
+                    *s = s.max(x);
+                }
             }
-        }
-        let lockstep = record.tracks[j].distances.unwrap();
-        assert_eq!(record.tracks[j].steps, steps);
-        for c in 0..3 {
-            // Pairwise and sequential sums of the increments differ by rounding only.
-            assert!(
-                (lockstep[c] - sup[c]).abs() <= 1e-9 * sup[c].max(1e-3),
-                "level {level}, component {c}: lockstep {} direct {}",
-                lockstep[c],
-                sup[c]
-            );
-        }
-        assert!(sup[0] > 0.0);
-    }
+            sup
+        })
+        .collect()
 }
 
 /// The kinetic energy's time average of a time-changed scheme runs over its own clock: with

@@ -83,7 +83,8 @@ mod grid;
 mod increments;
 mod lane_diagnostics;
 mod lane_ensemble;
-pub mod lanes;
+/// W paths at once in SIMD lanes ([`sdae_lanes`], re-exported).
+pub use sdae_lanes as lanes;
 mod normals;
 mod observer;
 mod path_streams;

@@ -5,6 +5,39 @@
 //! formula is written once and runs on any width. Every operation is a correctly rounded IEEE
 //! operation on each lane (no fused multiply-add), so lane i computes exactly what the scalar
 //! formula computes for path i, whatever W is.
+//!
+//! The crate sits below every other crate of the workspace, so that the constraints, the
+//! solvers, the systems and the schemes can write a formula once over [`T: Real`](Real), for
+//! `f64` and for lanes:
+//!
+//! ```
+//! use pulp::{Simd, WithSimd};
+//! use sdae_lanes::{LaneWidth, Lanes, Real};
+//!
+//! /// x^2 + 1 over any number type.
+//! fn energy<T: Real>(x: T) -> T {
+//!     x * x + 1.0
+//! }
+//!
+//! /// `energy` of every value, W at a time.
+//! struct Energies<'a>(&'a [f64], &'a mut [f64]);
+//! impl WithSimd for Energies<'_> {
+//!     type Output = ();
+//!     fn with_simd<S: Simd>(self, simd: S) {
+//!         let w = Lanes::<S>::WIDTH;
+//!         for (x, out) in self.0.chunks_exact(w).zip(self.1.chunks_exact_mut(w)) {
+//!             energy(Lanes::load(simd, x)).store(out);
+//!         }
+//!     }
+//! }
+//!
+//! let x = [0.5, -1.25, 3.0, 1e-3, 7.5, -2.0, 0.0, 1e9];
+//! let mut lanes = [0.0; 8];
+//! LaneWidth::Best.dispatch(Energies(&x, &mut lanes));
+//! for (xi, e) in x.iter().zip(lanes) {
+//!     assert_eq!(e.to_bits(), energy(*xi).to_bits());
+//! }
+//! ```
 
 use std::ops::{Add, Div, Mul, Neg, Not, Sub};
 
@@ -16,9 +49,9 @@ use pulp::{Simd, WithSimd};
 pub const LANE_BLOCK: usize = 8;
 
 /// The stride of an ensemble of `paths` paths: `paths` rounded up to a multiple of
-/// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to [`PathEnsemble::step`](crate::PathEnsemble::step)
-/// is entry `j * stride + p`. (An ensemble's constructor refuses a count too large to round
-/// up, [`ModelError::Allocation`](crate::ModelError::Allocation).)
+/// [`LANE_BLOCK`]. Coordinate j of path p of the increments passed to an ensemble's step
+/// (`sdae_model::PathEnsemble::step`) is entry `j * stride + p`. (An ensemble's constructor
+/// refuses a count too large to round up, `sdae_model::ModelError::Allocation`.)
 pub fn lane_stride(paths: usize) -> usize {
     paths.next_multiple_of(LANE_BLOCK)
 }

@@ -170,8 +170,6 @@ impl TridiagonalFactor {
         rhs: Option<(&[f64], &mut [f64])>,
         mapped: Option<(&TridiagonalFactor, &[f64], &mut [f64])>,
     ) -> bool {
-        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
-        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
         let m = a.diag.len();
         let off = m.saturating_sub(1);
         let (diag, lower, upper) = (&a.diag[..m], &a.lower[..off], &a.upper[..off]);
@@ -181,15 +179,8 @@ impl TridiagonalFactor {
             &mut self.upper[..off],
         );
         let mut rhs = rhs.map(|(b, out)| (&b[..m], &mut out[..m]));
-        let mut mapped = mapped.map(|(other, p, out)| {
-            (
-                (&other.diag[..m], &other.lower[..off]),
-                &p[..m],
-                &mut out[..m],
-            )
-        });
-        let mut mapped_forward = 0.0;
-        let (mut s_prev2, mut s_prev) = (0.0, 1.0);
+        let mut mapped = mapped.map(|mapped| MappedForward::new(mapped, m));
+        let mut minors = LeadingMinors::new();
         // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
         let mut l = 0.0_f64;
         let mut coupling = 0.0;
@@ -197,18 +188,9 @@ impl TridiagonalFactor {
         for i in 0..m {
             let d = diag[i];
             let u = if i < off { upper[i] } else { 0.0 };
-            let mut s_i = d * s_prev - coupling * s_prev2;
-            let magnitude = s_i.abs();
-            if !(SMALL..=BIG).contains(&magnitude) {
-                let scale = if magnitude > BIG { SMALL } else { BIG };
-                if magnitude == 0.0 || !magnitude.is_finite() {
-                    return false;
-                }
-                s_i *= scale;
-                s_prev *= scale;
-            }
-            // 1 / p_i = s_{i-1} / s_i.
-            let inv = s_prev / s_i;
+            let Some(inv) = minors.inverse_pivot(d, coupling) else {
+                return false;
+            };
             let scale = l.abs() + d.abs() + u.abs();
             // Rejects |p_i| <= 1e-8 x row scale, and a NaN inverse.
             if inv.is_nan() || inv.abs() * 1e-8 * scale >= 1.0 {
@@ -227,33 +209,14 @@ impl TridiagonalFactor {
                 forward = b[0] * inv;
                 out[0] = forward;
             }
-            if let Some(((b_diag, b_lower), p, out)) = mapped.as_mut() {
-                // Row i of A p as `mul_vec` forms it, then B's forward substitution.
-                let row = if i == 0 {
-                    if off == 0 {
-                        d * p[0]
-                    } else {
-                        d * p[0] + u * p[1]
-                    }
-                } else if i < off {
-                    d * p[i] + l * p[i - 1] + u * p[i + 1]
-                } else {
-                    d * p[i] + l * p[i - 1]
-                };
-                mapped_forward = if i == 0 {
-                    row * b_diag[0]
-                } else {
-                    row * b_diag[i] - b_lower[i - 1] * mapped_forward
-                };
-                out[i] = mapped_forward;
+            if let Some(mapped) = mapped.as_mut() {
+                mapped.row(i, (l, d, u));
             }
             if i < off {
                 f_upper[i] = u * inv;
                 l = lower[i];
                 coupling = l * u;
             }
-            s_prev2 = s_prev;
-            s_prev = s_i;
         }
         true
     }
@@ -304,6 +267,104 @@ impl TridiagonalFactor {
             }),
             None => Ok(()),
         }
+    }
+}
+
+/// The leading principal minors s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2} of a tridiagonal
+/// matrix, row by row, rescaled by exact powers of two to stay in range (only their ratios, the
+/// pivots of Thomas' algorithm, are used).
+struct LeadingMinors {
+    /// s_{i-2}.
+    prev2: f64,
+    /// s_{i-1}.
+    prev: f64,
+}
+
+impl LeadingMinors {
+    /// Before row 0: s_{-2} = 0, s_{-1} = 1.
+    #[inline(always)]
+    fn new() -> Self {
+        Self {
+            prev2: 0.0,
+            prev: 1.0,
+        }
+    }
+
+    /// Moves to the next row, of diagonal entry `d` and `coupling` = l_{i-1} u_{i-1}, and
+    /// returns the inverse pivot 1 / p_i = s_{i-1} / s_i; `None` when s_i is 0 or not finite.
+    /// Outside [2^-256, 2^256], s_i and s_{i-1} are rescaled by 2^256 or 2^-256 (exactly).
+    #[inline(always)]
+    fn inverse_pivot(&mut self, d: f64, coupling: f64) -> Option<f64> {
+        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
+        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
+        let mut s_i = d * self.prev - coupling * self.prev2;
+        let magnitude = s_i.abs();
+        if !(SMALL..=BIG).contains(&magnitude) {
+            let scale = if magnitude > BIG { SMALL } else { BIG };
+            if magnitude == 0.0 || !magnitude.is_finite() {
+                return None;
+            }
+            s_i *= scale;
+            self.prev *= scale;
+        }
+        let inv = self.prev / s_i;
+        self.prev2 = self.prev;
+        self.prev = s_i;
+        Some(inv)
+    }
+}
+
+/// out = B^-1 (A p) formed in the pass of Thomas' algorithm over A, B an unpivoted Thomas
+/// factor: row by row, the row of A p and B's forward substitution (its back substitution
+/// runs after the pass).
+struct MappedForward<'a> {
+    /// B's inverse pivots.
+    b_diag: &'a [f64],
+    /// B's multipliers.
+    b_lower: &'a [f64],
+    p: &'a [f64],
+    out: &'a mut [f64],
+    /// The last entry of B's forward substitution.
+    forward: f64,
+}
+
+impl<'a> MappedForward<'a> {
+    /// Before row 0, with B's factors, p and out cut to the order `m`.
+    #[inline(always)]
+    fn new((other, p, out): (&'a TridiagonalFactor, &'a [f64], &'a mut [f64]), m: usize) -> Self {
+        let off = m.saturating_sub(1);
+        Self {
+            b_diag: &other.diag[..m],
+            b_lower: &other.lower[..off],
+            p: &p[..m],
+            out: &mut out[..m],
+            forward: 0.0,
+        }
+    }
+
+    /// Row i, of entries (l, d, u) = (A[i][i-1], A[i][i], A[i][i+1]): row i of A p as
+    /// [`GramMatrix::mul_vec`] forms it, then B's forward substitution into `out[i]`.
+    #[inline(always)]
+    fn row(&mut self, i: usize, (l, d, u): (f64, f64, f64)) {
+        // The order minus 1, as B's multipliers are cut.
+        let (p, off) = (self.p, self.b_lower.len());
+        let row = if i == 0 {
+            if off == 0 {
+                d * p[0]
+            } else {
+                d * p[0] + u * p[1]
+            }
+        } else if i < off {
+            d * p[i] + l * p[i - 1] + u * p[i + 1]
+        } else {
+            d * p[i] + l * p[i - 1]
+        };
+        self.forward = if i == 0 {
+            row * self.b_diag[0]
+        } else {
+            row * self.b_diag[i] - self.b_lower[i - 1] * self.forward
+        };
+        self.out[i] = self.forward;
     }
 }
 

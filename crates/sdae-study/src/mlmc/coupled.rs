@@ -107,126 +107,6 @@ fn finals<S: sdae_model::System>(
 
 use sdae_manifold::Constraint as _;
 
-/// Which paths of a block run besides the fine one.
-#[derive(Clone, Copy)]
-struct Coupling {
-    /// The coarse path runs: a coupled pair above level 0.
-    pair: bool,
-    /// The antithetic twin of the fine path runs too.
-    twin: bool,
-}
-
-impl<S: sdae_model::System> Worker<S> {
-    /// Restarts the fine paths, and the coarse paths and twins that `coupling` runs, at
-    /// (r0, v0).
-    fn restart(
-        &mut self,
-        (r0, v0): (&[f64], &[f64]),
-        coupling: Coupling,
-    ) -> Result<(), sdae_model::ModelError> {
-        self.fine.restart(r0, v0)?;
-        if coupling.pair {
-            self.coarse.restart(r0, v0)?;
-        }
-        if coupling.twin {
-            self.twin.restart(r0, v0)?;
-        }
-        Ok(())
-    }
-
-    /// Runs the block's paths over `steps` fine steps of size h, [`CHUNK`] increments from
-    /// `noise` at a time.
-    fn run(
-        &mut self,
-        noise: &mut EnsembleIncrements,
-        steps: usize,
-        h: f64,
-        coupling: Coupling,
-    ) -> Result<(), sdae_model::ModelError> {
-        let width = self.fine.system().noise_dim() * self.fine.stride();
-        let chunk = CHUNK.min(steps);
-        self.increments.resize(chunk * width, 0.0);
-        self.sum.resize(width, 0.0);
-        for _ in 0..steps / chunk {
-            noise.fill(h, &mut self.increments)?;
-            if coupling.pair {
-                self.step_pairs(h, chunk, width, coupling.twin)?;
-            } else {
-                for k in 0..chunk {
-                    self.fine
-                        .step(h, &self.increments[k * width..(k + 1) * width])?;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Steps over the `chunk` fine increments drawn (`width` numbers each) two at a time: the
-    /// fine path takes them in order, the coarse path one step of 2 h with their sum, the twin
-    /// (if it runs) the two in swapped order.
-    fn step_pairs(
-        &mut self,
-        h: f64,
-        chunk: usize,
-        width: usize,
-        twin: bool,
-    ) -> Result<(), sdae_model::ModelError> {
-        let dw = &self.increments;
-        for k in (0..chunk).step_by(2) {
-            let (a, b) = (
-                &dw[k * width..(k + 1) * width],
-                &dw[(k + 1) * width..(k + 2) * width],
-            );
-            self.fine.step(h, a)?;
-            self.fine.step(h, b)?;
-            for ((s, x), y) in self.sum.iter_mut().zip(a).zip(b) {
-                *s = x + y;
-            }
-            self.coarse.step(2.0 * h, &self.sum)?;
-            if twin {
-                self.twin.step(h, b)?;
-                self.twin.step(h, a)?;
-            }
-        }
-        Ok(())
-    }
-
-    /// The samples of the block from its paths' ends: the fine value (the mean with the twin's
-    /// if it runs) and the coarse one (0 without a coarse path), or which of them failed.
-    fn samples(
-        &mut self,
-        observable: &Observable,
-        coupling: Coupling,
-    ) -> Result<Vec<Sample>, MlmcError> {
-        let fine = finals(self.fine.as_ref(), observable, &mut self.rows)?;
-        let coarse = if coupling.pair {
-            finals(self.coarse.as_ref(), observable, &mut self.rows)?
-        } else {
-            vec![Some(0.0); fine.len()]
-        };
-        let twins = if coupling.twin {
-            finals(self.twin.as_ref(), observable, &mut self.rows)?
-        } else {
-            fine.clone()
-        };
-        Ok(fine
-            .iter()
-            .zip(&twins)
-            .zip(&coarse)
-            .map(|((f, t), c)| match (f.zip(*t), c) {
-                (Some((f, t)), Some(c)) => Sample::Value {
-                    fine: if coupling.twin { 0.5 * (f + t) } else { f },
-                    coarse: *c,
-                },
-                (fine, coarse) => Sample::Failed {
-                    fine: fine.is_none(),
-                    coarse: coarse.is_none(),
-                },
-            })
-            .collect())
-    }
-}
-
 impl<S> LevelSampler for CoupledSampler<S>
 where
     S: sdae_model::System + Send + Sync + 'static,
@@ -261,24 +141,83 @@ where
             });
         }
         let study = |e: sdae_model::ModelError| MlmcError::from(crate::error::StudyError::from(e));
+        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
         let pair = coupled && level > 0;
-        let coupling = Coupling {
-            pair,
-            twin: pair && self.antithetic,
-        };
-        worker
-            .restart((&self.start.0[..], &self.start.1[..]), coupling)
-            .map_err(study)?;
+        let twin = pair && self.antithetic;
+        worker.fine.restart(r0, v0).map_err(study)?;
+        if pair {
+            worker.coarse.restart(r0, v0).map_err(study)?;
+        }
+        if twin {
+            worker.twin.restart(r0, v0).map_err(study)?;
+        }
         let streams: Vec<u64> = indices
+            .clone()
             .map(|i| u64::from(level) * SAMPLES_PER_LEVEL + i)
             .collect();
         let l = worker.fine.system().noise_dim();
         let mut noise = EnsembleIncrements::for_paths(self.seed, &streams, l);
+        let width = l * worker.fine.stride();
         let steps = 1usize << (self.coarsest + level);
-        worker
-            .run(&mut noise, steps, self.t_end / steps as f64, coupling)
-            .map_err(study)?;
-        worker.samples(&self.observable, coupling)
+        let h = self.t_end / steps as f64;
+        let chunk = CHUNK.min(steps);
+        worker.increments.resize(chunk * width, 0.0);
+        worker.sum.resize(width, 0.0);
+        for _ in 0..steps / chunk {
+            noise.fill(h, &mut worker.increments).map_err(study)?;
+            let dw = &worker.increments;
+            if !pair {
+                for k in 0..chunk {
+                    worker
+                        .fine
+                        .step(h, &dw[k * width..(k + 1) * width])
+                        .map_err(study)?;
+                }
+                continue;
+            }
+            for k in (0..chunk).step_by(2) {
+                let (a, b) = (
+                    &dw[k * width..(k + 1) * width],
+                    &dw[(k + 1) * width..(k + 2) * width],
+                );
+                worker.fine.step(h, a).map_err(study)?;
+                worker.fine.step(h, b).map_err(study)?;
+                for ((s, x), y) in worker.sum.iter_mut().zip(a).zip(b) {
+                    *s = x + y;
+                }
+                worker.coarse.step(2.0 * h, &worker.sum).map_err(study)?;
+                if twin {
+                    worker.twin.step(h, b).map_err(study)?;
+                    worker.twin.step(h, a).map_err(study)?;
+                }
+            }
+        }
+        let fine = finals(worker.fine.as_ref(), &self.observable, &mut worker.rows)?;
+        let coarse = if pair {
+            finals(worker.coarse.as_ref(), &self.observable, &mut worker.rows)?
+        } else {
+            vec![Some(0.0); fine.len()]
+        };
+        let twins = if twin {
+            finals(worker.twin.as_ref(), &self.observable, &mut worker.rows)?
+        } else {
+            fine.clone()
+        };
+        Ok(fine
+            .iter()
+            .zip(&twins)
+            .zip(&coarse)
+            .map(|((f, t), c)| match (f.zip(*t), c) {
+                (Some((f, t)), Some(c)) => Sample::Value {
+                    fine: if twin { 0.5 * (f + t) } else { f },
+                    coarse: *c,
+                },
+                (fine, coarse) => Sample::Failed {
+                    fine: fine.is_none(),
+                    coarse: coarse.is_none(),
+                },
+            })
+            .collect())
     }
 
     fn path_steps(&self, level: u32) -> u64 {

@@ -107,6 +107,44 @@ fn finals<S: sdae_model::System>(
 
 use sdae_manifold::Constraint as _;
 
+impl<S: sdae_model::System> Worker<S> {
+    /// The samples of a block from its paths' ends: the fine value (the mean with the twin's
+    /// if it ran) and the coarse one (0 without a coarse path), or which of them failed.
+    fn samples(
+        &mut self,
+        observable: &Observable,
+        pair: bool,
+        twin: bool,
+    ) -> Result<Vec<Sample>, MlmcError> {
+        let fine = finals(self.fine.as_ref(), observable, &mut self.rows)?;
+        let coarse = if pair {
+            finals(self.coarse.as_ref(), observable, &mut self.rows)?
+        } else {
+            vec![Some(0.0); fine.len()]
+        };
+        let twins = if twin {
+            finals(self.twin.as_ref(), observable, &mut self.rows)?
+        } else {
+            fine.clone()
+        };
+        Ok(fine
+            .iter()
+            .zip(&twins)
+            .zip(&coarse)
+            .map(|((f, t), c)| match (f.zip(*t), c) {
+                (Some((f, t)), Some(c)) => Sample::Value {
+                    fine: if twin { 0.5 * (f + t) } else { f },
+                    coarse: *c,
+                },
+                (fine, coarse) => Sample::Failed {
+                    fine: fine.is_none(),
+                    coarse: coarse.is_none(),
+                },
+            })
+            .collect())
+    }
+}
+
 impl<S> LevelSampler for CoupledSampler<S>
 where
     S: sdae_model::System + Send + Sync + 'static,
@@ -192,32 +230,7 @@ where
                 }
             }
         }
-        let fine = finals(worker.fine.as_ref(), &self.observable, &mut worker.rows)?;
-        let coarse = if pair {
-            finals(worker.coarse.as_ref(), &self.observable, &mut worker.rows)?
-        } else {
-            vec![Some(0.0); fine.len()]
-        };
-        let twins = if twin {
-            finals(worker.twin.as_ref(), &self.observable, &mut worker.rows)?
-        } else {
-            fine.clone()
-        };
-        Ok(fine
-            .iter()
-            .zip(&twins)
-            .zip(&coarse)
-            .map(|((f, t), c)| match (f.zip(*t), c) {
-                (Some((f, t)), Some(c)) => Sample::Value {
-                    fine: if twin { 0.5 * (f + t) } else { f },
-                    coarse: *c,
-                },
-                (fine, coarse) => Sample::Failed {
-                    fine: fine.is_none(),
-                    coarse: coarse.is_none(),
-                },
-            })
-            .collect())
+        worker.samples(&self.observable, pair, twin)
     }
 
     fn path_steps(&self, level: u32) -> u64 {

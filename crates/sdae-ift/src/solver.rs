@@ -127,26 +127,6 @@ pub struct BallSolver<A: Factorize> {
     history: Vec<f64>,
 }
 
-/// R at 0 and the first Newton step from 0: the scale of the right root.
-#[derive(Clone, Copy)]
-struct AtZero {
-    /// max |R(0)|, the convergence test's measure.
-    r0: f64,
-    /// |J(0)^-1 R(0)| (Euclidean).
-    first_step: f64,
-}
-
-/// The outcome of [`BallSolver::scalar_newton`].
-#[derive(Clone, Copy)]
-struct ScalarRoot {
-    /// The root gamma*.
-    gamma: f64,
-    /// |R(gamma*)|.
-    residual: f64,
-    /// Newton steps taken.
-    iterations: usize,
-}
-
 #[derive(Clone, Copy)]
 enum Corrector {
     Converged(usize),
@@ -303,20 +283,6 @@ impl<A: Factorize> BallSolver<A> {
             // reports the failure or falls back to the homotopy.
             self.gamma.fill(0.0);
         }
-        let AtZero { r0, first_step } = self.newton_step_at_zero(problem)?;
-        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
-        let newton = self.newton_from_start(problem, start_is_zero, r0);
-        self.accept_or_continue(problem, radius, first_step, newton)
-    }
-
-    /// R(0) into `residual_at_zero`, J(0) factored into `factor_at_zero` and the first Newton
-    /// step from 0, J(0)^-1 R(0), into `step`; with max |R(0)| and the step's Euclidean norm.
-    /// Errors: a non-finite R(0) or a singular J(0).
-    #[inline(always)]
-    fn newton_step_at_zero<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-    ) -> Result<AtZero, IftError> {
         self.probe.fill(0.0);
         problem.evaluate(
             &self.probe,
@@ -342,21 +308,10 @@ impl<A: Factorize> BallSolver<A> {
                 source,
             })?;
         let first_step = norm2(&self.step);
-        Ok(AtZero { r0, first_step })
-    }
+        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
 
-    /// Plain Newton on R (`newton` at tau = 1) from `self.gamma`, with a fresh history. From
-    /// gamma = 0 iteration 0 is R(0), J(0) and the Newton step at hand from
-    /// [`BallSolver::newton_step_at_zero`] (`r0` = max |R(0)|).
-    #[inline(always)]
-    fn newton_from_start<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        start_is_zero: bool,
-        r0: f64,
-    ) -> Corrector {
         self.history.clear();
-        if start_is_zero {
+        let newton = if start_is_zero {
             // Iteration 0 is gamma = 0 with R(0), J(0) and its Newton step already at hand.
             self.history.push(r0);
             self.root_in_factor = false;
@@ -371,21 +326,7 @@ impl<A: Factorize> BallSolver<A> {
         } else {
             let max = self.settings.max_iterations;
             self.newton(problem, 1.0, max, 0.0, 0, f64::INFINITY)
-        }
-    }
-
-    /// The certificate of Newton's root; where Newton failed or its root was rejected (and the
-    /// settings allow it), the homotopy of seed eq. 3.10 from (0, 0) and the certificate of its
-    /// root. When the homotopy fails too, a root Newton found and that was rejected is the
-    /// error reported, otherwise the homotopy's error.
-    #[inline(always)]
-    fn accept_or_continue<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
-        first_step: f64,
-        newton: Corrector,
-    ) -> Result<Certificate, IftError> {
+        };
         let newton_outcome = match newton {
             Corrector::Converged(k) => self.accept(radius, first_step, k, 0, Method::Newton),
             Corrector::Failed(k) => Err(self.no_convergence(k)),
@@ -527,45 +468,6 @@ impl<A: Factorize> BallSolver<A> {
         let first_step = (step[0] * step[0]).sqrt();
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
         self.root_in_factor = false;
-        let ScalarRoot {
-            gamma,
-            residual,
-            iterations,
-        } = self.scalar_newton(problem, residual, step)?;
-        self.gamma[0] = gamma;
-        let norm = (gamma * gamma).sqrt();
-        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
-            || (norm > self.settings.plausibility_factor * first_step && norm > 64.0 * f64::EPSILON)
-        {
-            return None;
-        }
-        let contraction = self.scalar_contraction(radius, gamma, norm);
-        // Not certified: the general path repeats the solve and reports it.
-        self.contracting(contraction, radius).ok()?;
-        Some(Certificate {
-            iterations,
-            homotopy_steps: 0,
-            method: Method::Newton,
-            rounding: 0.0,
-            residual,
-            norm,
-            radius,
-            first_step,
-            contraction,
-        })
-    }
-
-    /// The iteration of [`BallSolver::solve_scalar`]: Newton from gamma = 0 (`newton` at tau =
-    /// 1), given R(0) in `residual` and the first Newton step J(0)^-1 R(0) in `step`. J at the
-    /// root is factored into `factor` where it iterated. `None` on a non-finite residual, a
-    /// singular Jacobian or no convergence within the iterations allowed.
-    #[inline(always)]
-    fn scalar_newton<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        mut residual: [f64; 1],
-        mut step: [f64; 1],
-    ) -> Option<ScalarRoot> {
         let mut gamma = 0.0;
         let mut r = residual[0].abs();
         if !r.is_finite() {
@@ -602,20 +504,17 @@ impl<A: Factorize> BallSolver<A> {
                 gamma -= step[0];
             }
         }
-        Some(ScalarRoot {
-            gamma,
-            residual: r,
-            iterations,
-        })
-    }
-
-    /// The contraction estimate of [`BallSolver::contraction_estimate`] for m = 1 (Thm 3.4,
-    /// Step 3): power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*| (exact
-    /// after one step for m = 1), with `norm` = |gamma*|; NaN where no probe is taken.
-    #[inline(always)]
-    fn scalar_contraction(&self, radius: f64, gamma: f64, norm: f64) -> f64 {
+        self.gamma[0] = gamma;
+        let norm = (gamma * gamma).sqrt();
+        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
+            || (norm > self.settings.plausibility_factor * first_step && norm > 64.0 * f64::EPSILON)
+        {
+            return None;
+        }
+        // Power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*| (exact after
+        // one step for m = 1).
         let probes = self.probes(radius).min(1);
-        if probes == 0 {
+        let contraction = if probes == 0 {
             f64::NAN
         } else if norm == 0.0 {
             0.0
@@ -634,7 +533,20 @@ impl<A: Factorize> BallSolver<A> {
                 probe[0] = image[0] / estimate;
             }
             estimate
-        }
+        };
+        // Not certified: the general path repeats the solve and reports it.
+        self.contracting(contraction, radius).ok()?;
+        Some(Certificate {
+            iterations,
+            homotopy_steps: 0,
+            method: Method::Newton,
+            rounding: 0.0,
+            residual: r,
+            norm,
+            radius,
+            first_step,
+            contraction,
+        })
     }
 
     /// The ball check of a root of Euclidean norm `norm`: `Ok(rounding)` when |gamma| - rounding

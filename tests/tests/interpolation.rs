@@ -4,8 +4,8 @@ use sdae_model::{GaussianIncrements, Interpolation, Recorder, TimeGrid, run_path
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
-#[test]
-fn interpolation_between_recorded_steps() {
+/// A pendulum path of 100 steps recorded every 10 steps, and its end position.
+fn recorded_path() -> (Recorder, Vec<f64>) {
     let system = pendulum(PendulumParams::default()).unwrap();
     let config = StepperConfig::for_system(&system).unwrap();
     let mut stepper = Stepper::new(system, config).unwrap();
@@ -22,6 +22,12 @@ fn interpolation_between_recorded_steps() {
         &mut recorder,
     )
     .unwrap();
+    (recorder, r)
+}
+
+#[test]
+fn interpolation_between_recorded_steps() {
+    let (recorder, r) = recorded_path();
     assert_eq!(recorder.len(), 11);
     assert_eq!(recorder.steps, (0..=100).step_by(10).collect::<Vec<_>>());
     let (mut ri, mut vi, mut mi) = (vec![0.0; 2], vec![0.0; 2], vec![0.0; 1]);
@@ -74,6 +80,11 @@ fn interpolation_between_recorded_steps() {
         .unwrap();
     assert_eq!(ri, recorder.position(10));
     assert_eq!(ri, r);
+}
+
+#[test]
+fn an_empty_record_has_nothing_to_interpolate() {
+    let (mut ri, mut vi, mut mi) = (vec![0.0; 2], vec![0.0; 2], vec![0.0; 1]);
     assert!(
         Recorder::every(1)
             .interpolate(

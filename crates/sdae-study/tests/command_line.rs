@@ -315,6 +315,23 @@ fn threads_are_capped_at_1024_and_not_started_beyond_the_paths() {
 #[test]
 fn fixed_length_arrays_refuse_extra_entries_as_well_as_missing_ones() {
     let dir = folder("arrays");
+    for (built_in, key, from, to, message) in wrong_lengths() {
+        let file = scene_file(&dir, &edited(built_in, from, &to));
+        // The key is in the quoted line of the file.
+        usage_error(
+            &["--scene-file", path(&file), "--quick", "--out", path(&dir)],
+            &[&message, key, path(&file)],
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A built-in scene, a key, the line of the key, the line with an array of the wrong length,
+/// and the message that must name it.
+type WrongLength = (&'static str, &'static str, &'static str, String, String);
+
+/// Fixed-length arrays of the built-in scenes, one entry too many or too few.
+fn wrong_lengths() -> [WrongLength; 9] {
     let pendulum = include_str!("../scenes/pendulum.toml");
     let triatomic = include_str!("../scenes/triatomic.toml");
     let fiber = include_str!("../scenes/fiber.toml");
@@ -322,7 +339,7 @@ fn fixed_length_arrays_refuse_extra_entries_as_well_as_missing_ones() {
         format!("invalid length {given}, expected an array of length {expected}")
     };
     let shear = |rows: &str| format!("wind = [1.0, 0.0, 0.0], shear = {rows} }}");
-    for (built_in, key, from, to, message) in [
+    [
         (
             pendulum,
             "levels",
@@ -386,15 +403,7 @@ fn fixed_length_arrays_refuse_extra_entries_as_well_as_missing_ones() {
             shear("[[0.0, 0.0, 1.0, 7.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]"),
             length(4, 3),
         ),
-    ] {
-        let file = scene_file(&dir, &edited(built_in, from, &to));
-        // The key is in the quoted line of the file.
-        usage_error(
-            &["--scene-file", path(&file), "--quick", "--out", path(&dir)],
-            &[&message, key, path(&file)],
-        );
-    }
-    std::fs::remove_dir_all(&dir).unwrap();
+    ]
 }
 
 #[test]

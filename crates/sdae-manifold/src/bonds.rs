@@ -4,6 +4,7 @@
 use crate::constraint::{Constraint, Curvature, TheoryBound, assemble_dense_by_columns};
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::{DenseGram, GramMatrix};
+use crate::lane_form::{BondLanes, LaneFormVisitor};
 use crate::mass::Mass;
 
 /// One bond: atoms `i` and `j` are held at distance `length`.
@@ -306,9 +307,13 @@ impl Constraint for RigidBonds {
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.shortest
     }
-    const RIGID_BONDS: bool = true;
-    fn as_rigid_bonds(&self) -> Option<&RigidBonds> {
-        Some(self)
+    /// Newton in lanes ([`BondLanes`]) for a diagonal mass and at most
+    /// [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD) bonds.
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        if !M::DIAGONAL {
+            return visitor.none();
+        }
+        visitor.newton(|| BondLanes::new(self, mass))
     }
 }
 

@@ -5,6 +5,7 @@ use crate::constraint::{
 };
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
+use crate::lane_form::{ChainLanes, LaneFormVisitor};
 use crate::mass::Mass;
 
 /// g_i(x) = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2), i = 0..K-1 (seed Section 5.3). Bead j occupies
@@ -127,7 +128,6 @@ impl BeadChain {
 
 impl Constraint for BeadChain {
     type Gram = TridiagonalGram;
-    const BEAD_CHAIN: bool = true;
     /// G_M = Dg M^-1 grad g is tridiagonal only if M^-1 couples no two beads: a diagonal mass,
     /// or one block-diagonal with a 3 x 3 block per bead. Any other mass is refused, naming
     /// the largest entry of M^-1 that couples two beads (relative size above 1e-12).
@@ -270,8 +270,12 @@ impl Constraint for BeadChain {
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.segment
     }
-    fn as_bead_chain(&self) -> Option<&BeadChain> {
-        Some(self)
+    /// Newton in lanes ([`ChainLanes`]) for a diagonal mass.
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        if !M::DIAGONAL {
+            return visitor.none();
+        }
+        visitor.newton(|| ChainLanes::new(self, mass))
     }
 }
 

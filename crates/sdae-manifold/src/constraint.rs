@@ -6,6 +6,7 @@
 use crate::error::ManifoldError;
 use crate::factor::Factorize;
 use crate::gram::{DenseGram, TridiagonalGram};
+use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 
 /// g and its Jacobian Dg, applied to vectors, and the structured Gram-type matrices.
@@ -95,26 +96,14 @@ pub trait Constraint {
         let _ = (x, v, a);
         None
     }
-    /// This constraint as a [`Sphere`](crate::Sphere), if it is one: an ensemble of paths then
-    /// steps it with the sphere's closed forms in SIMD lanes. `None` (the default) otherwise.
-    fn as_sphere(&self) -> Option<&crate::Sphere> {
-        None
-    }
-    /// Whether this constraint type is the [`BeadChain`](crate::BeadChain): code for it alone
-    /// (an ensemble's lanes) is then compiled only where it can run.
-    const BEAD_CHAIN: bool = false;
-    /// This constraint as a [`BeadChain`](crate::BeadChain), if it is one: an ensemble of
-    /// paths then steps it in SIMD lanes. `None` (the default) otherwise.
-    fn as_bead_chain(&self) -> Option<&crate::BeadChain> {
-        None
-    }
-    /// Whether this constraint type is [`RigidBonds`](crate::RigidBonds): code for it alone
-    /// (an ensemble's lanes) is then compiled only where it can run.
-    const RIGID_BONDS: bool = false;
-    /// This constraint as [`RigidBonds`](crate::RigidBonds), if it is: an ensemble of paths
-    /// then steps it in SIMD lanes. `None` (the default) otherwise.
-    fn as_rigid_bonds(&self) -> Option<&crate::RigidBonds> {
-        None
+    /// Offers `visitor` this constraint's form over SIMD lanes for `mass`
+    /// ([`lane_form`](crate::lane_form)): an ensemble of paths then steps in lanes. The
+    /// default offers none ([`LaneFormVisitor::none`]): the paths step one at a time. A
+    /// constraint that has one overrides this with a call of the visitor's method for it, so
+    /// that the lane code is compiled only for the constraints that have it.
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        let _ = mass;
+        visitor.none()
     }
     /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
     /// (the floor below which Newton cannot push the residual); 0 if unknown.

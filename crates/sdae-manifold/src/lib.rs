@@ -27,6 +27,7 @@ mod constraint;
 mod error;
 mod factor;
 mod gram;
+pub mod lane_form;
 mod mass;
 mod sphere;
 mod state;
@@ -47,6 +48,7 @@ pub use factor::{
     TridiagonalFactor,
 };
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
+pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use sphere::Sphere;
 pub use state::{DEFAULT_STATE_TOLERANCE, StateResiduals, check_state, state_residuals};

@@ -3,6 +3,7 @@
 use crate::constraint::{Constraint, Curvature, TheoryBound};
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::ScalarGram;
+use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 use crate::vector::dot;
 
@@ -151,8 +152,10 @@ impl Constraint for Sphere {
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         self.roundoff(max_abs_x)
     }
-    fn as_sphere(&self) -> Option<&Sphere> {
-        Some(self)
+    /// The closed form of the kappa system ([`LaneFormVisitor::sphere`]).
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        let _ = mass;
+        visitor.sphere(self)
     }
 }
 

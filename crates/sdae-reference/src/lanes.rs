@@ -15,6 +15,7 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
+use sdae_manifold::lane_form::offered_sphere;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
@@ -79,7 +80,7 @@ fn step_lanes<Sch: Scheme>(
     (h, dw): (f64, &[f64]),
 ) -> bool {
     let system = scheme.system();
-    let Some(sphere) = system.constraint().as_sphere().copied() else {
+    let Some(sphere) = offered_sphere(system.constraint(), system.mass()) else {
         return false;
     };
     let diagonal = <<Sch::System as System>::Mass as Mass>::DIAGONAL;

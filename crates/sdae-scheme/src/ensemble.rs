@@ -1,13 +1,12 @@
 //! The ensemble engine of the half-explicit scheme: [`Ensemble`].
 
-mod bonds;
-mod chain;
-mod dense;
 mod newton;
 pub(crate) mod sphere;
-mod tridiagonal;
 
-use sdae_manifold::{Constraint, Mass};
+use std::marker::PhantomData;
+
+use sdae_manifold::lane_form::{ConstraintLanes, LaneFormVisitor};
+use sdae_manifold::{Constraint, Sphere};
 use sdae_model::engine::LanePaths;
 use sdae_model::lanes::LaneWidth;
 use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
@@ -103,38 +102,61 @@ use crate::stepper::Stepper;
 /// ```
 pub type Ensemble<S> = LaneEnsemble<Stepper<S>>;
 
-/// The closed form of a sphere, or Newton for a bead chain or rigid bonds, with a diagonal mass
-/// in lanes (module documentation); `false` (every path through the scalar step) for any other
+/// The closed form of a sphere, or Newton for a constraint that offers formulas over lanes
+/// (the bead chain, rigid bonds, a user's constraint), with a diagonal mass
+/// ([`Constraint::lane_form`]); `false` (every path through the scalar step) for any other
 /// constraint or mass.
 impl<S: System> LaneScheme for Stepper<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        // Constants of the types: the Newton lanes are compiled only for a constraint that
-        // has them, with a diagonal mass.
-        if <S::Mass as Mass>::DIAGONAL {
-            if <S::Constraint as Constraint>::BEAD_CHAIN {
-                return width.dispatch(newton::StepAll::<S, chain::ChainLanes>::new(
-                    self, paths, h, dw,
-                ));
-            }
-            if <S::Constraint as Constraint>::RIGID_BONDS {
-                return width.dispatch(newton::StepAll::<S, bonds::BondLanes>::new(
-                    self, paths, h, dw,
-                ));
+        let system = self.system();
+        let choice = system
+            .constraint()
+            .lane_form(system.mass(), ChooseKernel(PhantomData));
+        match choice {
+            None => false,
+            Some(LaneKernelChoice::Newton(step_all)) => step_all(self, paths, width, (h, dw)),
+            Some(LaneKernelChoice::Sphere(sphere)) => {
+                // The lanes hold at most MAX_DIM coordinates and as many noise components.
+                if sphere.dim() > sphere::MAX_DIM || paths.noise_dim() > sphere.dim() {
+                    return false;
+                }
+                width.dispatch(sphere::StepAll {
+                    stepper: self,
+                    paths,
+                    sphere,
+                    h,
+                    dw,
+                })
             }
         }
-        let Some(sphere) = self.system().constraint().as_sphere().copied() else {
-            return false;
-        };
-        // The lanes hold at most MAX_DIM coordinates and as many noise components.
-        if sphere.dim() > sphere::MAX_DIM || paths.noise_dim() > sphere.dim() {
-            return false;
-        }
-        width.dispatch(sphere::StepAll {
-            stepper: self,
-            paths,
-            sphere,
-            h,
-            dw,
-        })
+    }
+}
+
+/// The lanes' step that a constraint's lane form chose.
+enum LaneKernelChoice<S: System> {
+    /// The sphere's closed form.
+    Sphere(Sphere),
+    /// Newton with the constraint's formulas over lanes ([`newton::step_all`] for them).
+    Newton(NewtonStep<S>),
+}
+
+/// [`newton::step_all`] for one constraint's lane form.
+type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, (f64, &[f64])) -> bool;
+
+/// Asks a constraint which lane form it has ([`LaneFormVisitor`]); the Newton kernel builds
+/// the form itself when it first steps.
+struct ChooseKernel<S>(PhantomData<S>);
+
+impl<S: System> LaneFormVisitor for ChooseKernel<S> {
+    type Output = Option<LaneKernelChoice<S>>;
+    fn none(self) -> Self::Output {
+        None
+    }
+    fn sphere(self, sphere: &Sphere) -> Self::Output {
+        Some(LaneKernelChoice::Sphere(*sphere))
+    }
+    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
+        let _ = build;
+        Some(LaneKernelChoice::Newton(newton::step_all::<S, L>))
     }
 }

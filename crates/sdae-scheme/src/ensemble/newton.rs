@@ -4,9 +4,9 @@
 //! certificate (ball, plausibility, contraction probes), and the velocity update with lambda
 //! from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower part), whose matrix is the
 //! Newton matrix at the root. The step is written once here; a constraint brings its formulas
-//! over lanes ([`ConstraintLanes`]: g, the Newton matrix, the displacement, Dg u, the local
-//! measure of the motion) and the factorization of its Newton matrix ([`FactorLanes`]): the
-//! bead chain's tridiagonal one (`super::chain`), rigid bonds' dense one (`super::bonds`).
+//! over lanes ([`ConstraintLanes`] through [`Constraint::lane_form`]: g, the Newton matrix, the
+//! displacement, Dg u, the local measure of the motion) and the factorization of its Newton
+//! matrix ([`FactorLanes`]): `sdae_manifold::lane_form` has the bead chain's and rigid bonds'.
 //!
 //! Each formula is the scalar stepper's, with the same floating-point operations in the same
 //! order, so that a decided lane is the scalar step of its path. A lane Newton does not decide
@@ -18,199 +18,21 @@
 //! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
 //! scalar functions path by path ([`per_path`]).
 
+use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
-use sdae_manifold::Mass;
+use sdae_manifold::Constraint;
+use sdae_manifold::lane_form::{
+    ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
+    active_any, sum_squares,
+};
 use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, WideKernel};
-use sdae_model::lanes::{LaneMask, Lanes, per_path};
+use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
 use crate::stepper::Stepper;
-
-/// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
-pub(super) type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
-
-/// An m x m matrix of W lanes (the Newton matrix Dg(x) M^-1 grad g(r)).
-pub(super) trait MatrixLanes<Sd: Simd>: Send + Sync + 'static {
-    /// Zeros of order m >= 1.
-    fn zeros(simd: Sd, m: usize) -> Self;
-    /// out = A x, with the scalar storage's `GramMatrix::mul_vec` operations.
-    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
-}
-
-/// The factorization of a [`MatrixLanes`], with the scalar factorization's operations.
-pub(super) trait FactorLanes<Sd: Simd>: Send + Sync + 'static {
-    /// The matrix it factors.
-    type Matrix: MatrixLanes<Sd>;
-    /// Storage for the factors of order m >= 1.
-    fn zeros(simd: Sd, m: usize) -> Self;
-    /// Factors `a`, and with `rhs` = (b, out) runs the first half of the solve A out = b into
-    /// `out` ([`FactorLanes::back_substitute`] finishes it); the lanes whose factorization the
-    /// scalar one would accept (the others go through the scalar step).
-    fn factor(&mut self, a: &Self::Matrix, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd>;
-    /// The first half of b <- A^-1 b (the forward substitution).
-    fn forward_in_place(&self, b: &mut [Lanes<Sd>]);
-    /// The second half of a solve whose first half [`FactorLanes::factor`] or
-    /// [`FactorLanes::forward_in_place`] ran.
-    fn back_substitute(&self, out: &mut [Lanes<Sd>]);
-    /// b <- A^-1 b.
-    #[inline(always)]
-    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
-        self.forward_in_place(b);
-        self.back_substitute(b);
-    }
-}
-
-/// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
-/// operations of the scalar `Constraint` method it names.
-pub(super) trait ConstraintLanes: Send + Sync + Sized + 'static {
-    /// The factorization of the Newton matrix.
-    type Factor<Sd: Simd>: FactorLanes<Sd>;
-    /// The lane form of the system's constraint, or `None` if it has none (every path then
-    /// steps through the scalar stepper). Asked once, when an ensemble first steps.
-    fn for_system<S: System>(system: &S) -> Option<Self>;
-    /// (n, m).
-    fn dims(&self) -> (usize, usize);
-    /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
-    fn roundoff_length(&self) -> f64;
-    /// M^-1.
-    fn inverse_mass(&self) -> &InverseMass;
-    /// One evaluation of the kappa system at `points` = (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
-    /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
-    /// factored into `factor` with the first half of J^-1 g(x1) into `step`
-    /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
-    /// factorization runs row by row does it all in one pass over the rows.
-    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        points: (&P, &[Lanes<Sd>]),
-        values: &mut [Lanes<Sd>],
-        jacobian: &mut Jacobian<Sd, Self>,
-        factor: &mut Self::Factor<Sd>,
-        step: &mut [Lanes<Sd>],
-    ) -> Evaluation<Sd>;
-    /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
-    /// half ([`FactorLanes::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
-    /// default takes three passes; a constraint can fuse them.
-    #[inline(always)]
-    fn velocity_right_hand_side<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
-        factor: &Self::Factor<Sd>,
-        out: &mut [Lanes<Sd>],
-    ) {
-        let inverse_mass = self.inverse_mass();
-        for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
-            *f = inverse_mass.apply(k, *f) + *vi;
-        }
-        self.negated_jacobian_mul(x, force, out);
-        factor.forward_in_place(out);
-    }
-    /// out = base + M^-1 grad g(r) z (`Constraint::displace`); without a base, out is its own
-    /// (out <- out + M^-1 grad g(r) z, each entry of out read before it is written).
-    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        r: &[Lanes<Sd>],
-        z: &[Lanes<Sd>],
-        base: Option<&P>,
-        out: &mut [Lanes<Sd>],
-    );
-    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`ConstraintLanes::displace`]
-    /// without a base), then the lanes whose v_{k+1} the scalar step finds finite (|v_{k+1}|^2
-    /// finite; a constraint may report fewer lanes, which then step through the scalar
-    /// stepper) and, if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in `scratch`, m rows). The
-    /// default takes three passes; a constraint can fuse them.
-    #[inline(always)]
-    fn finish_velocity<Sd: Simd>(
-        &self,
-        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
-        (x, monitor): (&[Lanes<Sd>], bool),
-        v: &mut [Lanes<Sd>],
-        scratch: &mut [Lanes<Sd>],
-    ) -> (LaneMask<Sd>, Lanes<Sd>) {
-        self.displace(r, lambda, None::<&[Lanes<Sd>]>, v);
-        let finite = sum_squares(v).is_finite();
-        if !monitor {
-            return (finite, v[0].splat_like(0.0));
-        }
-        // max_i |-(Dg(x) v)_i| = max_i |(Dg(x) v)_i|.
-        self.negated_jacobian_mul(x, v, scratch);
-        (finite, max_abs(scratch))
-    }
-    /// out = -Dg(x) u, the negation of `Constraint::jacobian_mul` (bit for bit: negation is
-    /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of its
-    /// own.
-    fn negated_jacobian_mul<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        u: &[Lanes<Sd>],
-        out: &mut [Lanes<Sd>],
-    );
-    /// The local measure of the motion (`Constraint::local_motion`).
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
-}
-
-/// A diagonal M^-1 applied to lanes: x (M^-1)_kk, or x itself where M^-1 = I (every entry 1:
-/// x * 1 = x exactly, so leaving out the products changes no bit of the scalar step's).
-pub(super) struct InverseMass {
-    entries: Vec<f64>,
-    unit: bool,
-}
-
-impl InverseMass {
-    /// The diagonal (M^-1)_kk of `mass`, k < n.
-    pub(super) fn of<M: Mass>(mass: &M, n: usize) -> Self {
-        let entries: Vec<f64> = (0..n)
-            .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
-            .collect();
-        let unit = entries.iter().all(|&w| w == 1.0);
-        Self { entries, unit }
-    }
-
-    /// Whether M^-1 = I.
-    #[inline(always)]
-    pub(super) fn is_unit(&self) -> bool {
-        self.unit
-    }
-
-    /// x (M^-1)_kk.
-    #[inline(always)]
-    pub(super) fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
-        if self.unit { x } else { x * self.entries[k] }
-    }
-}
-
-/// A point of W lanes read by coordinate: stored (a slice of lanes) or formed where it is read
-/// ([`Drifted`]).
-pub(super) trait PointLanes<Sd: Simd> {
-    /// Coordinates k..k + N.
-    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N];
-}
-
-impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
-    #[inline(always)]
-    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
-        *self[k..]
-            .first_chunk::<N>()
-            .expect("the point has coordinates k..k + N")
-    }
-}
-
-/// Coordinates k..k + N of a displacement's base ([`ConstraintLanes::displace`]), or of `out`
-/// where it is its own base.
-#[inline(always)]
-pub(super) fn base_coords<Sd: Simd, P: PointLanes<Sd> + ?Sized, const N: usize>(
-    base: Option<&P>,
-    out: &[Lanes<Sd>],
-    k: usize,
-) -> [Lanes<Sd>; N] {
-    match base {
-        Some(base) => base.coords::<N>(k),
-        None => out.coords::<N>(k),
-    }
-}
 
 /// y = r_k + eta h v_k of eq. 3.1, formed where it is read: the same bits each time, and no
 /// pass that stores it.
@@ -240,19 +62,26 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
     }
 }
 
-/// What [`ConstraintLanes::evaluate_and_factor`] found, per lane.
-pub(super) struct Evaluation<Sd: Simd> {
-    /// max_i |g_i(x1)|.
-    pub(super) largest: Lanes<Sd>,
-    /// The lanes where g(x1) is finite and the factorization passed.
-    pub(super) ok: LaneMask<Sd>,
+/// One step of every path of an ensemble whose constraint has the lane form C
+/// ([`LaneFormVisitor::newton`]): `false` if the constraint offers none for this mass after
+/// all.
+pub(super) fn step_all<S: System, C: ConstraintLanes>(
+    stepper: &mut Stepper<S>,
+    paths: &mut LanePaths,
+    width: LaneWidth,
+    (h, dw): (f64, &[f64]),
+) -> bool {
+    width.dispatch(StepAll {
+        stepper,
+        paths,
+        h,
+        dw,
+        constraint: PhantomData::<C>,
+    })
 }
 
-/// The Newton matrix of constraint C over lanes of Sd.
-pub(super) type Jacobian<Sd, C> = <<C as ConstraintLanes>::Factor<Sd> as FactorLanes<Sd>>::Matrix;
-
-/// One step of every path of an ensemble whose constraint has the lane form C.
-pub(super) struct StepAll<'a, S: System, C> {
+/// [`step_all`] at the instruction set Sd.
+struct StepAll<'a, S: System, C> {
     stepper: &'a mut Stepper<S>,
     paths: &'a mut LanePaths,
     h: f64,
@@ -260,32 +89,16 @@ pub(super) struct StepAll<'a, S: System, C> {
     constraint: PhantomData<C>,
 }
 
-impl<'a, S: System, C: ConstraintLanes> StepAll<'a, S, C> {
-    pub(super) fn new(
-        stepper: &'a mut Stepper<S>,
-        paths: &'a mut LanePaths,
-        h: f64,
-        dw: &'a [f64],
-    ) -> Self {
-        Self {
-            stepper,
-            paths,
-            h,
-            dw,
-            constraint: PhantomData,
-        }
-    }
-}
-
 impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
     type Output = bool;
-    /// `false` if the constraint has no lane form ([`ConstraintLanes::for_system`]).
     #[inline(always)]
     fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
         let mut store = std::mem::take(&mut self.stepper.lanes);
         let kept = store.take::<(Kernel<Sd, C>, LaneRows<Sd>)>().or_else(|| {
             let system = self.stepper.system();
-            let constraint = C::for_system(system)?;
+            let constraint = system
+                .constraint()
+                .lane_form(system.mass(), Build::<C>(PhantomData))?;
             let (n, m) = constraint.dims();
             let rows = LaneRows::new(simd, n, m, system.noise_dim());
             Some(Box::new((Kernel::new(simd, constraint), rows)))
@@ -301,6 +114,22 @@ impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
         store.put(buffers);
         self.stepper.lanes = store;
         true
+    }
+}
+
+/// Builds the lane form C that a constraint offered ([`LaneFormVisitor::newton`]) when an
+/// ensemble first steps.
+struct Build<C>(PhantomData<C>);
+
+impl<C: ConstraintLanes> LaneFormVisitor for Build<C> {
+    type Output = Option<C>;
+    fn none(self) -> Option<C> {
+        None
+    }
+    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Option<C> {
+        // L is C: the constraint offers one lane form, which chose this kernel.
+        let built: Box<dyn Any> = Box::new(build()?);
+        built.downcast::<C>().ok().map(|lanes| *lanes)
     }
 }
 
@@ -856,58 +685,4 @@ fn scale_and_max_abs<Sd: Simd>(
 #[inline(always)]
 pub(super) fn kappa_ratio<Sd: Simd>(norm: Lanes<Sd>, radius: f64) -> Option<Lanes<Sd>> {
     radius.is_finite().then(|| norm / radius)
-}
-
-/// Whether any lane of `mask` holds.
-#[inline(always)]
-pub(super) fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
-    !(!mask).all()
-}
-
-/// a . b of three coordinates, in order.
-#[inline(always)]
-pub(super) fn dot3<Sd: Simd>(a: &[Lanes<Sd>; 3], b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// |x|^2 with the four partial sums of `sdae_manifold::vector::dot`.
-#[inline(always)]
-fn sum_squares<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
-    let zero = x[0].splat_like(0.0);
-    let mut acc = [zero; 4];
-    let chunks = x.chunks_exact(4);
-    let mut tail = zero;
-    for xi in chunks.remainder() {
-        tail = tail + *xi * *xi;
-    }
-    for c in chunks {
-        for k in 0..4 {
-            acc[k] = acc[k] + c[k] * c[k];
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
-/// max_i |x_i| of finite entries (`sdae_manifold::vector::max_abs`).
-#[inline(always)]
-fn max_abs<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
-    let mut largest = x[0].splat_like(0.0);
-    for xi in x {
-        largest = largest.max(xi.abs());
-    }
-    largest
-}
-
-/// [`max_abs`] of x, and in the same pass the lanes where every entry of x is finite (their
-/// sum is finite; an overflowing sum of finite entries counts as not finite, which sends the
-/// lane to the scalar step).
-#[inline(always)]
-pub(super) fn max_abs_and_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> (Lanes<Sd>, LaneMask<Sd>) {
-    let mut largest = x[0].splat_like(0.0);
-    let mut sum = largest;
-    for xi in x {
-        largest = largest.max(xi.abs());
-        sum = sum + *xi;
-    }
-    (largest, sum.is_finite())
 }

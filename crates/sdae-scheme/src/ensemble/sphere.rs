@@ -10,6 +10,7 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::{Certificate, Method};
+use sdae_manifold::lane_form::offered_sphere;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot};
 use sdae_model::lanes::{Lanes, dot};
@@ -301,10 +302,11 @@ pub(crate) fn step_one_lane<S: System>(
     if !<S::Mass as Mass>::DIAGONAL {
         return None;
     }
-    let sphere = stepper.system().constraint().as_sphere()?;
+    let system = stepper.system();
+    let sphere = offered_sphere(system.constraint(), system.mass())?;
     match (sphere.dim(), dw.len() <= sphere.dim()) {
-        (2, true) => one_lane::<S, 2>(stepper, sphere, r, v, h, dw),
-        (3, true) => one_lane::<S, 3>(stepper, sphere, r, v, h, dw),
+        (2, true) => one_lane::<S, 2>(stepper, &sphere, r, v, h, dw),
+        (3, true) => one_lane::<S, 3>(stepper, &sphere, r, v, h, dw),
         _ => None,
     }
 }

@@ -1,18 +1,19 @@
 //! The bead chain's lane form ([`BeadChain`](sdae_manifold::BeadChain) with a diagonal mass:
-//! the chain molecule, the fiber) for the Newton step of `super::newton`: its formulas over W
+//! the chain molecule, the fiber) for the Newton step of an ensemble engine (`sdae_scheme::Ensemble`): its formulas over W
 //! lanes, with the floating-point operations of `BeadChain`'s methods in the same order, and
 //! Thomas' algorithm for its tridiagonal Newton matrix (`super::tridiagonal`).
 
+use crate::chain::BeadChain;
+use crate::constraint::Constraint;
+use crate::mass::Mass;
 use pulp::Simd;
-use sdae_manifold::{Constraint, Mass};
-use sdae_model::System;
-use sdae_model::lanes::{LaneMask, Lanes};
+use sdae_lanes::{LaneMask, Lanes};
 
-use super::newton::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, dot3};
 use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
+use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, dot3};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
-pub(super) struct ChainLanes {
+pub struct ChainLanes {
     beads: usize,
     segment: f64,
     inv_ds2: f64,
@@ -20,6 +21,19 @@ pub(super) struct ChainLanes {
 }
 
 impl ChainLanes {
+    /// The chain's lane form for a diagonal `mass`; `None` for another mass.
+    pub fn new<M: Mass>(chain: &BeadChain, mass: &M) -> Option<Self> {
+        if !M::DIAGONAL {
+            return None;
+        }
+        Some(Self {
+            beads: chain.beads(),
+            segment: chain.segment(),
+            inv_ds2: chain.inverse_segment_squared(),
+            inverse_mass: InverseMass::of(mass, chain.dim()),
+        })
+    }
+
     /// (M^-1)_kk a_k b_k summed over bead j's three coordinates, in the scalar order.
     #[inline(always)]
     fn weighted<Sd: Simd>(&self, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
@@ -69,22 +83,6 @@ impl ChainLanes {
 impl ConstraintLanes for ChainLanes {
     type Factor<Sd: Simd> = ThomasLanes<Sd>;
 
-    /// The chain of a system whose constraint is a [`BeadChain`](sdae_manifold::BeadChain) and
-    /// whose mass is diagonal.
-    fn for_system<S: System>(system: &S) -> Option<Self> {
-        let chain = system.constraint().as_bead_chain()?;
-        let mass = system.mass();
-        if !<S::Mass as Mass>::DIAGONAL {
-            return None;
-        }
-        Some(Self {
-            beads: chain.beads(),
-            segment: chain.segment(),
-            inv_ds2: chain.inverse_segment_squared(),
-            inverse_mass: InverseMass::of(mass, chain.dim()),
-        })
-    }
-
     fn dims(&self) -> (usize, usize) {
         (3 * self.beads, self.beads - 1)
     }
@@ -100,7 +98,7 @@ impl ConstraintLanes for ChainLanes {
     /// g(x1) and Dg(x1) M^-1 grad g(r), with e = segments of x1 and f = segments of r:
     /// g_i = 1/2 - |e_i|^2 / (2 ds^2) and the tridiagonal matrix scaled by 1 / ds^4
     /// (`BeadChain::value_and_cross_gram` for a diagonal mass). Each row is factored as soon
-    /// as it is formed ([`ThomasSweep::row`], forward substitution on g into `step`), with
+    /// as it is formed (`ThomasSweep::row`, forward substitution on g into `step`), with
     /// `max_abs_and_finite`'s reduction of g in its order, so g and the matrix are not read
     /// back (`values` is not used).
     #[inline(always)]

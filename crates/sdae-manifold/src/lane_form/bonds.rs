@@ -1,24 +1,26 @@
 //! The lane form of rigid bonds ([`RigidBonds`](sdae_manifold::RigidBonds) with a diagonal
 //! mass: the rigid triatomic, any bond network of up to `DENSE_FAER_THRESHOLD` bonds) for the
-//! Newton step of `super::newton`: g_b = 1/2 - |x_j - x_i|^2 / (2 L_b^2), the Newton matrix in
+//! Newton step of an ensemble engine: g_b = 1/2 - |x_j - x_i|^2 / (2 L_b^2), the Newton matrix in
 //! closed form from the bonds that meet at each atom, the displacement and Dg u over W lanes,
 //! with the floating-point operations of `RigidBonds`' methods (and of the default
 //! `Constraint::displace`) in the same order, and the dense LU factorization with partial
 //! pivoting of `super::dense`.
 
+use crate::bonds::{Bond, RigidBonds};
+use crate::constraint::Constraint;
+use crate::factor::DENSE_FAER_THRESHOLD;
+use crate::mass::Mass;
 use pulp::Simd;
-use sdae_manifold::{Bond, Constraint, DENSE_FAER_THRESHOLD, Mass};
-use sdae_model::System;
-use sdae_model::lanes::Lanes;
+use sdae_lanes::Lanes;
 
 use super::dense::{DenseLanes, LuLanes};
-use super::newton::{
+use super::{
     ConstraintLanes, Evaluation, FactorLanes, InverseMass, PointLanes, base_coords, dot3,
     max_abs_and_finite,
 };
 
 /// The bond network's constants for a diagonal mass.
-pub(super) struct BondLanes {
+pub struct BondLanes {
     atoms: usize,
     bonds: Vec<Bond>,
     /// 1 / L_b^2.
@@ -32,6 +34,29 @@ pub(super) struct BondLanes {
 }
 
 impl BondLanes {
+    /// The network's lane form for a diagonal `mass`, with at most `DENSE_FAER_THRESHOLD`
+    /// bonds (larger networks are factored by faer, path by path); `None` otherwise.
+    pub fn new<M: Mass>(network: &RigidBonds, mass: &M) -> Option<Self> {
+        if !M::DIAGONAL || network.n_constraints() > DENSE_FAER_THRESHOLD {
+            return None;
+        }
+        let mut start = vec![0];
+        let mut incidence = Vec::with_capacity(2 * network.n_constraints());
+        for atom in 0..network.atoms() {
+            incidence.extend_from_slice(network.incident(atom));
+            start.push(incidence.len());
+        }
+        Some(Self {
+            atoms: network.atoms(),
+            bonds: network.bonds().to_vec(),
+            inv_l2: network.inverse_lengths_squared().to_vec(),
+            start,
+            incidence,
+            shortest: network.shortest(),
+            inverse_mass: InverseMass::of(mass, network.dim()),
+        })
+    }
+
     /// The bonds at atom `atom` as (bond, sign).
     #[inline(always)]
     fn incident(&self, atom: usize) -> &[(usize, f64)] {
@@ -83,32 +108,6 @@ impl BondLanes {
 impl ConstraintLanes for BondLanes {
     type Factor<Sd: Simd> = LuLanes<Sd>;
 
-    /// The bonds of a system whose constraint is [`RigidBonds`](sdae_manifold::RigidBonds)
-    /// with at most `DENSE_FAER_THRESHOLD` bonds (larger networks are factored by faer, path
-    /// by path) and whose mass is diagonal.
-    fn for_system<S: System>(system: &S) -> Option<Self> {
-        let network = system.constraint().as_rigid_bonds()?;
-        let mass = system.mass();
-        if !<S::Mass as Mass>::DIAGONAL || network.n_constraints() > DENSE_FAER_THRESHOLD {
-            return None;
-        }
-        let mut start = vec![0];
-        let mut incidence = Vec::with_capacity(2 * network.n_constraints());
-        for atom in 0..network.atoms() {
-            incidence.extend_from_slice(network.incident(atom));
-            start.push(incidence.len());
-        }
-        Some(Self {
-            atoms: network.atoms(),
-            bonds: network.bonds().to_vec(),
-            inv_l2: network.inverse_lengths_squared().to_vec(),
-            start,
-            incidence,
-            shortest: network.shortest(),
-            inverse_mass: InverseMass::of(mass, network.dim()),
-        })
-    }
-
     fn dims(&self) -> (usize, usize) {
         (3 * self.atoms, self.bonds.len())
     }
@@ -121,7 +120,7 @@ impl ConstraintLanes for BondLanes {
         &self.inverse_mass
     }
 
-    /// g(x1) and the dense Newton matrix ([`BondLanes::value_and_cross_gram`]), then the
+    /// g(x1) and the dense Newton matrix (`BondLanes::value_and_cross_gram`), then the
     /// largest |g_b| and the LU factorization, each in a pass of its own.
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(

@@ -4,14 +4,14 @@
 //! rejects is reported, so that its step goes through the scalar path (which pivots).
 
 use pulp::Simd;
-use sdae_model::lanes::{LaneMask, Lanes};
+use sdae_lanes::{LaneMask, Lanes};
 
-use super::newton::{FactorLanes, MatrixLanes, RightHandSide};
+use super::{FactorLanes, MatrixLanes, RightHandSide};
 
 /// A tridiagonal matrix of order m in each lane: `lower[i] = A[i+1][i]`, `diag[i] = A[i][i]`,
 /// `upper[i] = A[i][i+1]`.
 #[derive(Debug, Clone)]
-pub(super) struct TridiagonalLanes<Sd: Simd> {
+pub struct TridiagonalLanes<Sd: Simd> {
     pub(super) lower: Vec<Lanes<Sd>>,
     pub(super) diag: Vec<Lanes<Sd>>,
     pub(super) upper: Vec<Lanes<Sd>>,
@@ -20,7 +20,7 @@ pub(super) struct TridiagonalLanes<Sd: Simd> {
 /// Thomas' factors of a [`TridiagonalLanes`]: the multipliers l_i / p_{i+1}, the inverse pivots
 /// 1 / p_i and u_i / p_i.
 #[derive(Debug, Clone)]
-pub(super) struct ThomasLanes<Sd: Simd> {
+pub struct ThomasLanes<Sd: Simd> {
     lower: Vec<Lanes<Sd>>,
     inverse_pivot: Vec<Lanes<Sd>>,
     upper: Vec<Lanes<Sd>>,
@@ -65,7 +65,7 @@ impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
     }
 
     /// Factors `a`, and with `rhs` = (b, out) runs the forward substitution in the same pass;
-    /// the lanes where every pivot passed ([`ThomasSweep::row`]).
+    /// the lanes where every pivot passed (`ThomasSweep::row`).
     #[inline(always)]
     fn factor(&mut self, a: &TridiagonalLanes<Sd>, mut rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd> {
         let m = a.diag.len();

@@ -6,15 +6,15 @@
 //! non-finite entry or a pivot the scalar factorization rejects (|p| <= `PIVOT_TOLERANCE` x
 //! max |A_ij|) is reported, so that its step goes through the scalar path.
 
+use crate::factor::PIVOT_TOLERANCE;
 use pulp::Simd;
-use sdae_manifold::PIVOT_TOLERANCE;
-use sdae_model::lanes::{LaneMask, Lanes};
+use sdae_lanes::{LaneMask, Lanes};
 
-use super::newton::{FactorLanes, MatrixLanes, RightHandSide, active_any};
+use super::{FactorLanes, MatrixLanes, RightHandSide, active_any};
 
 /// A dense matrix of order m in each lane, row-major.
 #[derive(Debug, Clone)]
-pub(super) struct DenseLanes<Sd: Simd> {
+pub struct DenseLanes<Sd: Simd> {
     order: usize,
     entries: Vec<Lanes<Sd>>,
 }
@@ -22,13 +22,13 @@ pub(super) struct DenseLanes<Sd: Simd> {
 impl<Sd: Simd> DenseLanes<Sd> {
     /// Entry (i, j).
     #[inline(always)]
-    pub(super) fn entry(&self, i: usize, j: usize) -> Lanes<Sd> {
+    pub fn entry(&self, i: usize, j: usize) -> Lanes<Sd> {
         self.entries[i * self.order + j]
     }
 
     /// Sets entry (i, j).
     #[inline(always)]
-    pub(super) fn set(&mut self, i: usize, j: usize, value: Lanes<Sd>) {
+    pub fn set(&mut self, i: usize, j: usize, value: Lanes<Sd>) {
         self.entries[i * self.order + j] = value;
     }
 }
@@ -58,7 +58,7 @@ impl<Sd: Simd> MatrixLanes<Sd> for DenseLanes<Sd> {
 /// The LU factors of a [`DenseLanes`] with partial pivoting: L (unit, below the diagonal) and
 /// U packed row-major, and the pivot row of each elimination step (as a lane value).
 #[derive(Debug, Clone)]
-pub(super) struct LuLanes<Sd: Simd> {
+pub struct LuLanes<Sd: Simd> {
     order: usize,
     lu: Vec<Lanes<Sd>>,
     perm: Vec<Lanes<Sd>>,
@@ -173,9 +173,9 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{DenseGram, Factorize, GramMatrix, Solve};
     use pulp::WithSimd;
-    use sdae_manifold::{DenseGram, Factorize, GramMatrix, Solve};
-    use sdae_model::lanes::LaneWidth;
+    use sdae_lanes::LaneWidth;
 
     /// Matrices of order `m`, one per lane, whose pivot rows differ from lane to lane (a
     /// permuted diagonally weak matrix, ties included) and one singular matrix (lane 2).

@@ -1,0 +1,320 @@
+//! A constraint's forms over SIMD lanes, for engines that step many paths at once.
+//!
+//! A constraint offers them through [`Constraint::lane_form`](crate::Constraint::lane_form):
+//! it hands a [`LaneFormVisitor`] either its [`Sphere`] (whose kappa system has a closed
+//! form) or a [`ConstraintLanes`], its formulas over lanes for the Newton iteration of the
+//! kappa system (seed eq. 3.1, upper part) and the velocity update (lower part). The default
+//! offers none, and an engine then steps the paths one at a time. Any crate can implement
+//! [`ConstraintLanes`] for its own constraint; the built-in ones are the bead chain's
+//! ([`ChainLanes`], with Thomas' algorithm for its tridiagonal Newton matrix) and rigid
+//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane).
+//!
+//! Each formula of a lane form must take the floating-point operations of the scalar
+//! [`Constraint`](crate::Constraint) method it names, in the same order: then a lane's numbers
+//! are the scalar step's, bit for bit, whatever the width.
+
+mod bonds;
+mod chain;
+mod dense;
+mod tridiagonal;
+
+use pulp::Simd;
+use sdae_lanes::{LaneMask, Lanes};
+
+use crate::mass::Mass;
+use crate::sphere::Sphere;
+
+pub use bonds::BondLanes;
+pub use chain::ChainLanes;
+pub use dense::{DenseLanes, LuLanes};
+pub use tridiagonal::{ThomasLanes, TridiagonalLanes};
+
+/// What a constraint offers an engine over lanes ([`Constraint::lane_form`](crate::Constraint::lane_form)):
+/// the engine implements the methods for the forms it can step, and a constraint calls the one
+/// that fits it. A form the engine does not step falls back to [`LaneFormVisitor::none`].
+pub trait LaneFormVisitor: Sized {
+    /// What the engine makes of the offer.
+    type Output;
+    /// No lane form: the paths step one at a time.
+    fn none(self) -> Self::Output;
+    /// The sphere |x|^2 = R^2, whose kappa system the engine solves in closed form.
+    fn sphere(self, sphere: &Sphere) -> Self::Output {
+        let _ = sphere;
+        self.none()
+    }
+    /// Formulas over lanes for the Newton iteration, built by `build` (called at most once,
+    /// when the engine has no lane form kept from an earlier step; `None`: no lane form for
+    /// this mass after all).
+    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
+        let _ = build;
+        self.none()
+    }
+}
+
+/// The sphere a constraint offers as its lane form ([`LaneFormVisitor::sphere`]), if it
+/// does: for engines that step only the sphere's closed form.
+pub fn offered_sphere<C: crate::Constraint + ?Sized, M: Mass>(
+    constraint: &C,
+    mass: &M,
+) -> Option<Sphere> {
+    constraint.lane_form(mass, OfferedSphere)
+}
+
+/// The visitor of [`offered_sphere`].
+struct OfferedSphere;
+
+impl LaneFormVisitor for OfferedSphere {
+    type Output = Option<Sphere>;
+    fn none(self) -> Option<Sphere> {
+        None
+    }
+    fn sphere(self, sphere: &Sphere) -> Option<Sphere> {
+        Some(*sphere)
+    }
+}
+
+/// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
+pub type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
+
+/// An m x m matrix of W lanes (the Newton matrix Dg(x) M^-1 grad g(r)).
+pub trait MatrixLanes<Sd: Simd>: Send + Sync + 'static {
+    /// Zeros of order m >= 1.
+    fn zeros(simd: Sd, m: usize) -> Self;
+    /// out = A x, with the scalar storage's `GramMatrix::mul_vec` operations.
+    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
+}
+
+/// The factorization of a [`MatrixLanes`], with the scalar factorization's operations.
+pub trait FactorLanes<Sd: Simd>: Send + Sync + 'static {
+    /// The matrix it factors.
+    type Matrix: MatrixLanes<Sd>;
+    /// Storage for the factors of order m >= 1.
+    fn zeros(simd: Sd, m: usize) -> Self;
+    /// Factors `a`, and with `rhs` = (b, out) runs the first half of the solve A out = b into
+    /// `out` ([`FactorLanes::back_substitute`] finishes it); the lanes whose factorization the
+    /// scalar one would accept (the others go through the scalar step).
+    fn factor(&mut self, a: &Self::Matrix, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd>;
+    /// The first half of b <- A^-1 b (the forward substitution).
+    fn forward_in_place(&self, b: &mut [Lanes<Sd>]);
+    /// The second half of a solve whose first half [`FactorLanes::factor`] or
+    /// [`FactorLanes::forward_in_place`] ran.
+    fn back_substitute(&self, out: &mut [Lanes<Sd>]);
+    /// b <- A^-1 b.
+    #[inline(always)]
+    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
+        self.forward_in_place(b);
+        self.back_substitute(b);
+    }
+}
+
+/// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
+/// operations of the scalar [`Constraint`](crate::Constraint) method it names: the Newton
+/// step of an ensemble engine is written once over them.
+pub trait ConstraintLanes: Send + Sync + Sized + 'static {
+    /// The factorization of the Newton matrix.
+    type Factor<Sd: Simd>: FactorLanes<Sd>;
+    /// (n, m).
+    fn dims(&self) -> (usize, usize);
+    /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
+    fn roundoff_length(&self) -> f64;
+    /// M^-1.
+    fn inverse_mass(&self) -> &InverseMass;
+    /// One evaluation of the kappa system at `points` = (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
+    /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
+    /// factored into `factor` with the first half of J^-1 g(x1) into `step`
+    /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
+    /// factorization runs row by row does it all in one pass over the rows.
+    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self,
+        points: (&P, &[Lanes<Sd>]),
+        values: &mut [Lanes<Sd>],
+        jacobian: &mut Jacobian<Sd, Self>,
+        factor: &mut Self::Factor<Sd>,
+        step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd>;
+    /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
+    /// half ([`FactorLanes::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
+    /// default takes three passes; a constraint can fuse them.
+    #[inline(always)]
+    fn velocity_right_hand_side<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
+        factor: &Self::Factor<Sd>,
+        out: &mut [Lanes<Sd>],
+    ) {
+        let inverse_mass = self.inverse_mass();
+        for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
+            *f = inverse_mass.apply(k, *f) + *vi;
+        }
+        self.negated_jacobian_mul(x, force, out);
+        factor.forward_in_place(out);
+    }
+    /// out = base + M^-1 grad g(r) z (`Constraint::displace`); without a base, out is its own
+    /// (out <- out + M^-1 grad g(r) z, each entry of out read before it is written).
+    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self,
+        r: &[Lanes<Sd>],
+        z: &[Lanes<Sd>],
+        base: Option<&P>,
+        out: &mut [Lanes<Sd>],
+    );
+    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`ConstraintLanes::displace`]
+    /// without a base), then the lanes whose v_{k+1} the scalar step finds finite (|v_{k+1}|^2
+    /// finite; a constraint may report fewer lanes, which then step through the scalar
+    /// stepper) and, if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in `scratch`, m rows). The
+    /// default takes three passes; a constraint can fuse them.
+    #[inline(always)]
+    fn finish_velocity<Sd: Simd>(
+        &self,
+        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        (x, monitor): (&[Lanes<Sd>], bool),
+        v: &mut [Lanes<Sd>],
+        scratch: &mut [Lanes<Sd>],
+    ) -> (LaneMask<Sd>, Lanes<Sd>) {
+        self.displace(r, lambda, None::<&[Lanes<Sd>]>, v);
+        let finite = sum_squares(v).is_finite();
+        if !monitor {
+            return (finite, v[0].splat_like(0.0));
+        }
+        // max_i |-(Dg(x) v)_i| = max_i |(Dg(x) v)_i|.
+        self.negated_jacobian_mul(x, v, scratch);
+        (finite, max_abs(scratch))
+    }
+    /// out = -Dg(x) u, the negation of `Constraint::jacobian_mul` (bit for bit: negation is
+    /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of its
+    /// own.
+    fn negated_jacobian_mul<Sd: Simd>(
+        &self,
+        x: &[Lanes<Sd>],
+        u: &[Lanes<Sd>],
+        out: &mut [Lanes<Sd>],
+    );
+    /// The local measure of the motion (`Constraint::local_motion`).
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
+}
+
+/// A diagonal M^-1 applied to lanes: x (M^-1)_kk, or x itself where M^-1 = I (every entry 1:
+/// x * 1 = x exactly, so leaving out the products changes no bit of the scalar step's).
+pub struct InverseMass {
+    entries: Vec<f64>,
+    unit: bool,
+}
+
+impl InverseMass {
+    /// The diagonal (M^-1)_kk of `mass`, k < n.
+    pub fn of<M: Mass>(mass: &M, n: usize) -> Self {
+        let entries: Vec<f64> = (0..n)
+            .map(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0))
+            .collect();
+        let unit = entries.iter().all(|&w| w == 1.0);
+        Self { entries, unit }
+    }
+
+    /// Whether M^-1 = I.
+    #[inline(always)]
+    pub fn is_unit(&self) -> bool {
+        self.unit
+    }
+
+    /// x (M^-1)_kk.
+    #[inline(always)]
+    pub fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
+        if self.unit { x } else { x * self.entries[k] }
+    }
+}
+
+/// A point of W lanes read by coordinate: stored (a slice of lanes) or formed where it is read
+/// (the drifted point y = r + eta h v of an engine).
+pub trait PointLanes<Sd: Simd> {
+    /// Coordinates k..k + N.
+    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N];
+}
+
+impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
+    #[inline(always)]
+    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
+        *self[k..]
+            .first_chunk::<N>()
+            .expect("the point has coordinates k..k + N")
+    }
+}
+
+/// Coordinates k..k + N of a displacement's base ([`ConstraintLanes::displace`]), or of `out`
+/// where it is its own base.
+#[inline(always)]
+pub fn base_coords<Sd: Simd, P: PointLanes<Sd> + ?Sized, const N: usize>(
+    base: Option<&P>,
+    out: &[Lanes<Sd>],
+    k: usize,
+) -> [Lanes<Sd>; N] {
+    match base {
+        Some(base) => base.coords::<N>(k),
+        None => out.coords::<N>(k),
+    }
+}
+
+/// What [`ConstraintLanes::evaluate_and_factor`] found, per lane.
+pub struct Evaluation<Sd: Simd> {
+    /// max_i |g_i(x1)|.
+    pub largest: Lanes<Sd>,
+    /// The lanes where g(x1) is finite and the factorization passed.
+    pub ok: LaneMask<Sd>,
+}
+
+/// The Newton matrix of constraint C over lanes of Sd.
+pub type Jacobian<Sd, C> = <<C as ConstraintLanes>::Factor<Sd> as FactorLanes<Sd>>::Matrix;
+
+/// Whether any lane of `mask` holds.
+#[inline(always)]
+pub fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
+    !(!mask).all()
+}
+
+/// a . b of three coordinates, in order.
+#[inline(always)]
+pub fn dot3<Sd: Simd>(a: &[Lanes<Sd>; 3], b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// |x|^2 with the four partial sums of `sdae_manifold::vector::dot`.
+#[inline(always)]
+pub fn sum_squares<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
+    let zero = x[0].splat_like(0.0);
+    let mut acc = [zero; 4];
+    let chunks = x.chunks_exact(4);
+    let mut tail = zero;
+    for xi in chunks.remainder() {
+        tail = tail + *xi * *xi;
+    }
+    for c in chunks {
+        for k in 0..4 {
+            acc[k] = acc[k] + c[k] * c[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// max_i |x_i| of finite entries (`sdae_manifold::vector::max_abs`).
+#[inline(always)]
+pub fn max_abs<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
+    let mut largest = x[0].splat_like(0.0);
+    for xi in x {
+        largest = largest.max(xi.abs());
+    }
+    largest
+}
+
+/// [`max_abs`] of x, and in the same pass the lanes where every entry of x is finite (their
+/// sum is finite; an overflowing sum of finite entries counts as not finite, which sends the
+/// lane to the scalar step).
+#[inline(always)]
+pub fn max_abs_and_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> (Lanes<Sd>, LaneMask<Sd>) {
+    let mut largest = x[0].splat_like(0.0);
+    let mut sum = largest;
+    for xi in x {
+        largest = largest.max(xi.abs());
+        sum = sum + *xi;
+    }
+    (largest, sum.is_finite())
+}

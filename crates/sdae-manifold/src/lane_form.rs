@@ -7,7 +7,9 @@
 //! offers none, and an engine then steps the paths one at a time. Any crate can implement
 //! [`ConstraintLanes`] for its own constraint; the built-in ones are the bead chain's
 //! ([`ChainLanes`], with Thomas' algorithm for its tridiagonal Newton matrix) and rigid
-//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane).
+//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane). A
+//! constraint with one equation can take [`ScalarLanes`] and [`ReciprocalLanes`] for its Newton
+//! matrix (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus).
 //!
 //! Each formula of a lane form must take the floating-point operations of the scalar
 //! [`Constraint`](crate::Constraint) method it names, in the same order: then a lane's numbers
@@ -16,6 +18,7 @@
 mod bonds;
 mod chain;
 mod dense;
+mod scalar;
 mod tridiagonal;
 
 use pulp::Simd;
@@ -27,6 +30,7 @@ use crate::sphere::Sphere;
 pub use bonds::BondLanes;
 pub use chain::ChainLanes;
 pub use dense::{DenseLanes, LuLanes};
+pub use scalar::{ReciprocalLanes, ScalarLanes};
 pub use tridiagonal::{ThomasLanes, TridiagonalLanes};
 
 /// What a constraint offers an engine over lanes ([`Constraint::lane_form`](crate::Constraint::lane_form)):
@@ -190,8 +194,12 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
         u: &[Lanes<Sd>],
         out: &mut [Lanes<Sd>],
     );
-    /// The local measure of the motion (`Constraint::local_motion`).
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd>;
+    /// The local measure of the motion (`Constraint::local_motion`); `None` (the default)
+    /// where that is `None`, and the engine takes the seed's measure.
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
+        let _ = (v, a);
+        None
+    }
 }
 
 /// A diagonal M^-1 applied to lanes: x (M^-1)_kk, or x itself where M^-1 = I (every entry 1:

@@ -29,14 +29,16 @@ use crate::stepper::Stepper;
 /// built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
 /// lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
 /// root outside the ball or not contracting, a non-finite value) finishes its step through the
-/// scalar [`Stepper`], which reports the failure exactly as for one path. For a bead chain
-/// ([`BeadChain`](sdae_manifold::BeadChain): the chain molecule, the fiber) and for rigid
-/// bonds ([`RigidBonds`](sdae_manifold::RigidBonds) of up to
+/// scalar [`Stepper`], which reports the failure exactly as for one path. For a constraint
+/// that offers its formulas over lanes ([`Constraint::lane_form`] with a
+/// [`ConstraintLanes`]: a bead chain ([`BeadChain`](sdae_manifold::BeadChain): the chain
+/// molecule, the fiber), rigid bonds ([`RigidBonds`](sdae_manifold::RigidBonds) of up to
 /// [`DENSE_FAER_THRESHOLD`](sdae_manifold::DENSE_FAER_THRESHOLD) bonds: the rigid triatomic,
-/// any bond network) with a diagonal mass the step is Newton for kappa with a convergence mask
-/// per lane and the solver's certificate, written once for both, over lanes of any length:
+/// any bond network), or a user's constraint, as in `examples/custom_constraint.rs`) with a
+/// diagonal mass the step is Newton for kappa with a convergence mask per lane and the
+/// solver's certificate, written once for all of them, over lanes of any length:
 /// Thomas' algorithm for the chain's tridiagonal Newton matrix, an LU factorization with
-/// partial pivoting per lane for the bonds' dense one (the fiber's and the Langevin molecules'
+/// partial pivoting per lane for the bonds' dense one, 1 / A for one equation (the fiber's and the Langevin molecules'
 /// forces and noise have lane forms too). A lane Newton does not decide (no convergence, a
 /// pivot the factorization rejects, a root the certificate rejects, a non-finite value)
 /// finishes its step through the scalar [`Stepper`], with its homotopy fallback. A decided

@@ -186,7 +186,7 @@ impl ConstraintLanes for BondLanes {
     /// max(w, w^2, alpha) with w = max_b |v_j - v_i| / L_b and alpha = max_i |a_i| / (the
     /// shortest bond) (`RigidBonds::local_motion`).
     #[inline(always)]
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd> {
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
         let zero = v[0].splat_like(0.0);
         let mut w = zero;
         for (bond, s) in self.bonds.iter().zip(&self.inv_l2) {
@@ -197,7 +197,7 @@ impl ConstraintLanes for BondLanes {
         for f in a.chunks_exact(3) {
             a2 = a2.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
         }
-        w.max(w * w).max(a2.sqrt() / self.shortest)
+        Some(w.max(w * w).max(a2.sqrt() / self.shortest))
     }
 }
 

@@ -280,7 +280,7 @@ impl ConstraintLanes for ChainLanes {
     /// The chain's local measure of the motion (`BeadChain::local_motion`): w = max_i |v_{i+1}
     /// - v_i| / ds, alpha = max_j |a_j| / ds, max(w, w^2, alpha).
     #[inline(always)]
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Lanes<Sd> {
+    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
         let zero = v[0].splat_like(0.0);
         let mut w2 = zero;
         for i in 0..self.beads - 1 {
@@ -292,7 +292,7 @@ impl ConstraintLanes for ChainLanes {
             a2 = a2.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
         }
         let w = w2.sqrt() / self.segment;
-        w.max(w * w).max(a2.sqrt() / self.segment)
+        Some(w.max(w * w).max(a2.sqrt() / self.segment))
     }
 }
 

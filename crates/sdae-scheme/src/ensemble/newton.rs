@@ -293,12 +293,15 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         match config.c_eta {
             None => one,
             Some(c_eta) => {
-                let motion = if config.local_size {
+                let local = if config.local_size {
                     self.constraint.local_motion(v, a)
                 } else {
+                    None
+                };
+                let motion = local.unwrap_or_else(|| {
                     let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
                     speed.max(speed * speed).max(force)
-                };
+                });
                 let size = motion * self.h;
                 let c = self.splat(c_eta);
                 Lanes::select(c.lt(size), c / size, one)

@@ -55,28 +55,6 @@ pub trait LaneFormVisitor: Sized {
     }
 }
 
-/// The sphere a constraint offers as its lane form ([`LaneFormVisitor::sphere`]), if it
-/// does: for engines that step only the sphere's closed form.
-pub fn offered_sphere<C: crate::Constraint + ?Sized, M: Mass>(
-    constraint: &C,
-    mass: &M,
-) -> Option<Sphere> {
-    constraint.lane_form(mass, OfferedSphere)
-}
-
-/// The visitor of [`offered_sphere`].
-struct OfferedSphere;
-
-impl LaneFormVisitor for OfferedSphere {
-    type Output = Option<Sphere>;
-    fn none(self) -> Option<Sphere> {
-        None
-    }
-    fn sphere(self, sphere: &Sphere) -> Option<Sphere> {
-        Some(*sphere)
-    }
-}
-
 /// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
 pub type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
 

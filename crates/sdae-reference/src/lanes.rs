@@ -13,9 +13,11 @@
 //!
 //! [`InherentSde`]: crate::InherentSde
 
+use std::marker::PhantomData;
+
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
-use sdae_manifold::lane_form::offered_sphere;
+use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
@@ -79,22 +81,47 @@ fn step_lanes<Sch: Scheme>(
     width: LaneWidth,
     (h, dw): (f64, &[f64]),
 ) -> bool {
-    let system = scheme.system();
-    let Some(sphere) = offered_sphere(system.constraint(), system.mass()) else {
-        return false;
-    };
-    let diagonal = <<Sch::System as System>::Mass as Mass>::DIAGONAL;
-    if !diagonal || sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
+    if !<<Sch::System as System>::Mass as Mass>::DIAGONAL {
         return false;
     }
-    width.dispatch(StepAll {
-        scheme,
-        method,
-        paths,
-        sphere,
-        h,
-        dw,
-    })
+    let system = scheme.system();
+    let choice = system
+        .constraint()
+        .lane_form(system.mass(), SphereOnly(PhantomData));
+    let Some((sphere, step_all)) = choice else {
+        return false;
+    };
+    if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
+        return false;
+    }
+    step_all(
+        StepAll {
+            scheme,
+            method,
+            paths,
+            sphere,
+            h,
+            dw,
+        },
+        width,
+    )
+}
+
+/// Takes the sphere a constraint offers ([`LaneFormVisitor::sphere`]) with the lanes' step
+/// for it, so that the step is compiled only for systems on a sphere.
+struct SphereOnly<Sch>(PhantomData<Sch>);
+
+/// [`StepAll`] at the instruction set of a width.
+type SphereStep<'a, Sch> = fn(StepAll<'a, Sch>, LaneWidth) -> bool;
+
+impl<'a, Sch: Scheme> LaneFormVisitor for SphereOnly<&'a mut Sch> {
+    type Output = Option<(Sphere, SphereStep<'a, Sch>)>;
+    fn none(self) -> Self::Output {
+        None
+    }
+    fn sphere(self, sphere: &Sphere) -> Self::Output {
+        Some((*sphere, |step, width| width.dispatch(step)))
+    }
 }
 
 /// One step of every path.

@@ -117,30 +117,24 @@ impl<S: System> LaneScheme for Stepper<S> {
         match choice {
             None => false,
             Some(LaneKernelChoice::Newton(step_all)) => step_all(self, paths, width, (h, dw)),
-            Some(LaneKernelChoice::Sphere(sphere)) => {
-                // The lanes hold at most MAX_DIM coordinates and as many noise components.
-                if sphere.dim() > sphere::MAX_DIM || paths.noise_dim() > sphere.dim() {
-                    return false;
-                }
-                width.dispatch(sphere::StepAll {
-                    stepper: self,
-                    paths,
-                    sphere,
-                    h,
-                    dw,
-                })
+            Some(LaneKernelChoice::Sphere(sphere, step_all)) => {
+                step_all(self, paths, width, sphere, (h, dw))
             }
         }
     }
 }
 
-/// The lanes' step that a constraint's lane form chose.
+/// The lanes' step that a constraint's lane form chose, as a function compiled only for the
+/// constraints that offer it.
 enum LaneKernelChoice<S: System> {
-    /// The sphere's closed form.
-    Sphere(Sphere),
+    /// The sphere's closed form ([`sphere::step_all`]).
+    Sphere(Sphere, SphereStep<S>),
     /// Newton with the constraint's formulas over lanes ([`newton::step_all`] for them).
     Newton(NewtonStep<S>),
 }
+
+/// [`sphere::step_all`].
+type SphereStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, Sphere, (f64, &[f64])) -> bool;
 
 /// [`newton::step_all`] for one constraint's lane form.
 type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, (f64, &[f64])) -> bool;
@@ -155,7 +149,7 @@ impl<S: System> LaneFormVisitor for ChooseKernel<S> {
         None
     }
     fn sphere(self, sphere: &Sphere) -> Self::Output {
-        Some(LaneKernelChoice::Sphere(*sphere))
+        Some(LaneKernelChoice::Sphere(*sphere, sphere::step_all::<S>))
     }
     fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
         let _ = build;

@@ -10,25 +10,47 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::{Certificate, Method};
-use sdae_manifold::lane_form::offered_sphere;
+use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot};
-use sdae_model::lanes::{Lanes, dot};
+use sdae_model::lanes::{LaneWidth, Lanes, dot};
 use sdae_model::{Scheme, StepOutcome, System};
 
 use super::newton::kappa_ratio;
 use crate::stepper::Stepper;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
-pub(super) const MAX_DIM: usize = 3;
+const MAX_DIM: usize = 3;
 
-/// One step of every path of an ensemble whose constraint is `sphere`.
-pub(super) struct StepAll<'a, S: System> {
-    pub(super) stepper: &'a mut Stepper<S>,
-    pub(super) paths: &'a mut LanePaths,
-    pub(super) sphere: Sphere,
-    pub(super) h: f64,
-    pub(super) dw: &'a [f64],
+/// One step of every path of an ensemble whose constraint is `sphere`; `false` where the
+/// lanes do not apply (more than [`MAX_DIM`] coordinates, or more noise components than
+/// coordinates).
+pub(super) fn step_all<S: System>(
+    stepper: &mut Stepper<S>,
+    paths: &mut LanePaths,
+    width: LaneWidth,
+    sphere: Sphere,
+    (h, dw): (f64, &[f64]),
+) -> bool {
+    if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
+        return false;
+    }
+    width.dispatch(StepAll {
+        stepper,
+        paths,
+        sphere,
+        h,
+        dw,
+    })
+}
+
+/// [`step_all`] at one instruction set.
+struct StepAll<'a, S: System> {
+    stepper: &'a mut Stepper<S>,
+    paths: &'a mut LanePaths,
+    sphere: Sphere,
+    h: f64,
+    dw: &'a [f64],
 }
 
 impl<S: System> WithSimd for StepAll<'_, S> {
@@ -303,11 +325,45 @@ pub(crate) fn step_one_lane<S: System>(
         return None;
     }
     let system = stepper.system();
-    let sphere = offered_sphere(system.constraint(), system.mass())?;
-    match (sphere.dim(), dw.len() <= sphere.dim()) {
-        (2, true) => one_lane::<S, 2>(stepper, &sphere, r, v, h, dw),
-        (3, true) => one_lane::<S, 3>(stepper, &sphere, r, v, h, dw),
-        _ => None,
+    let step = OneLaneStep {
+        stepper,
+        r,
+        v,
+        h,
+        dw,
+    };
+    system.constraint().lane_form(system.mass(), step)
+}
+
+/// [`step_one_lane`] where the constraint offers its sphere ([`LaneFormVisitor::sphere`]): the
+/// closed form is compiled only for constraints that offer it.
+struct OneLaneStep<'a, S: System> {
+    stepper: &'a Stepper<S>,
+    r: &'a mut [f64],
+    v: &'a mut [f64],
+    h: f64,
+    dw: &'a [f64],
+}
+
+impl<S: System> LaneFormVisitor for OneLaneStep<'_, S> {
+    type Output = Option<OneLane>;
+    fn none(self) -> Option<OneLane> {
+        None
+    }
+    #[inline(always)]
+    fn sphere(self, sphere: &Sphere) -> Option<OneLane> {
+        let Self {
+            stepper,
+            r,
+            v,
+            h,
+            dw,
+        } = self;
+        match (sphere.dim(), dw.len() <= sphere.dim()) {
+            (2, true) => one_lane::<S, 2>(stepper, sphere, r, v, h, dw),
+            (3, true) => one_lane::<S, 3>(stepper, sphere, r, v, h, dw),
+            _ => None,
+        }
     }
 }
 

@@ -8,6 +8,9 @@
 //! - Built-in manifolds: [`Sphere`] (the pendulum of Section 5.1) and [`BeadChain`] (the
 //!   inextensible fiber of Section 5.3); [`ClosureConstraint`] for anything else.
 //! - [`check_state`]: is (r, v) on the tangent bundle?
+//! - [`lane_form`]: a constraint's formulas over SIMD lanes, offered to an ensemble engine
+//!   through [`Constraint::lane_form`] (built in for [`BeadChain`] and [`RigidBonds`]; open to
+//!   any constraint).
 //!
 //! ```
 //! use sdae_manifold::{BeadChain, Constraint, IdentityMass, TheoryBound, check_state};

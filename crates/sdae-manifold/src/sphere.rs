@@ -153,6 +153,7 @@ impl Constraint for Sphere {
         self.roundoff(max_abs_x)
     }
     /// The closed form of the kappa system ([`LaneFormVisitor::sphere`]).
+    #[inline(always)]
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         let _ = mass;
         visitor.sphere(self)

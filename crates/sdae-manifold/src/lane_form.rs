@@ -101,14 +101,15 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     fn roundoff_length(&self) -> f64;
     /// M^-1.
     fn inverse_mass(&self) -> &InverseMass;
-    /// One evaluation of the kappa system at `points` = (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
+    /// One evaluation of the kappa system at (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
     /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
     /// factored into `factor` with the first half of J^-1 g(x1) into `step`
     /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
     /// factorization runs row by row does it all in one pass over the rows.
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        points: (&P, &[Lanes<Sd>]),
+        x1: &P,
+        r: &[Lanes<Sd>],
         values: &mut [Lanes<Sd>],
         jacobian: &mut Jacobian<Sd, Self>,
         factor: &mut Self::Factor<Sd>,
@@ -121,7 +122,8 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     fn velocity_right_hand_side<Sd: Simd>(
         &self,
         x: &[Lanes<Sd>],
-        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
+        force: &mut [Lanes<Sd>],
+        v: &[Lanes<Sd>],
         factor: &Self::Factor<Sd>,
         out: &mut [Lanes<Sd>],
     ) {
@@ -149,8 +151,10 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
         &self,
-        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
-        (x, monitor): (&[Lanes<Sd>], bool),
+        r: &[Lanes<Sd>],
+        lambda: &[Lanes<Sd>],
+        x: &[Lanes<Sd>],
+        monitor: bool,
         v: &mut [Lanes<Sd>],
         scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {

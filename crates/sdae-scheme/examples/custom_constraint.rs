@@ -159,7 +159,8 @@ impl ConstraintLanes for TorusLanes {
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        (x1, r): (&P, &[Lanes<Sd>]),
+        x1: &P,
+        r: &[Lanes<Sd>],
         values: &mut [Lanes<Sd>],
         jacobian: &mut ScalarLanes<Sd>,
         factor: &mut ReciprocalLanes<Sd>,

@@ -125,7 +125,8 @@ impl ConstraintLanes for BondLanes {
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        (x1, r): (&P, &[Lanes<Sd>]),
+        x1: &P,
+        r: &[Lanes<Sd>],
         values: &mut [Lanes<Sd>],
         jacobian: &mut DenseLanes<Sd>,
         factor: &mut LuLanes<Sd>,

@@ -104,7 +104,8 @@ impl ConstraintLanes for ChainLanes {
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self,
-        (x1, r): (&P, &[Lanes<Sd>]),
+        x1: &P,
+        r: &[Lanes<Sd>],
         _values: &mut [Lanes<Sd>],
         jacobian: &mut TridiagonalLanes<Sd>,
         factor: &mut ThomasLanes<Sd>,
@@ -153,7 +154,8 @@ impl ConstraintLanes for ChainLanes {
     fn velocity_right_hand_side<Sd: Simd>(
         &self,
         x: &[Lanes<Sd>],
-        (force, v): (&mut [Lanes<Sd>], &[Lanes<Sd>]),
+        force: &mut [Lanes<Sd>],
+        v: &[Lanes<Sd>],
         factor: &ThomasLanes<Sd>,
         out: &mut [Lanes<Sd>],
     ) {
@@ -222,8 +224,10 @@ impl ConstraintLanes for ChainLanes {
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
         &self,
-        (r, lambda): (&[Lanes<Sd>], &[Lanes<Sd>]),
-        (x, monitor): (&[Lanes<Sd>], bool),
+        r: &[Lanes<Sd>],
+        lambda: &[Lanes<Sd>],
+        x: &[Lanes<Sd>],
+        monitor: bool,
         v: &mut [Lanes<Sd>],
         _scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {

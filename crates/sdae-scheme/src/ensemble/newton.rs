@@ -221,7 +221,8 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             self.constraint
                 .displace(r, &self.gamma, Some(y), &mut self.x);
             let at_x = self.constraint.evaluate_and_factor(
-                (&self.x[..], r),
+                &self.x[..],
+                r,
                 &mut self.residual,
                 &mut self.jacobian,
                 &mut self.factor,
@@ -270,7 +271,8 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         step: &mut [Lanes<Sd>],
     ) -> (Evaluation<Sd>, Lanes<Sd>) {
         let at_y = self.constraint.evaluate_and_factor(
-            (y, y.r),
+            y,
+            y.r,
             &mut self.residual,
             &mut self.jacobian,
             &mut self.factor_at_zero,
@@ -421,13 +423,15 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             &self.factor_at_zero
         };
         self.constraint
-            .velocity_right_hand_side(&self.x, (force, v), factor, dmu);
+            .velocity_right_hand_side(&self.x, force, v, factor, dmu);
         factor.back_substitute(dmu);
         // v' = v~ + M^-1 grad g(r) lambda in place of v~, and max_i |(Dg(r') v')_i| (gamma's
         // rows are free until the next step's Newton iteration sets them).
         let (finite, velocity_residual) = self.constraint.finish_velocity(
-            (r, dmu),
-            (&self.x, config.monitor_velocity_constraint),
+            r,
+            dmu,
+            &self.x,
+            config.monitor_velocity_constraint,
             force,
             &mut self.gamma,
         );

@@ -305,6 +305,11 @@ pub trait Real:
     fn splat_like(self, x: f64) -> Self;
     /// The square root.
     fn sqrt(self) -> Self;
+    /// The absolute value.
+    fn abs(self) -> Self;
+    /// The larger of `self` and `other` (of a NaN and a number: as `f64::max` for `f64`, the
+    /// instruction set's choice for lanes).
+    fn max(self, other: Self) -> Self;
     /// `self == other` per path.
     fn equal(self, other: Self) -> Self::Mask;
     /// a or b per path.
@@ -326,6 +331,14 @@ impl Real for f64 {
     #[inline(always)]
     fn sqrt(self) -> Self {
         f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        f64::max(self, other)
     }
     #[inline(always)]
     fn equal(self, other: Self) -> bool {
@@ -358,6 +371,14 @@ impl<S: Simd> Real for Lanes<S> {
     #[inline(always)]
     fn sqrt(self) -> Self {
         Lanes::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Lanes::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        Lanes::max(self, other)
     }
     #[inline(always)]
     fn equal(self, other: Self) -> LaneMask<S> {

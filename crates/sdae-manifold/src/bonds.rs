@@ -6,6 +6,8 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::{DenseGram, GramMatrix};
 use crate::lane_form::{BondLanes, LaneFormVisitor};
 use crate::mass::Mass;
+use crate::vector::{dot3, max_norm3_squared};
+use sdae_lanes::Real;
 
 /// One bond: atoms `i` and `j` are held at distance `length`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,15 +53,46 @@ pub struct RigidBonds {
     shortest: f64,
 }
 
+/// d_b = x_j - x_i of bond b = (i, j), for one path or for lanes.
 #[inline(always)]
-fn bond_vector(x: &[f64], bond: &Bond) -> [f64; 3] {
+fn bond_vector<T: Real>(x: &[T], bond: &Bond) -> [T; 3] {
     let (a, b) = (3 * bond.i, 3 * bond.j);
     [x[b] - x[a], x[b + 1] - x[a + 1], x[b + 2] - x[a + 2]]
 }
 
+/// out_b = sign d_b(x).(u_j - u_i) / L_b^2: with sign = 1 the rows of -Dg(x) u, with sign = -1
+/// those of Dg(x) u (and of D^2 g(u, w) for x = u, u = w, g being quadratic).
 #[inline(always)]
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+pub(crate) fn bond_rates<T: Real>(
+    bonds: &[Bond],
+    inv_l2: &[f64],
+    x: &[T],
+    u: &[T],
+    sign: f64,
+    out: &mut [T],
+) {
+    for ((o, bond), s) in out.iter_mut().zip(bonds).zip(inv_l2) {
+        *o = dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * (sign * s);
+    }
+}
+
+/// The network's local measure of the motion (`Constraint::local_motion`): max(w, w^2, alpha)
+/// with w = max_b |v_j - v_i| / L_b and alpha = max_i |a_i| / (the shortest bond), for one
+/// path or for lanes.
+#[inline(always)]
+pub(crate) fn bonds_motion<T: Real>(
+    bonds: &[Bond],
+    inv_l2: &[f64],
+    shortest: f64,
+    v: &[T],
+    a: &[T],
+) -> T {
+    let mut w = v[0].splat_like(0.0);
+    for (bond, s) in bonds.iter().zip(inv_l2) {
+        let d = bond_vector(v, bond);
+        w = w.max((dot3(&d, &d) * *s).sqrt());
+    }
+    w.max(w * w).max(max_norm3_squared(a).sqrt() / shortest)
 }
 
 impl RigidBonds {
@@ -229,14 +262,12 @@ impl Constraint for RigidBonds {
     fn value(&self, x: &[f64], out: &mut [f64]) {
         for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x, bond);
-            *o = 0.5 - 0.5 * dot3(d, d) * s;
+            *o = 0.5 - 0.5 * dot3(&d, &d) * s;
         }
     }
     /// (Dg(x) u)_b = -d_b.(u_j - u_i) / L_b^2 with d_b = x_j - x_i.
     fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            *o = -dot3(bond_vector(x, bond), bond_vector(u, bond)) * s;
-        }
+        bond_rates(&self.bonds, &self.inv_l2, x, u, -1.0, out);
     }
     /// (grad g(x) z)_a = sum over bonds b at atom a of sign z_b d_b / L_b^2.
     fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
@@ -279,7 +310,7 @@ impl Constraint for RigidBonds {
                 let wa = [da[0] * w[0], da[1] * w[1], da[2] * w[2]];
                 for &(b, sb) in self.incident(c) {
                     let db = bond_vector(x2, &self.bonds[b]);
-                    let term = sa * sb * dot3(wa, db) * self.inv_l2[a] * self.inv_l2[b];
+                    let term = sa * sb * dot3(&wa, &db) * self.inv_l2[a] * self.inv_l2[b];
                     out.set(a, b, out.entry(a, b) + term);
                 }
             }
@@ -289,20 +320,7 @@ impl Constraint for RigidBonds {
     /// few ulps of |x|, relative to the shortest bond (as for [`BeadChain`](crate::BeadChain)).
     /// w = max_b |v_j - v_i| / L_b over the bonds, alpha = max_i |a_i| / (shortest bond).
     fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        let w = self
-            .bonds
-            .iter()
-            .zip(&self.inv_l2)
-            .map(|(bond, inv_l2)| {
-                let d = bond_vector(v, bond);
-                (dot3(d, d) * inv_l2).sqrt()
-            })
-            .fold(0.0_f64, f64::max);
-        let a2 = a
-            .chunks_exact(3)
-            .map(|f| f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
-            .fold(0.0_f64, f64::max);
-        Some(w.max(w * w).max(a2.sqrt() / self.shortest))
+        Some(bonds_motion(&self.bonds, &self.inv_l2, self.shortest, v, a))
     }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.shortest
@@ -320,9 +338,7 @@ impl Constraint for RigidBonds {
 impl Curvature for RigidBonds {
     /// D^2 g_b(x)(u, w) = -(u_j - u_i).(w_j - w_i) / L_b^2.
     fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            *o = -dot3(bond_vector(u, bond), bond_vector(w, bond)) * s;
-        }
+        bond_rates(&self.bonds, &self.inv_l2, u, w, -1.0, out);
     }
 }
 

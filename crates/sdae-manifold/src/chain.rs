@@ -7,6 +7,8 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::lane_form::{ChainLanes, LaneFormVisitor};
 use crate::mass::Mass;
+use crate::vector::{dot3, max_norm3_squared};
+use sdae_lanes::Real;
 
 /// g_i(x) = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2), i = 0..K-1 (seed Section 5.3). Bead j occupies
 /// coordinates 3j..3j+3. Its Gram matrix is tridiagonal.
@@ -17,15 +19,42 @@ pub struct BeadChain {
     inv_ds2: f64,
 }
 
+/// The segment d_i = x_{i+1} - x_i from beads i and i + 1 (six coordinates), for one path or
+/// for lanes.
 #[inline(always)]
-fn segment(x: &[f64], i: usize) -> [f64; 3] {
-    let a = &x[3 * i..3 * i + 6];
+pub(crate) fn difference<T: Real>(a: &[T; 6]) -> [T; 3] {
     [a[3] - a[0], a[4] - a[1], a[5] - a[2]]
 }
 
+/// The segment d_i of x.
 #[inline(always)]
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+fn segment<T: Real>(x: &[T], i: usize) -> [T; 3] {
+    let beads: &[T; 6] = x[3 * i..3 * i + 6]
+        .try_into()
+        .expect("six coordinates of beads i and i + 1");
+    difference(beads)
+}
+
+/// out_i = scale d_i(x).(u_{i+1} - u_i): with scale = 1/ds^2 the rows of -Dg(x) u, with
+/// scale = -1/ds^2 those of Dg(x) u (and of D^2 g(u, w) for x = u, u = w, g being quadratic).
+#[inline(always)]
+pub(crate) fn segment_rates<T: Real>(x: &[T], u: &[T], scale: f64, out: &mut [T]) {
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = dot3(&segment(x, i), &segment(u, i)) * scale;
+    }
+}
+
+/// The chain's local measure of the motion (`Constraint::local_motion`): w = max_i |v_{i+1} -
+/// v_i| / ds, alpha = max_j |a_j| / ds, max(w, w^2, alpha), for one path or for lanes.
+#[inline(always)]
+pub(crate) fn chain_motion<T: Real>(ds: f64, v: &[T], a: &[T]) -> T {
+    let mut w2 = v[0].splat_like(0.0);
+    for i in 0..v.len() / 3 - 1 {
+        let d = segment(v, i);
+        w2 = w2.max(dot3(&d, &d));
+    }
+    let w = w2.sqrt() / ds;
+    w.max(w * w).max(max_norm3_squared(a).sqrt() / ds)
 }
 
 impl BeadChain {
@@ -57,7 +86,7 @@ impl BeadChain {
 
     /// Positions of a straight chain starting at the origin along the unit vector of `direction`.
     pub fn straight(&self, direction: [f64; 3]) -> Result<Vec<f64>, ManifoldError> {
-        let len = dot3(direction, direction).sqrt();
+        let len = dot3(&direction, &direction).sqrt();
         check_positive("|direction|", len)?;
         let u = direction.map(|c| c / len * self.segment);
         Ok((0..self.beads)
@@ -113,7 +142,7 @@ impl BeadChain {
         for i in 0..m {
             let (e, f) = (e_next, f_next);
             if let Some(g) = value.as_deref_mut() {
-                g[i] = 0.5 - 0.5 * dot3(e, e) * self.inv_ds2;
+                g[i] = 0.5 - 0.5 * dot3(&e, &e) * self.inv_ds2;
             }
             out.diag[i] = (weighted(e, i, f) + weighted(e, i + 1, f)) * s;
             if i + 1 < m {
@@ -174,14 +203,12 @@ impl Constraint for BeadChain {
     fn value(&self, x: &[f64], out: &mut [f64]) {
         for (i, o) in out.iter_mut().enumerate() {
             let d = segment(x, i);
-            *o = 0.5 - 0.5 * dot3(d, d) * self.inv_ds2;
+            *o = 0.5 - 0.5 * dot3(&d, &d) * self.inv_ds2;
         }
     }
     /// (Dg(x) u)_i = -d_i.(u_{i+1} - u_i) / ds^2 with d_i = x_{i+1} - x_i.
     fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = -dot3(segment(x, i), segment(u, i)) * self.inv_ds2;
-        }
+        segment_rates(x, u, -self.inv_ds2, out);
     }
     /// (grad g(x) z)_j = (z_j d_j - z_{j-1} d_{j-1}) / ds^2.
     fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
@@ -255,17 +282,7 @@ impl Constraint for BeadChain {
     /// few ulps of |x|, relative to ds.
     /// w = max_i |v_{i+1} - v_i| / ds, alpha = max_i |a_i| / ds.
     fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        let mut w2 = 0.0_f64;
-        for i in 0..self.beads - 1 {
-            let d = segment(v, i);
-            w2 = w2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        }
-        let a2 = a
-            .chunks_exact(3)
-            .map(|f| f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
-            .fold(0.0_f64, f64::max);
-        let w = w2.sqrt() / self.segment;
-        Some(w.max(w * w).max(a2.sqrt() / self.segment))
+        Some(chain_motion(self.segment, v, a))
     }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * max_abs_x / self.segment
@@ -282,9 +299,7 @@ impl Constraint for BeadChain {
 impl Curvature for BeadChain {
     /// D^2 g_i(x)(u, w) = -(u_{i+1} - u_i).(w_{i+1} - w_i) / ds^2.
     fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = -dot3(segment(u, i), segment(w, i)) * self.inv_ds2;
-        }
+        segment_rates(u, w, -self.inv_ds2, out);
     }
 }
 

@@ -261,12 +261,6 @@ pub fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
     !(!mask).all()
 }
 
-/// a . b of three coordinates, in order.
-#[inline(always)]
-pub fn dot3<Sd: Simd>(a: &[Lanes<Sd>; 3], b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// |x|^2 with the four partial sums of `sdae_manifold::vector::dot`.
 #[inline(always)]
 pub fn sum_squares<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {

@@ -1,6 +1,8 @@
 //! Reductions over slices with four independent accumulators, so that the compiler can
 //! vectorize them (a single running float sum is a chain of dependent additions).
 
+use sdae_lanes::Real;
+
 const LANES: usize = 4;
 
 /// a . b over the common length.
@@ -74,6 +76,23 @@ fn larger(current: f64, candidate: f64) -> f64 {
     } else {
         current
     }
+}
+
+/// a . b of three coordinates, summed in order: a_0 b_0 + a_1 b_1 + a_2 b_2, for one path
+/// (`f64`) or for lanes.
+#[inline(always)]
+pub fn dot3<T: Real>(a: &[T; 3], b: &[T; 3]) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// max_j |a_j|^2 over the blocks a_j of three coordinates of `a` (not empty), in order from 0.
+#[inline(always)]
+pub fn max_norm3_squared<T: Real>(a: &[T]) -> T {
+    let mut largest = a[0].splat_like(0.0);
+    for f in a.chunks_exact(3) {
+        largest = largest.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    }
+    largest
 }
 
 #[cfg(test)]

@@ -6,16 +6,17 @@
 //! `Constraint::displace`) in the same order, and the dense LU factorization with partial
 //! pivoting of `super::dense`.
 
-use crate::bonds::{Bond, RigidBonds};
+use crate::bonds::{Bond, RigidBonds, bond_rates, bonds_motion};
 use crate::constraint::Constraint;
 use crate::factor::DENSE_FAER_THRESHOLD;
 use crate::mass::Mass;
+use crate::vector::dot3;
 use pulp::Simd;
 use sdae_lanes::Lanes;
 
 use super::dense::{DenseLanes, LuLanes};
 use super::{
-    ConstraintLanes, Evaluation, FactorLanes, InverseMass, PointLanes, base_coords, dot3,
+    ConstraintLanes, Evaluation, FactorLanes, InverseMass, PointLanes, base_coords,
     max_abs_and_finite,
 };
 
@@ -179,26 +180,13 @@ impl ConstraintLanes for BondLanes {
         u: &[Lanes<Sd>],
         out: &mut [Lanes<Sd>],
     ) {
-        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            *o = dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * *s;
-        }
+        bond_rates(&self.bonds, &self.inv_l2, x, u, 1.0, out);
     }
 
-    /// max(w, w^2, alpha) with w = max_b |v_j - v_i| / L_b and alpha = max_i |a_i| / (the
-    /// shortest bond) (`RigidBonds::local_motion`).
+    /// The network's local measure of the motion (`RigidBonds`' formula).
     #[inline(always)]
     fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
-        let zero = v[0].splat_like(0.0);
-        let mut w = zero;
-        for (bond, s) in self.bonds.iter().zip(&self.inv_l2) {
-            let d = bond_vector(v, bond);
-            w = w.max((dot3(&d, &d) * *s).sqrt());
-        }
-        let mut a2 = zero;
-        for f in a.chunks_exact(3) {
-            a2 = a2.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
-        }
-        Some(w.max(w * w).max(a2.sqrt() / self.shortest))
+        Some(bonds_motion(&self.bonds, &self.inv_l2, self.shortest, v, a))
     }
 }
 

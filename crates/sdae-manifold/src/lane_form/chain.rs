@@ -3,14 +3,15 @@
 //! lanes, with the floating-point operations of `BeadChain`'s methods in the same order, and
 //! Thomas' algorithm for its tridiagonal Newton matrix (`super::tridiagonal`).
 
-use crate::chain::BeadChain;
+use crate::chain::{BeadChain, chain_motion, difference, segment_rates};
 use crate::constraint::Constraint;
 use crate::mass::Mass;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
 use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
-use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, dot3};
+use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
+use crate::vector::dot3;
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
 pub struct ChainLanes {
@@ -267,7 +268,7 @@ impl ConstraintLanes for ChainLanes {
         (bounded[0].and(bounded[1]).and(bounded[2]), residual)
     }
 
-    /// out_i = -(Dg(x) u)_i = d_i.(u_{i+1} - u_i) / ds^2.
+    /// out_i = -(Dg(x) u)_i = d_i.(u_{i+1} - u_i) / ds^2 (`BeadChain`'s formula).
     #[inline(always)]
     fn negated_jacobian_mul<Sd: Simd>(
         &self,
@@ -275,34 +276,18 @@ impl ConstraintLanes for ChainLanes {
         u: &[Lanes<Sd>],
         out: &mut [Lanes<Sd>],
     ) {
-        for (i, o) in out.iter_mut().enumerate() {
-            let (bead, next) = (u.coords::<3>(3 * i), u.coords::<3>(3 * i + 3));
-            *o = self.velocity_row(x, i, &bead, &next);
-        }
+        segment_rates(x, u, self.inv_ds2, out);
     }
 
-    /// The chain's local measure of the motion (`BeadChain::local_motion`): w = max_i |v_{i+1}
-    /// - v_i| / ds, alpha = max_j |a_j| / ds, max(w, w^2, alpha).
+    /// The chain's local measure of the motion (`BeadChain`'s formula).
     #[inline(always)]
     fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
-        let zero = v[0].splat_like(0.0);
-        let mut w2 = zero;
-        for i in 0..self.beads - 1 {
-            let d = segment(v, i);
-            w2 = w2.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        }
-        let mut a2 = zero;
-        for f in a.chunks_exact(3) {
-            a2 = a2.max(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
-        }
-        let w = w2.sqrt() / self.segment;
-        Some(w.max(w * w).max(a2.sqrt() / self.segment))
+        Some(chain_motion(self.segment, v, a))
     }
 }
 
 /// The segment d_i = x_{i+1} - x_i.
 #[inline(always)]
 fn segment<Sd: Simd, P: PointLanes<Sd> + ?Sized>(x: &P, i: usize) -> [Lanes<Sd>; 3] {
-    let a = x.coords::<6>(3 * i);
-    [a[3] - a[0], a[4] - a[1], a[5] - a[2]]
+    difference(&x.coords::<6>(3 * i))
 }

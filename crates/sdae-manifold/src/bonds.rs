@@ -6,7 +6,7 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::{DenseGram, GramMatrix};
 use crate::lane_form::{BondLanes, LaneFormVisitor};
 use crate::mass::Mass;
-use crate::vector::{dot3, max_norm3_squared};
+use crate::vector::{distance_value, dot3, max_norm3_squared};
 use sdae_lanes::Real;
 
 /// One bond: atoms `i` and `j` are held at distance `length`.
@@ -262,7 +262,7 @@ impl Constraint for RigidBonds {
     fn value(&self, x: &[f64], out: &mut [f64]) {
         for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x, bond);
-            *o = 0.5 - 0.5 * dot3(&d, &d) * s;
+            *o = distance_value(&d, *s);
         }
     }
     /// (Dg(x) u)_b = -d_b.(u_j - u_i) / L_b^2 with d_b = x_j - x_i.

@@ -7,7 +7,7 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::lane_form::{ChainLanes, LaneFormVisitor};
 use crate::mass::Mass;
-use crate::vector::{dot3, max_norm3_squared};
+use crate::vector::{distance_value, dot3, max_norm3_squared};
 use sdae_lanes::Real;
 
 /// g_i(x) = 1/2 - |x_{i+1} - x_i|^2 / (2 ds^2), i = 0..K-1 (seed Section 5.3). Bead j occupies
@@ -142,7 +142,7 @@ impl BeadChain {
         for i in 0..m {
             let (e, f) = (e_next, f_next);
             if let Some(g) = value.as_deref_mut() {
-                g[i] = 0.5 - 0.5 * dot3(&e, &e) * self.inv_ds2;
+                g[i] = distance_value(&e, self.inv_ds2);
             }
             out.diag[i] = (weighted(e, i, f) + weighted(e, i + 1, f)) * s;
             if i + 1 < m {
@@ -203,7 +203,7 @@ impl Constraint for BeadChain {
     fn value(&self, x: &[f64], out: &mut [f64]) {
         for (i, o) in out.iter_mut().enumerate() {
             let d = segment(x, i);
-            *o = 0.5 - 0.5 * dot3(&d, &d) * self.inv_ds2;
+            *o = distance_value(&d, self.inv_ds2);
         }
     }
     /// (Dg(x) u)_i = -d_i.(u_{i+1} - u_i) / ds^2 with d_i = x_{i+1} - x_i.

@@ -85,6 +85,14 @@ pub fn dot3<T: Real>(a: &[T; 3], b: &[T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// g = 1/2 - |d|^2 / (2 L^2) of a rigid distance L with d the difference of its two points (a
+/// chain's segment, a bond), given 1 / L^2, for one path or for lanes.
+#[inline(always)]
+pub fn distance_value<T: Real>(d: &[T; 3], inv_l2: f64) -> T {
+    // 1/2 - x is 1/2 + (-x), bit for bit.
+    -(dot3(d, d) * 0.5 * inv_l2) + 0.5
+}
+
 /// max_j |a_j|^2 over the blocks a_j of three coordinates of `a` (not empty), in order from 0.
 #[inline(always)]
 pub fn max_norm3_squared<T: Real>(a: &[T]) -> T {

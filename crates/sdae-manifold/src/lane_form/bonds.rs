@@ -10,7 +10,7 @@ use crate::bonds::{Bond, RigidBonds, bond_rates, bonds_motion};
 use crate::constraint::Constraint;
 use crate::factor::DENSE_FAER_THRESHOLD;
 use crate::mass::Mass;
-use crate::vector::dot3;
+use crate::vector::{distance_value, dot3};
 use pulp::Simd;
 use sdae_lanes::Lanes;
 
@@ -75,10 +75,9 @@ impl BondLanes {
         values: &mut [Lanes<Sd>],
         jacobian: &mut DenseLanes<Sd>,
     ) {
-        let half = r[0].splat_like(0.5);
         for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x1, bond);
-            *value = half - dot3(&d, &d) * 0.5 * *s;
+            *value = distance_value(&d, *s);
         }
         let m = self.bonds.len();
         let zero = r[0].splat_like(0.0);

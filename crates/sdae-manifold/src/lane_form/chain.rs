@@ -11,7 +11,7 @@ use sdae_lanes::{LaneMask, Lanes};
 
 use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
 use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
-use crate::vector::dot3;
+use crate::vector::{distance_value, dot3};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
 pub struct ChainLanes {
@@ -122,7 +122,7 @@ impl ConstraintLanes for ChainLanes {
         let mut sweep = ThomasSweep::new(half);
         for (i, out) in step.iter_mut().enumerate().take(m) {
             let (e, f) = (e_next, f_next);
-            let value = half - dot3(&e, &e) * 0.5 * self.inv_ds2;
+            let value = distance_value(&e, self.inv_ds2);
             let diag = self.diagonal(&e, i, &f) * s;
             jacobian.diag[i] = diag;
             let off_diagonal = if i + 1 < m {

@@ -6,6 +6,7 @@ use crate::gram::ScalarGram;
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 use crate::vector::dot;
+use sdae_lanes::Real;
 
 /// g(x) = (1 - |x|^2 / rho^2) / 2, one constraint (seed Section 5.1 with rho = 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,15 +140,7 @@ impl Constraint for Sphere {
         if !M::DIAGONAL {
             return None;
         }
-        let (mut yy, mut yu, mut uu) = (0.0, 0.0, 0.0);
-        for (k, (ri, yi)) in r.iter().zip(y).enumerate() {
-            let u = ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0);
-            yy += yi * yi;
-            yu += yi * u;
-            uu += u * u;
-        }
-        let c = self.inv_r2;
-        Some([0.5 * (1.0 - yy * c), yu * c * c, -0.5 * uu * c * c * c])
+        Some(self.kappa_coefficients(r, y, |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)))
     }
     fn value_roundoff(&self, max_abs_x: f64) -> f64 {
         self.roundoff(max_abs_x)
@@ -161,6 +154,29 @@ impl Constraint for Sphere {
 }
 
 impl Sphere {
+    /// [c0, c1, c2] of R(gamma) = c0 + c1 gamma + c2 gamma^2 = g(y - gamma W r / rho^2) for
+    /// the diagonal W = M^-1 with entries `w(k)` ([`Constraint::kappa_quadratic`]), in one
+    /// pass over y and r, for one path (`f64`) or for lanes (the ensemble's closed-form root).
+    #[inline(always)]
+    pub fn kappa_coefficients<T: Real>(
+        &self,
+        r: &[T],
+        y: &[T],
+        w: impl Fn(usize) -> f64,
+    ) -> [T; 3] {
+        let zero = r[0].splat_like(0.0);
+        let (mut yy, mut yu, mut uu) = (zero, zero, zero);
+        for (k, (ri, yi)) in r.iter().zip(y).enumerate() {
+            let u = *ri * w(k);
+            yy = yy + *yi * *yi;
+            yu = yu + *yi * u;
+            uu = uu + u * u;
+        }
+        let c = self.inv_r2;
+        // (1 - yy c) / 2 as ((-(yy c)) + 1) / 2: 1 - x is 1 + (-x), bit for bit.
+        [(-(yy * c) + 1.0) * 0.5, yu * c * c, uu * -0.5 * c * c * c]
+    }
+
     /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
     pub fn roundoff(&self, max_abs_x: f64) -> f64 {
         4.0 * f64::EPSILON * (self.dim as f64) * max_abs_x * max_abs_x * self.inv_r2

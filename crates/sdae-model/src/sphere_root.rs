@@ -23,6 +23,7 @@ pub struct SphereRoot<const N: usize> {
     plausibility_factor: f64,
     max_contraction: f64,
     radius: f64,
+    sphere: Sphere,
     inv_r2: f64,
     /// 4 eps d, the factor of the residual floor (`Sphere::roundoff`).
     floor_factor: f64,
@@ -63,6 +64,7 @@ impl<const N: usize> SphereRoot<N> {
             plausibility_factor: settings.plausibility_factor,
             max_contraction: settings.max_contraction,
             radius,
+            sphere: *sphere,
             inv_r2: sphere.inverse_radius_squared(),
             floor_factor: 4.0 * f64::EPSILON * (N as f64),
             inverse_mass,
@@ -87,17 +89,9 @@ impl<const N: usize> SphereRoot<N> {
         let tolerance = zero.splat_like(self.tolerance).max(floor);
 
         // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`).
-        let (mut yy, mut yu, mut uu) = (zero, zero, zero);
-        for i in 0..N {
-            let u = r[i] * self.inverse_mass[i];
-            yy = yy + y[i] * y[i];
-            yu = yu + y[i] * u;
-            uu = uu + u * u;
-        }
-        let c = self.inv_r2;
-        let c0 = (one - yy * c) * 0.5;
-        let c1 = yu * c * c;
-        let c2 = uu * -0.5 * c * c * c;
+        let [c0, c1, c2] = self
+            .sphere
+            .kappa_coefficients(r, y, |k| self.inverse_mass[k]);
         let mut ok = c0
             .is_finite()
             .and(c1.is_finite())

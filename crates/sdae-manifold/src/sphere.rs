@@ -109,13 +109,8 @@ impl Constraint for Sphere {
             self.value(x, value);
             return self.cross_gram(x, r, mass, scratch, gram);
         }
-        let (mut xx, mut xr) = (0.0, 0.0);
-        for (k, (xi, ri)) in x.iter().zip(r).enumerate() {
-            xx += xi * xi;
-            xr += xi * ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0);
-        }
-        value[0] = 0.5 * (1.0 - xx * self.inv_r2);
-        gram.0 = xr * self.inv_r2 * self.inv_r2;
+        [value[0], gram.0] =
+            self.value_and_gram(x, r, |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
     }
     /// One pass for diagonal masses: out_k = y_k + w_k (-z x_k / rho^2), w_k = (M^-1)_kk
     /// (seed eq. 3.1: the position of the kappa system and the velocity update).
@@ -175,6 +170,20 @@ impl Sphere {
         let c = self.inv_r2;
         // (1 - yy c) / 2 as ((-(yy c)) + 1) / 2: 1 - x is 1 + (-x), bit for bit.
         [(-(yy * c) + 1.0) * 0.5, yu * c * c, uu * -0.5 * c * c * c]
+    }
+
+    /// [g(x), x^T W r / rho^4] for the diagonal W = M^-1 with entries `w(k)`
+    /// ([`Constraint::value_and_cross_gram`]), in one pass, for one path or for lanes.
+    #[inline(always)]
+    pub fn value_and_gram<T: Real>(&self, x: &[T], r: &[T], w: impl Fn(usize) -> f64) -> [T; 2] {
+        let zero = x[0].splat_like(0.0);
+        let (mut xx, mut xr) = (zero, zero);
+        for (k, (xi, ri)) in x.iter().zip(r).enumerate() {
+            xx = xx + *xi * *xi;
+            xr = xr + *xi * *ri * w(k);
+        }
+        let c = self.inv_r2;
+        [(-(xx * c) + 1.0) * 0.5, xr * c * c]
     }
 
     /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.

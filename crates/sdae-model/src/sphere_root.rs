@@ -80,7 +80,6 @@ impl<const N: usize> SphereRoot<N> {
     #[inline(always)]
     pub fn solve<Sd: Simd>(&self, r: &[Lanes<Sd>; N], y: &[Lanes<Sd>; N]) -> RootLanes<Sd, N> {
         let zero = r[0].splat_like(0.0);
-        let one = zero.splat_like(1.0);
         let mut max_abs_y = zero;
         for yi in y {
             max_abs_y = max_abs_y.max(yi.abs());
@@ -115,16 +114,12 @@ impl<const N: usize> SphereRoot<N> {
         // The root's point x = y + M^-1 grad g(r) gamma, its residual and J(gamma).
         let s = -gamma * self.inv_r2;
         let mut x = [zero; N];
-        let (mut xx, mut xr) = (zero, zero);
         for i in 0..N {
-            let w = self.inverse_mass[i];
-            x[i] = s * r[i] * w + y[i];
-            xx = xx + x[i] * x[i];
-            xr = xr + x[i] * r[i] * w;
+            x[i] = s * r[i] * self.inverse_mass[i] + y[i];
         }
-        let residual = ((one - xx * self.inv_r2) * 0.5).abs();
+        let [value, gram] = self.sphere.value_and_gram(&x, r, |k| self.inverse_mass[k]);
+        let residual = value.abs();
         ok = ok.and(residual.le(tolerance));
-        let gram = xr * self.inv_r2 * self.inv_r2;
         ok = ok.and(gram.is_finite()).and(!gram.eq(zero));
         let contraction = (c2 * 2.0 * gamma / c1).abs();
         if self.radius.is_finite() {

@@ -430,7 +430,7 @@ pub struct Errors {
     /// Multiplier.
     pub mu: Option<Interval>,
     /// The outputs ("r", "v", "mu") whose interval is indicative only: it rests on fewer than
-    /// [`INDICATIVE_BELOW`](crate::stats::INDICATIVE_BELOW) effective paths
+    /// [`INDICATIVE_BELOW`] effective paths
     /// ([`effective_paths`]), too few for its 95% on errors this heavy-tailed.
     pub indicative: Vec<&'static str>,
 }
@@ -517,7 +517,7 @@ pub struct SchemeReport {
     pub levels: Vec<LevelReport>,
     /// Least-squares slope of log(error) against log(h) with 95% intervals from the Monte Carlo
     /// error (symmetric percentile-t of the paired bootstrap of the compared paths, every level of a path
-    /// drawn together; `indicative` below [`INDICATIVE_BELOW`](crate::stats::INDICATIVE_BELOW)
+    /// drawn together; `indicative` below [`INDICATIVE_BELOW`]
     /// paths); coarse levels whose local slope departs from the finer ones beyond that error
     /// (and by more than 0.05) are flagged, not fitted.
     pub observed_order: Orders,

@@ -1,6 +1,6 @@
 //! Multilevel Monte Carlo (Giles 2008; Acta Numerica 2015) for E[f(X_T)] of a scene.
 //!
-//! E[P_L] = E[P_0] + sum_{l=1}^{L} E[P_l - P_{l-1}], with P_l = f(X_T) on the grid of
+//! E\[P_L\] = E\[P_0\] + sum_{l=1}^{L} E\[P_l - P_{l-1}\], with P_l = f(X_T) on the grid of
 //! h_l = h_0 2^-l. Each correction is sampled on pairs driven by one Brownian path: the fine
 //! path on h_l and the coarse path on h_{l-1}, whose increment over a step is the sum of the
 //! two fine increments it spans. With the antithetic option (Giles and Szpruch 2014) the fine

@@ -464,7 +464,7 @@ fn lognormal_effective_paths(mut shares: Vec<f64>) -> f64 {
 }
 
 /// The effective number of paths behind the L^p error of per-path errors `errors`
-/// ([`lognormal_effective_paths`] of the shares (d_i / d_max)^p / m, m their mean): about n for
+/// (`lognormal_effective_paths` of the shares (d_i / d_max)^p / m, m their mean): about n for
 /// errors of one size, far fewer when a few heavy paths make up the mean of d^p. The error's
 /// interval is indicative below [`INDICATIVE_BELOW`].
 pub fn effective_paths(errors: &[f64], p: f64) -> f64 {

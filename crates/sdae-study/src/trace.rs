@@ -25,8 +25,8 @@ const COORDINATES: usize = 1 << 21;
 /// The finest level a trace takes: 2^24 steps.
 pub const MAX_LEVEL: u32 = 24;
 
-/// The number of steps of a scene's trace, 2^k with k its finest study level (of [study],
-/// else [stability], else [equipartition]; default 10); refused above [`MAX_LEVEL`], naming
+/// The number of steps of a scene's trace, 2^k with k its finest study level (of `[study]`,
+/// else `[stability]`, else `[equipartition]`; default 10); refused above [`MAX_LEVEL`], naming
 /// the scene-file key.
 pub fn steps(scene: &Scene) -> Result<usize, StudyError> {
     let (key, finest) = [

@@ -136,7 +136,7 @@ pub struct ComplexityRow {
     pub samples: Vec<u64>,
     /// MLMC cost in seconds, sum_l N_l c_l with c_l the test's measured seconds per sample.
     pub mlmc_cost: f64,
-    /// Standard Monte Carlo's cost for the same eps on the finest level L: 2 V[P_L] / eps^2
+    /// Standard Monte Carlo's cost for the same eps on the finest level L: 2 V\[P_L\] / eps^2
     /// paths at the test's measured seconds per path.
     pub standard_cost: f64,
     /// standard_cost / mlmc_cost.
@@ -150,7 +150,7 @@ pub struct StandardRun {
     pub eps: f64,
     /// The level run (the MLMC run's finest).
     pub level: u32,
-    /// Paths run, 2 V[P_L] / eps^2 rounded up to whole blocks.
+    /// Paths run, 2 V\[P_L\] / eps^2 rounded up to whole blocks.
     pub samples: u64,
     /// Paths that failed.
     pub failed: u64,

@@ -32,10 +32,12 @@
 //! # Ok::<(), sdae_ift::IftError>(())
 //! ```
 
+mod criteria;
 mod error;
 mod problem;
 mod solver;
 
+pub use criteria::{QuadraticRoot, power_iteration, quadratic_root};
 pub use error::IftError;
 pub use problem::BallProblem;
 pub use solver::{BallSolver, Certificate, Method, SolverSettings};

@@ -2,6 +2,7 @@
 //! seed eq. 3.10 (the constructive form of the globalized implicit function theorem, Appendix B)
 //! as fallback.
 
+use crate::criteria::{QuadraticRoot, power_iteration, quadratic_root};
 use crate::error::IftError;
 use crate::problem::BallProblem;
 use sdae_manifold::GramStructure;
@@ -376,27 +377,28 @@ impl<A: Factorize> BallSolver<A> {
         &mut self,
         problem: &mut P,
         radius: f64,
-        [c0, c1, c2]: [f64; 3],
+        coefficients: [f64; 3],
     ) -> Option<Result<Certificate, IftError>> {
-        if !(c0.is_finite() && c1.is_finite() && c2.is_finite()) || c1 == 0.0 {
+        let tolerance = self.settings.tolerance.max(problem.residual_floor());
+        let QuadraticRoot {
+            usable,
+            real,
+            first_step,
+            gamma,
+            norm,
+            contraction,
+        } = quadratic_root(coefficients, tolerance);
+        if !usable {
             return None;
         }
-        let first_step = (c0 / c1).abs();
-        self.tolerance = self.settings.tolerance.max(problem.residual_floor());
-        let discriminant = c1 * c1 - 4.0 * c0 * c2;
-        if discriminant < 0.0 {
+        self.tolerance = tolerance;
+        let [c0, c1, c2] = coefficients;
+        if !real {
             return Some(Err(IftError::NoRoot {
                 tau: c1 * c1 / (4.0 * c0 * c2),
                 norm: (c1 / (2.0 * c2)).abs(),
             }));
         }
-        // At the tolerance already: gamma = 0, as Newton's iteration 0 would accept.
-        let gamma = if c0.abs() <= self.tolerance {
-            0.0
-        } else {
-            -2.0 * c0 / (c1 + discriminant.sqrt().copysign(c1))
-        };
-        let norm = gamma.abs();
         // The ball check of `in_ball` with J(0) = c1.
         let rounding = if norm < radius {
             0.0
@@ -411,8 +413,8 @@ impl<A: Factorize> BallSolver<A> {
                 rounding,
             }));
         }
-        let bound = self.settings.plausibility_factor * first_step;
-        if norm > bound && norm > 64.0 * f64::EPSILON {
+        let bound = self.settings.plausibility_bound(first_step);
+        if self.settings.implausible(norm, bound) {
             return Some(Err(IftError::Implausible {
                 norm,
                 bound,
@@ -429,8 +431,6 @@ impl<A: Factorize> BallSolver<A> {
             return None;
         }
         self.root_in_factor = true;
-        // Exact for a quadratic: J(gamma) = c1 + 2 c2 gamma.
-        let contraction = (2.0 * c2 * gamma / c1).abs();
         if let Err(e) = self.contracting(contraction, radius) {
             return Some(Err(e));
         }
@@ -489,14 +489,15 @@ impl<A: Factorize> BallSolver<A> {
                 }
                 self.matrix.factor_into(&mut self.factor).ok()?;
                 self.root_in_factor = true;
-                if r <= self.tolerance {
+                let last = iterations == self.settings.max_iterations;
+                if self
+                    .settings
+                    .converged(r, previous_residual, self.tolerance, last)
+                {
                     break;
                 }
-                if iterations == self.settings.max_iterations {
+                if last {
                     return None;
-                }
-                if r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance {
-                    break;
                 }
                 previous_residual = r;
                 step = residual;
@@ -506,34 +507,26 @@ impl<A: Factorize> BallSolver<A> {
         }
         self.gamma[0] = gamma;
         let norm = (gamma * gamma).sqrt();
+        let bound = self.settings.plausibility_bound(first_step);
         if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
-            || (norm > self.settings.plausibility_factor * first_step && norm > 64.0 * f64::EPSILON)
+            || self.settings.implausible(norm, bound)
         {
             return None;
         }
-        // Power iteration on J(0)^-1 J(gamma*) - 1 started at gamma* / |gamma*| (exact after
-        // one step for m = 1).
-        let probes = self.probes(radius).min(1);
-        let contraction = if probes == 0 {
-            f64::NAN
-        } else if norm == 0.0 {
-            0.0
-        } else {
-            let mut probe = [gamma / norm];
-            let mut estimate = 0.0;
-            for _ in 0..probes {
-                let mut image = [0.0];
-                self.matrix.mul_vec(&probe, &mut image);
-                self.factor_at_zero.solve_in_place(&mut image);
-                image[0] -= probe[0];
-                estimate = (image[0] * image[0]).sqrt();
-                if estimate == 0.0 {
-                    break;
-                }
-                probe[0] = image[0] / estimate;
-            }
-            estimate
-        };
+        // Power iteration on J(0)^-1 J(gamma*) - 1 (exact after one step for m = 1).
+        let probes = self.settings.probes(radius).min(1);
+        let (matrix, factor_at_zero) = (&self.matrix, &self.factor_at_zero);
+        let contraction = power_iteration(
+            norm,
+            probes,
+            &mut [gamma / norm],
+            &mut [0.0],
+            false,
+            |probe, image| {
+                matrix.mul_vec(probe, image);
+                factor_at_zero.solve_in_place(image);
+            },
+        );
         // Not certified: the general path repeats the solve and reports it.
         self.contracting(contraction, radius).ok()?;
         Some(Certificate {
@@ -590,8 +583,8 @@ impl<A: Factorize> BallSolver<A> {
     ) -> Result<Certificate, IftError> {
         let norm = norm2(&self.gamma);
         let rounding = self.in_ball(norm, radius)?;
-        let bound = self.settings.plausibility_factor * first_step;
-        if norm > bound && norm > 64.0 * f64::EPSILON {
+        let bound = self.settings.plausibility_bound(first_step);
+        if self.settings.implausible(norm, bound) {
             return Err(IftError::Implausible {
                 norm,
                 bound,
@@ -661,19 +654,19 @@ impl<A: Factorize> BallSolver<A> {
             if !r.is_finite() {
                 return Corrector::Failed(k);
             }
-            // At the roundoff floor (the residual no longer halves, as it would while Newton
-            // converges) accept within the stagnation tolerance.
-            let stagnated =
-                k > 0 && r > 0.5 * previous_residual && r <= self.settings.stagnation_tolerance;
-            let last = if r <= tolerance {
-                Some(Corrector::Converged(k))
-            } else if k == max_iterations {
-                Some(Corrector::Failed(k))
-            } else if stagnated {
-                Some(Corrector::Converged(k))
-            } else {
-                None
-            };
+            // At the tolerance, or at the roundoff floor (iteration 0 comes after an infinite
+            // residual: it never stagnates).
+            let last =
+                if self
+                    .settings
+                    .converged(r, previous_residual, tolerance, k == max_iterations)
+                {
+                    Some(Corrector::Converged(k))
+                } else if k == max_iterations {
+                    Some(Corrector::Failed(k))
+                } else {
+                    None
+                };
             // The Jacobian is factored in every iteration (the last one's is the root's); the
             // Newton step is solved only where the iteration goes on, in the same pass. At a
             // root of R (tau = 1) the contraction estimate's first image J(0)^-1 J(gamma) p
@@ -803,55 +796,41 @@ impl<A: Factorize> BallSolver<A> {
 
     /// Rejects a root of a finite ball whose contraction estimate reaches the limit.
     fn contracting(&self, contraction: f64, radius: f64) -> Result<(), IftError> {
-        let limit = self.settings.max_contraction;
-        if radius.is_finite() && contraction >= limit {
-            return Err(IftError::NotContracting { contraction, limit });
+        if self.settings.not_contracting(contraction, radius) {
+            return Err(IftError::NotContracting {
+                contraction,
+                limit: self.settings.max_contraction,
+            });
         }
         Ok(())
     }
 
-    /// The power-iteration steps for a root in a ball of `radius`.
-    fn probes(&self, radius: f64) -> usize {
-        if radius.is_finite() {
-            self.settings.contraction_probes
-        } else {
-            self.settings.contraction_probes.min(1)
-        }
-    }
-
-    /// Power iteration on A = J(0)^-1 J(gamma*) - I, started along gamma*: a lower bound of
-    /// |A| that approaches it as the probes grow. `norm` is |gamma*|.
+    /// The contraction estimate of the root in `self.gamma` ([`power_iteration`]); `norm` is
+    /// |gamma*|. p = gamma* / |gamma*| and its first image J(0)^-1 J(gamma*) p are at hand where
+    /// they were formed with the factorization at the root.
     fn contraction_estimate(&mut self, radius: f64, norm: f64) -> f64 {
-        let probes = self.probes(radius);
-        if probes == 0 {
-            return f64::NAN;
-        }
-        if norm == 0.0 {
-            return 0.0;
-        }
-        // p = gamma* / |gamma*| and its first image J(0)^-1 J(gamma*) p are at hand where
-        // they were formed with the factorization at the root.
-        let mut image_ready = std::mem::take(&mut self.probe_image_ready);
+        let image_ready = std::mem::take(&mut self.probe_image_ready);
         if !image_ready {
             self.unit_probe(norm);
         }
-        let mut estimate = 0.0;
-        for probe in 1..=probes {
-            if !std::mem::take(&mut image_ready) {
-                self.matrix.mul_vec(&self.probe, &mut self.step);
-                self.factor_at_zero.solve_in_place(&mut self.step);
-            }
-            for (s, p) in self.step.iter_mut().zip(&self.probe) {
-                *s -= p;
-            }
-            estimate = norm2(&self.step);
-            if estimate == 0.0 || probe == probes {
-                break;
-            }
-            for (p, s) in self.probe.iter_mut().zip(&self.step) {
-                *p = s / estimate;
-            }
-        }
-        estimate
+        let Self {
+            matrix,
+            factor_at_zero,
+            probe,
+            step,
+            settings,
+            ..
+        } = self;
+        power_iteration(
+            norm,
+            settings.probes(radius),
+            probe,
+            step,
+            image_ready,
+            |probe, image| {
+                matrix.mul_vec(probe, image);
+                factor_at_zero.solve_in_place(image);
+            },
+        )
     }
 }

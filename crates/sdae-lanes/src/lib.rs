@@ -300,7 +300,7 @@ pub trait Real:
     + Div<f64, Output = Self>
 {
     /// A boolean per path (`bool`, or [`LaneMask`]).
-    type Mask: Copy;
+    type Mask: PathMask;
     /// x in every path, of the kind of `self`.
     fn splat_like(self, x: f64) -> Self;
     /// The square root.
@@ -312,14 +312,69 @@ pub trait Real:
     fn max(self, other: Self) -> Self;
     /// `self == other` per path.
     fn equal(self, other: Self) -> Self::Mask;
-    /// a or b per path.
-    fn either(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `self < other` per path (false where either is NaN).
+    fn less(self, other: Self) -> Self::Mask;
+    /// `self <= other` per path (false where either is NaN).
+    fn at_most(self, other: Self) -> Self::Mask;
+    /// Whether each path's value is finite.
+    fn finite(self) -> Self::Mask;
+    /// `holds` in every path, of the kind of `self`'s masks.
+    fn mask_like(self, holds: bool) -> Self::Mask;
     /// `if_true` where `mask` holds, `if_false` elsewhere.
     fn select(mask: Self::Mask, if_true: Self, if_false: Self) -> Self;
     /// `f` of each path's value ([`Lanes::map_each`]).
     fn map_each(self, f: impl FnMut(f64) -> f64) -> Self;
     /// `f` of each path's pair of values ([`Lanes::zip_map_each`]).
     fn zip_map_each(self, other: Self, f: impl FnMut(f64, f64) -> f64) -> Self;
+}
+
+/// A boolean per path: `bool` for one path, [`LaneMask`] for W.
+pub trait PathMask: Copy + Not<Output = Self> {
+    /// `self` and `other` per path.
+    fn and(self, other: Self) -> Self;
+    /// `self` or `other` per path.
+    fn or(self, other: Self) -> Self;
+    /// Whether every path holds.
+    fn all(self) -> bool;
+    /// Whether any path holds.
+    #[inline(always)]
+    fn any(self) -> bool {
+        !(!self).all()
+    }
+}
+
+impl PathMask for bool {
+    #[inline(always)]
+    fn and(self, other: Self) -> Self {
+        self & other
+    }
+    #[inline(always)]
+    fn or(self, other: Self) -> Self {
+        self | other
+    }
+    #[inline(always)]
+    fn all(self) -> bool {
+        self
+    }
+    #[inline(always)]
+    fn any(self) -> bool {
+        self
+    }
+}
+
+impl<S: Simd> PathMask for LaneMask<S> {
+    #[inline(always)]
+    fn and(self, other: Self) -> Self {
+        LaneMask::and(self, other)
+    }
+    #[inline(always)]
+    fn or(self, other: Self) -> Self {
+        LaneMask::or(self, other)
+    }
+    #[inline(always)]
+    fn all(self) -> bool {
+        LaneMask::all(self)
+    }
 }
 
 impl Real for f64 {
@@ -345,8 +400,20 @@ impl Real for f64 {
         self == other
     }
     #[inline(always)]
-    fn either(a: bool, b: bool) -> bool {
-        a || b
+    fn less(self, other: Self) -> bool {
+        self < other
+    }
+    #[inline(always)]
+    fn at_most(self, other: Self) -> bool {
+        self <= other
+    }
+    #[inline(always)]
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    #[inline(always)]
+    fn mask_like(self, holds: bool) -> bool {
+        holds
     }
     #[inline(always)]
     fn select(mask: bool, if_true: Self, if_false: Self) -> Self {
@@ -385,8 +452,22 @@ impl<S: Simd> Real for Lanes<S> {
         Lanes::eq(self, other)
     }
     #[inline(always)]
-    fn either(a: LaneMask<S>, b: LaneMask<S>) -> LaneMask<S> {
-        a.or(b)
+    fn less(self, other: Self) -> LaneMask<S> {
+        Lanes::lt(self, other)
+    }
+    #[inline(always)]
+    fn at_most(self, other: Self) -> LaneMask<S> {
+        Lanes::le(self, other)
+    }
+    #[inline(always)]
+    fn finite(self) -> LaneMask<S> {
+        Lanes::is_finite(self)
+    }
+    #[inline(always)]
+    fn mask_like(self, holds: bool) -> LaneMask<S> {
+        let zero = self.splat_like(0.0);
+        let all = zero.eq(zero);
+        if holds { all } else { !all }
     }
     #[inline(always)]
     fn select(mask: LaneMask<S>, if_true: Self, if_false: Self) -> Self {

@@ -26,6 +26,7 @@ use sdae_lanes::{LaneMask, Lanes};
 
 use crate::mass::Mass;
 use crate::sphere::Sphere;
+use crate::vector::sum_squares;
 
 pub use bonds::BondLanes;
 pub use chain::ChainLanes;
@@ -259,24 +260,6 @@ pub type Jacobian<Sd, C> = <<C as ConstraintLanes>::Factor<Sd> as FactorLanes<Sd
 #[inline(always)]
 pub fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
     !(!mask).all()
-}
-
-/// |x|^2 with the four partial sums of `sdae_manifold::vector::dot`.
-#[inline(always)]
-pub fn sum_squares<Sd: Simd>(x: &[Lanes<Sd>]) -> Lanes<Sd> {
-    let zero = x[0].splat_like(0.0);
-    let mut acc = [zero; 4];
-    let chunks = x.chunks_exact(4);
-    let mut tail = zero;
-    for xi in chunks.remainder() {
-        tail = tail + *xi * *xi;
-    }
-    for c in chunks {
-        for k in 0..4 {
-            acc[k] = acc[k] + c[k] * c[k];
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// max_i |x_i| of finite entries (`sdae_manifold::vector::max_abs`).

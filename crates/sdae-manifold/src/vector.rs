@@ -8,22 +8,34 @@ const LANES: usize = 4;
 /// a . b over the common length.
 #[inline]
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    dot_with(0.0, a, b)
+}
+
+/// a . b over the common length with four partial sums, for one path (`f64`) or for lanes;
+/// `zero` is 0 of the kind of the entries (the value of an empty sum).
+#[inline(always)]
+pub fn dot_with<T: Real>(zero: T, a: &[T], b: &[T]) -> T {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0; LANES];
+    let mut acc = [zero; LANES];
     let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
+    let mut tail = zero;
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        tail = tail + *x * *y;
+    }
     for (x, y) in ca.zip(cb) {
         for k in 0..LANES {
-            acc[k] += x[k] * y[k];
+            acc[k] = acc[k] + x[k] * y[k];
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// |x|^2 of a vector that is not empty, with the partial sums of [`dot`], for one path or for
+/// lanes.
+#[inline(always)]
+pub fn sum_squares<T: Real>(x: &[T]) -> T {
+    dot_with(x[0].splat_like(0.0), x, x)
 }
 
 /// |x|^2.

@@ -10,7 +10,7 @@
 //! out of `ok`; the scalar solver decides it (Newton, the homotopy, or the error).
 
 use pulp::Simd;
-use sdae_ift::SolverSettings;
+use sdae_ift::{QuadraticRoot, SolverSettings, quadratic_root};
 use sdae_manifold::Sphere;
 
 use crate::lanes::{LaneMask, Lanes};
@@ -19,9 +19,7 @@ use crate::lanes::{LaneMask, Lanes};
 /// the radius of the ball the root must lie in (C_kappa, or infinite).
 #[derive(Debug, Clone, Copy)]
 pub struct SphereRoot<const N: usize> {
-    tolerance: f64,
-    plausibility_factor: f64,
-    max_contraction: f64,
+    settings: SolverSettings,
     radius: f64,
     sphere: Sphere,
     inv_r2: f64,
@@ -60,9 +58,7 @@ impl<const N: usize> SphereRoot<N> {
         radius: f64,
     ) -> Self {
         Self {
-            tolerance: settings.tolerance,
-            plausibility_factor: settings.plausibility_factor,
-            max_contraction: settings.max_contraction,
+            settings: *settings,
             radius,
             sphere: *sphere,
             inv_r2: sphere.inverse_radius_squared(),
@@ -85,31 +81,27 @@ impl<const N: usize> SphereRoot<N> {
             max_abs_y = max_abs_y.max(yi.abs());
         }
         let floor = zero.splat_like(self.floor_factor) * max_abs_y * max_abs_y * self.inv_r2;
-        let tolerance = zero.splat_like(self.tolerance).max(floor);
+        let tolerance = zero.splat_like(self.settings.tolerance).max(floor);
 
-        // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`).
-        let [c0, c1, c2] = self
+        // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`) and
+        // its root connected to 0 (`BallSolver::solve_quadratic`).
+        let coefficients = self
             .sphere
             .kappa_coefficients(r, y, |k| self.inverse_mass[k]);
-        let mut ok = c0
-            .is_finite()
-            .and(c1.is_finite())
-            .and(c2.is_finite())
-            .and(!c1.eq(zero));
-        // The root connected to 0 (`BallSolver::solve_quadratic`).
-        let first_step = (c0 / c1).abs();
-        let discriminant = c1 * c1 - c0 * 4.0 * c2;
-        ok = ok.and(!discriminant.lt(zero));
-        let root = discriminant.sqrt();
-        let signed_root = Lanes::select(c1.lt(zero), -root, root);
-        let gamma = Lanes::select(c0.abs().le(tolerance), zero, c0 * -2.0 / (c1 + signed_root));
-        let norm = gamma.abs();
-        ok = ok.and(norm.lt(zero.splat_like(self.radius)));
-        let bound = first_step * self.plausibility_factor;
-        let implausible = bound
-            .lt(norm)
-            .and(zero.splat_like(64.0 * f64::EPSILON).lt(norm));
-        ok = ok.and(!implausible);
+        let QuadraticRoot {
+            usable,
+            real,
+            first_step,
+            gamma,
+            norm,
+            contraction,
+        } = quadratic_root(coefficients, tolerance);
+        let settings = &self.settings;
+        let bound = settings.plausibility_bound(first_step);
+        let mut ok = usable
+            .and(real)
+            .and(norm.lt(zero.splat_like(self.radius)))
+            .and(!settings.implausible(norm, bound));
 
         // The root's point x = y + M^-1 grad g(r) gamma, its residual and J(gamma).
         let s = -gamma * self.inv_r2;
@@ -121,10 +113,7 @@ impl<const N: usize> SphereRoot<N> {
         let residual = value.abs();
         ok = ok.and(residual.le(tolerance));
         ok = ok.and(gram.is_finite()).and(!gram.eq(zero));
-        let contraction = (c2 * 2.0 * gamma / c1).abs();
-        if self.radius.is_finite() {
-            ok = ok.and(contraction.lt(zero.splat_like(self.max_contraction)));
-        }
+        ok = ok.and(!settings.not_contracting(contraction, self.radius));
         RootLanes {
             ok,
             gamma,

@@ -9,7 +9,7 @@
 //! computes for path i; the sines and arc tangents are taken lane by lane.
 
 use pulp::Simd;
-use sdae_model::lanes::{Lanes, Real, per_lane};
+use sdae_model::lanes::{Lanes, PathMask, Real, per_lane};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite, finite_entries, non_negative};
@@ -382,7 +382,7 @@ impl Torsions {
             let (nn1, nn2, bb2) = (dot(n1, n1), dot(n2, n2), dot(b2, b2));
             // Three collinear atoms: phi is undefined and the term adds no force.
             let zero = bb2.splat_like(0.0);
-            let skip = T::either(nn1.equal(zero), nn2.equal(zero));
+            let skip = nn1.equal(zero).or(nn2.equal(zero));
             let len2 = bb2.sqrt();
             let phi = (len2 * dot(b1, n2)).zip_map_each(dot(n1, n2), f64::atan2);
             // F = -dV/dphi dphi/dx, dV/dphi = -k n sin(n phi - delta).

@@ -22,11 +22,13 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
+use sdae_ift::power_iteration;
 use sdae_manifold::Constraint;
 use sdae_manifold::lane_form::{
     ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
-    active_any, sum_squares,
+    active_any,
 };
+use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, WideKernel};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{Scheme, System};
@@ -211,7 +213,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             previous: residual_at_zero,
         };
         let mut iterated = false;
-        let stagnation = self.splat(settings.stagnation_tolerance);
         let max_iterations = settings.max_iterations;
         for k in 1..=max_iterations {
             if !active_any(lanes.active) {
@@ -229,11 +230,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 &mut step,
             );
             let r_k = at_x.largest;
-            let stagnated = (lanes.previous * 0.5).lt(r_k).and(r_k.le(stagnation));
-            let mut converged = r_k.le(tolerance);
-            if k < max_iterations {
-                converged = converged.or(stagnated);
-            }
+            let converged = settings.converged(r_k, lanes.previous, tolerance, k == max_iterations);
             // The next Newton step only if a lane goes on (most often none does: one
             // iteration converges); the factors at the root are kept for the velocity either way.
             if active_any(lanes.active.and(!converged)) {
@@ -341,57 +338,31 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let norm = sum_squares(&self.gamma).sqrt();
         let radius = config.c_kappa;
         ok = ok.and(norm.lt(self.splat(radius)));
-        let bound = first_step * settings.plausibility_factor;
-        let implausible = bound.lt(norm).and(self.splat(64.0 * f64::EPSILON).lt(norm));
-        ok = ok.and(!implausible);
-        let contraction = self.contraction_estimate(radius, settings.contraction_probes, norm);
-        if radius.is_finite() {
-            // NaN (no probes) passes, as in the scalar check.
-            ok = ok.and(!self.splat(settings.max_contraction).le(contraction));
-        }
-        (ok, norm, contraction)
-    }
-
-    /// Power iteration on J(0)^-1 J(gamma*) - I started along gamma* (`BallSolver`'s
-    /// contraction estimate): one probe where the radius is infinite, `probes` otherwise; NaN
-    /// without probes, 0 at gamma* = 0.
-    #[inline(always)]
-    fn contraction_estimate(&mut self, radius: f64, probes: usize, norm: Lanes<Sd>) -> Lanes<Sd> {
-        let zero = self.splat(0.0);
-        let probes = if radius.is_finite() {
-            probes
-        } else {
-            probes.min(1)
-        };
-        if probes == 0 {
-            return self.splat(f64::NAN);
-        }
-        // gamma* is not read again: the probes take its place.
-        let mut probe = std::mem::take(&mut self.gamma);
-        for p in probe.iter_mut() {
+        ok = ok.and(!settings.implausible(norm, settings.plausibility_bound(first_step)));
+        // gamma* is not read again: the probes take its place, starting at gamma* / |gamma*|.
+        for p in self.gamma.iter_mut() {
             *p = *p / norm;
         }
-        let mut estimate = zero;
-        let mut stopped = !zero.eq(zero);
-        let mut image = std::mem::take(&mut self.step);
-        for k in 0..probes {
-            self.jacobian.mul_vec(&probe, &mut image);
-            self.factor_at_zero.solve_in_place(&mut image);
-            for (s, p) in image.iter_mut().zip(&probe) {
-                *s = *s - *p;
-            }
-            let next = sum_squares(&image).sqrt();
-            estimate = Lanes::select(stopped, estimate, next);
-            stopped = stopped.or(estimate.eq(zero));
-            if k + 1 < probes {
-                for (p, s) in probe.iter_mut().zip(&image) {
-                    *p = *s / estimate;
-                }
-            }
-        }
-        self.step = image;
-        self.gamma = probe;
-        Lanes::select(norm.eq(zero), zero, estimate)
+        let Self {
+            jacobian,
+            factor_at_zero,
+            gamma: probe,
+            step: image,
+            ..
+        } = self;
+        let contraction = power_iteration(
+            norm,
+            settings.probes(radius),
+            probe,
+            image,
+            false,
+            |probe, image| {
+                jacobian.mul_vec(probe, image);
+                factor_at_zero.solve_in_place(image);
+            },
+        );
+        ok = ok.and(!settings.not_contracting(contraction, radius));
+        (ok, norm, contraction)
     }
 
     /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw, which

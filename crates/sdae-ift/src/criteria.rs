@@ -1,0 +1,166 @@
+//! The solver's tests and its closed form, written once over [`Real`] for one path (`f64`,
+//! [`BallSolver`](crate::BallSolver)) and for W paths in SIMD lanes (the ensemble's Newton and
+//! closed-form kernels, `sdae-scheme` and `sdae-model`): Newton's stopping test, the three
+//! checks of the certificate (the ball, the plausibility of the root against the first Newton
+//! step, the contraction of the simplified Newton map, Thm 3.4), the power iteration that
+//! estimates that contraction, and the root of a quadratic kappa system connected to 0
+//! (Appendix B, Thm B.2). Lane i of a lane form computes exactly what the `f64` form computes
+//! for path i.
+
+use sdae_lanes::{PathMask, Real};
+use sdae_manifold::vector::sum_squares;
+
+use crate::solver::SolverSettings;
+
+impl SolverSettings {
+    /// Whether Newton stops with the residual `residual` = max_i |R_i| after `previous`: at the
+    /// tolerance, or (unless this is the `last` iteration) at the roundoff floor, where the
+    /// residual no longer halves as it would while Newton converges and lies within the
+    /// stagnation tolerance.
+    #[inline(always)]
+    pub fn converged<T: Real>(self, residual: T, previous: T, tolerance: T, last: bool) -> T::Mask {
+        let at_tolerance = residual.at_most(tolerance);
+        if last {
+            return at_tolerance;
+        }
+        let floor = residual.splat_like(self.stagnation_tolerance);
+        let stagnated = (previous * 0.5).less(residual).and(residual.at_most(floor));
+        at_tolerance.or(stagnated)
+    }
+
+    /// The largest plausible |gamma*|: `plausibility_factor` x |first Newton step|.
+    #[inline(always)]
+    pub fn plausibility_bound<T: Real>(self, first_step: T) -> T {
+        first_step * self.plausibility_factor
+    }
+
+    /// Whether a root of norm `norm` lies beyond `bound` ([`SolverSettings::plausibility_bound`])
+    /// and above rounding size (64 eps): a root the first Newton step does not justify.
+    #[inline(always)]
+    pub fn implausible<T: Real>(self, norm: T, bound: T) -> T::Mask {
+        let rounding = norm.splat_like(64.0 * f64::EPSILON);
+        bound.less(norm).and(rounding.less(norm))
+    }
+
+    /// Whether a root in a ball of `radius` fails the contraction check: a finite radius and an
+    /// estimate at or above `max_contraction` (Thm 3.4, Step 3). A NaN estimate (no probes)
+    /// passes.
+    #[inline(always)]
+    pub fn not_contracting<T: Real>(self, contraction: T, radius: f64) -> T::Mask {
+        let limit = contraction.splat_like(self.max_contraction);
+        limit
+            .at_most(contraction)
+            .and(contraction.mask_like(radius.is_finite()))
+    }
+
+    /// The power-iteration steps of the contraction estimate for a root in a ball of `radius`:
+    /// `contraction_probes`, at most one where the radius is infinite.
+    #[inline(always)]
+    pub fn probes(self, radius: f64) -> usize {
+        if radius.is_finite() {
+            self.contraction_probes
+        } else {
+            self.contraction_probes.min(1)
+        }
+    }
+}
+
+/// The contraction estimate of the certificate: power iteration on A = J(0)^-1 J(gamma*) - I
+/// started at the unit `probe` p = gamma* / |gamma*| (`norm` = |gamma*|), a lower bound of |A|
+/// that approaches it as the `probes` grow. Each step forms image = A p with `apply` (which
+/// writes J(0)^-1 J(gamma*) p into its second argument, unless `first_image` says the first one
+/// is there already), the estimate |image| and the next probe image / |image|; a path stops at
+/// an estimate of 0. The estimate is 0 where gamma* = 0 and NaN without probes. `probe` and
+/// `image` are scratch afterwards.
+#[inline(always)]
+pub fn power_iteration<T: Real>(
+    norm: T,
+    probes: usize,
+    probe: &mut [T],
+    image: &mut [T],
+    mut first_image: bool,
+    mut apply: impl FnMut(&[T], &mut [T]),
+) -> T {
+    let zero = norm.splat_like(0.0);
+    if probes == 0 {
+        return norm.splat_like(f64::NAN);
+    }
+    let at_zero = norm.equal(zero);
+    if at_zero.all() {
+        return zero;
+    }
+    let mut estimate = zero;
+    let mut stopped = zero.mask_like(false);
+    for k in 1..=probes {
+        if !std::mem::take(&mut first_image) {
+            apply(probe, image);
+        }
+        for (s, p) in image.iter_mut().zip(probe.iter()) {
+            *s = *s - *p;
+        }
+        estimate = T::select(stopped, estimate, sum_squares(image).sqrt());
+        stopped = stopped.or(estimate.equal(zero));
+        if k == probes || stopped.all() {
+            break;
+        }
+        for (p, s) in probe.iter_mut().zip(image.iter()) {
+            *p = *s / estimate;
+        }
+    }
+    T::select(at_zero, zero, estimate)
+}
+
+/// The root of R(gamma) = c0 + c1 gamma + c2 gamma^2 connected to 0, per path
+/// ([`quadratic_root`]).
+#[derive(Debug, Clone, Copy)]
+pub struct QuadraticRoot<T: Real> {
+    /// The paths whose coefficients are finite with c1 = J(0) != 0 (elsewhere the iterative
+    /// path decides, with its errors).
+    pub usable: T::Mask,
+    /// The paths whose discriminant c1^2 - 4 c0 c2 is not negative: the homotopy's path from
+    /// (0, 0) reaches tau = 1 (elsewhere it folds before, seed Fig. 1b).
+    pub real: T::Mask,
+    /// |c0 / c1|, the first Newton step's length.
+    pub first_step: T,
+    /// gamma* = -2 c0 / (c1 + sign(c1) sqrt(c1^2 - 4 c0 c2)), or 0 where |c0| is within the
+    /// tolerance.
+    pub gamma: T,
+    /// |gamma*|.
+    pub norm: T,
+    /// |J(0)^-1 J(gamma*) - 1| = |2 c2 gamma* / c1|, exact for a quadratic.
+    pub contraction: T,
+}
+
+/// The root of the quadratic kappa system R(gamma) = c0 + c1 gamma + c2 gamma^2 (m = 1)
+/// connected to 0, free of cancellation, with the numbers of its certificate: the homotopy of
+/// seed eq. 3.10 from (0, 0) follows the root of smaller modulus while the discriminant stays
+/// positive, so the root the theorem certifies (Thm 3.4; Appendix B, Thm B.2) is, at tau = 1,
+/// gamma* = -2 c0 / (c1 + sign(c1) sqrt(c1^2 - 4 c0 c2)). A residual |c0| within `tolerance`
+/// gives 0, as Newton's iteration 0 would accept.
+#[inline(always)]
+pub fn quadratic_root<T: Real>([c0, c1, c2]: [T; 3], tolerance: T) -> QuadraticRoot<T> {
+    let zero = c0.splat_like(0.0);
+    let usable = c0
+        .finite()
+        .and(c1.finite())
+        .and(c2.finite())
+        .and(!c1.equal(zero));
+    let first_step = (c0 / c1).abs();
+    let discriminant = c1 * c1 - c0 * 4.0 * c2;
+    let real = !discriminant.less(zero);
+    let root = discriminant.sqrt();
+    let signed_root = T::select(c1.less(zero), -root, root);
+    let gamma = T::select(
+        c0.abs().at_most(tolerance),
+        zero,
+        c0 * -2.0 / (c1 + signed_root),
+    );
+    QuadraticRoot {
+        usable,
+        real,
+        first_step,
+        gamma,
+        norm: gamma.abs(),
+        contraction: (c2 * 2.0 * gamma / c1).abs(),
+    }
+}

@@ -1,7 +1,9 @@
 //! Rigid bonds between atoms in R^3: the holonomic constraints of constrained molecular
 //! dynamics (seed Section 5.2), for any bond network (a rigid triatomic, a tetrahedron, ...).
 
-use crate::constraint::{Constraint, Curvature, TheoryBound, assemble_dense_by_columns};
+use crate::constraint::{
+    Constraint, Curvature, TheoryBound, assemble_dense_by_columns, motion_measure,
+};
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::{DenseGram, GramMatrix};
 use crate::lane_form::{BondLanes, LaneFormVisitor};
@@ -92,7 +94,7 @@ pub(crate) fn bonds_motion<T: Real>(
         let d = bond_vector(v, bond);
         w = w.max((dot3(&d, &d) * *s).sqrt());
     }
-    w.max(w * w).max(max_norm3_squared(a).sqrt() / shortest)
+    motion_measure(w, max_norm3_squared(a).sqrt() / shortest)
 }
 
 impl RigidBonds {

@@ -2,6 +2,7 @@
 
 use crate::constraint::{
     Constraint, Curvature, TheoryBound, assemble_tridiagonal_by_probing, displace_in_passes,
+    motion_measure,
 };
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
@@ -53,8 +54,7 @@ pub(crate) fn chain_motion<T: Real>(ds: f64, v: &[T], a: &[T]) -> T {
         let d = segment(v, i);
         w2 = w2.max(dot3(&d, &d));
     }
-    let w = w2.sqrt() / ds;
-    w.max(w * w).max(max_norm3_squared(a).sqrt() / ds)
+    motion_measure(w2.sqrt() / ds, max_norm3_squared(a).sqrt() / ds)
 }
 
 impl BeadChain {

@@ -8,6 +8,15 @@ use crate::factor::Factorize;
 use crate::gram::{DenseGram, TridiagonalGram};
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
+use sdae_lanes::Real;
+
+/// The size of the motion of eq. 3.2, max(w, w^2, alpha), from a speed w and an acceleration
+/// alpha: |v| and |a| for the seed's functional, or a constraint's relative speeds and forces
+/// per unit of the lengths it fixes ([`Constraint::local_motion`]); for one path or for lanes.
+#[inline(always)]
+pub fn motion_measure<T: Real>(speed: T, acceleration: T) -> T {
+    speed.max(speed * speed).max(acceleration)
+}
 
 /// g and its Jacobian Dg, applied to vectors, and the structured Gram-type matrices.
 pub trait Constraint {

@@ -41,7 +41,7 @@ pub use chain::BeadChain;
 pub use closure::{ClosureConstraint, NoCurvature};
 pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
-    scratch_len,
+    motion_measure, scratch_len,
 };
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,

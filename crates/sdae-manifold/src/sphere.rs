@@ -1,6 +1,6 @@
 //! The sphere of radius rho in R^d (a circle for d = 2): the pendulum of seed Section 5.1.
 
-use crate::constraint::{Constraint, Curvature, TheoryBound};
+use crate::constraint::{Constraint, Curvature, TheoryBound, motion_measure};
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::ScalarGram;
 use crate::lane_form::LaneFormVisitor;
@@ -75,8 +75,10 @@ impl Constraint for Sphere {
     }
     /// w = |v| / rho, alpha = |a| / rho: the seed's functional for rho = 1.
     fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        let w = dot(v, v).sqrt() / self.radius;
-        Some(w.max(w * w).max(dot(a, a).sqrt() / self.radius))
+        Some(motion_measure(
+            dot(v, v).sqrt() / self.radius,
+            dot(a, a).sqrt() / self.radius,
+        ))
     }
     fn new_gram(&self) -> ScalarGram {
         ScalarGram(0.0)

@@ -36,6 +36,7 @@
 mod config;
 mod ensemble;
 mod error;
+mod formulas;
 mod one_path;
 mod runaway;
 mod stepper;

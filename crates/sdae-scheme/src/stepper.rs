@@ -12,6 +12,7 @@ use sdae_model::engine::LaneStore;
 
 use crate::config::StepperConfig;
 use crate::error::SchemeError;
+use crate::formulas::{self, ForceScale};
 
 /// The stepper: a system, the scheme's constants and all buffers of one path.
 #[derive(Debug, Clone)]
@@ -140,7 +141,7 @@ impl<S: System> Stepper<S> {
 
     /// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)).
     pub fn eta(&self, v_norm: f64, a_norm: f64, h: f64) -> f64 {
-        eta(&self.config, v_norm, a_norm, None, h)
+        formulas::eta(self.config.c_eta, h, v_norm, a_norm, None)
     }
 
     /// [`Scheme::step`](sdae_model::Scheme::step) for n = N, m = 1 with the buffers on the stack.
@@ -227,10 +228,10 @@ fn half_explicit_step<S: System>(
     } else {
         None
     };
-    let eta = eta(config, v_norm2.sqrt(), a_norm2.sqrt(), local, h);
+    let eta = formulas::eta(config.c_eta, h, v_norm2.sqrt(), a_norm2.sqrt(), local);
     let eta_h = eta * h;
     for ((yi, ri), vi) in y.iter_mut().zip(r.iter()).zip(v.iter()) {
-        *yi = ri + eta_h * vi;
+        *yi = formulas::drifted(*ri, *vi, eta_h);
     }
     // NaN when y is (then so is g(y), and the step fails on it whatever the floor).
     let max_abs_y = max_abs(y);
@@ -338,7 +339,7 @@ fn checked_motion<S: System>(
 
 /// The velocity before the constraint force, v~ = v + M^-1 (eta h a + B dw) (seed eq. 3.1),
 /// written into `force`; with rescaled noise and eta < 1, v + M^-1 (eta h a + sqrt(eta) B dw),
-/// in law a step of eta h.
+/// in law a step of eta h ([`ForceScale`]).
 #[inline(always)]
 fn free_velocity<S: System>(
     system: &S,
@@ -349,40 +350,14 @@ fn free_velocity<S: System>(
     drift: &[f64],
     force: &mut [f64],
 ) {
-    if config.rescale_noise && eta < 1.0 {
-        // sqrt(eta) (sqrt(eta) h a + B dw) = eta h a + sqrt(eta) B dw.
-        let scale = eta.sqrt();
-        let scaled_h = scale * h;
-        for (f, a) in force.iter_mut().zip(drift.iter()) {
-            *f = scaled_h * a;
-        }
-        system.add_noise(r, v, dw, force);
-        for f in force.iter_mut() {
-            *f *= scale;
-        }
-    } else {
-        let eta_h = eta * h;
-        for (f, a) in force.iter_mut().zip(drift.iter()) {
-            *f = eta_h * a;
-        }
-        system.add_noise(r, v, dw, force);
+    let scale = ForceScale::new(config.rescale_noise, eta, h);
+    for (f, a) in force.iter_mut().zip(drift.iter()) {
+        *f = scale.drift_h * a;
     }
+    system.add_noise(r, v, dw, force);
+    scale.rescale(force);
     system.mass().apply_inverse(force);
     for (f, vi) in force.iter_mut().zip(v.iter()) {
         *f += vi;
-    }
-}
-
-/// The truncation factor of eq. 3.2: eta = min(1, C_eta / (max(|v|, |v|^2, |a|) h)), or with
-/// the constraint's `local` measure of the motion in place of max(|v|, |v|^2, |a|).
-#[inline]
-fn eta(config: &StepperConfig, v_norm: f64, a_norm: f64, local: Option<f64>, h: f64) -> f64 {
-    match config.c_eta {
-        None => 1.0,
-        Some(c_eta) => {
-            let motion = local.unwrap_or_else(|| v_norm.max(v_norm * v_norm).max(a_norm));
-            let size = motion * h;
-            if size > c_eta { c_eta / size } else { 1.0 }
-        }
     }
 }

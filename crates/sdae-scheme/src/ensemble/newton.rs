@@ -34,6 +34,7 @@ use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
+use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
 
 /// y = r_k + eta h v_k of eq. 3.1, formed where it is read: the same bits each time, and no
@@ -58,7 +59,7 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
         let (r, v) = (self.r.coords::<N>(k), self.v.coords::<N>(k));
         let mut y = r;
         for j in 0..N {
-            y[j] = r[j] + self.eta_h * v[j];
+            y[j] = formulas::drifted(r[j], v[j], self.eta_h);
         }
         y
     }
@@ -288,24 +289,12 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         (v, a): (&[Lanes<Sd>], &[Lanes<Sd>]),
         (v_norm2, a_norm2): (Lanes<Sd>, Lanes<Sd>),
     ) -> Lanes<Sd> {
-        let one = self.splat(1.0);
-        match config.c_eta {
-            None => one,
-            Some(c_eta) => {
-                let local = if config.local_size {
-                    self.constraint.local_motion(v, a)
-                } else {
-                    None
-                };
-                let motion = local.unwrap_or_else(|| {
-                    let (speed, force) = (v_norm2.sqrt(), a_norm2.sqrt());
-                    speed.max(speed * speed).max(force)
-                });
-                let size = motion * self.h;
-                let c = self.splat(c_eta);
-                Lanes::select(c.lt(size), c / size, one)
-            }
-        }
+        let local = if config.local_size && config.c_eta.is_some() {
+            self.constraint.local_motion(v, a)
+        } else {
+            None
+        };
+        formulas::eta(config.c_eta, self.h, v_norm2.sqrt(), a_norm2.sqrt(), local)
     }
 
     /// gamma <- gamma - step in the `active` lanes (the Newton update).
@@ -375,17 +364,13 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         Velocity {
             mut ok,
             eta,
-            rescaled: (rescaled, scale),
+            scale,
             root,
         }: Velocity<Sd>,
         (r, v, v_next, dmu): GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let force = v_next;
-        if active_any(rescaled) {
-            for f in force.iter_mut() {
-                *f = Lanes::select(rescaled, *f * scale, *f);
-            }
-        }
+        scale.rescale(force);
         // lambda = -Dg(r') v~ solved with the Newton matrix at the root. Lanes whose root is 0
         // were evaluated again at 0 if any lane iterated: then `factor` holds every lane's.
         let factor = if root.iterated {
@@ -506,7 +491,7 @@ struct Velocity<Sd: Simd> {
     ok: LaneMask<Sd>,
     eta: Lanes<Sd>,
     /// The lanes whose noise is rescaled, and the factor sqrt(eta) (1 elsewhere).
-    rescaled: (LaneMask<Sd>, Lanes<Sd>),
+    scale: ForceScale<Lanes<Sd>>,
     root: KappaLanes<Sd>,
 }
 
@@ -570,7 +555,6 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let system = stepper.system();
         let config = stepper.config();
         let h = self.h;
-        let one = self.splat(1.0);
         let LaneRows {
             r: r_next,
             v: v_next,
@@ -593,15 +577,9 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let eta_h = eta * h;
         // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
         // the force here, v~ in the velocity update.
-        let rescaled = if config.rescale_noise {
-            eta.lt(one)
-        } else {
-            !one.eq(one)
-        };
-        let scale = Lanes::select(rescaled, eta.sqrt(), one);
-        let drift_h = Lanes::select(rescaled, scale * h, eta_h);
+        let scale = ForceScale::new(config.rescale_noise, eta, h);
         let y = Drifted { r, v, eta_h };
-        let max_abs_y = scale_and_max_abs(&y, drift_h, force);
+        let max_abs_y = scale_and_max_abs(&y, scale.drift_h, force);
         if !system.add_noise_lanes(r, v, dw, force) {
             per_path([r, v, dw], force, &mut self.scratch, |[r, v, dw], out| {
                 system.add_noise(r, v, dw, out)
@@ -621,7 +599,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             Velocity {
                 ok,
                 eta,
-                rescaled: (rescaled, scale),
+                scale,
                 root,
             },
             (r, v, force, dmu),

@@ -11,12 +11,13 @@
 use pulp::{Simd, WithSimd};
 use sdae_ift::{Certificate, Method};
 use sdae_manifold::lane_form::LaneFormVisitor;
-use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_manifold::{Constraint, Mass, Sphere, motion_measure};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot};
 use sdae_model::lanes::{LaneWidth, Lanes, dot};
 use sdae_model::{Scheme, StepOutcome, System};
 
 use super::newton::kappa_ratio;
+use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
@@ -164,16 +165,13 @@ impl<const N: usize> Kernel<N> {
     /// |a|/rho).
     #[inline(always)]
     fn eta<Sd: Simd>(&self, v_norm2: Lanes<Sd>, a_norm2: Lanes<Sd>, c_eta: f64) -> Lanes<Sd> {
-        let motion = if self.local_size {
-            let w = v_norm2.sqrt() / self.rho;
-            w.max(w * w).max(a_norm2.sqrt() / self.rho)
+        let (speed, acceleration) = (v_norm2.sqrt(), a_norm2.sqrt());
+        let local = if self.local_size {
+            Some(motion_measure(speed / self.rho, acceleration / self.rho))
         } else {
-            let speed = v_norm2.sqrt();
-            speed.max(speed * speed).max(a_norm2.sqrt())
+            None
         };
-        let size = motion * self.h;
-        let (c, one) = (size.splat_like(c_eta), size.splat_like(1.0));
-        Lanes::select(c.lt(size), c / size, one)
+        formulas::eta(Some(c_eta), self.h, speed, acceleration, local)
     }
 
     /// v~ = v + M^-1 (eta a h + B dw) of eq. 3.1, or v + M^-1 sqrt(eta) (sqrt(eta) h a + B dw)
@@ -188,29 +186,16 @@ impl<const N: usize> Kernel<N> {
         a: &[Lanes<Sd>; N],
         eta: Lanes<Sd>,
     ) -> Option<[Lanes<Sd>; N]> {
-        let one = eta.splat_like(1.0);
-        let truncated = eta.lt(one);
-        let scale = if self.rescale_noise && !(!truncated).all() {
-            Lanes::select(truncated, eta.sqrt(), one)
-        } else {
-            one
-        };
-        let drift_h = if self.rescale_noise {
-            scale * self.h
-        } else {
-            eta * self.h
-        };
+        let scale = ForceScale::new(self.rescale_noise, eta, self.h);
         let mut force = [eta.splat_like(0.0); N];
         for i in 0..N {
-            force[i] = drift_h * a[i];
+            force[i] = scale.drift_h * a[i];
         }
         if !system.add_noise_lanes(r, v, dw, &mut force) {
             return None;
         }
+        scale.rescale(&mut force);
         for i in 0..N {
-            if self.rescale_noise {
-                force[i] = force[i] * scale;
-            }
             force[i] = force[i] * self.inverse_mass[i] + v[i];
         }
         Some(force)
@@ -245,7 +230,7 @@ impl<const N: usize> Kernel<N> {
         let eta_h = eta * self.h;
         let mut y = [zero; N];
         for i in 0..N {
-            y[i] = r[i] + eta_h * v[i];
+            y[i] = formulas::drifted(r[i], v[i], eta_h);
         }
         let root = self.root.solve(r, &y);
         ok = ok.and(root.ok);

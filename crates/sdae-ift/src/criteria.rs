@@ -1,69 +1,12 @@
-//! The solver's tests and its closed form, written once over [`Real`] for one path (`f64`,
+//! The certificate's contraction estimate and the closed-form root of a quadratic kappa
+//! system (Appendix B, Thm B.2), written once over [`Real`] for one path (`f64`,
 //! [`BallSolver`](crate::BallSolver)) and for W paths in SIMD lanes (the ensemble's Newton and
-//! closed-form kernels, `sdae-scheme` and `sdae-model`): Newton's stopping test, the three
-//! checks of the certificate (the ball, the plausibility of the root against the first Newton
-//! step, the contraction of the simplified Newton map, Thm 3.4), the power iteration that
-//! estimates that contraction, and the root of a quadratic kappa system connected to 0
-//! (Appendix B, Thm B.2). Lane i of a lane form computes exactly what the `f64` form computes
-//! for path i.
+//! closed-form kernels in `sdae-scheme` and `sdae-model`); the tests they feed are
+//! [`SolverSettings`](crate::SolverSettings)'. Lane i of a lane form computes exactly what the
+//! `f64` form computes for path i.
 
 use sdae_lanes::{PathMask, Real};
 use sdae_manifold::vector::sum_squares;
-
-use crate::solver::SolverSettings;
-
-impl SolverSettings {
-    /// Whether Newton stops with the residual `residual` = max_i |R_i| after `previous`: at the
-    /// tolerance, or (unless this is the `last` iteration) at the roundoff floor, where the
-    /// residual no longer halves as it would while Newton converges and lies within the
-    /// stagnation tolerance.
-    #[inline(always)]
-    pub fn converged<T: Real>(self, residual: T, previous: T, tolerance: T, last: bool) -> T::Mask {
-        let at_tolerance = residual.at_most(tolerance);
-        if last {
-            return at_tolerance;
-        }
-        let floor = residual.splat_like(self.stagnation_tolerance);
-        let stagnated = (previous * 0.5).less(residual).and(residual.at_most(floor));
-        at_tolerance.or(stagnated)
-    }
-
-    /// The largest plausible |gamma*|: `plausibility_factor` x |first Newton step|.
-    #[inline(always)]
-    pub fn plausibility_bound<T: Real>(self, first_step: T) -> T {
-        first_step * self.plausibility_factor
-    }
-
-    /// Whether a root of norm `norm` lies beyond `bound` ([`SolverSettings::plausibility_bound`])
-    /// and above rounding size (64 eps): a root the first Newton step does not justify.
-    #[inline(always)]
-    pub fn implausible<T: Real>(self, norm: T, bound: T) -> T::Mask {
-        let rounding = norm.splat_like(64.0 * f64::EPSILON);
-        bound.less(norm).and(rounding.less(norm))
-    }
-
-    /// Whether a root in a ball of `radius` fails the contraction check: a finite radius and an
-    /// estimate at or above `max_contraction` (Thm 3.4, Step 3). A NaN estimate (no probes)
-    /// passes.
-    #[inline(always)]
-    pub fn not_contracting<T: Real>(self, contraction: T, radius: f64) -> T::Mask {
-        let limit = contraction.splat_like(self.max_contraction);
-        limit
-            .at_most(contraction)
-            .and(contraction.mask_like(radius.is_finite()))
-    }
-
-    /// The power-iteration steps of the contraction estimate for a root in a ball of `radius`:
-    /// `contraction_probes`, at most one where the radius is infinite.
-    #[inline(always)]
-    pub fn probes(self, radius: f64) -> usize {
-        if radius.is_finite() {
-            self.contraction_probes
-        } else {
-            self.contraction_probes.min(1)
-        }
-    }
-}
 
 /// The contraction estimate of the certificate: power iteration on A = J(0)^-1 J(gamma*) - I
 /// started at the unit `probe` p = gamma* / |gamma*| (`norm` = |gamma*|), a lower bound of |A|

@@ -35,9 +35,11 @@
 mod criteria;
 mod error;
 mod problem;
+mod settings;
 mod solver;
 
 pub use criteria::{QuadraticRoot, power_iteration, quadratic_root};
 pub use error::IftError;
 pub use problem::BallProblem;
-pub use solver::{BallSolver, Certificate, Method, SolverSettings};
+pub use settings::SolverSettings;
+pub use solver::{BallSolver, Certificate, Method};

@@ -5,6 +5,7 @@
 use crate::criteria::{QuadraticRoot, power_iteration, quadratic_root};
 use crate::error::IftError;
 use crate::problem::BallProblem;
+use crate::settings::SolverSettings;
 use sdae_manifold::GramStructure;
 use sdae_manifold::vector::{max_abs as norm_max, norm2};
 use sdae_manifold::{Factorize, Solve};
@@ -18,52 +19,6 @@ pub enum Method {
     Homotopy,
     /// The root of a quadratic R connected to 0, in closed form (no iterations).
     ClosedForm,
-}
-
-/// Settings of [`BallSolver`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SolverSettings {
-    /// Converged when max_i |R_i(gamma)| <= tolerance.
-    pub tolerance: f64,
-    /// Accept a residual up to this size once it stops decreasing (the roundoff floor of g,
-    /// about eps |x| / length scale, can exceed `tolerance` for long chains).
-    pub stagnation_tolerance: f64,
-    /// Newton iterations before giving up (and falling back to the homotopy).
-    pub max_iterations: usize,
-    /// Whether to try the homotopy when Newton fails (a problem solved in closed form,
-    /// [`BallProblem::quadratic`], does not iterate: its root is the homotopy's end point).
-    pub homotopy: bool,
-    /// Largest number of accepted plus rejected continuation steps.
-    pub max_homotopy_steps: usize,
-    /// Smallest continuation step in tau before declaring a fold.
-    pub min_tau_step: f64,
-    /// A root with |gamma| > factor x |first Newton step| is rejected as implausible
-    /// (the theorem's contraction q <= 1/2 gives |gamma| <= 2 |step|); `f64::INFINITY` disables.
-    pub plausibility_factor: f64,
-    /// Power-iteration steps for the contraction estimate of a root in a finite ball (one
-    /// step where the radius is infinite: the estimate is then a diagnostic); 0 skips it.
-    pub contraction_probes: usize,
-    /// A root in a finite ball whose contraction estimate reaches this is rejected
-    /// ([`IftError::NotContracting`]): Thm 3.4, Step 3 certifies uniqueness only below 1/2.
-    /// Not applied where the radius is infinite (no certificate is claimed); `f64::INFINITY`
-    /// disables it.
-    pub max_contraction: f64,
-}
-
-impl Default for SolverSettings {
-    fn default() -> Self {
-        Self {
-            tolerance: 1e-14,
-            stagnation_tolerance: 1e-10,
-            max_iterations: 25,
-            homotopy: true,
-            max_homotopy_steps: 400,
-            min_tau_step: 1e-7,
-            plausibility_factor: 4.0,
-            contraction_probes: 4,
-            max_contraction: 0.5,
-        }
-    }
 }
 
 /// The evidence that the root found is the one the theorem speaks of.

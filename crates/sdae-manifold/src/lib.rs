@@ -33,6 +33,7 @@ mod gram;
 pub mod lane_form;
 mod mass;
 mod sphere;
+mod sphere_constraint;
 mod state;
 pub mod vector;
 

@@ -1,6 +1,7 @@
 //! The sphere of radius rho in R^d (a circle for d = 2): the pendulum of seed Section 5.1.
 
 use crate::error::{ManifoldError, check_at_least, check_positive};
+use crate::vector::dot_with;
 use sdae_lanes::Real;
 
 /// g(x) = (1 - |x|^2 / rho^2) / 2, one constraint (seed Section 5.1 with rho = 1).
@@ -79,6 +80,31 @@ impl Sphere {
         }
         let c = self.inv_r2;
         [(-(xx * c) + 1.0) * 0.5, xr * c * c]
+    }
+
+    /// Dg(x) u = -x.u / rho^2 (x.u summed as [`vector::dot`](crate::vector::dot)), for one path
+    /// or for lanes.
+    #[inline(always)]
+    pub fn normal_rate<T: Real>(&self, x: &[T], u: &[T]) -> T {
+        -dot_with(x[0].splat_like(0.0), x, u) * self.inv_r2
+    }
+
+    /// out = y + W grad g(r) z = y - z W r / rho^2 for the diagonal W = M^-1 with entries `w(k)`
+    /// (seed eq. 3.1: the kappa system's point, and v~ plus the velocity's constraint force),
+    /// in one pass, for one path or for lanes.
+    #[inline(always)]
+    pub fn displace_diagonal<T: Real>(
+        &self,
+        r: &[T],
+        z: T,
+        w: impl Fn(usize) -> f64,
+        y: &[T],
+        out: &mut [T],
+    ) {
+        let s = -z * self.inv_r2;
+        for (k, ((o, ri), yi)) in out.iter_mut().zip(r).zip(y).enumerate() {
+            *o = s * *ri * w(k) + *yi;
+        }
     }
 
     /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.

@@ -23,7 +23,7 @@ impl Constraint for Sphere {
     /// Dg(x) u = -x.u / rho^2.
     #[inline]
     fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        out[0] = -dot(x, u) * self.inv_r2;
+        out[0] = self.normal_rate(x, u);
     }
     /// grad g(x) z = -x z / rho^2.
     #[inline]
@@ -81,10 +81,13 @@ impl Constraint for Sphere {
         if !M::DIAGONAL {
             return crate::constraint::displace_in_passes(self, r, z, mass, y, out);
         }
-        let s = -z[0] * self.inv_r2;
-        for (k, ((o, ri), yi)) in out.iter_mut().zip(r).zip(y).enumerate() {
-            *o = s * ri * mass.inverse_diagonal_entry(k).unwrap_or(0.0) + yi;
-        }
+        self.displace_diagonal(
+            r,
+            z[0],
+            |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0),
+            y,
+            out,
+        );
     }
     /// For diagonal masses W = M^-1 (seed eq. 3.1 upper part; x = y - gamma W r / rho^2):
     ///

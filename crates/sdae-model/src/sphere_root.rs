@@ -104,11 +104,9 @@ impl<const N: usize> SphereRoot<N> {
             .and(!settings.implausible(norm, bound));
 
         // The root's point x = y + M^-1 grad g(r) gamma, its residual and J(gamma).
-        let s = -gamma * self.inv_r2;
         let mut x = [zero; N];
-        for i in 0..N {
-            x[i] = s * r[i] * self.inverse_mass[i] + y[i];
-        }
+        self.sphere
+            .displace_diagonal(r, gamma, |k| self.inverse_mass[k], y, &mut x);
         let [value, gram] = self.sphere.value_and_gram(&x, r, |k| self.inverse_mass[k]);
         let residual = value.abs();
         ok = ok.and(residual.le(tolerance));

@@ -86,9 +86,7 @@ struct Kernel<const N: usize> {
     monitor_velocity: bool,
     /// The kappa root in the ball of radius C_kappa.
     root: SphereRoot<N>,
-    /// The sphere's rho and 1/rho^2.
-    rho: f64,
-    inv_r2: f64,
+    sphere: Sphere,
     /// (M^-1)_ii.
     inverse_mass: [f64; N],
 }
@@ -112,8 +110,7 @@ impl<const N: usize> Kernel<N> {
             rescale_noise: config.rescale_noise,
             monitor_velocity: config.monitor_velocity_constraint,
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, config.c_kappa),
-            rho: sphere.radius(),
-            inv_r2: sphere.inverse_radius_squared(),
+            sphere: *sphere,
             inverse_mass,
         })
     }
@@ -152,7 +149,7 @@ impl<const N: usize> Kernel<N> {
     #[inline(always)]
     fn surely_untruncated<Sd: Simd>(&self, norms2: Lanes<Sd>, c_eta: f64) -> bool {
         let b = if self.local_size {
-            norms2 * self.inv_r2
+            norms2 * self.sphere.inverse_radius_squared()
         } else {
             norms2
         };
@@ -167,7 +164,8 @@ impl<const N: usize> Kernel<N> {
     fn eta<Sd: Simd>(&self, v_norm2: Lanes<Sd>, a_norm2: Lanes<Sd>, c_eta: f64) -> Lanes<Sd> {
         let (speed, acceleration) = (v_norm2.sqrt(), a_norm2.sqrt());
         let local = if self.local_size {
-            Some(motion_measure(speed / self.rho, acceleration / self.rho))
+            let rho = self.sphere.radius();
+            Some(motion_measure(speed / rho, acceleration / rho))
         } else {
             None
         };
@@ -247,16 +245,14 @@ impl<const N: usize> Kernel<N> {
 
         let force = self.free_velocity(system, r, v, dw, &a, eta)?;
         // lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)), v' = v~ + M^-1 grad g(r) lambda.
-        let lambda = -(-dot(&x, &force) * self.inv_r2) * (one / gram);
-        let t = -lambda * self.inv_r2;
+        let lambda = -self.sphere.normal_rate(&x, &force) * (one / gram);
         let mut v_new = [zero; N];
-        for i in 0..N {
-            v_new[i] = t * r[i] * self.inverse_mass[i] + force[i];
-        }
+        self.sphere
+            .displace_diagonal(r, lambda, |k| self.inverse_mass[k], &force, &mut v_new);
         ok = ok.and(dot(&v_new, &v_new).is_finite());
         // Written out, not `then`: a closure would not inherit the instruction set.
         let velocity_residual = if self.monitor_velocity {
-            Some((-dot(&x, &v_new) * self.inv_r2).abs())
+            Some(self.sphere.normal_rate(&x, &v_new).abs())
         } else {
             None
         };
@@ -415,8 +411,7 @@ mod tests {
             rescale_noise: false,
             monitor_velocity: false,
             root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
-            rho,
-            inv_r2: sphere.inverse_radius_squared(),
+            sphere,
             inverse_mass: [1.0; 2],
         }
     }

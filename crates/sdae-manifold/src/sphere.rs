@@ -89,6 +89,13 @@ impl Sphere {
         -dot_with(x[0].splat_like(0.0), x, u) * self.inv_r2
     }
 
+    /// D^2 g(x)(u, w) = -u.w / rho^2 (the same sum as [`Sphere::normal_rate`]), for one path or
+    /// for lanes.
+    #[inline(always)]
+    pub fn curvature_rate<T: Real>(&self, u: &[T], w: &[T]) -> T {
+        self.normal_rate(u, w)
+    }
+
     /// out = y + W grad g(r) z = y - z W r / rho^2 for the diagonal W = M^-1 with entries `w(k)`
     /// (seed eq. 3.1: the kappa system's point, and v~ plus the velocity's constraint force),
     /// in one pass, for one path or for lanes.

@@ -116,7 +116,7 @@ impl Constraint for Sphere {
 impl Curvature for Sphere {
     /// D^2 g(x)(u, w) = -u.w / rho^2.
     fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        out[0] = -dot(u, w) * self.inv_r2;
+        out[0] = self.curvature_rate(u, w);
     }
 }
 

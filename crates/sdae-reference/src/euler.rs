@@ -3,6 +3,7 @@
 
 use crate::error::{ReferenceError, check_finite};
 use crate::inherent::{CurvedSystem, InherentSde};
+use crate::updates;
 use sdae_model::{StepFailure, StepOutcome};
 
 /// The coefficients of one Euler step at (r, v): drift and noise parts of dv and dmu.
@@ -55,14 +56,13 @@ impl EulerParts {
 
     /// |f(r, v)| for the R^{2n} drift f = (v, accel) of Lemma 4.2 (Euclidean norm).
     pub fn drift_norm(&self, v: &[f64]) -> f64 {
-        use sdae_manifold::vector::norm2_squared;
-        (norm2_squared(v) + norm2_squared(&self.accel)).sqrt()
+        updates::drift_norm(v, &self.accel)
     }
 
     /// dmu = dt mu_rate + noise_mu.
     pub fn multiplier(&self, dt: f64, dmu: &mut [f64]) {
         for ((d, rate), noise) in dmu.iter_mut().zip(&self.mu_rate).zip(&self.noise_mu) {
-            *d = dt * rate + noise;
+            *d = updates::euler_multiplier(*rate, *noise, dt);
         }
     }
 
@@ -73,8 +73,8 @@ impl EulerParts {
             .zip(v.iter_mut())
             .zip(self.accel.iter().zip(&self.noise_v))
         {
-            *ri += dt * *vi;
-            *vi += dt * a + n;
+            *ri = updates::euler_position(*ri, *vi, dt);
+            *vi = updates::euler_velocity(*vi, *a, *n, dt);
         }
         self.multiplier(dt, dmu);
     }

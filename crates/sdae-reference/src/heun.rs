@@ -3,6 +3,7 @@
 use crate::error::ReferenceError;
 use crate::euler::{EulerCore, EulerParts};
 use crate::inherent::{CurvedSystem, InherentSde};
+use crate::updates;
 use sdae_model::{StepFailure, StepOutcome};
 
 /// Stochastic Heun for the inherent SDE (seed eq. 2.4) as an SDE in R^{2n},
@@ -66,9 +67,14 @@ impl<S: CurvedSystem> StochasticHeun<S> {
         let parts = &core.parts;
         for i in 0..r.len() {
             let v_tilde = core.next_v[i];
-            core.next_r[i] = r[i] + half * (v[i] + v_tilde);
-            core.next_v[i] =
-                v[i] + half * (parts.accel[i] + self.predictor.accel[i]) + parts.noise_v[i];
+            core.next_r[i] = updates::heun_position(r[i], v[i], v_tilde, half);
+            core.next_v[i] = updates::heun_velocity(
+                v[i],
+                parts.accel[i],
+                self.predictor.accel[i],
+                parts.noise_v[i],
+                half,
+            );
         }
         for (((d, rate0), rate1), noise) in core
             .dmu
@@ -77,7 +83,7 @@ impl<S: CurvedSystem> StochasticHeun<S> {
             .zip(&self.predictor.mu_rate)
             .zip(&parts.noise_mu)
         {
-            *d = half * (rate0 + rate1) + noise;
+            *d = updates::heun_multiplier(*rate0, *rate1, *noise, half);
         }
         core.check_proposal()?;
         Ok(StepOutcome::PLAIN)

@@ -20,7 +20,7 @@ use sdae_ift::SolverSettings;
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot};
-use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
+use sdae_model::lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_model::{LaneScheme, Scheme, System};
 
 use crate::euler::EulerMaruyama;
@@ -28,6 +28,7 @@ use crate::heun::StochasticHeun;
 use crate::inherent::CurvedSystem;
 use crate::projected::ProjectedEulerMaruyama;
 use crate::truncated::TruncatedEulerMaruyama;
+use crate::updates;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
 const MAX_DIM: usize = 3;
@@ -200,9 +201,9 @@ impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
     }
 }
 
-/// The sphere's constants: 1/rho^2 and the diagonal of M^-1.
+/// The sphere and the diagonal of M^-1.
 struct SphereSde<const N: usize> {
-    inv_r2: f64,
+    sphere: Sphere,
     inverse_mass: [f64; N],
 }
 
@@ -224,7 +225,7 @@ impl<const N: usize> SphereSde<N> {
     fn new<S: System>(system: &S, sphere: &Sphere) -> Self {
         let mass = system.mass();
         Self {
-            inv_r2: sphere.inverse_radius_squared(),
+            sphere: *sphere,
             inverse_mass: std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)),
         }
     }
@@ -243,16 +244,14 @@ impl<const N: usize> SphereSde<N> {
         for (f, w) in force.iter_mut().zip(self.inverse_mass) {
             *f = *f * w;
         }
-        let mut dmu = -dot(r, &force) * self.inv_r2;
+        let mut dmu = self.sphere.normal_rate(r, &force);
         if curvature {
-            dmu = dmu + (-dot(v, v) * self.inv_r2) * 1.0;
+            dmu = dmu + self.sphere.curvature_rate(v, v) * 1.0;
         }
         let dmu = -(dmu * inverse_gram);
-        let s = -dmu * self.inv_r2;
         let mut dv = force;
-        for ((d, ri), w) in dv.iter_mut().zip(r).zip(self.inverse_mass) {
-            *d = s * *ri * w + *d;
-        }
+        self.sphere
+            .displace_diagonal(r, dmu, |k| self.inverse_mass[k], &force, &mut dv);
         (dv, dmu)
     }
 
@@ -267,11 +266,7 @@ impl<const N: usize> SphereSde<N> {
     ) -> Option<Parts<Sd, N>> {
         let zero = r[0].splat_like(0.0);
         // G_M(r) = r^T M^-1 r / rho^4, factored as 1 / G_M(r) where finite and nonzero.
-        let mut rr = zero;
-        for (ri, w) in r.iter().zip(self.inverse_mass) {
-            rr = rr + *ri * *ri * w;
-        }
-        let gram = rr * self.inv_r2 * self.inv_r2;
+        let gram = self.gram(r);
         let mut ok = gram.is_finite().and(!gram.eq(zero));
         let inverse_gram = zero.splat_like(1.0) / gram;
         let mut force = [zero; N];
@@ -322,22 +317,17 @@ impl<const N: usize> SphereSde<N> {
         h: f64,
         scale: Option<f64>,
     ) -> LaneStep<Sd, N> {
-        let one = r[0].splat_like(1.0);
         let theta = match scale {
-            None => one,
-            Some(c) => {
-                let size = (dot(v, v) + dot(&parts.accel, &parts.accel)).sqrt() * h;
-                let c = one.splat_like(c);
-                Lanes::select(c.lt(size), c / size, one)
-            }
+            None => r[0].splat_like(1.0),
+            Some(c) => updates::truncation(c, h, updates::drift_norm(v, &parts.accel)),
         };
         let dt = theta * h;
         let (mut next_r, mut next_v) = (*r, *v);
         for i in 0..N {
-            next_r[i] = r[i] + dt * v[i];
-            next_v[i] = v[i] + (dt * parts.accel[i] + parts.noise_v[i]);
+            next_r[i] = updates::euler_position(r[i], v[i], dt);
+            next_v[i] = updates::euler_velocity(v[i], parts.accel[i], parts.noise_v[i], dt);
         }
-        let dmu = dt * parts.mu_rate + parts.noise_mu;
+        let dmu = updates::euler_multiplier(parts.mu_rate, parts.noise_mu, dt);
         let ok = parts
             .ok
             .and(all_finite(&next_v))
@@ -367,13 +357,20 @@ impl<const N: usize> SphereSde<N> {
         let parts = self.parts(system, (r, v), dw)?;
         let predictor = Self::euler_with(&parts, (r, v), h, None);
         let at_predictor = self.parts(system, (&predictor.r, &predictor.v), &[])?;
-        let half = 0.5 * h;
+        let half = r[0].splat_like(0.5 * h);
         let (mut next_r, mut next_v) = (*r, *v);
         for i in 0..N {
-            next_r[i] = r[i] + (v[i] + predictor.v[i]) * half;
-            next_v[i] = v[i] + (parts.accel[i] + at_predictor.accel[i]) * half + parts.noise_v[i];
+            next_r[i] = updates::heun_position(r[i], v[i], predictor.v[i], half);
+            next_v[i] = updates::heun_velocity(
+                v[i],
+                parts.accel[i],
+                at_predictor.accel[i],
+                parts.noise_v[i],
+                half,
+            );
         }
-        let dmu = (parts.mu_rate + at_predictor.mu_rate) * half + parts.noise_mu;
+        let dmu =
+            updates::heun_multiplier(parts.mu_rate, at_predictor.mu_rate, parts.noise_mu, half);
         let ok = predictor
             .ok
             .and(at_predictor.ok)
@@ -391,6 +388,13 @@ impl<const N: usize> SphereSde<N> {
 }
 
 impl<const N: usize> SphereSde<N> {
+    /// G_M(r) = r^T M^-1 r / rho^4 ([`Sphere::value_and_gram`] at x = r).
+    #[inline(always)]
+    fn gram<Sd: Simd>(&self, r: &[Lanes<Sd>; N]) -> Lanes<Sd> {
+        let [_, gram] = self.sphere.value_and_gram(r, r, |k| self.inverse_mass[k]);
+        gram
+    }
+
     /// `ProjectedEulerMaruyama::project_proposal` of an Euler-Maruyama step to (y, u): r' = the
     /// root's point of the projection of y along its normal (`root`, with r = y; y itself
     /// where gamma = 0), then v' = u - M^-1 grad g(r') G_M(r')^-1 Dg(r') u.
@@ -401,15 +405,13 @@ impl<const N: usize> SphereSde<N> {
         let zero = y[0].splat_like(0.0);
         let at_y = position.gamma.eq(zero);
         let r: [Lanes<Sd>; N] = std::array::from_fn(|i| Lanes::select(at_y, y[i], position.x[i]));
-        // G_M(r') = r'^T M^-1 r' / rho^4, then lambda = G_M^-1 Dg(r') u.
-        let mut rr = zero;
-        for (ri, w) in r.iter().zip(self.inverse_mass) {
-            rr = rr + *ri * *ri * w;
-        }
-        let gram = rr * self.inv_r2 * self.inv_r2;
-        let lambda = (-dot(&r, &u) * self.inv_r2) * (zero.splat_like(1.0) / gram);
-        let s = -lambda * self.inv_r2;
-        let v: [Lanes<Sd>; N] = std::array::from_fn(|i| u[i] - s * r[i] * self.inverse_mass[i]);
+        // G_M(r') = r'^T M^-1 r' / rho^4, lambda = G_M^-1 Dg(r') u, then
+        // v' = u + M^-1 grad g(r') (-lambda).
+        let gram = self.gram(&r);
+        let lambda = self.sphere.normal_rate(&r, &u) * (zero.splat_like(1.0) / gram);
+        let mut v = u;
+        self.sphere
+            .displace_diagonal(&r, -lambda, |k| self.inverse_mass[k], &u, &mut v);
         let ok = step
             .ok
             .and(position.ok)

@@ -73,6 +73,7 @@ mod inherent;
 mod lanes;
 mod projected;
 mod truncated;
+mod updates;
 
 pub use error::ReferenceError;
 pub use euler::EulerMaruyama;

@@ -4,6 +4,7 @@
 use crate::error::ReferenceError;
 use crate::euler::EulerCore;
 use crate::inherent::{CurvedSystem, InherentSde};
+use crate::updates;
 use sdae_model::{ModelError, StepFailure, StepOutcome};
 
 /// Truncated Euler-Maruyama on the inherent SDE written as an R^{2n} SDE
@@ -62,8 +63,7 @@ impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
 
     /// The truncation factor theta = min(1, c / (|f| h)).
     pub fn truncation(scale: f64, h: f64, drift_norm: f64) -> f64 {
-        let size = drift_norm * h;
-        if size > scale { scale / size } else { 1.0 }
+        updates::truncation(scale, h, drift_norm)
     }
 }
 

@@ -5,6 +5,7 @@
 
 use crate::error::LinearError;
 use crate::gram::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
+use crate::thomas::{self, Row, ThomasFactors, ThomasSweep, forward_step, tridiagonal_row};
 use faer::linalg::solvers::Solve as _;
 
 /// Above this order, dense systems are factored by faer; below it by the hand-written LU,
@@ -151,14 +152,9 @@ impl TridiagonalFactor {
         self.pivoted
     }
 
-    /// Thomas' algorithm; `false` if a pivot is negligible relative to its row. With `rhs`
-    /// = (b, out) the forward substitution of b runs in the same pass (into out), so that its
-    /// recurrence overlaps the one of the pivots.
-    ///
-    /// The pivots p_i = d_i - l_{i-1} u_{i-1} / p_{i-1} are computed as ratios s_i / s_{i-1} of
-    /// the leading principal minors, s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2}: the recurrence
-    /// then has a multiply and a subtract on its critical path instead of a division, and the
-    /// divisions overlap. The minors are rescaled by exact powers of two to stay in range.
+    /// Thomas' algorithm ([`ThomasSweep`]); `false` if a pivot is negligible relative to its
+    /// row. With `rhs` = (b, out) the forward substitution of b runs in the same pass (into
+    /// out), so that its recurrence overlaps the one of the pivots.
     ///
     /// With `mapped` = (B, p, out), out = B^-1 (A p) is formed as well, B an unpivoted Thomas
     /// factor: the rows of A p ([`GramMatrix::mul_vec`]'s operations) and B's forward
@@ -173,49 +169,35 @@ impl TridiagonalFactor {
         let m = a.diag.len();
         let off = m.saturating_sub(1);
         let (diag, lower, upper) = (&a.diag[..m], &a.lower[..off], &a.upper[..off]);
-        let (f_diag, f_lower, f_upper) = (
-            &mut self.diag[..m],
-            &mut self.lower[..off],
-            &mut self.upper[..off],
-        );
+        let mut factors = ThomasFactors {
+            lower: &mut self.lower[..off],
+            inverse_pivot: &mut self.diag[..m],
+            upper: &mut self.upper[..off],
+        };
         let mut rhs = rhs.map(|(b, out)| (&b[..m], &mut out[..m]));
         let mut mapped = mapped.map(|mapped| MappedForward::new(mapped, m));
-        let mut minors = LeadingMinors::new();
-        // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
-        let mut l = 0.0_f64;
-        let mut coupling = 0.0;
-        let mut forward = 0.0;
+        let mut sweep = ThomasSweep::new(0.0);
         for i in 0..m {
-            let d = diag[i];
-            let u = if i < off { upper[i] } else { 0.0 };
-            let Some(inv) = minors.inverse_pivot(d, coupling) else {
-                return false;
-            };
-            let scale = l.abs() + d.abs() + u.abs();
-            // Rejects |p_i| <= 1e-8 x row scale, and a NaN inverse.
-            if inv.is_nan() || inv.abs() * 1e-8 * scale >= 1.0 {
+            // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
+            let (l, d) = (sweep.lower(), diag[i]);
+            let next = (i < off).then(|| (upper[i], lower[i]));
+            let forward = sweep.row(&mut factors, i, d, next, rhs.as_ref().map(|(b, _)| b[i]));
+            if !sweep.ok {
                 return false;
             }
-            f_diag[i] = inv;
-            if i > 0 {
-                // Scaled so that the forward solve has one multiply-subtract on its critical path.
-                let multiplier = l * inv;
-                f_lower[i - 1] = multiplier;
-                if let Some((b, out)) = rhs.as_mut() {
-                    forward = b[i] * inv - multiplier * forward;
-                    out[i] = forward;
-                }
-            } else if let Some((b, out)) = rhs.as_mut() {
-                forward = b[0] * inv;
-                out[0] = forward;
+            if let (Some(forward), Some((_, out))) = (forward, rhs.as_mut()) {
+                out[i] = forward;
             }
             if let Some(mapped) = mapped.as_mut() {
-                mapped.row(i, (l, d, u));
-            }
-            if i < off {
-                f_upper[i] = u * inv;
-                l = lower[i];
-                coupling = l * u;
+                let u = next.map_or(0.0, |(u, _)| u);
+                mapped.row(
+                    i,
+                    Row {
+                        lower: l,
+                        diag: d,
+                        upper: u,
+                    },
+                );
             }
         }
         true
@@ -270,50 +252,6 @@ impl TridiagonalFactor {
     }
 }
 
-/// The leading principal minors s_i = d_i s_{i-1} - l_{i-1} u_{i-1} s_{i-2} of a tridiagonal
-/// matrix, row by row, rescaled by exact powers of two to stay in range (only their ratios, the
-/// pivots of Thomas' algorithm, are used).
-struct LeadingMinors {
-    /// s_{i-2}.
-    prev2: f64,
-    /// s_{i-1}.
-    prev: f64,
-}
-
-impl LeadingMinors {
-    /// Before row 0: s_{-2} = 0, s_{-1} = 1.
-    #[inline(always)]
-    fn new() -> Self {
-        Self {
-            prev2: 0.0,
-            prev: 1.0,
-        }
-    }
-
-    /// Moves to the next row, of diagonal entry `d` and `coupling` = l_{i-1} u_{i-1}, and
-    /// returns the inverse pivot 1 / p_i = s_{i-1} / s_i; `None` when s_i is 0 or not finite.
-    /// Outside [2^-256, 2^256], s_i and s_{i-1} are rescaled by 2^256 or 2^-256 (exactly).
-    #[inline(always)]
-    fn inverse_pivot(&mut self, d: f64, coupling: f64) -> Option<f64> {
-        const BIG: f64 = 1.157_920_892_373_162e77; // 2^256
-        const SMALL: f64 = 8.636_168_555_094_445e-78; // 2^-256
-        let mut s_i = d * self.prev - coupling * self.prev2;
-        let magnitude = s_i.abs();
-        if !(SMALL..=BIG).contains(&magnitude) {
-            let scale = if magnitude > BIG { SMALL } else { BIG };
-            if magnitude == 0.0 || !magnitude.is_finite() {
-                return None;
-            }
-            s_i *= scale;
-            self.prev *= scale;
-        }
-        let inv = self.prev / s_i;
-        self.prev2 = self.prev;
-        self.prev = s_i;
-        Some(inv)
-    }
-}
-
 /// out = B^-1 (A p) formed in the pass of Thomas' algorithm over A, B an unpivoted Thomas
 /// factor: row by row, the row of A p and B's forward substitution (its back substitution
 /// runs after the pass).
@@ -342,44 +280,25 @@ impl<'a> MappedForward<'a> {
         }
     }
 
-    /// Row i, of entries (l, d, u) = (A[i][i-1], A[i][i], A[i][i+1]): row i of A p as
-    /// [`GramMatrix::mul_vec`] forms it, then B's forward substitution into `out[i]`.
+    /// Row i of A: row i of A p as [`GramMatrix::mul_vec`] forms it, then B's forward
+    /// substitution into `out[i]`.
     #[inline(always)]
-    fn row(&mut self, i: usize, (l, d, u): (f64, f64, f64)) {
-        // The order minus 1, as B's multipliers are cut.
-        let (p, off) = (self.p, self.b_lower.len());
-        let row = if i == 0 {
-            if off == 0 {
-                d * p[0]
-            } else {
-                d * p[0] + u * p[1]
-            }
-        } else if i < off {
-            d * p[i] + l * p[i - 1] + u * p[i + 1]
-        } else {
-            d * p[i] + l * p[i - 1]
-        };
+    fn row(&mut self, i: usize, row: Row<f64>) {
+        let value = tridiagonal_row(self.p, i, row);
         self.forward = if i == 0 {
-            row * self.b_diag[0]
+            value * self.b_diag[0]
         } else {
-            row * self.b_diag[i] - self.b_lower[i - 1] * self.forward
+            forward_step(value, self.b_diag[i], self.b_lower[i - 1], self.forward)
         };
         self.out[i] = self.forward;
     }
 }
 
 impl TridiagonalFactor {
-    /// The back substitution of Thomas' algorithm: b_i <- b_i - (u_i / p_i) b_{i+1}, the
-    /// running value kept in a register.
+    /// The back substitution of Thomas' algorithm ([`thomas::backward`]).
     #[inline(always)]
     fn backward(&self, b: &mut [f64]) {
-        let off = self.upper.len();
-        let (head, last) = b.split_at_mut(off);
-        let mut next = last[0];
-        for (bi, u) in head.iter_mut().zip(&self.upper).rev() {
-            next = *bi - u * next;
-            *bi = next;
-        }
+        thomas::backward(&self.upper, b);
     }
 }
 
@@ -407,12 +326,7 @@ impl Solve for TridiagonalFactor {
         let m = self.diag.len();
         if !self.pivoted {
             let b = &mut b[..m];
-            let mut previous = b[0] * self.diag[0];
-            b[0] = previous;
-            for ((bi, d), l) in b[1..].iter_mut().zip(&self.diag[1..]).zip(&self.lower) {
-                previous = *bi * d - l * previous;
-                *bi = previous;
-            }
+            thomas::forward(&self.diag, &self.lower, b);
             self.backward(b);
             return;
         }

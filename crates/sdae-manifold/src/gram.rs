@@ -5,6 +5,8 @@
 //! A constraint names its container as an associated type, so the structure (scalar,
 //! tridiagonal, dense) is known at compile time and solvers take the O(m) path where one exists.
 
+use crate::thomas::tridiagonal_mul;
+
 /// Which structure a constraint's Gram matrix has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum GramStructure {
@@ -87,20 +89,7 @@ impl GramMatrix for TridiagonalGram {
     /// out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1}: the first and last rows apart, so
     /// that the loop over the interior rows vectorizes.
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
-        let m = self.diag.len();
-        let (x, out) = (&x[..m], &mut out[..m]);
-        if m < 2 {
-            if m == 1 {
-                out[0] = self.diag[0] * x[0];
-            }
-            return;
-        }
-        let (lower, upper) = (&self.lower[..m - 1], &self.upper[..m - 1]);
-        out[0] = self.diag[0] * x[0] + upper[0] * x[1];
-        for i in 1..m - 1 {
-            out[i] = self.diag[i] * x[i] + lower[i - 1] * x[i - 1] + upper[i] * x[i + 1];
-        }
-        out[m - 1] = self.diag[m - 1] * x[m - 1] + lower[m - 2] * x[m - 2];
+        tridiagonal_mul(&self.lower, &self.diag, &self.upper, x, out);
     }
 }
 

@@ -35,6 +35,7 @@ mod mass;
 mod sphere;
 mod sphere_constraint;
 mod state;
+mod thomas;
 pub mod vector;
 
 pub use bonds::{Bond, RigidBonds};

@@ -120,6 +120,7 @@ impl ConstraintLanes for ChainLanes {
         let mut largest = half.splat_like(0.0);
         let mut sum = largest;
         let mut sweep = ThomasSweep::new(half);
+        let mut factors = factor.factors();
         for (i, out) in step.iter_mut().enumerate().take(m) {
             let (e, f) = (e_next, f_next);
             let value = distance_value(&e, self.inv_ds2);
@@ -138,7 +139,7 @@ impl ConstraintLanes for ChainLanes {
             };
             largest = largest.max(value.abs());
             sum = sum + value;
-            if let Some(forward) = sweep.row(factor, i, diag, off_diagonal, Some(value)) {
+            if let Some(forward) = sweep.row(&mut factors, i, diag, off_diagonal, Some(value)) {
                 *out = forward;
             }
         }

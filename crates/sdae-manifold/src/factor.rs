@@ -3,6 +3,7 @@
 //! as often as needed. Every constraint's Gram storage is [`Factorize`]: a matrix, its
 //! factorization, [`Solve`].
 
+use crate::dense_lu;
 use crate::error::LinearError;
 use crate::gram::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
 use crate::thomas::{self, Row, ThomasFactors, ThomasSweep, forward_step, tridiagonal_row};
@@ -435,19 +436,11 @@ impl Solve for DenseFactor {
     fn solve_in_place(&self, b: &mut [f64]) {
         match self {
             DenseFactor::Small { order, lu, perm } => {
-                let m = *order;
-                // Apply the permutation as a sequence of swaps (recorded in elimination order).
-                for (k, &p) in perm.iter().enumerate() {
-                    b.swap(k, p);
-                }
-                for i in 0..m {
-                    let s: f64 = (0..i).map(|j| lu[i * m + j] * b[j]).sum();
-                    b[i] -= s;
-                }
-                for i in (0..m).rev() {
-                    let s: f64 = (i + 1..m).map(|j| lu[i * m + j] * b[j]).sum();
-                    b[i] = (b[i] - s) / lu[i * m + i];
-                }
+                let b = &mut b[..*order];
+                // The row interchanges in elimination order, then L and U.
+                dense_lu::permute(|k| perm[k] as f64, b);
+                dense_lu::forward(lu, b);
+                dense_lu::backward(lu, b);
             }
             DenseFactor::Faer(lu) => {
                 let m = b.len();
@@ -499,27 +492,14 @@ impl Factorize for DenseGram {
             return self.factor_into(factor);
         };
         lu.copy_from_slice(a);
+        let tolerance = scale * PIVOT_TOLERANCE;
         for k in 0..m {
-            let p = (k..m)
-                .max_by(|&i, &j| lu[i * m + k].abs().total_cmp(&lu[j * m + k].abs()))
-                .unwrap_or(k);
-            perm[k] = p;
-            if p != k {
-                for j in 0..m {
-                    lu.swap(k * m + j, p * m + j);
-                }
-            }
-            let pivot = lu[k * m + k];
-            if pivot.abs() <= PIVOT_TOLERANCE * scale || pivot == 0.0 {
+            let (pivot_row, pivot) = dense_lu::choose_pivot(lu, m, k);
+            perm[k] = pivot_row as usize;
+            if dense_lu::pivot_rejected(pivot, tolerance) {
                 return Err(LinearError::Singular { index: k, pivot });
             }
-            for i in k + 1..m {
-                let f = lu[i * m + k] / pivot;
-                lu[i * m + k] = f;
-                for j in k + 1..m {
-                    lu[i * m + j] -= f * lu[k * m + j];
-                }
-            }
+            dense_lu::eliminate(lu, m, k);
         }
         Ok(())
     }

@@ -5,6 +5,7 @@
 //! A constraint names its container as an associated type, so the structure (scalar,
 //! tridiagonal, dense) is known at compile time and solvers take the O(m) path where one exists.
 
+use crate::dense_lu::dense_mul;
 use crate::thomas::tridiagonal_mul;
 
 /// Which structure a constraint's Gram matrix has.
@@ -128,8 +129,6 @@ impl GramMatrix for DenseGram {
         self.data[i * self.order + j]
     }
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
-        for (row, o) in self.data.chunks_exact(self.order).zip(out.iter_mut()) {
-            *o = row.iter().zip(x).map(|(a, b)| a * b).sum();
-        }
+        dense_mul(&self.data, x, &mut out[..self.order]);
     }
 }

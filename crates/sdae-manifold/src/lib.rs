@@ -27,6 +27,7 @@ mod bonds;
 mod chain;
 mod closure;
 mod constraint;
+mod dense_lu;
 mod error;
 mod factor;
 mod gram;

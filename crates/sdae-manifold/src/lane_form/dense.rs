@@ -1,16 +1,15 @@
-//! Dense m x m matrices of W lanes and their LU factors with partial pivoting: the operations
-//! of `sdae_manifold`'s `DenseGram::mul_vec` and of the hand-written `DenseFactor` (orders up
-//! to `DENSE_FAER_THRESHOLD`), lane by lane, with the same floating-point operations in the
-//! same order. Each lane picks its own pivot rows (the last largest |entry| of the column, as
-//! `Iterator::max_by` does), so the row interchanges are selects. A lane whose matrix has a
-//! non-finite entry or a pivot the scalar factorization rejects (|p| <= `PIVOT_TOLERANCE` x
-//! max |A_ij|) is reported, so that its step goes through the scalar path.
+//! Dense m x m matrices of W lanes and their LU factors with partial pivoting, through the code
+//! `DenseGram::mul_vec` and the hand-written `DenseFactor` (orders up to `DENSE_FAER_THRESHOLD`)
+//! run on one matrix (`dense_lu.rs`). A lane whose matrix has a non-finite entry or a pivot the
+//! scalar factorization rejects (|p| <= `PIVOT_TOLERANCE` x max |A_ij|) is reported, so that
+//! its step goes through the scalar path.
 
 use crate::factor::PIVOT_TOLERANCE;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
-use super::{FactorLanes, MatrixLanes, RightHandSide, active_any};
+use super::{FactorLanes, MatrixLanes, RightHandSide};
+use crate::dense_lu;
 
 /// A dense matrix of order m in each lane, row-major.
 #[derive(Debug, Clone)]
@@ -41,17 +40,10 @@ impl<Sd: Simd> MatrixLanes<Sd> for DenseLanes<Sd> {
         }
     }
 
-    /// out_i = sum_j A_ij x_j, summed in order from -0 (the standard library's `sum`).
+    /// out = A x ([`dense_lu::dense_mul`]).
     #[inline(always)]
     fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
-        let m = self.order;
-        for (row, o) in self.entries.chunks_exact(m).zip(out.iter_mut()) {
-            let mut sum = x[0].splat_like(-0.0);
-            for (a, xj) in row.iter().zip(x) {
-                sum = sum + *a * *xj;
-            }
-            *o = sum;
-        }
+        dense_lu::dense_mul(&self.entries, x, &mut out[..self.order]);
     }
 }
 
@@ -89,37 +81,11 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
         }
         let tolerance = scale * PIVOT_TOLERANCE;
         self.lu.copy_from_slice(&a.entries);
-        let lu = &mut self.lu;
         for k in 0..m {
-            // The pivot row: the last row i >= k with the largest |A_ik|.
-            let mut largest = lu[k * m + k].abs();
-            let mut pivot_row = zero.splat_like(k as f64);
-            for i in k + 1..m {
-                let candidate = lu[i * m + k].abs();
-                let later = largest.le(candidate);
-                largest = Lanes::select(later, candidate, largest);
-                pivot_row = Lanes::select(later, zero.splat_like(i as f64), pivot_row);
-            }
+            let (pivot_row, pivot) = dense_lu::choose_pivot(&mut self.lu, m, k);
             self.perm[k] = pivot_row;
-            for i in k + 1..m {
-                let swap = pivot_row.eq(zero.splat_like(i as f64));
-                if active_any(swap) {
-                    for j in 0..m {
-                        let (upper, lower) = (lu[k * m + j], lu[i * m + j]);
-                        lu[k * m + j] = Lanes::select(swap, lower, upper);
-                        lu[i * m + j] = Lanes::select(swap, upper, lower);
-                    }
-                }
-            }
-            let pivot = lu[k * m + k];
-            ok = ok.and(!pivot.abs().le(tolerance).or(pivot.eq(zero)));
-            for i in k + 1..m {
-                let f = lu[i * m + k] / pivot;
-                lu[i * m + k] = f;
-                for j in k + 1..m {
-                    lu[i * m + j] = lu[i * m + j] - f * lu[k * m + j];
-                }
-            }
+            ok = ok.and(!dense_lu::pivot_rejected(pivot, tolerance));
+            dense_lu::eliminate(&mut self.lu, m, k);
         }
         if let Some((b, out)) = rhs {
             out.copy_from_slice(b);
@@ -128,45 +94,19 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
         ok
     }
 
-    /// The back substitution of `DenseFactor::solve_in_place`, its sums from -0.
+    /// The back substitution of `DenseFactor::solve_in_place` ([`dense_lu::backward`]).
     #[inline(always)]
     fn back_substitute(&self, b: &mut [Lanes<Sd>]) {
-        let m = self.order;
-        let lu = &self.lu;
-        let minus_zero = b[0].splat_like(-0.0);
-        for i in (0..m).rev() {
-            let mut s = minus_zero;
-            for j in i + 1..m {
-                s = s + lu[i * m + j] * b[j];
-            }
-            b[i] = (b[i] - s) / lu[i * m + i];
-        }
+        dense_lu::backward(&self.lu, &mut b[..self.order]);
     }
 
     /// The first half of `DenseFactor::solve_in_place`: the row interchanges in elimination
-    /// order and the forward substitution, its sums from -0.
+    /// order and the forward substitution ([`dense_lu::permute`], [`dense_lu::forward`]).
     #[inline(always)]
     fn forward_in_place(&self, b: &mut [Lanes<Sd>]) {
-        let m = self.order;
-        let lu = &self.lu;
-        let minus_zero = b[0].splat_like(-0.0);
-        for k in 0..m {
-            for i in k + 1..m {
-                let swap = self.perm[k].eq(b[0].splat_like(i as f64));
-                if active_any(swap) {
-                    let (upper, lower) = (b[k], b[i]);
-                    b[k] = Lanes::select(swap, lower, upper);
-                    b[i] = Lanes::select(swap, upper, lower);
-                }
-            }
-        }
-        for i in 0..m {
-            let mut s = minus_zero;
-            for j in 0..i {
-                s = s + lu[i * m + j] * b[j];
-            }
-            b[i] = b[i] - s;
-        }
+        let b = &mut b[..self.order];
+        dense_lu::permute(|k| self.perm[k], b);
+        dense_lu::forward(&self.lu, b);
     }
 }
 

@@ -9,8 +9,8 @@ mod common;
 use common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{DiagonalMass, IdentityMass, Sphere};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, StepFailure,
-    StepOutcome, System,
+    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, StepResult,
+    System,
 };
 use sdae_scheme::{Stepper, StepperConfig};
 
@@ -32,12 +32,7 @@ where
 
 /// What a step leaves: the state, the outcome, kappa and lambda, or the failure, written with
 /// `Debug`, which prints every f64 exactly (-0 and NaN included).
-fn after<S: System>(
-    stepper: &Stepper<S>,
-    result: &Result<StepOutcome, StepFailure>,
-    r: &[f64],
-    v: &[f64],
-) -> String {
+fn after<S: System>(stepper: &Stepper<S>, result: &StepResult, r: &[f64], v: &[f64]) -> String {
     match result {
         Ok(outcome) => format!(
             "{r:?} {v:?} {outcome:?} {:?} {:?}",

@@ -14,7 +14,7 @@ use crate::error::{ModelError, StepError, StepFailure, check_dim};
 use crate::grid::TimeGrid;
 use crate::increments::IncrementSource;
 use crate::observer::Observer;
-use crate::scheme::{Scheme, StepOutcome};
+use crate::scheme::{Scheme, StepOutcome, StepResult};
 use crate::system::System;
 
 /// Tolerance for |g(r_0)| and |Dg(r_0) v_0| of a path's initial state.
@@ -66,7 +66,7 @@ impl PathState {
         v: &mut [f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    ) -> StepResult {
         let mut outcome = scheme
             .step(r, v, h, dw)
             .map_err(|failure| failure.blaming_increment(dw))?;

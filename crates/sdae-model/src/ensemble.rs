@@ -26,7 +26,7 @@ use crate::system::System;
 /// ```
 /// use sdae_model::{
 ///     GaussianIncrements, IncrementSource, MechanicalSystem, NoNoise, PathEnsemble, PathLoop,
-///     Scheme, StepFailure, StepOutcome, ZeroDrift, lane_stride,
+///     Scheme, StepFailure, StepOutcome, StepResult, ZeroDrift, lane_stride,
 /// };
 /// use sdae_manifold::{IdentityMass, Sphere};
 ///
@@ -39,7 +39,7 @@ use crate::system::System;
 ///         &self.0
 ///     }
 ///     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
-///         -> Result<StepOutcome, StepFailure> {
+///         -> StepResult {
 ///         let (c, s) = (h.cos(), h.sin());
 ///         let (x, y) = (r[0], r[1]);
 ///         r.copy_from_slice(&[c * x - s * y, s * x + c * y]);

@@ -511,7 +511,7 @@ impl std::fmt::Debug for LaneStore {
 /// use sdae_model::lanes::LaneWidth;
 /// use sdae_model::{
 ///     LaneEnsemble, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme, StepFailure,
-///     StepOutcome, ZeroDrift,
+///     StepOutcome, StepResult, ZeroDrift,
 /// };
 ///
 /// // A scheme without a lane form: every path steps through `step`.
@@ -523,7 +523,7 @@ impl std::fmt::Debug for LaneStore {
 ///         &self.0
 ///     }
 ///     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
-///         -> Result<StepOutcome, StepFailure> {
+///         -> StepResult {
 ///         r[0] += h * v[0];
 ///         r[1] += h * v[1];
 ///         Ok(StepOutcome::PLAIN)

@@ -29,7 +29,7 @@
 //! use sdae_manifold::{IdentityMass, ScalarGram, Sphere};
 //! use sdae_model::{
 //!     GaussianIncrements, MechanicalSystem, NoNoise, NoObserver, Scheme, StepFailure,
-//!     StepOutcome, System, TangentProjector, TimeGrid, ZeroDrift, run_path,
+//!     StepOutcome, StepResult, System, TangentProjector, TimeGrid, ZeroDrift, run_path,
 //! };
 //!
 //! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
@@ -45,7 +45,7 @@
 //!         &self.system
 //!     }
 //!     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, _dw: &[f64])
-//!         -> Result<StepOutcome, StepFailure> {
+//!         -> StepResult {
 //!         let (c, m) = (self.system.constraint(), self.system.mass());
 //!         let mut next = r.to_vec();
 //!         for (x, vi) in next.iter_mut().zip(v.iter()) {
@@ -105,7 +105,7 @@ pub use lanes::{LANE_BLOCK, lane_stride};
 pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use path_streams::{PathStreams, StandardNormals, path_rng};
-pub use scheme::{Scheme, StepOutcome};
+pub use scheme::{Scheme, StepOutcome, StepResult};
 pub use system::{
     AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
     check_dimensions, check_step_input,

@@ -45,6 +45,10 @@ impl StepOutcome {
     }
 }
 
+/// What [`Scheme::step`] returns: the step's [`StepOutcome`], or the [`StepFailure`] that
+/// left (r, v) unchanged.
+pub type StepResult = Result<StepOutcome, StepFailure>;
+
 /// A one-step scheme for a constrained stochastic mechanical system (seed eq. 1.1): from
 /// (r_k, v_k), a step size h and the Brownian increment dw_k = w(t_{k+1}) - w(t_k) to
 /// (r_{k+1}, v_{k+1}) and the multiplier increment mu_{k+1} - mu_k.
@@ -59,13 +63,7 @@ pub trait Scheme {
     fn system(&self) -> &Self::System;
     /// Advances (r, v) by one step of size h with the Brownian increment dw (length l). On
     /// failure (r, v) are left unchanged.
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure>;
+    fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult;
     /// The increment of mu over the last successful step (length m): lambda_{k+1} of seed eq.
     /// 1.4 for the half-explicit scheme, eq. 2.3 for the inherent SDE.
     fn multiplier_increment(&self) -> &[f64];
@@ -77,13 +75,7 @@ impl<T: Scheme + ?Sized> Scheme for Box<T> {
         (**self).system()
     }
     #[inline]
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         (**self).step(r, v, h, dw)
     }
     fn multiplier_increment(&self) -> &[f64] {

@@ -4,7 +4,7 @@
 use crate::error::{ReferenceError, check_finite};
 use crate::inherent::{CurvedSystem, InherentSde};
 use crate::updates;
-use sdae_model::{StepFailure, StepOutcome};
+use sdae_model::{StepOutcome, StepResult};
 
 /// The coefficients of one Euler step at (r, v): drift and noise parts of dv and dmu.
 #[derive(Debug, Clone)]
@@ -170,13 +170,7 @@ impl<S: CurvedSystem> EulerMaruyama<S> {
 
 impl<S: CurvedSystem> EulerMaruyama<S> {
     /// One Euler-Maruyama step of eq. 2.4 (see the type's documentation), proposed.
-    fn propose(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
         self.core.propose(r, v, h, dw, |_, _| 1.0)?;
         Ok(StepOutcome::PLAIN)
     }

@@ -4,7 +4,7 @@ use crate::error::ReferenceError;
 use crate::euler::{EulerCore, EulerParts};
 use crate::inherent::{CurvedSystem, InherentSde};
 use crate::updates;
-use sdae_model::{StepFailure, StepOutcome};
+use sdae_model::{StepOutcome, StepResult};
 
 /// Stochastic Heun for the inherent SDE (seed eq. 2.4) as an SDE in R^{2n},
 /// dX = f(X) dt + sigma(X) dw with f, sigma of Lemma 4.2:
@@ -50,13 +50,7 @@ impl<S: CurvedSystem> StochasticHeun<S> {
 
 impl<S: CurvedSystem> StochasticHeun<S> {
     /// One stochastic Heun step (see the type's documentation), proposed.
-    fn propose(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
         let core = &mut self.core;
         // Predictor X~ = X + f(X) h + sigma(X) dw into core.next_r, core.next_v.
         core.propose(r, v, h, dw, |_, _| 1.0)?;

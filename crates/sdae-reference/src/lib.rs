@@ -30,7 +30,7 @@
 
 /// The accessor of the inherent SDE and the [`sdae_model::Scheme`] implementation of a solver
 /// that holds an `EulerCore` in `core` and proposes a step with
-/// `fn propose(&mut self, r, v, h, dw) -> Result<StepOutcome, StepFailure>` (into `core.next_r`,
+/// `fn propose(&mut self, r, v, h, dw) -> StepResult` (into `core.next_r`,
 /// `core.next_v`, `core.dmu`): the step commits the proposal only once it succeeded, so
 /// (r, v) are unchanged on failure.
 macro_rules! inherent_scheme {
@@ -54,7 +54,7 @@ macro_rules! inherent_scheme {
                 v: &mut [f64],
                 h: f64,
                 dw: &[f64],
-            ) -> Result<sdae_model::StepOutcome, sdae_model::StepFailure> {
+            ) -> sdae_model::StepResult {
                 let outcome = self.propose(r, v, h, dw)?;
                 self.core.commit(r, v);
                 Ok(outcome)

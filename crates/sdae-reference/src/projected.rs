@@ -7,7 +7,7 @@ use sdae_model::TangentProjector;
 use crate::error::{ReferenceError, check_finite};
 use crate::euler::EulerCore;
 use crate::inherent::{CurvedSystem, InherentSde};
-use sdae_model::{StepFailure, StepOutcome};
+use sdae_model::{StepFailure, StepOutcome, StepResult};
 
 /// Euler-Maruyama on the inherent SDE (seed eq. 2.4, see [`crate::EulerMaruyama`]) followed by
 /// projection onto the tangent bundle:
@@ -73,13 +73,7 @@ impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
 impl<S: CurvedSystem> ProjectedEulerMaruyama<S> {
     /// One Euler-Maruyama step of eq. 2.4, then the projection (see the type's
     /// documentation), proposed.
-    fn propose(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
         self.core.propose(r, v, h, dw, |_, _| 1.0)?;
         let newton_iterations = self.project_proposal()?;
         Ok(StepOutcome {

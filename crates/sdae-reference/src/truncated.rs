@@ -5,7 +5,7 @@ use crate::error::ReferenceError;
 use crate::euler::EulerCore;
 use crate::inherent::{CurvedSystem, InherentSde};
 use crate::updates;
-use sdae_model::{ModelError, StepFailure, StepOutcome};
+use sdae_model::{ModelError, StepOutcome, StepResult};
 
 /// Truncated Euler-Maruyama on the inherent SDE written as an R^{2n} SDE
 /// dX = f(X) dt + sigma(X) dw (seed Section 4.1, `eq:SDEstrongsetting`, with the coefficients of Lemma 4.2):
@@ -69,13 +69,7 @@ impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
 
 impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
     /// One truncated Euler-Maruyama step (see the type's documentation), proposed.
-    fn propose(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
         let scale = self.scale;
         let theta = self
             .core

@@ -1,7 +1,7 @@
 //! [`Stepper`] as a [`Scheme`]: one path's step, through the sphere's lane form at W = 1 where
 //! it applies and decides, else through the general step (seed eq. 3.1, 3.2).
 
-use sdae_model::{Scheme, StepFailure, StepOutcome, System, check_step_input};
+use sdae_model::{Scheme, StepResult, System, check_step_input};
 
 use crate::ensemble::sphere;
 use crate::stepper::Stepper;
@@ -23,13 +23,7 @@ impl<S: System> Scheme for Stepper<S> {
     /// A sphere with a diagonal mass (the pendulums) steps through the lane form at W = 1 (the
     /// ensemble's code in plain f64); what it does not decide, and every other system, goes
     /// through the general path ([`Stepper::step_general`]).
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         check_step_input(&self.system, r, v, h, dw)?;
         if let Some(step) = sphere::step_one_lane(self, r, v, h, dw) {
             self.lane_root = Some([step.kappa]);

@@ -4,7 +4,7 @@ use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::{
-    KappaProblem, StepFailure, StepOutcome, System, check_dimensions, check_step_input,
+    KappaProblem, StepFailure, StepOutcome, StepResult, System, check_dimensions, check_step_input,
     lambda_right_hand_side,
 };
 
@@ -82,13 +82,7 @@ impl<S: System> Stepper<S> {
     /// [`Ensemble`](crate::Ensemble) runs W paths at a time, here at W = 1) does not apply or
     /// does not decide the step; where the lane form decides, both give the same numbers bit
     /// for bit (tests/tests/one_lane.rs). For cross-checks.
-    pub fn step_general(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    pub fn step_general(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         check_step_input(&self.system, r, v, h, dw)?;
         self.general_step(r, v, h, dw)
     }
@@ -102,7 +96,7 @@ impl<S: System> Stepper<S> {
         v: &mut [f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    ) -> StepResult {
         let scalar_gram =
             <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar;
         let outcome = match (scalar_gram, r.len()) {
@@ -151,7 +145,7 @@ impl<S: System> Stepper<S> {
         v: &mut [f64],
         h: f64,
         dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    ) -> StepResult {
         let (mut drift, mut y, mut x, mut force) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         let (mut lambda, mut tangency) = ([0.0; 1], [0.0; 1]);
         let mut scratch = [0.0; SIZED_SCRATCH];
@@ -209,7 +203,7 @@ fn half_explicit_step<S: System>(
     v: &mut [f64],
     h: f64,
     dw: &[f64],
-) -> Result<StepOutcome, StepFailure> {
+) -> StepResult {
     let Buffers {
         drift,
         y,

@@ -16,8 +16,8 @@ use std::path::Path;
 use sdae_ift::SolverSettings;
 use sdae_manifold::{ClosureConstraint, Constraint, IdentityMass, Mass};
 use sdae_model::{
-    AdditiveNoise, MechanicalSystem, Scheme, StepFailure, StepOutcome, System, TangentProjector,
-    check_step_input,
+    AdditiveNoise, MechanicalSystem, Scheme, StepFailure, StepOutcome, StepResult, System,
+    TangentProjector, check_step_input,
 };
 use sdae_reference::CurvedSystem;
 use sdae_study::convergence::{
@@ -69,13 +69,7 @@ impl<S: System> Scheme for ProjectedSymplecticEuler<S> {
         &self.system
     }
 
-    fn step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
-    ) -> Result<StepOutcome, StepFailure> {
+    fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         let (c, mass) = (self.system.constraint(), self.system.mass());
         check_step_input(&self.system, r, v, h, dw)?;
         self.system.drift(r, v, &mut self.force);

@@ -36,10 +36,7 @@ impl Drift for Gravity {
         }
     }
     fn drift_lanes<S: pulp::Simd>(
-        &self,
-        _r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         for (k, o) in out.iter_mut().enumerate() {
             *o = v[0].splat_like(if k % 3 == 2 { -1.0 } else { 0.0 });
@@ -96,10 +93,7 @@ fn increments(l: usize, h: f64) -> Vec<Vec<f64>> {
 
 /// The first `paths` paths in an ensemble of that many.
 fn run_ensemble<S: System>(
-    stepper: &Stepper<S>,
-    (width, paths): (LaneWidth, usize),
-    (r0, v0): (&[f64], &[f64]),
-    h: f64,
+    stepper: &Stepper<S>, (width, paths): (LaneWidth, usize), (r0, v0): (&[f64], &[f64]), h: f64,
 ) -> (Vec<Outcome>, usize)
 where
     Stepper<S>: Clone,
@@ -142,10 +136,7 @@ where
 
 /// The first `paths` paths, each through the scalar stepper.
 fn run_scalar<S: System>(
-    stepper: &Stepper<S>,
-    paths: usize,
-    (r0, v0): (&[f64], &[f64]),
-    h: f64,
+    stepper: &Stepper<S>, paths: usize, (r0, v0): (&[f64], &[f64]), h: f64,
 ) -> Vec<Outcome>
 where
     Stepper<S>: Clone,
@@ -188,10 +179,7 @@ where
 /// Every width against the scalar stepper; returns (truncated steps, failed paths, steps the
 /// lanes left to the scalar stepper) of the widest.
 fn check<S: System>(
-    what: &str,
-    stepper: &Stepper<S>,
-    state: (&[f64], &[f64]),
-    h: f64,
+    what: &str, stepper: &Stepper<S>, state: (&[f64], &[f64]), h: f64,
 ) -> (usize, usize, usize)
 where
     Stepper<S>: Clone,

@@ -105,12 +105,7 @@ impl Constraint for CountingCircle<'_> {
         self.sphere.new_gram()
     }
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut ScalarGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut ScalarGram,
     ) {
         self.sphere.cross_gram(x1, x2, mass, scratch, out)
     }

@@ -32,11 +32,7 @@ fn summary(d: &PathDiagnostics) -> String {
 
 /// Runs one fixed-seed path (stream `index` of seed 2026) and summarizes its diagnostics.
 fn run_summary<S: System>(
-    stepper: &mut Stepper<S>,
-    mut r: Vec<f64>,
-    mut v: Vec<f64>,
-    grid: TimeGrid,
-    index: u64,
+    stepper: &mut Stepper<S>, mut r: Vec<f64>, mut v: Vec<f64>, grid: TimeGrid, index: u64,
 ) -> String {
     let mut noise = GaussianIncrements::for_path(2026, index, stepper.system().noise_dim());
     let d = run_path(stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver).unwrap();

@@ -519,11 +519,8 @@ impl sdae_model::Noise for ThreeComponentNoise {
         out[1] += dw[1] - 0.5 * dw[2];
     }
     fn add_lanes<S: pulp::Simd>(
-        &self,
-        _r: &[sdae_model::lanes::Lanes<S>],
-        _v: &[sdae_model::lanes::Lanes<S>],
-        dw: &[sdae_model::lanes::Lanes<S>],
-        out: &mut [sdae_model::lanes::Lanes<S>],
+        &self, _r: &[sdae_model::lanes::Lanes<S>], _v: &[sdae_model::lanes::Lanes<S>],
+        dw: &[sdae_model::lanes::Lanes<S>], out: &mut [sdae_model::lanes::Lanes<S>],
     ) -> bool {
         out[0] = out[0] + (dw[0] + dw[2] * 0.5);
         out[1] = out[1] + (dw[1] - dw[2] * 0.5);

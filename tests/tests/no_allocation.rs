@@ -61,10 +61,7 @@ fn allocations_of_steps<S: Scheme>(scheme: &mut S, (r, v): (&[f64], &[f64]), h: 
 /// Every scheme on `system` from `state` with step h: the half-explicit stepper with
 /// `config`, and the inherent-SDE solvers where `inherent`.
 fn check_all<S: CurvedSystem + Clone>(
-    name: &str,
-    system: S,
-    config: StepperConfig,
-    state: (&[f64], &[f64]),
+    name: &str, system: S, config: StepperConfig, state: (&[f64], &[f64]),
     (h, inherent): (f64, bool),
 ) {
     let mut counts = vec![(
@@ -159,10 +156,7 @@ fn steps_do_not_allocate() {
 /// Allocations made by the ensemble steps of 11 paths of `system` from `state`, after the first
 /// step (which makes the lanes' buffers); panics unless every path-step was decided in lanes.
 fn allocations_of_ensemble_steps<S: System>(
-    system: S,
-    config: StepperConfig,
-    (r, v): (&[f64], &[f64]),
-    h: f64,
+    system: S, config: StepperConfig, (r, v): (&[f64], &[f64]), h: f64,
 ) -> usize {
     const PATHS: usize = 11;
     let l = system.noise_dim();

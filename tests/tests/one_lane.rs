@@ -47,10 +47,7 @@ fn after<S: System>(stepper: &Stepper<S>, result: &StepResult, r: &[f64], v: &[f
 /// state the other reached, which is the same) and compares every step. Returns the number of
 /// steps decided in one lane and of failed steps.
 fn compare<S: System + Clone>(
-    system: S,
-    config: StepperConfig,
-    h: f64,
-    what: &str,
+    system: S, config: StepperConfig, h: f64, what: &str,
 ) -> (usize, usize) {
     let mut lanes = Stepper::new(system.clone(), config).unwrap();
     let mut general = Stepper::new(system, config).unwrap();

@@ -88,9 +88,7 @@ fn the_first_root_is_outside_the_theory_ball_when_c_eta_is_too_large() {
 }
 
 fn chain_stepper(
-    beads: usize,
-    homotopy: bool,
-    plausibility_factor: f64,
+    beads: usize, homotopy: bool, plausibility_factor: f64,
 ) -> Stepper<MechanicalSystem<BeadChain, IdentityMass, ZeroDrift, NoNoise>> {
     let chain = BeadChain::new(beads, 1.0).unwrap();
     let system = MechanicalSystem::new(chain, IdentityMass, ZeroDrift, NoNoise).unwrap();

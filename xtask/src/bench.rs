@@ -109,9 +109,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
 /// Runs `cargo bench` on the benchmark packages with `criterion_args`, its results in
 /// `criterion_home`.
 fn run_criterion(
-    target: &Path,
-    criterion_home: &Path,
-    criterion_args: &[String],
+    target: &Path, criterion_home: &Path, criterion_args: &[String],
 ) -> Result<(), TaskError> {
     let root = workspace_root()?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
@@ -398,10 +396,7 @@ impl Figures {
 /// The mean time in ns of benchmark `group[/id]` from criterion's
 /// `<criterion home>/<group>[/<id>]/new/estimates.json`, which must be newer than `started`.
 fn read_mean_ns(
-    criterion_home: &Path,
-    group: &str,
-    id: Option<&str>,
-    started: SystemTime,
+    criterion_home: &Path, group: &str, id: Option<&str>, started: SystemTime,
 ) -> Result<f64, TaskError> {
     let mut path = criterion_home.join(group);
     if let Some(id) = id {

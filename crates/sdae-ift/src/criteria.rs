@@ -17,11 +17,7 @@ use sdae_manifold::vector::sum_squares;
 /// `image` are scratch afterwards.
 #[inline(always)]
 pub fn power_iteration<T: Real>(
-    norm: T,
-    probes: usize,
-    probe: &mut [T],
-    image: &mut [T],
-    mut first_image: bool,
+    norm: T, probes: usize, probe: &mut [T], image: &mut [T], mut first_image: bool,
     mut apply: impl FnMut(&[T], &mut [T]),
 ) -> T {
     let zero = norm.splat_like(0.0);

@@ -13,10 +13,7 @@ pub trait BallProblem {
     fn dim(&self) -> usize;
     /// residual = R(gamma), and, when asked, jacobian = D R(gamma).
     fn evaluate(
-        &mut self,
-        gamma: &[f64],
-        residual: &mut [f64],
-        jacobian: Option<&mut Self::Matrix>,
+        &mut self, gamma: &[f64], residual: &mut [f64], jacobian: Option<&mut Self::Matrix>,
     );
     /// The coefficients [c0, c1, c2] of R(gamma) = c0 + c1 gamma + c2 gamma^2 when m = 1 and R
     /// is this quadratic polynomial exactly; the solver then takes the root connected to 0 in

@@ -2,7 +2,7 @@
 //! seed eq. 3.10 (the constructive form of the globalized implicit function theorem, Appendix B)
 //! as fallback.
 
-use crate::criteria::{QuadraticRoot, power_iteration, quadratic_root};
+use crate::criteria::{power_iteration, quadratic_root};
 use crate::error::IftError;
 use crate::problem::BallProblem;
 use crate::settings::SolverSettings;
@@ -193,9 +193,7 @@ impl<A: Factorize> BallSolver<A> {
     /// The closed form is inlined into the caller; Newton and the homotopy are not.
     #[inline(always)]
     pub fn solve<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
+        &mut self, problem: &mut P, radius: f64,
     ) -> Result<Certificate, IftError> {
         self.companion_ready = false;
         if self.gamma.len() == 1
@@ -212,10 +210,7 @@ impl<A: Factorize> BallSolver<A> {
     /// Like [`BallSolver::solve`] but starts Newton from `start` (the homotopy fallback still
     /// starts from 0); no closed form.
     pub fn solve_from<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
-        start: &[f64],
+        &mut self, problem: &mut P, radius: f64, start: &[f64],
     ) -> Result<Certificate, IftError> {
         self.gamma.copy_from_slice(start);
         self.solve_from_current(problem, radius)
@@ -223,9 +218,7 @@ impl<A: Factorize> BallSolver<A> {
 
     #[inline(never)]
     fn solve_from_current<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
+        &mut self, problem: &mut P, radius: f64,
     ) -> Result<Certificate, IftError> {
         // R(0), J(0) and the first Newton step from 0: the scale of the right root.
         let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
@@ -329,31 +322,22 @@ impl<A: Factorize> BallSolver<A> {
     /// errors it reports; a residual at gamma* above the tolerance, or a singular J(gamma*)).
     #[inline(always)]
     fn solve_quadratic<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
-        coefficients: [f64; 3],
+        &mut self, problem: &mut P, radius: f64, coefficients: [f64; 3],
     ) -> Option<Result<Certificate, IftError>> {
         let tolerance = self.settings.tolerance.max(problem.residual_floor());
-        let QuadraticRoot {
-            usable,
-            real,
-            first_step,
-            gamma,
-            norm,
-            contraction,
-        } = quadratic_root(coefficients, tolerance);
-        if !usable {
+        let root = quadratic_root(coefficients, tolerance);
+        if !root.usable {
             return None;
         }
         self.tolerance = tolerance;
         let [c0, c1, c2] = coefficients;
-        if !real {
+        if !root.real {
             return Some(Err(IftError::NoRoot {
                 tau: c1 * c1 / (4.0 * c0 * c2),
                 norm: (c1 / (2.0 * c2)).abs(),
             }));
         }
+        let (first_step, gamma, norm) = (root.first_step, root.gamma, root.norm);
         // The ball check of `in_ball` with J(0) = c1.
         let rounding = if norm < radius {
             0.0
@@ -386,7 +370,7 @@ impl<A: Factorize> BallSolver<A> {
             return None;
         }
         self.root_in_factor = true;
-        if let Err(e) = self.contracting(contraction, radius) {
+        if let Err(e) = self.contracting(root.contraction, radius) {
             return Some(Err(e));
         }
         Some(Ok(Certificate {
@@ -397,7 +381,7 @@ impl<A: Factorize> BallSolver<A> {
             norm,
             radius,
             first_step,
-            contraction,
+            contraction: root.contraction,
             rounding,
         }))
     }
@@ -410,9 +394,7 @@ impl<A: Factorize> BallSolver<A> {
     /// errors and the homotopy fallback are those of the general path.
     #[inline]
     fn solve_scalar<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        radius: f64,
+        &mut self, problem: &mut P, radius: f64,
     ) -> Option<Certificate> {
         let mut residual = [0.0];
         problem.evaluate(&[0.0], &mut residual, Some(&mut self.matrix));
@@ -529,11 +511,7 @@ impl<A: Factorize> BallSolver<A> {
     /// Checks the root in `self.gamma` against the ball and the first Newton step, and builds
     /// its certificate.
     fn accept(
-        &mut self,
-        radius: f64,
-        first_step: f64,
-        iterations: usize,
-        homotopy_steps: usize,
+        &mut self, radius: f64, first_step: f64, iterations: usize, homotopy_steps: usize,
         method: Method,
     ) -> Result<Certificate, IftError> {
         let norm = norm2(&self.gamma);
@@ -583,12 +561,7 @@ impl<A: Factorize> BallSolver<A> {
     /// tau = 1 this is plain Newton on R. On success the factored Jacobian at the root is in
     /// `root_factor` and the problem's last evaluation was at the root.
     fn newton<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
-        tau: f64,
-        max_iterations: usize,
-        tolerance: f64,
-        first: usize,
+        &mut self, problem: &mut P, tau: f64, max_iterations: usize, tolerance: f64, first: usize,
         mut previous_residual: f64,
     ) -> Corrector {
         let tolerance = if tolerance > 0.0 {
@@ -664,8 +637,7 @@ impl<A: Factorize> BallSolver<A> {
     /// estimate will take a probe from a nonzero gamma, forms its first image J(0)^-1 J(gamma)
     /// p (p = gamma / |gamma|) in `step` ([`Factorize::factor_with`]).
     fn factor_root<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
+        &mut self, problem: &mut P,
     ) -> Result<(), sdae_manifold::LinearError> {
         let companion = problem.companion_rhs(&mut self.companion_rhs);
         let norm = norm2(&self.gamma);
@@ -694,8 +666,7 @@ impl<A: Factorize> BallSolver<A> {
     /// d gamma/d tau = -J^-1 R(0), Newton corrector, step halving on failure).
     /// Returns (accepted steps, corrector iterations).
     fn homotopy<P: BallProblem<Matrix = A>>(
-        &mut self,
-        problem: &mut P,
+        &mut self, problem: &mut P,
     ) -> Result<(usize, usize), IftError> {
         let mut tau = 0.0;
         let mut dtau: f64 = 0.125;

@@ -506,9 +506,7 @@ pub const PER_LANE_MAX_DIM: usize = 16;
 /// slice is longer than [`PER_LANE_MAX_DIM`].
 #[inline(always)]
 pub fn per_lane<S: Simd, const K: usize>(
-    inputs: [&[Lanes<S>]; K],
-    out: &mut [Lanes<S>],
-    f: impl FnMut([&[f64]; K], &mut [f64]),
+    inputs: [&[Lanes<S>]; K], out: &mut [Lanes<S>], f: impl FnMut([&[f64]; K], &mut [f64]),
 ) -> bool {
     let longest = inputs.iter().map(|x| x.len()).fold(out.len(), usize::max);
     // Buffers sized for the common small systems, so that their setup costs little.
@@ -524,9 +522,7 @@ pub fn per_lane<S: Simd, const K: usize>(
 /// [`per_lane`] with buffers of `MAX` >= every slice's length coordinates.
 #[inline(always)]
 fn per_lane_within<S: Simd, const K: usize, const MAX: usize>(
-    inputs: [&[Lanes<S>]; K],
-    out: &mut [Lanes<S>],
-    mut f: impl FnMut([&[f64]; K], &mut [f64]),
+    inputs: [&[Lanes<S>]; K], out: &mut [Lanes<S>], mut f: impl FnMut([&[f64]; K], &mut [f64]),
 ) -> bool {
     let Some(simd) = out
         .first()
@@ -564,9 +560,7 @@ fn per_lane_within<S: Simd, const K: usize, const MAX: usize>(
 /// out lane k)` on contiguous copies in `scratch` (grown as needed), with `out` holding the
 /// lanes' values before the call. Lane k computes exactly what `f` computes for path k alone.
 pub fn per_path<S: Simd, const K: usize>(
-    inputs: [&[Lanes<S>]; K],
-    out: &mut [Lanes<S>],
-    scratch: &mut Vec<f64>,
+    inputs: [&[Lanes<S>]; K], out: &mut [Lanes<S>], scratch: &mut Vec<f64>,
     mut f: impl FnMut([&[f64]; K], &mut [f64]),
 ) {
     let Some(simd) = out

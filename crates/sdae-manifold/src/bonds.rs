@@ -66,12 +66,7 @@ fn bond_vector<T: Real>(x: &[T], bond: &Bond) -> [T; 3] {
 /// those of Dg(x) u (and of D^2 g(u, w) for x = u, u = w, g being quadratic).
 #[inline(always)]
 pub(crate) fn bond_rates<T: Real>(
-    bonds: &[Bond],
-    inv_l2: &[f64],
-    x: &[T],
-    u: &[T],
-    sign: f64,
-    out: &mut [T],
+    bonds: &[Bond], inv_l2: &[f64], x: &[T], u: &[T], sign: f64, out: &mut [T],
 ) {
     for ((o, bond), s) in out.iter_mut().zip(bonds).zip(inv_l2) {
         *o = dot3(&bond_vector(x, bond), &bond_vector(u, bond)) * (sign * s);
@@ -83,11 +78,7 @@ pub(crate) fn bond_rates<T: Real>(
 /// path or for lanes.
 #[inline(always)]
 pub(crate) fn bonds_motion<T: Real>(
-    bonds: &[Bond],
-    inv_l2: &[f64],
-    shortest: f64,
-    v: &[T],
-    a: &[T],
+    bonds: &[Bond], inv_l2: &[f64], shortest: f64, v: &[T], a: &[T],
 ) -> T {
     let mut w = v[0].splat_like(0.0);
     for (bond, s) in bonds.iter().zip(inv_l2) {
@@ -289,12 +280,7 @@ impl Constraint for RigidBonds {
     /// share, sign_a sign_b d_a(x1).W_c d_b(x2) / (L_a^2 L_b^2) with W_c the inverse masses of
     /// atom c. Column by column otherwise.
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut DenseGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut DenseGram,
     ) {
         if !M::DIAGONAL {
             return assemble_dense_by_columns(self, x1, x2, mass, scratch, out);

@@ -123,11 +123,7 @@ impl BeadChain {
     /// (M^-1)_{kk}), and g(x1) in the same pass when `value` is given.
     #[inline(always)]
     fn cross_gram_diagonal(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        w: impl Fn(usize) -> f64,
-        mut value: Option<&mut [f64]>,
+        &self, x1: &[f64], x2: &[f64], w: impl Fn(usize) -> f64, mut value: Option<&mut [f64]>,
         out: &mut TridiagonalGram,
     ) {
         let s = self.inv_ds2 * self.inv_ds2;
@@ -221,12 +217,7 @@ impl Constraint for BeadChain {
     }
     /// Closed form for diagonal masses (3 weighted dot products per segment), probing otherwise.
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut TridiagonalGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut TridiagonalGram,
     ) {
         if M::DIAGONAL {
             self.cross_gram_diagonal(
@@ -256,12 +247,7 @@ impl Constraint for BeadChain {
 
     /// One pass for diagonal masses: g_i(x) and the three diagonals share the segments of x.
     fn value_and_cross_gram<M: Mass>(
-        &self,
-        x: &[f64],
-        r: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        value: &mut [f64],
+        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
         gram: &mut TridiagonalGram,
     ) {
         if !M::DIAGONAL {

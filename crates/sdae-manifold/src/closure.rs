@@ -58,11 +58,7 @@ where
     /// n coordinates, 1 <= m < n constraints; `value(x, g)`, `jacobian(x, u, Dg u)`,
     /// `jacobian_transpose(x, z, grad g z)`.
     pub fn new(
-        dim: usize,
-        n_constraints: usize,
-        value: G,
-        jacobian: J,
-        jacobian_transpose: JT,
+        dim: usize, n_constraints: usize, value: G, jacobian: J, jacobian_transpose: JT,
     ) -> Result<Self, ManifoldError> {
         if n_constraints == 0 || n_constraints >= dim {
             return Err(ManifoldError::InvalidParameter {
@@ -123,12 +119,7 @@ where
         DenseGram::zeros(self.n_constraints)
     }
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut DenseGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut DenseGram,
     ) {
         assemble_dense_by_columns(self, x1, x2, mass, scratch, out);
     }

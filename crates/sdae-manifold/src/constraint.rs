@@ -38,12 +38,7 @@ pub trait Constraint {
     /// out = Dg(x1) M^-1 grad g(x2). `scratch` has length >= [`scratch_len`]`(n, m)` and may be
     /// used by constraints without a closed form (seed Section 2.1: G_M(x) for x1 = x2 = x).
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut Self::Gram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut Self::Gram,
     );
 
     /// out = y + M^-1 grad g(r) z: the position of the kappa system (seed eq. 3.1, upper part)
@@ -58,12 +53,7 @@ pub trait Constraint {
     /// Overridden by constraints that share work between the two.
     #[inline]
     fn value_and_cross_gram<M: Mass>(
-        &self,
-        x: &[f64],
-        r: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        value: &mut [f64],
+        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
         gram: &mut Self::Gram,
     ) {
         self.value(x, value);
@@ -138,12 +128,7 @@ pub trait TheoryBound: Constraint {
 /// out = y + M^-1 grad g(r) z in three passes: the product, the mass solve, the sum.
 #[inline]
 pub fn displace_in_passes<C: Constraint + ?Sized, M: Mass>(
-    constraint: &C,
-    r: &[f64],
-    z: &[f64],
-    mass: &M,
-    y: &[f64],
-    out: &mut [f64],
+    constraint: &C, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64],
 ) {
     constraint.jacobian_transpose_mul(r, z, out);
     mass.apply_inverse(out);
@@ -160,12 +145,7 @@ pub const fn scratch_len(n: usize, m: usize) -> usize {
 /// Assembles Dg(x1) M^-1 grad g(x2) column by column from the Jacobian products: m products,
 /// O(m n) work. The fallback for constraints without a closed form.
 pub fn assemble_dense_by_columns<C: Constraint + ?Sized, M: Mass>(
-    constraint: &C,
-    x1: &[f64],
-    x2: &[f64],
-    mass: &M,
-    scratch: &mut [f64],
-    out: &mut DenseGram,
+    constraint: &C, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut DenseGram,
 ) {
     let n = constraint.dim();
     let m = constraint.n_constraints();
@@ -188,11 +168,7 @@ pub fn assemble_dense_by_columns<C: Constraint + ?Sized, M: Mass>(
 /// Assembles a tridiagonal Dg(x1) M^-1 grad g(x2) with three probe vectors (columns j = c mod 3
 /// summed): O(n) work whatever m. Valid whenever the product is known to be tridiagonal.
 pub fn assemble_tridiagonal_by_probing<C: Constraint + ?Sized, M: Mass>(
-    constraint: &C,
-    x1: &[f64],
-    x2: &[f64],
-    mass: &M,
-    scratch: &mut [f64],
+    constraint: &C, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64],
     out: &mut TridiagonalGram,
 ) {
     let n = constraint.dim();

@@ -148,10 +148,7 @@ pub fn check_positive(name: &'static str, value: f64) -> Result<(), ManifoldErro
 
 /// Checks that a count is at least `min`.
 pub fn check_at_least(
-    name: &'static str,
-    value: usize,
-    min: usize,
-    reason: &'static str,
+    name: &'static str, value: usize, min: usize, reason: &'static str,
 ) -> Result<(), ManifoldError> {
     if value >= min {
         Ok(())

@@ -30,10 +30,7 @@ pub trait Factorize: GramMatrix {
     /// both in one pass). On failure `out` is unspecified.
     #[inline]
     fn factor_and_solve(
-        &self,
-        factor: &mut Self::Factor,
-        b: &[f64],
-        out: &mut [f64],
+        &self, factor: &mut Self::Factor, b: &[f64], out: &mut [f64],
     ) -> Result<(), LinearError> {
         self.factor_with(factor, Some((b, out)), None)
     }
@@ -44,9 +41,7 @@ pub trait Factorize: GramMatrix {
     /// overlap). On failure `out` and `image` are unspecified.
     #[inline]
     fn factor_with(
-        &self,
-        factor: &mut Self::Factor,
-        solve: Option<(&[f64], &mut [f64])>,
+        &self, factor: &mut Self::Factor, solve: Option<(&[f64], &mut [f64])>,
         map: Option<(&Self::Factor, &[f64], &mut [f64])>,
     ) -> Result<(), LinearError> {
         self.factor_into(factor)?;
@@ -58,9 +53,7 @@ pub trait Factorize: GramMatrix {
 /// The solve and the product of [`Factorize::factor_with`] after `a` is factored in `factor`,
 /// one after the other.
 fn solve_and_map_apart<A: Factorize>(
-    a: &A,
-    factor: &A::Factor,
-    solve: Option<(&[f64], &mut [f64])>,
+    a: &A, factor: &A::Factor, solve: Option<(&[f64], &mut [f64])>,
     map: Option<(&A::Factor, &[f64], &mut [f64])>,
 ) {
     if let Some((b, out)) = solve {
@@ -162,9 +155,7 @@ impl TridiagonalFactor {
     /// substitution in the same pass, B's back substitution after it.
     #[inline(always)]
     fn factor_thomas(
-        &mut self,
-        a: &TridiagonalGram,
-        rhs: Option<(&[f64], &mut [f64])>,
+        &mut self, a: &TridiagonalGram, rhs: Option<(&[f64], &mut [f64])>,
         mapped: Option<(&TridiagonalFactor, &[f64], &mut [f64])>,
     ) -> bool {
         let m = a.diag.len();
@@ -368,9 +359,7 @@ impl Factorize for TridiagonalGram {
     /// in the same pass, then both back substitutions in one pass; where a factor is pivoted,
     /// its solve runs on its own after factoring.
     fn factor_with(
-        &self,
-        factor: &mut TridiagonalFactor,
-        mut solve: Option<(&[f64], &mut [f64])>,
+        &self, factor: &mut TridiagonalFactor, mut solve: Option<(&[f64], &mut [f64])>,
         map: Option<(&TridiagonalFactor, &[f64], &mut [f64])>,
     ) -> Result<(), LinearError> {
         let (mut fused, apart) = match map {
@@ -493,9 +482,9 @@ impl Factorize for DenseGram {
         };
         lu.copy_from_slice(a);
         let tolerance = scale * PIVOT_TOLERANCE;
-        for k in 0..m {
+        for (k, row) in perm.iter_mut().enumerate() {
             let (pivot_row, pivot) = dense_lu::choose_pivot(lu, m, k);
-            perm[k] = pivot_row as usize;
+            *row = pivot_row as usize;
             if dense_lu::pivot_rejected(pivot, tolerance) {
                 return Err(LinearError::Singular { index: k, pivot });
             }

@@ -108,25 +108,16 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
     /// factorization runs row by row does it all in one pass over the rows.
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        x1: &P,
-        r: &[Lanes<Sd>],
-        values: &mut [Lanes<Sd>],
-        jacobian: &mut Jacobian<Sd, Self>,
-        factor: &mut Self::Factor<Sd>,
-        step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        jacobian: &mut Jacobian<Sd, Self>, factor: &mut Self::Factor<Sd>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd>;
     /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
     /// half ([`FactorLanes::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
     /// default takes three passes; a constraint can fuse them.
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        force: &mut [Lanes<Sd>],
-        v: &[Lanes<Sd>],
-        factor: &Self::Factor<Sd>,
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
+        factor: &Self::Factor<Sd>, out: &mut [Lanes<Sd>],
     ) {
         let inverse_mass = self.inverse_mass();
         for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
@@ -138,11 +129,7 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// out = base + M^-1 grad g(r) z (`Constraint::displace`); without a base, out is its own
     /// (out <- out + M^-1 grad g(r) z, each entry of out read before it is written).
     fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        r: &[Lanes<Sd>],
-        z: &[Lanes<Sd>],
-        base: Option<&P>,
-        out: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
     );
     /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`ConstraintLanes::displace`]
     /// without a base), then the lanes whose v_{k+1} the scalar step finds finite (|v_{k+1}|^2
@@ -151,13 +138,8 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// default takes three passes; a constraint can fuse them.
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
-        &self,
-        r: &[Lanes<Sd>],
-        lambda: &[Lanes<Sd>],
-        x: &[Lanes<Sd>],
-        monitor: bool,
-        v: &mut [Lanes<Sd>],
-        scratch: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>], monitor: bool,
+        v: &mut [Lanes<Sd>], scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {
         self.displace(r, lambda, None::<&[Lanes<Sd>]>, v);
         let finite = sum_squares(v).is_finite();
@@ -172,10 +154,7 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of its
     /// own.
     fn negated_jacobian_mul<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        u: &[Lanes<Sd>],
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     );
     /// The local measure of the motion (`Constraint::local_motion`); `None` (the default)
     /// where that is `None`, and the engine takes the seed's measure.
@@ -235,9 +214,7 @@ impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
 /// where it is its own base.
 #[inline(always)]
 pub fn base_coords<Sd: Simd, P: PointLanes<Sd> + ?Sized, const N: usize>(
-    base: Option<&P>,
-    out: &[Lanes<Sd>],
-    k: usize,
+    base: Option<&P>, out: &[Lanes<Sd>], k: usize,
 ) -> [Lanes<Sd>; N] {
     match base {
         Some(base) => base.coords::<N>(k),

@@ -50,10 +50,7 @@ impl Sphere {
     /// pass over y and r, for one path (`f64`) or for lanes (the ensemble's closed-form root).
     #[inline(always)]
     pub fn kappa_coefficients<T: Real>(
-        &self,
-        r: &[T],
-        y: &[T],
-        w: impl Fn(usize) -> f64,
+        &self, r: &[T], y: &[T], w: impl Fn(usize) -> f64,
     ) -> [T; 3] {
         let zero = r[0].splat_like(0.0);
         let (mut yy, mut yu, mut uu) = (zero, zero, zero);
@@ -101,12 +98,7 @@ impl Sphere {
     /// in one pass, for one path or for lanes.
     #[inline(always)]
     pub fn displace_diagonal<T: Real>(
-        &self,
-        r: &[T],
-        z: T,
-        w: impl Fn(usize) -> f64,
-        y: &[T],
-        out: &mut [T],
+        &self, r: &[T], z: T, w: impl Fn(usize) -> f64, y: &[T], out: &mut [T],
     ) {
         let s = -z * self.inv_r2;
         for (k, ((o, ri), yi)) in out.iter_mut().zip(r).zip(y).enumerate() {

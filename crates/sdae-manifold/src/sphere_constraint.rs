@@ -46,12 +46,7 @@ impl Constraint for Sphere {
     /// Dg(x1) M^-1 grad g(x2) = x1^T M^-1 x2 / rho^4.
     #[inline]
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        out: &mut ScalarGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut ScalarGram,
     ) {
         out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
     }
@@ -59,12 +54,7 @@ impl Constraint for Sphere {
     /// for diagonal masses (one Newton evaluation of the kappa system, seed eq. 3.1).
     #[inline(always)]
     fn value_and_cross_gram<M: Mass>(
-        &self,
-        x: &[f64],
-        r: &[f64],
-        mass: &M,
-        scratch: &mut [f64],
-        value: &mut [f64],
+        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
         gram: &mut ScalarGram,
     ) {
         if !M::DIAGONAL {

@@ -24,9 +24,7 @@ fn max_abs(values: &[f64]) -> (usize, f64) {
 
 /// Measures max |g(r)| and max |Dg(r) v| after checking lengths and finiteness.
 pub fn state_residuals<C: Constraint + ?Sized>(
-    constraint: &C,
-    r: &[f64],
-    v: &[f64],
+    constraint: &C, r: &[f64], v: &[f64],
 ) -> Result<(StateResiduals, usize, usize), ManifoldError> {
     let n = constraint.dim();
     check_len("position r", n, r)?;
@@ -44,10 +42,7 @@ pub fn state_residuals<C: Constraint + ?Sized>(
 /// Fails with [`ManifoldError::OffManifold`] or [`ManifoldError::OffTangent`] unless
 /// |g(r)| <= tolerance and |Dg(r) v| <= tolerance (max norms).
 pub fn check_state<C: Constraint + ?Sized>(
-    constraint: &C,
-    r: &[f64],
-    v: &[f64],
-    tolerance: f64,
+    constraint: &C, r: &[f64], v: &[f64], tolerance: f64,
 ) -> Result<StateResiduals, ManifoldError> {
     let (res, ig, iv) = state_residuals(constraint, r, v)?;
     if res.position > tolerance {

@@ -20,11 +20,7 @@ use sdae_lanes::{PathMask, Real};
 /// and last rows apart so that the loop over the interior rows vectorizes.
 #[inline(always)]
 pub(crate) fn tridiagonal_mul<T: Real>(
-    lower: &[T],
-    diag: &[T],
-    upper: &[T],
-    x: &[T],
-    out: &mut [T],
+    lower: &[T], diag: &[T], upper: &[T], x: &[T], out: &mut [T],
 ) {
     let m = diag.len();
     let (x, out) = (&x[..m], &mut out[..m]);
@@ -116,11 +112,7 @@ impl<T: Real> ThomasSweep<T> {
     /// a minor of 0 or not finite fails the path (`ok`).
     #[inline(always)]
     pub(crate) fn row(
-        &mut self,
-        factors: &mut ThomasFactors<'_, T>,
-        i: usize,
-        d: T,
-        upper: Option<(T, T)>,
+        &mut self, factors: &mut ThomasFactors<'_, T>, i: usize, d: T, upper: Option<(T, T)>,
         b: Option<T>,
     ) -> Option<T> {
         let zero = d.splat_like(0.0);

@@ -60,12 +60,7 @@ impl PathState {
     /// increment's, [`StepFailure::blaming_increment`]).
     #[inline]
     pub fn step<S: Scheme + ?Sized>(
-        &mut self,
-        scheme: &mut S,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
+        &mut self, scheme: &mut S, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
         let mut outcome = scheme
             .step(r, v, h, dw)
@@ -101,13 +96,8 @@ impl PathState {
 /// step and [`Observer::observe`] at the steps it wants and at k = N. On failure the step index
 /// and time are those of the failing step, (r, v) and `path` hold the last good state.
 pub fn advance<S, I, O>(
-    scheme: &mut S,
-    r: &mut [f64],
-    v: &mut [f64],
-    path: &mut PathState,
-    (grid, steps): (TimeGrid, usize),
-    increments: &mut I,
-    observer: &mut O,
+    scheme: &mut S, r: &mut [f64], v: &mut [f64], path: &mut PathState,
+    (grid, steps): (TimeGrid, usize), increments: &mut I, observer: &mut O,
 ) -> Result<(), StepError>
 where
     S: Scheme + ?Sized,
@@ -137,11 +127,7 @@ where
 /// Checks a path's start: (r_0, v_0) on the tangent bundle within
 /// [`INITIAL_STATE_TOLERANCE`], increments of dimension l, and at least N of them.
 fn check_start<S, I>(
-    scheme: &S,
-    r: &[f64],
-    v: &[f64],
-    grid: TimeGrid,
-    increments: &I,
+    scheme: &S, r: &[f64], v: &[f64], grid: TimeGrid, increments: &I,
 ) -> Result<(), ModelError>
 where
     S: Scheme + ?Sized,
@@ -173,11 +159,7 @@ where
 /// few. The diagnostics' residuals are measured after every step where the scheme did not
 /// measure them itself.
 pub fn run_path<S, I, O>(
-    scheme: &mut S,
-    r: &mut [f64],
-    v: &mut [f64],
-    grid: TimeGrid,
-    increments: &mut I,
+    scheme: &mut S, r: &mut [f64], v: &mut [f64], grid: TimeGrid, increments: &mut I,
     observer: &mut O,
 ) -> Result<PathDiagnostics, PathFailure>
 where

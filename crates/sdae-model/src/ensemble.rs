@@ -91,10 +91,7 @@ pub trait PathEnsemble {
     /// this ensemble's P paths (increments drawn for fewer paths would silently give the
     /// others path 0's numbers) and `dw` holds one step (l * stride).
     fn step_drawing(
-        &mut self,
-        h: f64,
-        noise: &mut EnsembleIncrements,
-        dw: &mut [f64],
+        &mut self, h: f64, noise: &mut EnsembleIncrements, dw: &mut [f64],
     ) -> Result<usize, ModelError> {
         check_dim("paths of the increments", self.paths(), noise.paths())?;
         let l = self.system().noise_dim();
@@ -105,20 +102,13 @@ pub trait PathEnsemble {
     }
     /// Copies path p's (r, v, mu) into the slices (mu of length m, or empty to skip it).
     fn state(
-        &self,
-        p: usize,
-        r: &mut [f64],
-        v: &mut [f64],
-        mu: &mut [f64],
+        &self, p: usize, r: &mut [f64], v: &mut [f64], mu: &mut [f64],
     ) -> Result<(), ModelError>;
     /// Copies the (r, v, mu) of each path in `paths` into one row of `rows` (row i for
     /// `paths[i]`, each 2n + `mu_len` long, `mu_len` either m or 0 to leave mu out): a whole
     /// block's states in one call instead of one [`PathEnsemble::state`] call per path.
     fn read_rows(
-        &self,
-        paths: &[usize],
-        mu_len: usize,
-        rows: &mut [f64],
+        &self, paths: &[usize], mu_len: usize, rows: &mut [f64],
     ) -> Result<(), ModelError> {
         let n = self.system().constraint().dim();
         for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
@@ -145,9 +135,7 @@ pub trait PathEnsemble {
 /// Checks the length of the rows of [`PathEnsemble::read_rows`] (2n + `mu_len` per path) and
 /// hands `read` each listed path with the (r, v, mu) parts of its row.
 pub(crate) fn for_each_row(
-    paths: &[usize],
-    (n, mu_len): (usize, usize),
-    rows: &mut [f64],
+    paths: &[usize], (n, mu_len): (usize, usize), rows: &mut [f64],
     mut read: impl FnMut(usize, &mut [f64], &mut [f64], &mut [f64]) -> Result<(), ModelError>,
 ) -> Result<(), ModelError> {
     let row = 2 * n + mu_len;
@@ -175,9 +163,7 @@ pub fn check_path(p: usize, paths: usize) -> Result<(), ModelError> {
 /// [`INITIAL_STATE_TOLERANCE`] ([`ModelError::Manifold`] with the residual and where it is
 /// largest otherwise).
 pub fn check_initial_state<S: System + ?Sized>(
-    system: &S,
-    r0: &[f64],
-    v0: &[f64],
+    system: &S, r0: &[f64], v0: &[f64],
 ) -> Result<(), ModelError> {
     let constraint = system.constraint();
     check_dim("initial position", constraint.dim(), r0.len())?;
@@ -300,11 +286,7 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
     }
 
     fn state(
-        &self,
-        p: usize,
-        r: &mut [f64],
-        v: &mut [f64],
-        mu: &mut [f64],
+        &self, p: usize, r: &mut [f64], v: &mut [f64], mu: &mut [f64],
     ) -> Result<(), ModelError> {
         check_path(p, self.paths())?;
         check_dim("position", self.r[p].len(), r.len())?;

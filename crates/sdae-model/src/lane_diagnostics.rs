@@ -159,11 +159,7 @@ impl DiagnosticsColumns {
     /// W`: [`PathDiagnostics::record`] over lanes.
     #[inline(always)]
     pub(crate) fn record_lanes<Sd: Simd>(
-        &mut self,
-        offset: usize,
-        done: LaneMask<Sd>,
-        record: &LaneRecord<Sd>,
-        h: f64,
+        &mut self, offset: usize, done: LaneMask<Sd>, record: &LaneRecord<Sd>, h: f64,
     ) {
         let simd = done.simd();
         let zero = Lanes::splat(simd, 0.0);
@@ -201,10 +197,7 @@ impl DiagnosticsColumns {
     /// the same number of iterations (the closed forms: 0), else lane by lane.
     #[inline(always)]
     fn count_iterations<Sd: Simd>(
-        &mut self,
-        offset: usize,
-        done: LaneMask<Sd>,
-        iterations: Lanes<Sd>,
+        &mut self, offset: usize, done: LaneMask<Sd>, iterations: Lanes<Sd>,
     ) {
         let last = (ITERATION_BINS - 1) as f64;
         let first = iterations.lane(0);

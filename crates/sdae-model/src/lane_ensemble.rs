@@ -86,11 +86,7 @@ pub trait LaneKernel<Sch: ?Sized, const N: usize> {
     /// must go through the scalar step (say, the system has no lane form). Implementations
     /// should be `#[inline(always)]`, so that they compile with the instruction set of `Sd`.
     fn step<Sd: Simd>(
-        &self,
-        scheme: &Sch,
-        r: &[Lanes<Sd>; N],
-        v: &[Lanes<Sd>; N],
-        dw: &[Lanes<Sd>],
+        &self, scheme: &Sch, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>>;
 }
 
@@ -98,10 +94,7 @@ impl LanePaths {
     /// `paths` >= 1 paths of a system with n coordinates, m constraints and noise dimension
     /// l, each at (r0, v0) with mu = 0.
     pub fn new<S: System>(
-        system: &S,
-        paths: usize,
-        r0: &[f64],
-        v0: &[f64],
+        system: &S, paths: usize, r0: &[f64], v0: &[f64],
     ) -> Result<Self, ModelError> {
         if paths == 0 {
             return Err(ModelError::InvalidSetting {
@@ -214,11 +207,7 @@ impl LanePaths {
     /// its (r, v), mu and diagnostics as [`PathState::step`](crate::PathState::step) updates
     /// them, or its failure.
     pub fn step_one<Sch: Scheme + ?Sized>(
-        &mut self,
-        scheme: &mut Sch,
-        p: usize,
-        h: f64,
-        dw: &[f64],
+        &mut self, scheme: &mut Sch, p: usize, h: f64, dw: &[f64],
     ) {
         if self.alive[p] == 0.0 {
             return;
@@ -253,11 +242,7 @@ impl LanePaths {
     /// constraint and at most N noise components.
     #[inline(always)]
     pub fn step_groups<Sch, Sd, const N: usize, K>(
-        &mut self,
-        simd: Sd,
-        scheme: &mut Sch,
-        (h, dw): (f64, &[f64]),
-        kernel: &K,
+        &mut self, simd: Sd, scheme: &mut Sch, (h, dw): (f64, &[f64]), kernel: &K,
     ) -> bool
     where
         Sch: Scheme + ?Sized,
@@ -305,10 +290,7 @@ impl LanePaths {
     /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
     #[inline(always)]
     pub fn step_wide_groups<Sch, Sd, K>(
-        &mut self,
-        scheme: &mut Sch,
-        (h, dw): (f64, &[f64]),
-        kernel: &mut K,
+        &mut self, scheme: &mut Sch, (h, dw): (f64, &[f64]), kernel: &mut K,
         rows: &mut LaneRows<Sd>,
     ) where
         Sch: Scheme + ?Sized,
@@ -377,12 +359,8 @@ impl LanePaths {
     /// lanes that go on (`alive`).
     #[inline(always)]
     fn finish_group<Sch, Sd>(
-        &mut self,
-        scheme: &mut Sch,
-        (h, dw): (f64, &[f64]),
-        offset: usize,
-        (alive, done): (LaneMask<Sd>, LaneMask<Sd>),
-        record: &LaneRecord<Sd>,
+        &mut self, scheme: &mut Sch, (h, dw): (f64, &[f64]), offset: usize,
+        (alive, done): (LaneMask<Sd>, LaneMask<Sd>), record: &LaneRecord<Sd>,
     ) where
         Sch: Scheme + ?Sized,
         Sd: Simd,
@@ -449,10 +427,7 @@ pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
     /// the scalar step. `state` is left as it is: a lane the kernel does not decide steps
     /// again from it through the scalar step.
     fn step(
-        &mut self,
-        scheme: &Sch,
-        state: GroupState<'_, Sd>,
-        rows: &mut LaneRows<Sd>,
+        &mut self, scheme: &Sch, state: GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
 }
 
@@ -636,11 +611,7 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
     }
 
     fn state(
-        &self,
-        p: usize,
-        r: &mut [f64],
-        v: &mut [f64],
-        mu: &mut [f64],
+        &self, p: usize, r: &mut [f64], v: &mut [f64], mu: &mut [f64],
     ) -> Result<(), ModelError> {
         let paths = &self.paths;
         check_path(p, paths.paths)?;
@@ -659,10 +630,7 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
     /// Reads the rows straight from the lanes: one check for the block, then a strided copy
     /// per path.
     fn read_rows(
-        &self,
-        paths: &[usize],
-        mu_len: usize,
-        rows: &mut [f64],
+        &self, paths: &[usize], mu_len: usize, rows: &mut [f64],
     ) -> Result<(), ModelError> {
         let lanes = &self.paths;
         if mu_len != 0 {
@@ -745,11 +713,7 @@ fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; crate::LANE_BLOCK] {
 /// slow on some processors), else the done lanes one by one.
 #[inline(always)]
 fn store_selected<Sd: Simd>(
-    done: LaneMask<Sd>,
-    rows: &[Lanes<Sd>],
-    to: &mut [f64],
-    stride: usize,
-    offset: usize,
+    done: LaneMask<Sd>, rows: &[Lanes<Sd>], to: &mut [f64], stride: usize, offset: usize,
 ) {
     if done.all() {
         for (i, row) in rows.iter().enumerate() {
@@ -772,11 +736,7 @@ fn store_selected<Sd: Simd>(
 /// beyond `rows`).
 #[inline(always)]
 fn load_rows<Sd: Simd, const N: usize>(
-    simd: Sd,
-    from: &[f64],
-    stride: usize,
-    offset: usize,
-    rows: usize,
+    simd: Sd, from: &[f64], stride: usize, offset: usize, rows: usize,
 ) -> [Lanes<Sd>; N] {
     let mut out = [Lanes::splat(simd, 0.0); N];
     for (i, o) in out.iter_mut().enumerate().take(rows) {

@@ -373,10 +373,7 @@ impl<S: WordLanes> Rejected<S> {
     /// else `len`.
     #[inline(always)]
     fn put(
-        &mut self,
-        simd: S,
-        len: usize,
-        (offset, bits, accepted): (usize, S::u64s, S::m64s),
+        &mut self, simd: S, len: usize, (offset, bits, accepted): (usize, S::u64s, S::m64s),
     ) -> usize {
         self.offsets[len] = offset;
         self.bits[len] = bits;
@@ -392,10 +389,7 @@ impl<S: WordLanes> Rejected<S> {
     /// `side[i][at + lane]`, read and written only for a rejected lane.
     #[inline(always)]
     fn finish(
-        &self,
-        simd: S,
-        len: usize,
-        (scale, tile): (f64, &mut [f64]),
+        &self, simd: S, len: usize, (scale, tile): (f64, &mut [f64]),
         (side, at): (&mut [Vec<u64>; 4], usize),
     ) {
         let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
@@ -427,9 +421,7 @@ const LANE_BITS: [f64; LANE_BLOCK] = {
 /// `side[i][at + lane]`, advanced in place; [`finish_draw`]).
 #[inline(never)]
 fn finish_lanes(
-    mut lanes: u32,
-    words: &[u64; LANE_BLOCK],
-    (side, at): (&mut [Vec<u64>; 4], usize),
+    mut lanes: u32, words: &[u64; LANE_BLOCK], (side, at): (&mut [Vec<u64>; 4], usize),
     (scale, out): (f64, &mut [f64]),
 ) {
     while lanes != 0 {
@@ -482,8 +474,7 @@ impl TryRng for LaneRng {
 
 /// `dst` from consecutive words of `rng`, little-endian.
 fn fill_bytes_from<R: TryRng<Error = Infallible>>(
-    rng: &mut R,
-    dst: &mut [u8],
+    rng: &mut R, dst: &mut [u8],
 ) -> Result<(), Infallible> {
     for chunk in dst.chunks_mut(8) {
         let word = rng.try_next_u64()?.to_le_bytes();

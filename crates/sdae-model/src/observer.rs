@@ -102,12 +102,7 @@ impl Recorder {
     /// The interpolated (r, v, mu) at time t into the three buffers (seed Remark 4.2); t is
     /// clamped to the recorded range. Returns `None` if nothing was recorded.
     pub fn interpolate(
-        &self,
-        t: f64,
-        how: Interpolation,
-        r: &mut [f64],
-        v: &mut [f64],
-        mu: &mut [f64],
+        &self, t: f64, how: Interpolation, r: &mut [f64], v: &mut [f64], mu: &mut [f64],
     ) -> Option<()> {
         if self.times.is_empty() {
             return None;

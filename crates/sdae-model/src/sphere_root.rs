@@ -10,7 +10,7 @@
 //! out of `ok`; the scalar solver decides it (Newton, the homotopy, or the error).
 
 use pulp::Simd;
-use sdae_ift::{QuadraticRoot, SolverSettings, quadratic_root};
+use sdae_ift::{SolverSettings, quadratic_root};
 use sdae_manifold::Sphere;
 
 use crate::lanes::{LaneMask, Lanes};
@@ -52,10 +52,7 @@ pub struct RootLanes<Sd: Simd, const N: usize> {
 impl<const N: usize> SphereRoot<N> {
     /// The root's constants for `sphere` (of dimension N) with M^-1 = diag(`inverse_mass`).
     pub fn new(
-        sphere: &Sphere,
-        inverse_mass: [f64; N],
-        settings: &SolverSettings,
-        radius: f64,
+        sphere: &Sphere, inverse_mass: [f64; N], settings: &SolverSettings, radius: f64,
     ) -> Self {
         Self {
             settings: *settings,
@@ -88,18 +85,13 @@ impl<const N: usize> SphereRoot<N> {
         let coefficients = self
             .sphere
             .kappa_coefficients(r, y, |k| self.inverse_mass[k]);
-        let QuadraticRoot {
-            usable,
-            real,
-            first_step,
-            gamma,
-            norm,
-            contraction,
-        } = quadratic_root(coefficients, tolerance);
+        let root = quadratic_root(coefficients, tolerance);
+        let (gamma, norm, contraction) = (root.gamma, root.norm, root.contraction);
         let settings = &self.settings;
-        let bound = settings.plausibility_bound(first_step);
-        let mut ok = usable
-            .and(real)
+        let bound = settings.plausibility_bound(root.first_step);
+        let mut ok = root
+            .usable
+            .and(root.real)
             .and(norm.lt(zero.splat_like(self.radius)))
             .and(!settings.implausible(norm, bound));
 
@@ -117,7 +109,7 @@ impl<const N: usize> SphereRoot<N> {
             gamma,
             x,
             norm,
-            first_step,
+            first_step: root.first_step,
             contraction,
             residual,
             gram,

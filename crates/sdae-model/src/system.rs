@@ -35,11 +35,7 @@ pub trait System {
     /// evaluates [`System::add_noise`] lane by lane, as [`System::drift_lanes`] does.
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
-        &self,
-        r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         per_lane([r, v, dw], out, |[r, v, dw], out| {
             self.add_noise(r, v, dw, out)
@@ -93,11 +89,7 @@ pub trait Noise {
     /// for a closure) evaluates [`Noise::add`] lane by lane ([`per_lane`]).
     #[inline(always)]
     fn add_lanes<S: Simd>(
-        &self,
-        r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         per_lane([r, v, dw], out, |[r, v, dw], out| self.add(r, v, dw, out))
     }
@@ -115,11 +107,7 @@ impl Noise for NoNoise {
     fn add(&self, _r: &[f64], _v: &[f64], _dw: &[f64], _out: &mut [f64]) {}
     #[inline(always)]
     fn add_lanes<S: Simd>(
-        &self,
-        _r: &[Lanes<S>],
-        _v: &[Lanes<S>],
-        _dw: &[Lanes<S>],
-        _out: &mut [Lanes<S>],
+        &self, _r: &[Lanes<S>], _v: &[Lanes<S>], _dw: &[Lanes<S>], _out: &mut [Lanes<S>],
     ) -> bool {
         true
     }
@@ -165,11 +153,7 @@ impl Noise for AdditiveNoise {
     }
     #[inline(always)]
     fn add_lanes<S: Simd>(
-        &self,
-        _r: &[Lanes<S>],
-        _v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, _r: &[Lanes<S>], _v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         for (o, &w) in out.iter_mut().zip(dw) {
             *o = *o + w * self.sigma;
@@ -259,11 +243,7 @@ impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, 
     }
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
-        &self,
-        r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         self.noise.add_lanes(r, v, dw, out)
     }
@@ -290,11 +270,7 @@ pub fn check_dimensions<S: System + ?Sized>(system: &S) -> Result<(usize, usize)
 /// Checks a step's inputs against `system`: r and v of length n, dw of length l, and a step
 /// size h that is finite and > 0.
 pub fn check_step_input<S: System + ?Sized>(
-    system: &S,
-    r: &[f64],
-    v: &[f64],
-    h: f64,
-    dw: &[f64],
+    system: &S, r: &[f64], v: &[f64], h: f64, dw: &[f64],
 ) -> Result<(), ModelError> {
     let n = system.constraint().dim();
     check_dim("position r", n, r.len())?;

@@ -86,10 +86,7 @@ where
 /// -Dg(x) v~ at the new position x (seed eq. 3.1, lower part).
 #[inline]
 pub fn lambda_right_hand_side<C: Constraint>(
-    constraint: &C,
-    x: &[f64],
-    velocity: &[f64],
-    out: &mut [f64],
+    constraint: &C, x: &[f64], velocity: &[f64], out: &mut [f64],
 ) {
     constraint.jacobian_mul(x, velocity, out);
     for o in out.iter_mut() {
@@ -136,10 +133,7 @@ impl<G: Factorize> TangentProjector<G> {
     /// y = r): the point of the manifold on the normal line through r. Returns the solver's
     /// certificate; r is unchanged on failure.
     pub fn project_position<C, M>(
-        &mut self,
-        constraint: &C,
-        mass: &M,
-        r: &mut [f64],
+        &mut self, constraint: &C, mass: &M, r: &mut [f64],
     ) -> Result<Certificate, IftError>
     where
         C: Constraint<Gram = G>,
@@ -168,11 +162,7 @@ impl<G: Factorize> TangentProjector<G> {
     /// v <- v - M^-1 grad g(r) G_M(r)^-1 Dg(r) v: the M-orthogonal projection onto the tangent
     /// space at r (seed Section 2.1, P_M(r)^T applied to the momentum).
     pub fn project_velocity<C, M>(
-        &mut self,
-        constraint: &C,
-        mass: &M,
-        r: &[f64],
-        v: &mut [f64],
+        &mut self, constraint: &C, mass: &M, r: &[f64], v: &mut [f64],
     ) -> Result<(), LinearError>
     where
         C: Constraint<Gram = G>,
@@ -195,10 +185,7 @@ impl<G: Factorize> TangentProjector<G> {
 /// on it (an initial state written with a few digits, say). Returns the position's displacement
 /// |r_new - r|.
 pub fn project_state<C, M>(
-    constraint: &C,
-    mass: &M,
-    r: &mut [f64],
-    v: &mut [f64],
+    constraint: &C, mass: &M, r: &mut [f64], v: &mut [f64],
 ) -> Result<f64, ModelError>
 where
     C: Constraint,

@@ -32,11 +32,7 @@ impl EulerParts {
     /// Factors G_M(r) and evaluates the drift parts, and the noise parts if `dw` is given and
     /// the system has noise (a scene without noise pays nothing for it).
     pub fn evaluate<S: CurvedSystem>(
-        &mut self,
-        sde: &mut InherentSde<S>,
-        r: &[f64],
-        v: &[f64],
-        dw: Option<&[f64]>,
+        &mut self, sde: &mut InherentSde<S>, r: &[f64], v: &[f64], dw: Option<&[f64]>,
     ) -> Result<(), ReferenceError> {
         sde.prepare(r)?;
         sde.drift_prepared(r, v, &mut self.accel, &mut self.mu_rate);
@@ -110,12 +106,7 @@ impl<S: CurvedSystem> EulerCore<S> {
     /// inputs, evaluates the parts at (r, v), asks `truncation(h, |f|)` for the factor
     /// theta in (0, 1] and applies X' = X + theta h f(X) + sigma(X) dw. Returns theta.
     pub fn propose(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-        truncation: impl Fn(f64, f64) -> f64,
+        &mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64], truncation: impl Fn(f64, f64) -> f64,
     ) -> Result<f64, ReferenceError> {
         self.sde.check_step_input(r, v, h, dw)?;
         self.parts.evaluate(&mut self.sde, r, v, Some(dw))?;

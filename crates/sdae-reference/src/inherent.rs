@@ -140,12 +140,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// increment, `dv = M^-1 P_M(r) B(r, v) dw`, and the noise part of the multiplier
     /// increment, eq. 2.3: `dmu = -G_M(r)^-1 Dg(r) M^-1 B(r, v) dw`.
     pub fn noise_prepared(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        dw: &[f64],
-        dv: &mut [f64],
-        dmu: &mut [f64],
+        &mut self, r: &[f64], v: &[f64], dw: &[f64], dv: &mut [f64], dmu: &mut [f64],
     ) {
         self.assert_prepared(r);
         self.force.fill(0.0);
@@ -166,11 +161,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// (the position drift is v). Checked and one-shot; `mu_rate` receives the drift of mu
     /// (eq. 2.3), `-G_M^-1 { Dg M^-1 a + D^2 g(v, v) }`.
     pub fn drift(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        out: &mut [f64],
-        mu_rate: &mut [f64],
+        &mut self, r: &[f64], v: &[f64], out: &mut [f64], mu_rate: &mut [f64],
     ) -> Result<(), ReferenceError> {
         self.check_state_dims(r, v)?;
         check_dim("drift output", self.dim(), out.len())?;
@@ -184,11 +175,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// `out = M^-1 P_M(r) B(r, v) dw`, with P_M(r) x = x - grad g G_M^-1 Dg M^-1 x.
     /// Checked and one-shot.
     pub fn diffusion(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        dw: &[f64],
-        out: &mut [f64],
+        &mut self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64],
     ) -> Result<(), ReferenceError> {
         self.check_state_dims(r, v)?;
         check_dim("Brownian increment dw", self.noise_dim(), dw.len())?;
@@ -205,13 +192,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// Checked and one-shot; `dv` receives the matching Euler-Maruyama velocity increment of
     /// eq. 2.4, `M^-1 [a h + B dw + grad g(r) out]`.
     pub fn multiplier_increment(
-        &mut self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
-        dv: &mut [f64],
-        out: &mut [f64],
+        &mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64], dv: &mut [f64], out: &mut [f64],
     ) -> Result<(), ReferenceError> {
         self.check_state_dims(r, v)?;
         check_step_size(h)?;
@@ -230,11 +211,7 @@ impl<S: CurvedSystem> InherentSde<S> {
 
     /// Checks a step's inputs: lengths of r, v, dw, finiteness of r and v, and h.
     pub(crate) fn check_step_input(
-        &self,
-        r: &[f64],
-        v: &[f64],
-        h: f64,
-        dw: &[f64],
+        &self, r: &[f64], v: &[f64], h: f64, dw: &[f64],
     ) -> Result<(), ReferenceError> {
         check_step_input(&self.system, r, v, h, dw)?;
         sdae_manifold::check_finite("position r", r)?;

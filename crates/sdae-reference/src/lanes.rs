@@ -76,10 +76,7 @@ impl<S: CurvedSystem> LaneScheme for StochasticHeun<S> {
 /// The lanes' step of `method` where the system is a sphere of dimension <= [`MAX_DIM`] with a
 /// diagonal mass and at most as many noise components; `false` otherwise.
 fn step_lanes<Sch: Scheme>(
-    scheme: &mut Sch,
-    method: Method,
-    paths: &mut LanePaths,
-    width: LaneWidth,
+    scheme: &mut Sch, method: Method, paths: &mut LanePaths, width: LaneWidth,
     (h, dw): (f64, &[f64]),
 ) -> bool {
     if !<<Sch::System as System>::Mass as Mass>::DIAGONAL {
@@ -182,11 +179,7 @@ struct Kernel<const N: usize> {
 impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
     #[inline(always)]
     fn step<Sd: Simd>(
-        &self,
-        scheme: &Sch,
-        r: &[Lanes<Sd>; N],
-        v: &[Lanes<Sd>; N],
-        dw: &[Lanes<Sd>],
+        &self, scheme: &Sch, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
         let (system, h) = (scheme.system(), self.h);
         match self.method {
@@ -235,11 +228,8 @@ impl<const N: usize> SphereSde<N> {
     /// (the curvature term only with `curvature`, which is the drift's dt = 1).
     #[inline(always)]
     fn constrain<Sd: Simd>(
-        &self,
-        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
-        inverse_gram: Lanes<Sd>,
-        mut force: [Lanes<Sd>; N],
-        curvature: bool,
+        &self, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), inverse_gram: Lanes<Sd>,
+        mut force: [Lanes<Sd>; N], curvature: bool,
     ) -> ([Lanes<Sd>; N], Lanes<Sd>) {
         for (f, w) in force.iter_mut().zip(self.inverse_mass) {
             *f = *f * w;
@@ -259,10 +249,7 @@ impl<const N: usize> SphereSde<N> {
     /// the system has no lane form.
     #[inline(always)]
     fn parts<S: System, Sd: Simd>(
-        &self,
-        system: &S,
-        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
-        dw: &[Lanes<Sd>],
+        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), dw: &[Lanes<Sd>],
     ) -> Option<Parts<Sd, N>> {
         let zero = r[0].splat_like(0.0);
         // G_M(r) = r^T M^-1 r / rho^4, factored as 1 / G_M(r) where finite and nonzero.
@@ -298,11 +285,7 @@ impl<const N: usize> SphereSde<N> {
     /// v' = v + theta h accel + noise_v, dmu = theta h mu_rate + noise_mu.
     #[inline(always)]
     fn euler<S: System, Sd: Simd>(
-        &self,
-        system: &S,
-        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
-        h: f64,
-        dw: &[Lanes<Sd>],
+        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64, dw: &[Lanes<Sd>],
         scale: Option<f64>,
     ) -> Option<LaneStep<Sd, N>> {
         let parts = self.parts(system, (r, v), dw)?;
@@ -312,9 +295,7 @@ impl<const N: usize> SphereSde<N> {
     /// [`SphereSde::euler`] with the parts at (r, v) evaluated.
     #[inline(always)]
     fn euler_with<Sd: Simd>(
-        parts: &Parts<Sd, N>,
-        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
-        h: f64,
+        parts: &Parts<Sd, N>, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64,
         scale: Option<f64>,
     ) -> LaneStep<Sd, N> {
         let theta = match scale {
@@ -348,11 +329,7 @@ impl<const N: usize> SphereSde<N> {
     /// dmu = h/2 (mu_rate + mu_rate~) + noise_mu.
     #[inline(always)]
     fn heun<S: System, Sd: Simd>(
-        &self,
-        system: &S,
-        (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]),
-        h: f64,
-        dw: &[Lanes<Sd>],
+        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64, dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
         let parts = self.parts(system, (r, v), dw)?;
         let predictor = Self::euler_with(&parts, (r, v), h, None);

@@ -49,11 +49,7 @@ macro_rules! inherent_scheme {
             }
             /// One step (see the type's documentation); (r, v) are unchanged on failure.
             fn step(
-                &mut self,
-                r: &mut [f64],
-                v: &mut [f64],
-                h: f64,
-                dw: &[f64],
+                &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
             ) -> sdae_model::StepResult {
                 let outcome = self.propose(r, v, h, dw)?;
                 self.core.commit(r, v);

@@ -107,10 +107,8 @@ fn scheme_and_reference_solvers_converge_to_each_other() {
 /// mu(T) of the scheme (sum of lambda_k, eq. 1.4) and of truncated EM (sum of the increments of
 /// eq. 2.3) on the same path at `steps` steps, recorded only at the end.
 fn multipliers(
-    stepper: &mut Stepper<Pendulum>,
-    truncated: &mut TruncatedEulerMaruyama<Pendulum>,
-    fine: &[f64],
-    steps: usize,
+    stepper: &mut Stepper<Pendulum>, truncated: &mut TruncatedEulerMaruyama<Pendulum>,
+    fine: &[f64], steps: usize,
 ) -> (f64, f64) {
     let grid = TimeGrid::new(T, steps).unwrap();
     let coarse = || Coarsened::new(RecordedIncrements::new(fine, 2), FINE / steps);

@@ -128,9 +128,7 @@ impl<S: System<Constraint = Sphere>> Bench<S> {
 
 /// dw[j * stride + p] = increment j of path p, from path p's own stream, one path at a time.
 fn draw_per_path(
-    noise: &mut [GaussianIncrements<sdae_model::PathStreams>],
-    stride: usize,
-    dw: &mut [f64],
+    noise: &mut [GaussianIncrements<sdae_model::PathStreams>], stride: usize, dw: &mut [f64],
 ) {
     let mut one = [0.0; 2];
     for (p, source) in noise.iter_mut().enumerate() {

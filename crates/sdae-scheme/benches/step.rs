@@ -72,10 +72,7 @@ impl Drift for Gravity {
     /// The same in W lanes, for a chain of any length.
     #[inline(always)]
     fn drift_lanes<S: pulp::Simd>(
-        &self,
-        _r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         let (zero, down) = (v[0].splat_like(0.0), v[0].splat_like(-1.0));
         for bead in out.chunks_exact_mut(3) {

@@ -99,12 +99,7 @@ impl Constraint for Torus {
     }
     /// Dg(x1) M^-1 grad g(x2) = grad g(x1) . (M^-1 grad g(x2)).
     fn cross_gram<M: Mass>(
-        &self,
-        x1: &[f64],
-        x2: &[f64],
-        mass: &M,
-        _scratch: &mut [f64],
-        out: &mut ScalarGram,
+        &self, x1: &[f64], x2: &[f64], mass: &M, _scratch: &mut [f64], out: &mut ScalarGram,
     ) {
         let mut weighted = self.grad(&three(x2));
         mass.apply_inverse(&mut weighted);
@@ -158,13 +153,8 @@ impl ConstraintLanes for TorusLanes {
     }
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        x1: &P,
-        r: &[Lanes<Sd>],
-        values: &mut [Lanes<Sd>],
-        jacobian: &mut ScalarLanes<Sd>,
-        factor: &mut ReciprocalLanes<Sd>,
-        step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut ScalarLanes<Sd>,
+        factor: &mut ReciprocalLanes<Sd>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         let x = x1.coords::<3>(0);
         values[0] = self.torus.g(&x);
@@ -179,11 +169,7 @@ impl ConstraintLanes for TorusLanes {
     }
     #[inline(always)]
     fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        r: &[Lanes<Sd>],
-        z: &[Lanes<Sd>],
-        base: Option<&P>,
-        out: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
     ) {
         let y = base_coords::<Sd, P, 3>(base, out, 0);
         let grad = self.torus.grad(&r.coords::<3>(0));
@@ -194,10 +180,7 @@ impl ConstraintLanes for TorusLanes {
     }
     #[inline(always)]
     fn negated_jacobian_mul<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        u: &[Lanes<Sd>],
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
         out[0] = -dot(&self.torus.grad(&x.coords::<3>(0)), &u.coords::<3>(0));
     }
@@ -275,9 +258,7 @@ struct EnsembleRun {
 
 /// The paths in an ensemble of `width`.
 fn ensemble_paths(
-    stepper: &Stepper<TorusSystem>,
-    torus: &Torus,
-    width: LaneWidth,
+    stepper: &Stepper<TorusSystem>, torus: &Torus, width: LaneWidth,
 ) -> Result<EnsembleRun, Box<dyn std::error::Error>> {
     let (r0, v0) = start(torus, 0);
     let mut ensemble = Ensemble::new(stepper.clone(), PATHS, &r0, &v0)?.with_width(width);

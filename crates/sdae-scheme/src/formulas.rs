@@ -13,11 +13,7 @@ use sdae_model::lanes::{PathMask, Real};
 /// 1 without truncation (`c_eta` = `None`).
 #[inline(always)]
 pub(crate) fn eta<T: Real>(
-    c_eta: Option<f64>,
-    h: f64,
-    speed: T,
-    acceleration: T,
-    local: Option<T>,
+    c_eta: Option<f64>, h: f64, speed: T, acceleration: T, local: Option<T>,
 ) -> T {
     let one = speed.splat_like(1.0);
     let Some(c_eta) = c_eta else {

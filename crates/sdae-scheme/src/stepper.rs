@@ -91,11 +91,7 @@ impl<S: System> Stepper<S> {
     /// plane or in space (the pendulums; every pass over a vector unrolled), the stepper's
     /// buffers otherwise.
     pub(crate) fn general_step(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
+        &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
         let scalar_gram =
             <<S::Constraint as Constraint>::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar;
@@ -140,11 +136,7 @@ impl<S: System> Stepper<S> {
 
     /// [`Scheme::step`](sdae_model::Scheme::step) for n = N, m = 1 with the buffers on the stack.
     fn step_sized<const N: usize>(
-        &mut self,
-        r: &mut [f64],
-        v: &mut [f64],
-        h: f64,
-        dw: &[f64],
+        &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
         let (mut drift, mut y, mut x, mut force) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         let (mut lambda, mut tangency) = ([0.0; 1], [0.0; 1]);
@@ -195,14 +187,9 @@ struct Buffers<'a> {
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn half_explicit_step<S: System>(
-    system: &S,
-    config: &StepperConfig,
-    solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
-    buffers: Buffers<'_>,
-    r: &mut [f64],
-    v: &mut [f64],
-    h: f64,
-    dw: &[f64],
+    system: &S, config: &StepperConfig,
+    solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>, buffers: Buffers<'_>,
+    r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
 ) -> StepResult {
     let Buffers {
         drift,
@@ -278,12 +265,8 @@ fn half_explicit_step<S: System>(
 /// in its last pass, else from the root's factors. A failure if v' is not finite.
 #[inline(always)]
 fn constrained_velocity<S: System>(
-    system: &S,
-    solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
-    (r, r_new): (&[f64], &[f64]),
-    free_velocity: &[f64],
-    lambda: &mut [f64],
-    new_v: &mut [f64],
+    system: &S, solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
+    (r, r_new): (&[f64], &[f64]), free_velocity: &[f64], lambda: &mut [f64], new_v: &mut [f64],
 ) -> Result<(), StepFailure> {
     let constraint = system.constraint();
     match solver.companion() {
@@ -308,10 +291,7 @@ fn constrained_velocity<S: System>(
 /// finite.
 #[inline(always)]
 fn checked_motion<S: System>(
-    system: &S,
-    r: &[f64],
-    v: &[f64],
-    drift: &mut [f64],
+    system: &S, r: &[f64], v: &[f64], drift: &mut [f64],
 ) -> Result<(f64, f64), StepFailure> {
     let v_norm2 = norm2_squared(v);
     if !v_norm2.is_finite() {
@@ -336,13 +316,8 @@ fn checked_motion<S: System>(
 /// in law a step of eta h ([`ForceScale`]).
 #[inline(always)]
 fn free_velocity<S: System>(
-    system: &S,
-    config: &StepperConfig,
-    (eta, h): (f64, f64),
-    (r, v): (&[f64], &[f64]),
-    dw: &[f64],
-    drift: &[f64],
-    force: &mut [f64],
+    system: &S, config: &StepperConfig, (eta, h): (f64, f64), (r, v): (&[f64], &[f64]), dw: &[f64],
+    drift: &[f64], force: &mut [f64],
 ) {
     let scale = ForceScale::new(config.rescale_noise, eta, h);
     for (f, a) in force.iter_mut().zip(drift.iter()) {

@@ -68,9 +68,7 @@ const PARTIALS: usize = 4;
 /// drawn together. Returns the statistics that are `Some` (a resample can be degenerate, say all
 /// its values equal) in the order of the resamples.
 pub fn paired_bootstrap<T>(
-    table: &PathTable,
-    resamples: usize,
-    mut statistic: impl FnMut(&[f64]) -> Option<T>,
+    table: &PathTable, resamples: usize, mut statistic: impl FnMut(&[f64]) -> Option<T>,
 ) -> Vec<T> {
     let (n, width) = (table.paths(), table.width);
     let mut rng = path_rng(BOOTSTRAP_SEED, n as u64);

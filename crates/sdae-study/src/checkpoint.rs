@@ -122,10 +122,7 @@ impl Checkpoint {
     /// checkpoint, is cut short, or holds a path twice, out of range or of another shard is a
     /// [`StudyError::Read`] or [`StudyError::Resume`].
     pub fn load(
-        &self,
-        scene: &Scene,
-        settings: &ConvergenceSettings,
-        shard: (usize, usize),
+        &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
     ) -> Result<Option<SavedPaths>, StudyError> {
         let Some(bytes) = read_bytes(&self.path)? else {
             return Ok(None);
@@ -182,12 +179,8 @@ impl Checkpoint {
     /// are saved once more and [`Resumed::Interrupted`] comes back. A finished run is not saved
     /// (its report comes first); the checkpoint stays until [`Checkpoint::remove`].
     pub fn run(
-        &self,
-        scene: &Scene,
-        settings: &ConvergenceSettings,
-        shard: (usize, usize),
-        saved: Option<SavedPaths>,
-        control: Control<'_>,
+        &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
+        saved: Option<SavedPaths>, control: Control<'_>,
     ) -> Result<Resumed, StudyError> {
         let saved = saved.map_or_else(Vec::new, |s| s.records);
         let done: Vec<usize> = saved.iter().map(|r| r.index).collect();
@@ -234,10 +227,7 @@ impl Checkpoint {
     }
 
     fn write(
-        &self,
-        scene: &Scene,
-        settings: &ConvergenceSettings,
-        shard: (usize, usize),
+        &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
         records: &[PathRecord],
     ) -> Result<(), StudyError> {
         let header = HeaderOut {
@@ -265,8 +255,7 @@ impl Checkpoint {
 /// Writes a checkpoint file atomically: the `magic` line, the JSON `header` on one line, then
 /// what `records` writes.
 pub(crate) fn write_checkpoint<H: Serialize>(
-    path: &Path,
-    (magic, header): (&[u8], &H),
+    path: &Path, (magic, header): (&[u8], &H),
     records: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), StudyError> {
     write_with(path, |out| {
@@ -304,8 +293,7 @@ pub(crate) fn not_whole(path: &Path, message: String) -> StudyError {
 
 /// The `magic` line and the JSON header, and the bytes after them.
 pub(crate) fn parse_header<'a, H: serde::de::DeserializeOwned>(
-    bytes: &'a [u8],
-    magic: &[u8],
+    bytes: &'a [u8], magic: &[u8],
 ) -> Result<(H, &'a [u8]), String> {
     let rest = bytes
         .strip_prefix(magic)

@@ -288,10 +288,7 @@ pub struct ConvergenceRun {
 /// Path i draws from its own stream, so the records do not depend on the thread count, the
 /// sharding or an interruption.
 pub fn run_convergence(
-    scene: &Scene,
-    settings: &ConvergenceSettings,
-    shard: (usize, usize),
-    control: Control<'_>,
+    scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError> {
     scene.run(Runner {
         settings,
@@ -332,12 +329,8 @@ impl SceneRunner for Runner<'_> {
 /// Brownian paths. Runs the paths of shard `index` of `count`, steered by `control`. The
 /// observables `settings` names are the scene's built-in ones.
 pub fn run_convergence_on<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    extra: &[StudyScheme<S>],
-    settings: &ConvergenceSettings,
-    shard: (usize, usize),
-    control: Control<'_>,
+    scene: &Scene, prepared: &Prepared<S>, extra: &[StudyScheme<S>],
+    settings: &ConvergenceSettings, shard: (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
@@ -357,12 +350,9 @@ where
 /// every path (at the grid points of the coarsest level; the run's settings name them, in
 /// place of the names `settings` gives).
 pub fn run_observed_on<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    (extra, observables): (&[StudyScheme<S>], &[Observable]),
-    settings: &ConvergenceSettings,
-    (index, count): (usize, usize),
-    control: Control<'_>,
+    scene: &Scene, prepared: &Prepared<S>,
+    (extra, observables): (&[StudyScheme<S>], &[Observable]), settings: &ConvergenceSettings,
+    (index, count): (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
@@ -551,9 +541,7 @@ impl ReferenceReport {
     /// The reference of a run with `settings` from its records, `finished` of which have a
     /// reference that finished (`None` when the run had no reference).
     pub fn of(
-        settings: &ConvergenceSettings,
-        records: &[PathRecord],
-        finished: usize,
+        settings: &ConvergenceSettings, records: &[PathRecord], finished: usize,
     ) -> Option<ReferenceReport> {
         settings.reference.map(|level| ReferenceReport {
             scheme: settings.reference_scheme.name(),
@@ -648,8 +636,7 @@ fn count_kinds(kinds: impl Iterator<Item = FailureKind>) -> BTreeMap<FailureKind
 
 /// The outcomes of scheme `s` at level `j` of the paths whose reference finished.
 fn outcomes<'a>(
-    good: &'a [&PathRecord],
-    (s, j, levels): (usize, usize, usize),
+    good: &'a [&PathRecord], (s, j, levels): (usize, usize, usize),
 ) -> impl Iterator<Item = &'a TrackOutcome> + 'a {
     good.iter().map(move |p| &p.tracks[s * levels + j])
 }
@@ -658,9 +645,7 @@ fn outcomes<'a>(
 /// that a path that fails at some level (typically with the largest errors) leaves every level
 /// instead of vanishing from one level's average only.
 pub(crate) fn common_paths<'a>(
-    good: &[&'a PathRecord],
-    s: usize,
-    levels: usize,
+    good: &[&'a PathRecord], s: usize, levels: usize,
 ) -> Vec<&'a PathRecord> {
     good.iter()
         .copied()
@@ -677,9 +662,7 @@ fn distances(paths: &[&PathRecord], (s, j, levels): (usize, usize, usize), c: us
 }
 
 fn level_report<'a>(
-    steps: usize,
-    settings: &ConvergenceSettings,
-    paths: impl Iterator<Item = &'a TrackOutcome>,
+    steps: usize, settings: &ConvergenceSettings, paths: impl Iterator<Item = &'a TrackOutcome>,
     (error, compared): (Errors, usize),
 ) -> LevelReport {
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, Vec::new());
@@ -757,10 +740,7 @@ fn fittable(levels: &[LevelReport]) -> Vec<usize> {
 /// reports mapped back to all levels, and the L^p error intervals of these levels from the
 /// fit's resamples.
 fn fit_levels(
-    fitted: &[usize],
-    h: &[f64],
-    errors: &[Vec<f64>],
-    p: f64,
+    fitted: &[usize], h: &[f64], errors: &[Vec<f64>], p: f64,
 ) -> Option<(OrderFit, Vec<Interval>)> {
     let data = PathErrors { h, errors, p };
     let (mut fit, level_errors) = fit_order_and_errors(data, PRE_ASYMPTOTIC_TOLERANCE)?;
@@ -793,10 +773,7 @@ impl Errors {
 /// fitted levels' error intervals come from their order fit's bootstrap (the same intervals
 /// [`lp_error`] gives, one bootstrap for all levels), the others' from [`lp_error`].
 fn scheme_report(
-    (s, name): (usize, &str),
-    good: &[&PathRecord],
-    scene: &Scene,
-    settings: &ConvergenceSettings,
+    (s, name): (usize, &str), good: &[&PathRecord], scene: &Scene, settings: &ConvergenceSettings,
 ) -> SchemeReport {
     let levels = settings.levels();
     let count = levels.len();

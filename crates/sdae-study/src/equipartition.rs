@@ -95,9 +95,7 @@ pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
 /// with the first variant; `progress` is called with the variant's label and the number of
 /// finished paths. `None` when the system has no equipartition value.
 pub fn run_equipartition_on<S>(
-    prepared: &Prepared<S>,
-    variants: &[Variant],
-    extra: &[StudyScheme<S>],
+    prepared: &Prepared<S>, variants: &[Variant], extra: &[StudyScheme<S>],
     progress: &(dyn Fn(&str, usize) + Sync),
 ) -> Result<Option<EquipartitionScene>, StudyError>
 where
@@ -326,8 +324,7 @@ fn ratio_range(sc: &EquipartitionScene) -> Range<f64> {
 
 /// A scene's panel: the line ratio = 1, one line per variant with its error bars, the legend.
 fn scene_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>,
-    sc: &EquipartitionScene,
+    area: &DrawingArea<SVGBackend<'_>, Shift>, sc: &EquipartitionScene,
 ) -> DrawResult<()> {
     let xs = log_range(sc.rows.iter().map(|r| r.h));
     let ys = ratio_range(sc);
@@ -361,10 +358,7 @@ fn scene_panel(
 /// The temperature ratio of the variant `name` against h in `colour`, clamped to `ys`, with 95%
 /// error bars where its interval is finite (two or more paths finished).
 fn draw_variant(
-    chart: &mut LogChart<'_, '_>,
-    sc: &EquipartitionScene,
-    name: &str,
-    colour: RGBColor,
+    chart: &mut LogChart<'_, '_>, sc: &EquipartitionScene, name: &str, colour: RGBColor,
     ys: &Range<f64>,
 ) -> DrawResult<()> {
     let (lo, hi) = (ys.start, ys.end);

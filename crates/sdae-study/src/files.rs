@@ -13,8 +13,7 @@ use crate::error::StudyError;
 /// file is `<path>.<process id>.tmp`; it is removed if the write fails, and
 /// [`remove_stale_temporaries`] removes those a killed process left.
 pub fn write_with(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+    path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> Result<(), StudyError> {
     let fail = |e: std::io::Error| StudyError::write(path, e);
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

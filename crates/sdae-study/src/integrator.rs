@@ -114,9 +114,7 @@ type Built<S> = Box<dyn LaneScheme<System = S>>;
 /// Builds `kind` for `system`; fails with a reason if the scheme does not apply to it (no
 /// theory bound, a setting the solver rejects).
 pub fn build_integrator<S>(
-    kind: SchemeKind,
-    system: &S,
-    constants: &SchemeConstants,
+    kind: SchemeKind, system: &S, constants: &SchemeConstants,
 ) -> Result<BoxedScheme<S>, StudyError>
 where
     S: CurvedSystem + Clone + 'static,
@@ -127,9 +125,7 @@ where
 /// Builds `kind` for `paths` paths of `system` from (r0, v0) as a [`LaneEnsemble`] (SIMD lanes
 /// where the system has a lane form, else path by path).
 pub fn build_ensemble<S>(
-    kind: SchemeKind,
-    system: &S,
-    constants: &SchemeConstants,
+    kind: SchemeKind, system: &S, constants: &SchemeConstants,
     (paths, r0, v0): (usize, &[f64], &[f64]),
 ) -> Result<BoxedEnsemble<S>, StudyError>
 where
@@ -140,9 +136,7 @@ where
 }
 
 fn build_kind<S>(
-    kind: SchemeKind,
-    system: &S,
-    constants: &SchemeConstants,
+    kind: SchemeKind, system: &S, constants: &SchemeConstants,
 ) -> Result<Built<S>, StudyError>
 where
     S: CurvedSystem + Clone + 'static,
@@ -264,10 +258,7 @@ impl<S> StudyScheme<S> {
 
     /// A new ensemble of `paths` paths from (r0, v0), or why the scheme does not apply.
     pub fn build_ensemble(
-        &self,
-        paths: usize,
-        r0: &[f64],
-        v0: &[f64],
+        &self, paths: usize, r0: &[f64], v0: &[f64],
     ) -> Result<BoxedEnsemble<S>, StudyError> {
         (self.ensemble)((paths, r0, v0))
     }

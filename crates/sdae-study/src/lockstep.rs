@@ -336,10 +336,7 @@ impl<S: System> Compare<'_, S> {
     /// a block's paths, where n may be a constant.
     #[inline(always)]
     fn run(
-        &self,
-        track: &mut Track,
-        (snapshot, record): (&[f64], Option<&[f64]>),
-        clock: Clock,
+        &self, track: &mut Track, (snapshot, record): (&[f64], Option<&[f64]>), clock: Clock,
         (scratch_m, scratch_n): (&mut [f64], &mut [f64]),
     ) -> Option<FailureKind> {
         let n = self.dims.n;
@@ -402,9 +399,7 @@ fn kinetic_energy<M: Mass>(mass: &M, v: &[f64], scratch: &mut [f64]) -> f64 {
 /// p at `j * stride + p`): level 0 from each path's own stream, level j from pairwise sums of
 /// j - 1 (the sums of a path's fine increments, whatever the block).
 fn fill_pyramid(
-    pyramid: &mut [Vec<f64>],
-    noise: &mut EnsembleIncrements,
-    h_fine: f64,
+    pyramid: &mut [Vec<f64>], noise: &mut EnsembleIncrements, h_fine: f64,
 ) -> Result<(), ModelError> {
     if noise.dim() == 0 {
         return Ok(());
@@ -472,10 +467,7 @@ struct Lockstep<'a> {
 impl<'a> Lockstep<'a> {
     /// Fails if T is not finite and > 0.
     fn new(
-        plan: &'a PathPlan,
-        dims: Dims,
-        (paths, live): (usize, usize),
-        tracks: usize,
+        plan: &'a PathPlan, dims: Dims, (paths, live): (usize, usize), tracks: usize,
     ) -> Result<Self, ModelError> {
         let grids = (0..=plan.fine)
             .map(|k| TimeGrid::new(plan.t_end, 1usize << k))
@@ -524,8 +516,7 @@ impl<'a> Lockstep<'a> {
     /// the finest level's grid points; returns the paths that have stopped (if any stopped in
     /// this chunk).
     fn reference_chunk<S: System>(
-        &mut self,
-        reference: &mut dyn PathEnsemble<System = S>,
+        &mut self, reference: &mut dyn PathEnsemble<System = S>,
     ) -> Vec<usize> {
         let (row, width) = (self.dims.row(), self.dims.l * self.stride);
         let h = self.grids[self.plan.fine as usize].h();
@@ -582,11 +573,8 @@ impl<'a> Lockstep<'a> {
     /// Steps one scheme at one level (track `index`) through the chunk for every path that
     /// goes on, and compares each with the reference.
     fn level_chunk<S: System>(
-        &mut self,
-        ensemble: &mut dyn PathEnsemble<System = S>,
-        (tracks, index): (&mut [Track], usize),
-        level: u32,
-        clocks: Clocks,
+        &mut self, ensemble: &mut dyn PathEnsemble<System = S>,
+        (tracks, index): (&mut [Track], usize), level: u32, clocks: Clocks,
     ) {
         let (plan, chunk) = (self.plan, self.chunk);
         let stride = 1usize << (plan.fine - level);
@@ -638,12 +626,9 @@ impl<'a> Lockstep<'a> {
     /// path's state is compared with the reference at once, and a path stops at the first step
     /// that fails or breaks a limit, so where a path stops does not depend on the chunks.
     fn stretch<S: System>(
-        &mut self,
-        ensemble: &mut dyn PathEnsemble<System = S>,
-        (tracks, mut active): (&mut [Track], Vec<usize>),
-        (rows, per): (&[f64], usize),
-        (level, count): (u32, usize),
-        clocks: Clocks,
+        &mut self, ensemble: &mut dyn PathEnsemble<System = S>,
+        (tracks, mut active): (&mut [Track], Vec<usize>), (rows, per): (&[f64], usize),
+        (level, count): (u32, usize), clocks: Clocks,
     ) {
         let width = self.dims.l * self.stride;
         let h = self.grids[level as usize].h();
@@ -714,12 +699,9 @@ impl<'a> Lockstep<'a> {
     /// goes on (`active`) in one call, compares each with the reference and marks the tracks
     /// that broke a limit, charging them the stretch's time so far; returns how many did.
     fn compare_step<S: System, D: StateDim>(
-        &mut self,
-        dim: D,
+        &mut self, dim: D,
         (ensemble, tracks, active): (&dyn PathEnsemble<System = S>, &mut [Track], &[usize]),
-        step: StepAt,
-        clocks: Clocks,
-        charged: f64,
+        step: StepAt, clocks: Clocks, charged: f64,
     ) -> usize {
         let StepAt {
             t,
@@ -793,10 +775,7 @@ impl<'a> Lockstep<'a> {
 /// do not depend on the block it runs in. Fails only if the plan's T is not finite and > 0 or
 /// the block is larger than the ensembles; the schemes' failures are in the records.
 pub fn run_block<S: System>(
-    plan: &PathPlan,
-    ensembles: &mut BlockEnsembles<S>,
-    start: (&[f64], &[f64]),
-    seed: u64,
+    plan: &PathPlan, ensembles: &mut BlockEnsembles<S>, start: (&[f64], &[f64]), seed: u64,
     indices: &[usize],
 ) -> Result<Vec<PathRecord>, ModelError> {
     let records = run_block_until(plan, ensembles, start, seed, indices, &|| false)?;
@@ -807,12 +786,8 @@ pub fn run_block<S: System>(
 /// then comes back and no path of the block is recorded (each path is whole or absent). A stop
 /// thus takes effect within one chunk, whatever the block's length.
 pub fn run_block_until<S: System>(
-    plan: &PathPlan,
-    ensembles: &mut BlockEnsembles<S>,
-    start: (&[f64], &[f64]),
-    seed: u64,
-    indices: &[usize],
-    abandon: &dyn Fn() -> bool,
+    plan: &PathPlan, ensembles: &mut BlockEnsembles<S>, start: (&[f64], &[f64]), seed: u64,
+    indices: &[usize], abandon: &dyn Fn() -> bool,
 ) -> Result<Option<Vec<PathRecord>>, ModelError> {
     let mut records: Vec<PathRecord> = indices.iter().map(|&i| PathRecord::empty(i)).collect();
     let BlockEnsembles {
@@ -884,9 +859,7 @@ impl Lockstep<'_> {
     /// Restarts `ensemble` at (r0, v0) = `start` and stops its lanes beyond the block's paths
     /// (they stay idle).
     fn restart<S: System>(
-        &self,
-        ensemble: &mut dyn PathEnsemble<System = S>,
-        (r0, v0): (&[f64], &[f64]),
+        &self, ensemble: &mut dyn PathEnsemble<System = S>, (r0, v0): (&[f64], &[f64]),
     ) -> Result<(), ModelError> {
         ensemble.restart(r0, v0)?;
         for p in self.live..self.paths {
@@ -899,9 +872,7 @@ impl Lockstep<'_> {
     /// time; a path whose reference failed gets the failure in its record and is left out of
     /// the errors: its schemes (`tracks`) stop there.
     fn run_reference<S: System>(
-        &mut self,
-        reference: &mut dyn PathEnsemble<System = S>,
-        tracks: &mut [BoxedEnsemble<S>],
+        &mut self, reference: &mut dyn PathEnsemble<System = S>, tracks: &mut [BoxedEnsemble<S>],
         records: &mut [PathRecord],
     ) -> Result<(), ModelError> {
         let clock = Instant::now();
@@ -925,11 +896,8 @@ impl Lockstep<'_> {
     /// At the end of the block: fills in the record of every path whose reference finished,
     /// its observed values and the outcome of each track (`states`, one per ensemble).
     fn finish_records<S: System>(
-        &mut self,
-        records: &mut [PathRecord],
-        tracks: &[BoxedEnsemble<S>],
-        states: &mut [Vec<Track>],
-        has_reference: bool,
+        &mut self, records: &mut [PathRecord], tracks: &[BoxedEnsemble<S>],
+        states: &mut [Vec<Track>], has_reference: bool,
     ) {
         for (p, record) in records.iter_mut().enumerate() {
             if record.reference_failure.is_some() {

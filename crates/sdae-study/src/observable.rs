@@ -38,8 +38,7 @@ pub struct Observable {
 impl Observable {
     /// The observable `name` computing `f(r, v)`.
     pub fn new(
-        name: impl Into<String>,
-        f: impl Fn(&[f64], &[f64]) -> f64 + Send + Sync + 'static,
+        name: impl Into<String>, f: impl Fn(&[f64], &[f64]) -> f64 + Send + Sync + 'static,
     ) -> Self {
         Self {
             name: name.into(),
@@ -186,9 +185,7 @@ fn output_key(output: Output) -> &'static str {
 
 /// The built-in observables `names` of the scene's system (checked with [`check`]).
 pub fn built_in_all<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    names: &[String],
+    scene: &Scene, prepared: &Prepared<S>, names: &[String],
 ) -> Result<Vec<Observable>, StudyError>
 where
     S: System + Clone + Send + Sync + 'static,
@@ -201,9 +198,7 @@ where
 
 /// The built-in observable `name` of the scene's system, from its parameters and initial state.
 pub fn built_in<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    name: &str,
+    scene: &Scene, prepared: &Prepared<S>, name: &str,
 ) -> Result<Observable, StudyError>
 where
     S: System + Clone + Send + Sync + 'static,

@@ -137,21 +137,12 @@ fn fastest(report: &ConvergenceReport) -> String {
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
         };
-        let errors: Vec<f64> = report
+        let errors = report
             .schemes
             .iter()
             .flat_map(|sc| sc.levels.iter().filter_map(|l| pick(&l.error)))
-            .map(|e| e.estimate)
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .collect();
-        let (Some(lo), Some(hi)) = (
-            errors.iter().copied().reduce(f64::min),
-            errors.iter().copied().reduce(f64::max),
-        ) else {
-            continue;
-        };
-        let mut decade = 10f64.powf(hi.log10().floor());
-        while decade >= lo {
+            .map(|e| e.estimate);
+        for decade in decades(errors) {
             if let Some((t, scheme, n)) = reached(decade) {
                 let _ = writeln!(
                     s,
@@ -159,7 +150,6 @@ fn fastest(report: &ConvergenceReport) -> String {
                     t * 1e6
                 );
             }
-            decade /= 10.0;
         }
     }
     if s.is_empty() {
@@ -168,6 +158,29 @@ fn fastest(report: &ConvergenceReport) -> String {
     format!(
         "## Fastest to a given error\n\nFor each error level, the scheme that reached it with the least run time per path (over the step sizes measured).\n\n| component | error <= | scheme | N | us/path |\n|---|---|---|---|---|\n{s}"
     )
+}
+
+/// The powers of ten between the smallest and the largest of `values` (finite and positive
+/// ones; none without any), from the largest down: the error levels of a "fastest to a given
+/// error" table, each reached by some value.
+pub fn decades(values: impl IntoIterator<Item = f64>) -> Vec<f64> {
+    let values: Vec<f64> = values
+        .into_iter()
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .collect();
+    let (Some(lo), Some(hi)) = (
+        values.iter().copied().reduce(f64::min),
+        values.iter().copied().reduce(f64::max),
+    ) else {
+        return Vec::new();
+    };
+    let mut decade = 10f64.powf(hi.log10().floor());
+    let mut out = Vec::new();
+    while decade >= lo {
+        out.push(decade);
+        decade /= 10.0;
+    }
+    out
 }
 
 /// The share of truncated steps as a table cell, marked "stable but biased" above
@@ -421,8 +434,20 @@ pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyE
 
 #[cfg(test)]
 mod tests {
-    use super::{describe_fit, readable};
+    use super::{decades, describe_fit, readable};
     use crate::stats::{Interval, OrderFit};
+
+    #[test]
+    fn decades_run_from_the_largest_value_down_to_the_smallest() {
+        let d = decades([0.03, 2e-4, f64::NAN, -1.0, 0.0, f64::INFINITY]);
+        assert_eq!(d.len(), 2, "{d:?}");
+        for (got, want) in d.iter().zip([1e-2, 1e-3]) {
+            assert!((got / want - 1.0).abs() < 1e-12, "{d:?}");
+        }
+        assert!(decades([f64::NAN, 0.0]).is_empty());
+        assert_eq!(decades([5.0, 0.5]), vec![1.0]);
+        assert!(decades([5.0]).is_empty());
+    }
 
     #[test]
     fn indicative_fits_say_so() {

@@ -26,9 +26,7 @@ pub struct Skipped {
 /// The built-in schemes of `kinds` and the user's `extra` schemes that apply to the scene (each
 /// built once to find out), and the rest with the reason.
 pub fn applicable<S>(
-    kinds: &[SchemeKind],
-    extra: &[StudyScheme<S>],
-    prepared: &Prepared<S>,
+    kinds: &[SchemeKind], extra: &[StudyScheme<S>], prepared: &Prepared<S>,
 ) -> (Vec<StudyScheme<S>>, Vec<Skipped>)
 where
     S: CurvedSystem + Clone + Send + Sync + 'static,
@@ -56,10 +54,8 @@ where
 /// Ensembles of `paths` paths for a block: each scheme at each of the plan's levels, and the
 /// reference.
 fn block_ensembles<S>(
-    schemes: &[StudyScheme<S>],
-    reference: Option<&StudyScheme<S>>,
-    (plan, paths): (&PathPlan, usize),
-    (r0, v0): (&[f64], &[f64]),
+    schemes: &[StudyScheme<S>], reference: Option<&StudyScheme<S>>,
+    (plan, paths): (&PathPlan, usize), (r0, v0): (&[f64], &[f64]),
 ) -> Result<BlockEnsembles<S>, StudyError> {
     let mut tracks = Vec::with_capacity(schemes.len() * plan.levels.len());
     let mut own_clock = Vec::with_capacity(tracks.capacity());
@@ -133,12 +129,8 @@ impl Control<'_> {
 /// Runs the selected paths of `plan` with `schemes` (and `reference`, if given; all must
 /// apply) but those in `control.done`, sorted by index, until `control.stop` is set.
 pub fn run_paths<S>(
-    plan: &PathPlan,
-    schemes: &[StudyScheme<S>],
-    reference: Option<&StudyScheme<S>>,
-    prepared: &Prepared<S>,
-    selection: PathSelection,
-    control: Control<'_>,
+    plan: &PathPlan, schemes: &[StudyScheme<S>], reference: Option<&StudyScheme<S>>,
+    prepared: &Prepared<S>, selection: PathSelection, control: Control<'_>,
 ) -> Result<Vec<PathRecord>, StudyError>
 where
     S: CurvedSystem + Clone + Sync + 'static,

@@ -60,9 +60,7 @@ pub type LogChart<'a, 'b> =
 
 /// Draws the legend of `chart` at `position`: its labels in `font_size` on a light, framed box.
 pub fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(
-    chart: &mut ChartContext<'a, SVGBackend<'b>, CT>,
-    font_size: u32,
-    position: SeriesLabelPosition,
+    chart: &mut ChartContext<'a, SVGBackend<'b>, CT>, font_size: u32, position: SeriesLabelPosition,
 ) -> DrawResult<()> {
     chart
         .configure_series_labels()
@@ -110,9 +108,7 @@ impl Axis {
 
 /// The finished points (x, error) of a scheme for a component.
 fn points(
-    s: &SchemeReport,
-    pick: fn(&Errors) -> Option<Interval>,
-    axis: Axis,
+    s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis,
 ) -> Vec<(f64, Interval)> {
     s.levels
         .iter()
@@ -123,9 +119,7 @@ fn points(
 
 /// The fitted line c h^order over the fitted levels, through their geometric centre.
 fn fitted_line(
-    scheme: &SchemeReport,
-    pick: fn(&Errors) -> Option<Interval>,
-    fit: &OrderFit,
+    scheme: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, fit: &OrderFit,
 ) -> Vec<(f64, f64)> {
     let points: Vec<(f64, f64)> = fit
         .fitted
@@ -150,9 +144,7 @@ fn fitted_line(
 /// One panel: the error of `component` against `axis`, one line per scheme with its error bars
 /// (and its fitted slope against h), and the legend.
 fn panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>,
-    report: &ConvergenceReport,
-    component: Component,
+    area: &DrawingArea<SVGBackend<'_>, Shift>, report: &ConvergenceReport, component: Component,
     axis: Axis,
 ) -> Result<(), StudyError> {
     let err = |e: &dyn std::fmt::Display| StudyError::write(component.name, e);
@@ -170,9 +162,7 @@ fn panel(
 
 /// A panel's log-log chart with its mesh, its axes covering every scheme's points.
 fn panel_chart<'a, 'b>(
-    area: &'a DrawingArea<SVGBackend<'b>, Shift>,
-    report: &ConvergenceReport,
-    component: Component,
+    area: &'a DrawingArea<SVGBackend<'b>, Shift>, report: &ConvergenceReport, component: Component,
     axis: Axis,
 ) -> DrawResult<LogChart<'a, 'b>> {
     let all: Vec<(f64, Interval)> = report
@@ -207,10 +197,7 @@ fn panel_chart<'a, 'b>(
 /// A scheme's line in `colour` (labelled with its fitted order against h), its 95% error bars
 /// and, against h, its fitted slope; nothing if it has no point.
 fn draw_scheme(
-    chart: &mut LogChart<'_, '_>,
-    scheme: &SchemeReport,
-    component: Component,
-    axis: Axis,
+    chart: &mut LogChart<'_, '_>, scheme: &SchemeReport, component: Component, axis: Axis,
     colour: RGBColor,
 ) -> DrawResult<()> {
     let pts = points(scheme, component.pick, axis);
@@ -251,10 +238,7 @@ fn draw_scheme(
 }
 
 fn draw(
-    report: &ConvergenceReport,
-    path: &Path,
-    title: &str,
-    axis: Axis,
+    report: &ConvergenceReport, path: &Path, title: &str, axis: Axis,
 ) -> Result<(), StudyError> {
     let components: Vec<Component> = COMPONENTS
         .into_iter()

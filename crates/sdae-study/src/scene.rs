@@ -335,10 +335,7 @@ impl Scene {
     /// for such a system, so the theory variant of the half-explicit scheme does not apply
     /// (reported as skipped); the practical and untruncated variants use the scene's C_eta.
     pub fn prepare_custom<S>(
-        &self,
-        system: S,
-        position: Vec<f64>,
-        velocity: Vec<f64>,
+        &self, system: S, position: Vec<f64>, velocity: Vec<f64>,
     ) -> Result<Prepared<S>, StudyError>
     where
         S: CurvedSystem,
@@ -418,10 +415,7 @@ impl Scene {
 
     /// The initial state (checked or projected) and the constants for `system`.
     fn prepare<S>(
-        &self,
-        system: S,
-        rest: Vec<f64>,
-        theory: Option<(f64, f64)>,
+        &self, system: S, rest: Vec<f64>, theory: Option<(f64, f64)>,
     ) -> Result<Prepared<S>, StudyError>
     where
         S: CurvedSystem,

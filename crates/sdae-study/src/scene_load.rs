@@ -56,10 +56,7 @@ impl Scene {
     /// the half-explicit scheme, the study defaults (`paths`, `levels`, `reference`) left to the
     /// studies' settings. Checked like a scene file.
     pub fn custom(
-        name: &str,
-        t_end: f64,
-        outputs: Vec<Output>,
-        practical_c_eta: f64,
+        name: &str, t_end: f64, outputs: Vec<Output>, practical_c_eta: f64,
     ) -> Result<Self, StudyError> {
         let scene = Scene {
             name: name.into(),

@@ -63,11 +63,8 @@ pub struct StabilityScene {
 /// [`Scene::prepare_custom`]), the built-in schemes of the settings and the user's `extra`
 /// schemes; `progress` is called with the number of finished paths.
 pub fn run_stability_on<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    extra: &[StudyScheme<S>],
-    settings: &ConvergenceSettings,
-    progress: &(dyn Fn(usize) + Sync),
+    scene: &Scene, prepared: &Prepared<S>, extra: &[StudyScheme<S>],
+    settings: &ConvergenceSettings, progress: &(dyn Fn(usize) + Sync),
 ) -> Result<StabilityScene, StudyError>
 where
     S: CurvedSystem + Clone + Send + Sync + 'static,

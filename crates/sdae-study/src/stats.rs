@@ -318,8 +318,7 @@ impl LogErrors {
     /// resamples are usable (a degenerate sample). The same resamples give each level's L^p
     /// error interval (second; exactly [`lp_error`]'s, whose stream of n paths this is).
     fn bootstrap(
-        &self,
-        functionals: &[Vec<(usize, f64)>],
+        &self, functionals: &[Vec<(usize, f64)>],
     ) -> (Option<Vec<Interval>>, Vec<Interval>) {
         let (levels, n) = (self.y.len(), self.n as f64);
         let pairs: Vec<(usize, usize)> = (0..levels)
@@ -540,8 +539,7 @@ pub fn fit_order(data: PathErrors<'_>, tolerance: f64) -> Option<OrderFit> {
 /// same resamples: each is the one [`lp_error`] gives for that level, at the cost of one
 /// bootstrap for all.
 pub fn fit_order_and_errors(
-    data: PathErrors<'_>,
-    tolerance: f64,
+    data: PathErrors<'_>, tolerance: f64,
 ) -> Option<(OrderFit, Vec<Interval>)> {
     let logs = LogErrors::new(data)?;
     let mut usable: Vec<usize> = (0..data.h.len()).collect();

@@ -69,12 +69,9 @@ pub fn weak_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> 
 /// every path. Needs a reference (`settings.reference`); the paths of shard `index` of `count`,
 /// steered by `control`. [`build_weak_report`] turns the run into the report.
 pub fn run_weak_on<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    (extra, observables): (&[StudyScheme<S>], &[Observable]),
-    settings: &ConvergenceSettings,
-    shard: (usize, usize),
-    control: Control<'_>,
+    scene: &Scene, prepared: &Prepared<S>,
+    (extra, observables): (&[StudyScheme<S>], &[Observable]), settings: &ConvergenceSettings,
+    shard: (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
@@ -441,9 +438,7 @@ impl Layout {
 
 /// Scheme `s`'s report rows (the scheme and its extrapolation) for observable `o`.
 fn scheme_rows(
-    (s, name): (usize, &str),
-    (o, basis, layout): (usize, Basis, Layout),
-    good: &[&PathRecord],
+    (s, name): (usize, &str), (o, basis, layout): (usize, Basis, Layout), good: &[&PathRecord],
     settings: &ConvergenceSettings,
 ) -> Vec<WeakScheme> {
     let levels = settings.levels();
@@ -523,10 +518,7 @@ type RowParts = (Vec<WeakLevel>, Option<WeakOrder>, Option<WeakOrder>);
 
 /// The levels and orders of one row from its per-path differences, values and run times.
 fn rows_of(
-    data: &LevelPaths,
-    values: &[Vec<f64>],
-    seconds: &[f64],
-    h: &[f64],
+    data: &LevelPaths, values: &[Vec<f64>], seconds: &[f64], h: &[f64],
     settings: &ConvergenceSettings,
 ) -> RowParts {
     let Some(analysis) = analyse(data) else {

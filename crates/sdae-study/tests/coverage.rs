@@ -197,9 +197,7 @@ struct OrderCoverage {
 }
 
 fn order_coverage(
-    replications: u64,
-    law: impl Fn(u64) -> (Vec<f64>, Vec<Vec<f64>>),
-    error: impl Fn(f64) -> f64,
+    replications: u64, law: impl Fn(u64) -> (Vec<f64>, Vec<Vec<f64>>), error: impl Fn(f64) -> f64,
 ) -> OrderCoverage {
     // (indicative, order covers, local slope covers) per replication.
     let mut fits = Vec::new();

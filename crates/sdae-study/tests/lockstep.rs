@@ -97,11 +97,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
 /// level's grid, computed directly: all 2^fine increments of path `index` in memory, each
 /// level run on their sums.
 fn direct_distances<S: System>(
-    system: S,
-    (r0, v0): (&[f64], &[f64]),
-    (seed, index): (u64, usize),
-    fine: u32,
-    levels: &[u32],
+    system: S, (r0, v0): (&[f64], &[f64]), (seed, index): (u64, usize), fine: u32, levels: &[u32],
 ) -> Vec<[f64; 3]> {
     let fine_steps = 1usize << fine;
     let mut increments = vec![0.0; 2 * fine_steps];

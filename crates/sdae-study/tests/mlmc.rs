@@ -43,11 +43,7 @@ impl LevelSampler for Linear {
         Ok(())
     }
     fn run_block(
-        &self,
-        _: &mut (),
-        level: u32,
-        indices: Range<u64>,
-        coupled: bool,
+        &self, _: &mut (), level: u32, indices: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {
         let steps = 1u64 << (self.coarsest + level);
         let h = self.t_end / steps as f64;
@@ -259,10 +255,7 @@ impl SamplerTask for Adaptive<'_, '_> {
 }
 
 fn circle_run(
-    scene: &Scene,
-    seed: u64,
-    eps: f64,
-    control: &RunControl<'_>,
+    scene: &Scene, seed: u64, eps: f64, control: &RunControl<'_>,
 ) -> sdae_study::mlmc::MlmcEstimate {
     let settings = circle_settings(scene, seed, control.threads());
     let task = Adaptive {

@@ -117,10 +117,7 @@ pub const MAX_PARTICLES: usize = 1_000_000;
 
 /// Fails unless `min` <= `value` <= [`MAX_PARTICLES`] (`rule` says what `min` is for).
 pub(crate) fn particle_count(
-    name: &'static str,
-    value: usize,
-    min: usize,
-    rule: &'static str,
+    name: &'static str, value: usize, min: usize, rule: &'static str,
 ) -> Result<usize, SystemError> {
     let rule = if value < min {
         rule

@@ -367,11 +367,7 @@ impl System for Fiber {
     /// [`System::add_noise`] in W lanes.
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
-        &self,
-        r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         self.turbulence(r, v, dw, out);
         true

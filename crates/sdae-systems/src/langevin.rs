@@ -65,11 +65,7 @@ impl<C: Constraint, P: Potential> Langevin<C, P> {
     /// both finite, with a finite noise amplitude sqrt(2 gamma kT), that the mass has order n
     /// and that the potential acts only on atoms of the system.
     pub fn new(
-        constraint: C,
-        mass: DiagonalMass,
-        potential: P,
-        friction: f64,
-        temperature: f64,
+        constraint: C, mass: DiagonalMass, potential: P, friction: f64, temperature: f64,
     ) -> Result<Self, SystemError> {
         non_negative("friction", friction)?;
         non_negative("temperature", temperature)?;
@@ -175,11 +171,7 @@ impl<C: Constraint, P: Potential> System for Langevin<C, P> {
     /// out += sigma dw in W lanes.
     #[inline(always)]
     fn add_noise_lanes<S: Simd>(
-        &self,
-        r: &[Lanes<S>],
-        v: &[Lanes<S>],
-        dw: &[Lanes<S>],
-        out: &mut [Lanes<S>],
+        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         self.noise.add_lanes(r, v, dw, out)
     }

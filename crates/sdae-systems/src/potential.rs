@@ -107,8 +107,7 @@ macro_rules! forces_written_once {
 
 /// Checks that the atoms of one term are distinct; returns 3 (largest index + 1).
 fn check_term<const K: usize>(
-    name: &'static str,
-    terms: &[[usize; K]],
+    name: &'static str, terms: &[[usize; K]],
 ) -> Result<usize, SystemError> {
     let mut dim = 0;
     for (index, t) in terms.iter().enumerate() {

@@ -84,11 +84,7 @@ fn fiber_stays_on_the_tangent_bundle() {
 /// both with step h for `steps` steps, the reference driven by the Brownian path `reference_path`
 /// (the scheme always by path 0).
 fn distance_to_reference<S>(
-    system: &S,
-    state: &(Vec<f64>, Vec<f64>),
-    h: f64,
-    steps: usize,
-    reference_path: u64,
+    system: &S, state: &(Vec<f64>, Vec<f64>), h: f64, steps: usize, reference_path: u64,
 ) -> f64
 where
     S: CurvedSystem + Clone,

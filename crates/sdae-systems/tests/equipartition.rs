@@ -34,14 +34,8 @@ impl Estimate {
 /// energy (from `kinetic`) every `every` steps after `burn_in`.
 #[allow(clippy::too_many_arguments)]
 fn kinetic_energy_estimate<S>(
-    system: &S,
-    state: &(Vec<f64>, Vec<f64>),
-    kinetic: impl Fn(&[f64]) -> f64,
-    h: f64,
-    burn_in: f64,
-    t_end: f64,
-    every: usize,
-    paths: u64,
+    system: &S, state: &(Vec<f64>, Vec<f64>), kinetic: impl Fn(&[f64]) -> f64, h: f64,
+    burn_in: f64, t_end: f64, every: usize, paths: u64,
 ) -> Estimate
 where
     S: System + Clone,
@@ -110,10 +104,8 @@ fn paths() -> (u64, u64) {
 /// estimate at kT is within 4 standard errors of (n - m) kT / 2, and the same check fails for
 /// the system at 2 kT (the check has power).
 fn check_equipartition<C, P>(
-    name: &str,
-    build: impl Fn(f64) -> Langevin<C, P>,
-    initial: impl Fn(&Langevin<C, P>) -> (Vec<f64>, Vec<f64>),
-    dof: usize,
+    name: &str, build: impl Fn(f64) -> Langevin<C, P>,
+    initial: impl Fn(&Langevin<C, P>) -> (Vec<f64>, Vec<f64>), dof: usize,
 ) where
     C: Constraint + Clone,
     P: Potential + Clone,

@@ -22,8 +22,7 @@ impl Drift for Gravity {
 
 /// A chain of `beads` beads of total length 1 under gravity with additive noise.
 pub fn chain_system(
-    beads: usize,
-    noise: f64,
+    beads: usize, noise: f64,
 ) -> MechanicalSystem<BeadChain, IdentityMass, Gravity, AdditiveNoise> {
     let chain = BeadChain::new(beads, 1.0 / (beads - 1) as f64).unwrap();
     MechanicalSystem::new(

@@ -69,11 +69,7 @@ impl BondLanes {
     /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
     #[inline(always)]
     fn value_and_cross_gram<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        x1: &P,
-        r: &[Lanes<Sd>],
-        values: &mut [Lanes<Sd>],
-        jacobian: &mut DenseLanes<Sd>,
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut DenseLanes<Sd>,
     ) {
         for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x1, bond);
@@ -124,13 +120,8 @@ impl ConstraintLanes for BondLanes {
     /// largest |g_b| and the LU factorization, each in a pass of its own.
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        x1: &P,
-        r: &[Lanes<Sd>],
-        values: &mut [Lanes<Sd>],
-        jacobian: &mut DenseLanes<Sd>,
-        factor: &mut LuLanes<Sd>,
-        step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut DenseLanes<Sd>,
+        factor: &mut LuLanes<Sd>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         self.value_and_cross_gram(x1, r, values, jacobian);
         let (largest, finite) = max_abs_and_finite(values);
@@ -148,11 +139,7 @@ impl ConstraintLanes for BondLanes {
     /// out can be its own base.
     #[inline(always)]
     fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        r: &[Lanes<Sd>],
-        z: &[Lanes<Sd>],
-        base: Option<&P>,
-        out: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
     ) {
         let zero = r[0].splat_like(0.0);
         for atom in 0..self.atoms {
@@ -174,10 +161,7 @@ impl ConstraintLanes for BondLanes {
     /// -(Dg(x) u)_b = d_b(x).(u_j - u_i) / L_b^2 (the negation of `RigidBonds::jacobian_mul`).
     #[inline(always)]
     fn negated_jacobian_mul<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        u: &[Lanes<Sd>],
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
         bond_rates(&self.bonds, &self.inv_l2, x, u, 1.0, out);
     }

@@ -58,11 +58,7 @@ impl ChainLanes {
     /// Row i of -Dg(x) u from beads i and i + 1 of u (`negated_jacobian_mul`'s operations).
     #[inline(always)]
     fn velocity_row<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        i: usize,
-        bead: &[Lanes<Sd>; 3],
-        next: &[Lanes<Sd>; 3],
+        &self, x: &[Lanes<Sd>], i: usize, bead: &[Lanes<Sd>; 3], next: &[Lanes<Sd>; 3],
     ) -> Lanes<Sd> {
         let du = [next[0] - bead[0], next[1] - bead[1], next[2] - bead[2]];
         dot3(&segment(x, i), &du) * self.inv_ds2
@@ -104,13 +100,8 @@ impl ConstraintLanes for ChainLanes {
     /// back (`values` is not used).
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        x1: &P,
-        r: &[Lanes<Sd>],
-        _values: &mut [Lanes<Sd>],
-        jacobian: &mut TridiagonalLanes<Sd>,
-        factor: &mut ThomasLanes<Sd>,
-        step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], _values: &mut [Lanes<Sd>],
+        jacobian: &mut TridiagonalLanes<Sd>, factor: &mut ThomasLanes<Sd>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         let s = self.inv_ds2 * self.inv_ds2;
         let m = self.beads - 1;
@@ -154,11 +145,7 @@ impl ConstraintLanes for ChainLanes {
     /// (the default's three passes in one).
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        force: &mut [Lanes<Sd>],
-        v: &[Lanes<Sd>],
-        factor: &ThomasLanes<Sd>,
+        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>], factor: &ThomasLanes<Sd>,
         out: &mut [Lanes<Sd>],
     ) {
         let w = &self.inverse_mass;
@@ -192,11 +179,7 @@ impl ConstraintLanes for ChainLanes {
     /// before bead j of out is written.
     #[inline(always)]
     fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self,
-        r: &[Lanes<Sd>],
-        z: &[Lanes<Sd>],
-        base: Option<&P>,
-        out: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
     ) {
         let mut previous = [r[0].splat_like(0.0); 3];
         let w = &self.inverse_mass;
@@ -225,13 +208,8 @@ impl ConstraintLanes for ChainLanes {
     /// `negated_jacobian_mul`'s rows, in their order.
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
-        &self,
-        r: &[Lanes<Sd>],
-        lambda: &[Lanes<Sd>],
-        x: &[Lanes<Sd>],
-        monitor: bool,
-        v: &mut [Lanes<Sd>],
-        _scratch: &mut [Lanes<Sd>],
+        &self, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>], monitor: bool,
+        v: &mut [Lanes<Sd>], _scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {
         let w = &self.inverse_mass;
         let zero = r[0].splat_like(0.0);
@@ -272,10 +250,7 @@ impl ConstraintLanes for ChainLanes {
     /// out_i = -(Dg(x) u)_i = d_i.(u_{i+1} - u_i) / ds^2 (`BeadChain`'s formula).
     #[inline(always)]
     fn negated_jacobian_mul<Sd: Simd>(
-        &self,
-        x: &[Lanes<Sd>],
-        u: &[Lanes<Sd>],
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
         segment_rates(x, u, self.inv_ds2, out);
     }

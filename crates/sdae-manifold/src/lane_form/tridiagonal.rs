@@ -28,14 +28,16 @@ pub struct ThomasLanes<Sd: Simd> {
     upper: Vec<Lanes<Sd>>,
 }
 
+/// The three zero bands of order m (m - 1 below the diagonal, m on it, m - 1 above).
+fn zero_bands<Sd: Simd>(simd: Sd, m: usize) -> [Vec<Lanes<Sd>>; 3] {
+    let zero = Lanes::splat(simd, 0.0);
+    [vec![zero; m - 1], vec![zero; m], vec![zero; m - 1]]
+}
+
 impl<Sd: Simd> MatrixLanes<Sd> for TridiagonalLanes<Sd> {
     fn zeros(simd: Sd, m: usize) -> Self {
-        let zero = Lanes::splat(simd, 0.0);
-        Self {
-            lower: vec![zero; m - 1],
-            diag: vec![zero; m],
-            upper: vec![zero; m - 1],
-        }
+        let [lower, diag, upper] = zero_bands(simd, m);
+        Self { lower, diag, upper }
     }
 
     /// out = A x ([`thomas::tridiagonal_mul`]).
@@ -49,11 +51,11 @@ impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
     type Matrix = TridiagonalLanes<Sd>;
 
     fn zeros(simd: Sd, m: usize) -> Self {
-        let zero = Lanes::splat(simd, 0.0);
+        let [lower, inverse_pivot, upper] = zero_bands(simd, m);
         Self {
-            lower: vec![zero; m - 1],
-            inverse_pivot: vec![zero; m],
-            upper: vec![zero; m - 1],
+            lower,
+            inverse_pivot,
+            upper,
         }
     }
 

@@ -69,10 +69,7 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
 /// ([`LaneFormVisitor::newton`]): `false` if the constraint offers none for this mass after
 /// all.
 pub(super) fn step_all<S: System, C: ConstraintLanes>(
-    stepper: &mut Stepper<S>,
-    paths: &mut LanePaths,
-    width: LaneWidth,
-    (h, dw): (f64, &[f64]),
+    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, (h, dw): (f64, &[f64]),
 ) -> bool {
     width.dispatch(StepAll {
         stepper,
@@ -186,10 +183,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// `factor_at_zero`, `true` in the returned flag's lanes) and the certificate's numbers.
     #[inline(always)]
     fn kappa_root_lanes(
-        &mut self,
-        config: &StepperConfig,
-        y: &Drifted<'_, Sd>,
-        max_abs_y: Lanes<Sd>,
+        &mut self, config: &StepperConfig, y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
     ) -> KappaLanes<Sd> {
         let r = y.r;
         let settings = &config.solver;
@@ -264,9 +258,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// J(0)^-1 R(0) into `step`: the evaluation's result and the step's length.
     #[inline(always)]
     fn first_newton_step(
-        &mut self,
-        y: &Drifted<'_, Sd>,
-        step: &mut [Lanes<Sd>],
+        &mut self, y: &Drifted<'_, Sd>, step: &mut [Lanes<Sd>],
     ) -> (Evaluation<Sd>, Lanes<Sd>) {
         let at_y = self.constraint.evaluate_and_factor(
             y,
@@ -284,9 +276,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// measure of the motion.
     #[inline(always)]
     fn eta(
-        &self,
-        config: &StepperConfig,
-        (v, a): (&[Lanes<Sd>], &[Lanes<Sd>]),
+        &self, config: &StepperConfig, (v, a): (&[Lanes<Sd>], &[Lanes<Sd>]),
         (v_norm2, a_norm2): (Lanes<Sd>, Lanes<Sd>),
     ) -> Lanes<Sd> {
         let local = if config.local_size && config.c_eta.is_some() {
@@ -318,10 +308,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// pass, |gamma*| and the contraction estimate.
     #[inline(always)]
     fn certificate(
-        &mut self,
-        config: &StepperConfig,
-        first_step: Lanes<Sd>,
-        mut ok: LaneMask<Sd>,
+        &mut self, config: &StepperConfig, first_step: Lanes<Sd>, mut ok: LaneMask<Sd>,
     ) -> (LaneMask<Sd>, Lanes<Sd>, Lanes<Sd>) {
         let settings = &config.solver;
         let norm = sum_squares(&self.gamma).sqrt();
@@ -359,8 +346,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// v_{k+1} in place; and the group's outcomes.
     #[inline(always)]
     fn velocity_lanes(
-        &mut self,
-        config: &StepperConfig,
+        &mut self, config: &StepperConfig,
         Velocity {
             mut ok,
             eta,
@@ -410,10 +396,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// per system.
     #[inline(never)]
     fn kappa_root(
-        &mut self,
-        config: &StepperConfig,
-        y: &Drifted<'_, Sd>,
-        max_abs_y: Lanes<Sd>,
+        &mut self, config: &StepperConfig, y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
     ) -> KappaLanes<Sd> {
         let simd = self.simd;
         simd.vectorize(KappaRootOp {
@@ -428,10 +411,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// per system.
     #[inline(never)]
     fn velocity(
-        &mut self,
-        config: &StepperConfig,
-        state: Velocity<Sd>,
-        rows: GroupRows<'_, Sd>,
+        &mut self, config: &StepperConfig, state: Velocity<Sd>, rows: GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let simd = self.simd;
         simd.vectorize(VelocityOp {
@@ -514,11 +494,7 @@ impl<Sd: Simd> Iterates<Sd> {
     /// `converged` (and not failed) record k and r_k, the rest go on.
     #[inline(always)]
     fn record(
-        &mut self,
-        k: Lanes<Sd>,
-        r_k: Lanes<Sd>,
-        converged: LaneMask<Sd>,
-        fails: LaneMask<Sd>,
+        &mut self, k: Lanes<Sd>, r_k: Lanes<Sd>, converged: LaneMask<Sd>, fails: LaneMask<Sd>,
     ) {
         self.ok = self.ok.and(!self.active.and(fails));
         let finished = self.active.and(converged).and(!fails);
@@ -547,10 +523,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
     /// documentation).
     #[inline(always)]
     fn step(
-        &mut self,
-        stepper: &Stepper<S>,
-        (r, v, dw): GroupState<'_, Sd>,
-        rows: &mut LaneRows<Sd>,
+        &mut self, stepper: &Stepper<S>, (r, v, dw): GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let system = stepper.system();
         let config = stepper.config();
@@ -616,9 +589,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
 /// never takes a NaN, so it is the bits of `vector::max_abs(y)` in order.
 #[inline(always)]
 fn scale_and_max_abs<Sd: Simd>(
-    y: &Drifted<'_, Sd>,
-    drift_h: Lanes<Sd>,
-    force: &mut [Lanes<Sd>],
+    y: &Drifted<'_, Sd>, drift_h: Lanes<Sd>, force: &mut [Lanes<Sd>],
 ) -> Lanes<Sd> {
     let mut largest = [drift_h.splat_like(0.0); 4];
     let start = force.len() - force.len() % 4;

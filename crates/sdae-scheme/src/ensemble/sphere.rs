@@ -27,10 +27,7 @@ const MAX_DIM: usize = 3;
 /// lanes do not apply (more than [`MAX_DIM`] coordinates, or more noise components than
 /// coordinates).
 pub(super) fn step_all<S: System>(
-    stepper: &mut Stepper<S>,
-    paths: &mut LanePaths,
-    width: LaneWidth,
-    sphere: Sphere,
+    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, sphere: Sphere,
     (h, dw): (f64, &[f64]),
 ) -> bool {
     if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
@@ -121,22 +118,10 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
     /// form.
     #[inline(always)]
     fn step<Sd: Simd>(
-        &self,
-        stepper: &Stepper<S>,
-        r: &[Lanes<Sd>; N],
-        v: &[Lanes<Sd>; N],
-        dw: &[Lanes<Sd>],
+        &self, stepper: &Stepper<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
         self.step_with_root(stepper, r, v, dw).map(|(step, _)| step)
     }
-}
-
-/// The kappa root of W lanes and the numbers of its certificate.
-struct KappaRoot<Sd: Simd> {
-    gamma: Lanes<Sd>,
-    first_step: Lanes<Sd>,
-    contraction: Lanes<Sd>,
-    residual: Lanes<Sd>,
 }
 
 impl<const N: usize> Kernel<N> {
@@ -176,13 +161,8 @@ impl<const N: usize> Kernel<N> {
     /// when the noise is rescaled; `None` where the system has no lane form of its noise.
     #[inline(always)]
     fn free_velocity<S: System, Sd: Simd>(
-        &self,
-        system: &S,
-        r: &[Lanes<Sd>; N],
-        v: &[Lanes<Sd>; N],
-        dw: &[Lanes<Sd>],
-        a: &[Lanes<Sd>; N],
-        eta: Lanes<Sd>,
+        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
+        a: &[Lanes<Sd>; N], eta: Lanes<Sd>,
     ) -> Option<[Lanes<Sd>; N]> {
         let scale = ForceScale::new(self.rescale_noise, eta, self.h);
         let mut force = [eta.splat_like(0.0); N];
@@ -202,12 +182,8 @@ impl<const N: usize> Kernel<N> {
     /// [`LaneKernel::step`], with the kappa root.
     #[inline(always)]
     fn step_with_root<S: System, Sd: Simd>(
-        &self,
-        stepper: &Stepper<S>,
-        r: &[Lanes<Sd>; N],
-        v: &[Lanes<Sd>; N],
-        dw: &[Lanes<Sd>],
-    ) -> Option<(LaneStep<Sd, N>, KappaRoot<Sd>)> {
+        &self, stepper: &Stepper<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
+    ) -> Option<(LaneStep<Sd, N>, RootLanes<Sd, N>)> {
         let system = stepper.system();
         let zero = r[0].splat_like(0.0);
         let one = zero.splat_like(1.0);
@@ -232,20 +208,11 @@ impl<const N: usize> Kernel<N> {
         }
         let root = self.root.solve(r, &y);
         ok = ok.and(root.ok);
-        let RootLanes {
-            x,
-            gamma,
-            norm,
-            first_step,
-            contraction,
-            residual,
-            gram,
-            ..
-        } = root;
+        let x = root.x;
 
         let force = self.free_velocity(system, r, v, dw, &a, eta)?;
         // lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)), v' = v~ + M^-1 grad g(r) lambda.
-        let lambda = -self.sphere.normal_rate(&x, &force) * (one / gram);
+        let lambda = -self.sphere.normal_rate(&x, &force) * (one / root.gram);
         let mut v_new = [zero; N];
         self.sphere
             .displace_diagonal(r, lambda, |k| self.inverse_mass[k], &force, &mut v_new);
@@ -264,16 +231,10 @@ impl<const N: usize> Kernel<N> {
             record: LaneRecord {
                 eta,
                 newton_iterations: zero,
-                position_residual: Some(residual),
+                position_residual: Some(root.residual),
                 velocity_residual,
-                certificate: Some((contraction, kappa_ratio(norm, self.root.radius()))),
+                certificate: Some((root.contraction, kappa_ratio(root.norm, self.root.radius()))),
             },
-        };
-        let root = KappaRoot {
-            gamma,
-            first_step,
-            contraction,
-            residual,
         };
         Some((step, root))
     }
@@ -296,11 +257,7 @@ pub(crate) struct OneLane {
 /// unchanged and the general path decides, with its errors.
 #[inline]
 pub(crate) fn step_one_lane<S: System>(
-    stepper: &Stepper<S>,
-    r: &mut [f64],
-    v: &mut [f64],
-    h: f64,
-    dw: &[f64],
+    stepper: &Stepper<S>, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
 ) -> Option<OneLane> {
     if !<S::Mass as Mass>::DIAGONAL {
         return None;
@@ -350,12 +307,7 @@ impl<S: System> LaneFormVisitor for OneLaneStep<'_, S> {
 
 #[inline(always)]
 fn one_lane<S: System, const N: usize>(
-    stepper: &Stepper<S>,
-    sphere: &Sphere,
-    r: &mut [f64],
-    v: &mut [f64],
-    h: f64,
-    dw: &[f64],
+    stepper: &Stepper<S>, sphere: &Sphere, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
 ) -> Option<OneLane> {
     let simd = pulp::Scalar;
     let kernel = Kernel::<N>::new(stepper, sphere, h)?;

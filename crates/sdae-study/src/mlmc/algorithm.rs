@@ -75,6 +75,16 @@ pub fn bias_estimate(means: &[f64], alpha: f64) -> f64 {
         / (2f64.powf(alpha) - 1.0)
 }
 
+/// The samples each level still needs: the optimal counts for the estimated variances and
+/// costs at the tolerance `eps`, less those `taken`.
+fn samples_to_add(variances: &[f64], costs: &[f64], eps: f64, taken: &[u64]) -> Vec<u64> {
+    optimal_samples(variances, costs, eps)
+        .iter()
+        .zip(taken)
+        .map(|(w, n)| w.saturating_sub(*n))
+        .collect()
+}
+
 /// N_l = ceil(2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k)).
 pub fn optimal_samples(variances: &[f64], costs: &[f64], eps: f64) -> Vec<u64> {
     let total: f64 = variances
@@ -116,9 +126,7 @@ fn check_levels(levels: &[LevelSums]) -> Result<(), MlmcError> {
 /// the measured variances, and a new level while the bias estimate exceeds eps / sqrt(2).
 /// Samples are added in whole blocks ([`BLOCK`]).
 pub fn adaptive<L: LevelSampler>(
-    sampler: &L,
-    control: &RunControl<'_>,
-    settings: &AdaptiveSettings,
+    sampler: &L, control: &RunControl<'_>, settings: &AdaptiveSettings,
 ) -> Result<MlmcEstimate, MlmcError> {
     let eps = check_eps(settings.eps)?;
     if settings.min_levels < 2 || settings.min_levels > settings.max_level {
@@ -154,12 +162,7 @@ pub fn adaptive<L: LevelSampler>(
         }
         alpha = decay_rate(&means).map_or(0.5, |a| a.max(0.5));
         beta = decay_rate(&variances).map_or(0.5, |b| b.max(0.5));
-        let wanted = optimal_samples(&variances, &costs, eps);
-        more = wanted
-            .iter()
-            .zip(&taken)
-            .map(|(w, n)| w.saturating_sub(*n))
-            .collect();
+        more = samples_to_add(&variances, &costs, eps, &taken);
         let settled = more
             .iter()
             .zip(&taken)
@@ -177,22 +180,14 @@ pub fn adaptive<L: LevelSampler>(
             costs.push(sampler.pair_steps(top as u32) as f64);
             sums.push(LevelSums::default());
             taken.push(0);
-            let wanted = optimal_samples(&variances, &costs, eps);
-            more = wanted
-                .iter()
-                .zip(&taken)
-                .map(|(w, n)| w.saturating_sub(*n))
-                .collect();
+            more = samples_to_add(&variances, &costs, eps, &taken);
         }
     };
     Ok(finish(sampler, eps, sums, (bias, converged)))
 }
 
 fn finish<L: LevelSampler>(
-    sampler: &L,
-    eps: f64,
-    levels: Vec<LevelSums>,
-    (bias, converged): (f64, bool),
+    sampler: &L, eps: f64, levels: Vec<LevelSums>, (bias, converged): (f64, bool),
 ) -> MlmcEstimate {
     let work = levels
         .iter()
@@ -233,9 +228,7 @@ impl Plan {
 /// The sums of each level of `samples` (levels 0..samples.len()), block by block in order:
 /// the same bits as an adaptive run that took these numbers of samples.
 pub fn run_plan<L: LevelSampler>(
-    sampler: &L,
-    control: &RunControl<'_>,
-    samples: &[u64],
+    sampler: &L, control: &RunControl<'_>, samples: &[u64],
 ) -> Result<Vec<LevelSums>, MlmcError> {
     samples
         .iter()
@@ -250,9 +243,7 @@ pub fn run_plan<L: LevelSampler>(
 
 /// The estimate of a plan's sums (merged from shards or run at once).
 pub fn estimate_of_plan<L: LevelSampler>(
-    sampler: &L,
-    plan: &Plan,
-    levels: Vec<LevelSums>,
+    sampler: &L, plan: &Plan, levels: Vec<LevelSums>,
 ) -> Result<MlmcEstimate, MlmcError> {
     check_levels(&levels)?;
     let means: Vec<f64> = levels.iter().map(|s| s.mean_y().abs()).collect();
@@ -271,10 +262,7 @@ pub fn estimate_of_plan<L: LevelSampler>(
 /// Standard Monte Carlo on level `level`: `samples` single fine paths (rounded up to whole
 /// blocks), from the same streams as the fine paths of the level's pairs.
 pub fn standard_monte_carlo<L: LevelSampler>(
-    sampler: &L,
-    control: &RunControl<'_>,
-    level: u32,
-    samples: u64,
+    sampler: &L, control: &RunControl<'_>, level: u32, samples: u64,
 ) -> Result<LevelSums, MlmcError> {
     let mut sums = LevelSums::default();
     control.extend(sampler, level, (&mut sums, 0), samples, false)?;

@@ -170,9 +170,7 @@ impl MlmcCheckpoint {
     }
 
     fn write(
-        &self,
-        run: &MlmcRun,
-        blocks: &BTreeMap<BlockKey, LevelSums>,
+        &self, run: &MlmcRun, blocks: &BTreeMap<BlockKey, LevelSums>,
     ) -> Result<(), StudyError> {
         let header = Header {
             run: run.clone(),

@@ -51,11 +51,8 @@ impl<S> CoupledSampler<S> {
     /// Pairs of `scheme` from (r0, v0) = `start` to T = `t_end`, level 0 on 2^`coarsest`
     /// steps, estimating `observable`, streams from `seed`; antithetic fine paths if asked.
     pub fn new(
-        scheme: StudyScheme<S>,
-        start: (Vec<f64>, Vec<f64>),
-        (t_end, coarsest): (f64, u32),
-        observable: Observable,
-        (seed, antithetic): (u64, bool),
+        scheme: StudyScheme<S>, start: (Vec<f64>, Vec<f64>), (t_end, coarsest): (f64, u32),
+        observable: Observable, (seed, antithetic): (u64, bool),
     ) -> Self {
         Self {
             scheme,
@@ -82,9 +79,7 @@ impl<S> CoupledSampler<S> {
 /// f at the end of each path of `ensemble`, or why it has none (a failed step, a state beyond
 /// [`BLOW_UP`] or not finite).
 fn finals<S: sdae_model::System>(
-    ensemble: &dyn PathEnsemble<System = S>,
-    observable: &Observable,
-    rows: &mut Vec<f64>,
+    ensemble: &dyn PathEnsemble<System = S>, observable: &Observable, rows: &mut Vec<f64>,
 ) -> Result<Vec<Option<f64>>, MlmcError> {
     let n = ensemble.system().constraint().dim();
     let paths: Vec<usize> = (0..BLOCK as usize).collect();
@@ -111,10 +106,7 @@ impl<S: sdae_model::System> Worker<S> {
     /// The samples of a block from its paths' ends: the fine value (the mean with the twin's
     /// if it ran) and the coarse one (0 without a coarse path), or which of them failed.
     fn samples(
-        &mut self,
-        observable: &Observable,
-        pair: bool,
-        twin: bool,
+        &mut self, observable: &Observable, pair: bool, twin: bool,
     ) -> Result<Vec<Sample>, MlmcError> {
         let fine = finals(self.fine.as_ref(), observable, &mut self.rows)?;
         let coarse = if pair {
@@ -165,11 +157,7 @@ where
     }
 
     fn run_block(
-        &self,
-        worker: &mut Worker<S>,
-        level: u32,
-        indices: Range<u64>,
-        coupled: bool,
+        &self, worker: &mut Worker<S>, level: u32, indices: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {
         if indices.end > SAMPLES_PER_LEVEL || indices.end - indices.start != BLOCK {
             return Err(MlmcError::Setting {

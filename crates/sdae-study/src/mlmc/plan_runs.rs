@@ -15,10 +15,7 @@ use crate::scene::Scene;
 /// The plan that reaches `eps` by the convergence test of `report` (its alpha, at least 0.5;
 /// 1 where none was fitted).
 pub fn plan_for_eps(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    report: &MlmcReport,
-    eps: f64,
+    scene: &Scene, settings: &MlmcSettings, report: &MlmcReport, eps: f64,
 ) -> Result<Plan, MlmcError> {
     struct FromTest<'a> {
         report: &'a MlmcReport,
@@ -45,10 +42,7 @@ pub enum PlanRun {
 
 /// Runs `plan` on `scene`: all of it, or shard (i, n) of it.
 pub fn run_scene_plan(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    control: &RunControl<'_>,
-    plan: Plan,
+    scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>, plan: Plan,
     shard: Option<(u64, u64)>,
 ) -> Result<PlanRun, MlmcError> {
     struct Task<'a, 'b> {
@@ -87,9 +81,7 @@ pub fn run_scene_plan(
 
 /// The report of a plan from its merged sums (see [`super::shard::merge`]).
 pub fn merged_report(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    (identity, plan): (Identity, Plan),
+    scene: &Scene, settings: &MlmcSettings, (identity, plan): (Identity, Plan),
     sums: Vec<LevelSums>,
 ) -> Result<PlanReport, MlmcError> {
     struct Report {

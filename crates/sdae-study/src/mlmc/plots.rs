@@ -46,9 +46,7 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
 }
 
 fn draw_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>,
-    panel: &Panel,
-    path: &Path,
+    area: &DrawingArea<SVGBackend<'_>, Shift>, panel: &Panel, path: &Path,
 ) -> Result<(), StudyError> {
     let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     let points = || panel.lines.iter().flat_map(|(_, p)| p.iter());

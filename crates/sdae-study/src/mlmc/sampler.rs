@@ -30,11 +30,7 @@ pub trait LevelSampler: Sync {
     /// alone (standard Monte Carlo on level `level`: coarse values 0). Sample i draws from its
     /// own stream (seed, level, i) only.
     fn run_block(
-        &self,
-        worker: &mut Self::Worker,
-        level: u32,
-        indices: Range<u64>,
-        coupled: bool,
+        &self, worker: &mut Self::Worker, level: u32, indices: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError>;
     /// Steps of one path on level l (its work: the cost model of the optimal N_l, which makes
     /// the algorithm's choices independent of the machine's timing).
@@ -112,11 +108,7 @@ impl<'a> RunControl<'a> {
     /// b BLOCK .. (b + 1) BLOCK), in the order given: from the store when it has them, else
     /// run (and handed to the store).
     pub fn sample_blocks<L: LevelSampler>(
-        &self,
-        sampler: &L,
-        level: u32,
-        blocks: &[u64],
-        coupled: bool,
+        &self, sampler: &L, level: u32, blocks: &[u64], coupled: bool,
     ) -> Result<Vec<LevelSums>, MlmcError> {
         self.pool.install(|| {
             blocks
@@ -165,11 +157,7 @@ impl<'a> RunControl<'a> {
     /// starting after the `done` samples already summed (a multiple of [`BLOCK`]), folded in
     /// block order into `sums`. Returns the samples added.
     pub fn extend<L: LevelSampler>(
-        &self,
-        sampler: &L,
-        level: u32,
-        (sums, done): (&mut LevelSums, u64),
-        samples: u64,
+        &self, sampler: &L, level: u32, (sums, done): (&mut LevelSums, u64), samples: u64,
         coupled: bool,
     ) -> Result<u64, MlmcError> {
         let (first, count) = (done / BLOCK, samples.div_ceil(BLOCK));

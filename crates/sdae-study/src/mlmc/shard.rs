@@ -74,10 +74,7 @@ pub struct MlmcShard {
 
 /// Runs shard `shard` = (i, n) of `plan`.
 pub fn run_shard<L: LevelSampler>(
-    sampler: &L,
-    control: &RunControl<'_>,
-    (identity, plan): (Identity, Plan),
-    shard: (u64, u64),
+    sampler: &L, control: &RunControl<'_>, (identity, plan): (Identity, Plan), shard: (u64, u64),
 ) -> Result<MlmcShard, MlmcError> {
     if shard.1 == 0 || shard.0 >= shard.1 {
         return Err(MlmcError::Setting {
@@ -188,9 +185,7 @@ pub struct PlanReport {
 
 /// The report of a plan's sums.
 pub fn plan_report<L: LevelSampler>(
-    sampler: &L,
-    (identity, plan): (Identity, Plan),
-    levels: Vec<LevelSums>,
+    sampler: &L, (identity, plan): (Identity, Plan), levels: Vec<LevelSums>,
 ) -> Result<PlanReport, MlmcError> {
     let stats = level_stats(&levels, |l| sampler.path_steps(l));
     let estimate = estimate_of_plan(sampler, &plan, levels)?;

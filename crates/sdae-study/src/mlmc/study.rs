@@ -189,9 +189,7 @@ pub struct MlmcReport {
 
 /// The sampler of a scene's system for `settings` (its scheme and observable checked).
 pub fn sampler_for<S>(
-    scene: &Scene,
-    prepared: &Prepared<S>,
-    settings: &MlmcSettings,
+    scene: &Scene, prepared: &Prepared<S>, settings: &MlmcSettings,
 ) -> Result<CoupledSampler<S>, MlmcError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
@@ -226,9 +224,7 @@ fn seconds_per_sample<L: LevelSampler>(sampler: &L, test: &[LevelStats], level: 
 
 /// The complexity row of an adaptive run from the test's variances and costs.
 fn complexity_row<L: LevelSampler>(
-    sampler: &L,
-    test: &[LevelStats],
-    run: MlmcEstimate,
+    sampler: &L, test: &[LevelStats], run: MlmcEstimate,
 ) -> ComplexityRow {
     let samples: Vec<u64> = run.levels.iter().map(|s| s.attempted()).collect();
     let top = (samples.len() - 1) as u32;
@@ -309,10 +305,7 @@ fn warnings(test: &[LevelStats], complexity: &[ComplexityRow]) -> Vec<String> {
 /// The whole study with any level sampler: the convergence test, the adaptive runs, the
 /// direct standard Monte Carlo run and the warnings (`scene` names the report).
 pub fn run_study<L: LevelSampler>(
-    scene: &str,
-    sampler: &L,
-    settings: &MlmcSettings,
-    control: &RunControl<'_>,
+    scene: &str, sampler: &L, settings: &MlmcSettings, control: &RunControl<'_>,
 ) -> Result<MlmcReport, MlmcError> {
     settings.validate()?;
     let spec = &settings.spec;
@@ -382,10 +375,7 @@ pub fn run_study<L: LevelSampler>(
 /// the test's variances and the work per sample. Fails if the test's levels do not reach that
 /// bias.
 pub fn plan_from_test<L: LevelSampler>(
-    sampler: &L,
-    test: &[LevelStats],
-    alpha: f64,
-    eps: f64,
+    sampler: &L, test: &[LevelStats], alpha: f64, eps: f64,
 ) -> Result<Plan, MlmcError> {
     let eps = check_eps(eps)?;
     let means: Vec<f64> = test.iter().map(|s| s.mean_y.abs()).collect();
@@ -436,18 +426,14 @@ impl<T: SamplerTask> crate::scene::SceneRunner for WithSampler<'_, T> {
 
 /// Builds the scene's system and its sampler for `settings` and runs `task` with it.
 pub fn with_sampler<T: SamplerTask>(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    task: T,
+    scene: &Scene, settings: &MlmcSettings, task: T,
 ) -> Result<T::Output, MlmcError> {
     scene.run(WithSampler { settings, task })?
 }
 
 /// The whole study of a scene ([`run_study`] with its sampler).
 pub fn run_mlmc(
-    scene: &Scene,
-    settings: &MlmcSettings,
-    control: &RunControl<'_>,
+    scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>,
 ) -> Result<MlmcReport, MlmcError> {
     struct Study<'a, 'b> {
         name: &'a str,

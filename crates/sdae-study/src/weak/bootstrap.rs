@@ -19,8 +19,7 @@ const SEED: u64 = 0x5eed_3eac;
 /// with replacement. An entry is `None` where the estimate is not finite or fewer than half of
 /// the resamples give a finite value (say a slope over errors that vanish).
 pub fn path_bootstrap(
-    paths: usize,
-    statistic: impl Fn(&[usize]) -> Vec<f64>,
+    paths: usize, statistic: impl Fn(&[usize]) -> Vec<f64>,
 ) -> Vec<Option<Interval>> {
     let all: Vec<usize> = (0..paths).collect();
     let estimate = statistic(&all);

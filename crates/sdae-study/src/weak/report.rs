@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakScheme};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
-use crate::output::{left_out, readable};
+use crate::output::{decades, left_out, readable};
 use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
 use crate::stats::Interval;
 
@@ -96,8 +96,7 @@ fn upper_bound(e: &Interval) -> f64 {
 /// The level of the rows `rows` that reaches |error| <= `target` (its whole interval within
 /// +-target) with the least run time per path: (seconds, scheme, N).
 fn fastest_to<'a>(
-    rows: impl Iterator<Item = &'a WeakScheme>,
-    target: f64,
+    rows: impl Iterator<Item = &'a WeakScheme>, target: f64,
 ) -> Option<(f64, &'a str, usize)> {
     rows.flat_map(|row| {
         row.levels
@@ -113,20 +112,11 @@ fn fastest_to<'a>(
 fn fastest(report: &WeakReport) -> String {
     let mut s = String::new();
     for o in &report.observables {
-        let bounds: Vec<f64> = o
+        let bounds = o
             .schemes
             .iter()
-            .flat_map(|r| r.levels.iter().map(|l| upper_bound(&l.error)))
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .collect();
-        let (Some(lo), Some(hi)) = (
-            bounds.iter().copied().reduce(f64::min),
-            bounds.iter().copied().reduce(f64::max),
-        ) else {
-            continue;
-        };
-        let mut decade = 10f64.powf(hi.log10().floor());
-        while decade >= lo {
+            .flat_map(|r| r.levels.iter().map(|l| upper_bound(&l.error)));
+        for decade in decades(bounds) {
             let plain = fastest_to(o.schemes.iter().filter(|r| !r.extrapolated), decade);
             let any = fastest_to(o.schemes.iter(), decade);
             let show = |x: Option<(f64, &str, usize)>| {
@@ -143,7 +133,6 @@ fn fastest(report: &WeakReport) -> String {
                     show(any)
                 );
             }
-            decade /= 10.0;
         }
     }
     if s.is_empty() {
@@ -322,9 +311,7 @@ fn draw(report: &WeakReport, path: &Path, axis: Axis) -> Result<(), StudyError> 
 
 /// An observable's panel: every row's |error| against `axis`, its error bars, the legend.
 fn observable_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>,
-    o: &ObservableReport,
-    axis: Axis,
+    area: &DrawingArea<SVGBackend<'_>, Shift>, o: &ObservableReport, axis: Axis,
 ) -> DrawResult<()> {
     let levels = || o.schemes.iter().flat_map(|r| r.levels.iter());
     let x_range = log_range(levels().map(|l| axis.of(l)));
@@ -355,11 +342,7 @@ fn observable_panel(
 /// A row's |error| against `axis` and its error bars, kept above `floor`: in `colour`, thinner
 /// and lighter if extrapolated.
 fn draw_row(
-    chart: &mut LogChart<'_, '_>,
-    row: &WeakScheme,
-    axis: Axis,
-    colour: RGBColor,
-    floor: f64,
+    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor, floor: f64,
 ) -> DrawResult<()> {
     let style = if row.extrapolated {
         colour.mix(0.6).stroke_width(1)

@@ -20,10 +20,7 @@ pub fn small(paths: usize) -> (Scene, ConvergenceSettings) {
 
 /// Runs shard `index` of `count`.
 pub fn run(
-    scene: &Scene,
-    settings: &ConvergenceSettings,
-    index: usize,
-    count: usize,
+    scene: &Scene, settings: &ConvergenceSettings, index: usize, count: usize,
 ) -> ConvergenceRun {
     run_convergence(scene, settings, (index, count), Control::default()).unwrap()
 }

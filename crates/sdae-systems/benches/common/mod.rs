@@ -49,11 +49,7 @@ pub struct EnsembleBench<S: System> {
 impl<S: System> EnsembleBench<S> {
     /// `paths` paths of `system` from (r0, v0), stepped with step size `h`.
     pub fn new(
-        system: S,
-        config: StepperConfig,
-        paths: usize,
-        (r0, v0): (Vec<f64>, Vec<f64>),
-        h: f64,
+        system: S, config: StepperConfig, paths: usize, (r0, v0): (Vec<f64>, Vec<f64>), h: f64,
     ) -> Self {
         let l = system.noise_dim();
         let stepper = Stepper::new(system, config).expect("stepper");

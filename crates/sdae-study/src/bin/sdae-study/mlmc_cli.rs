@@ -72,9 +72,7 @@ fn spinner(scene: &str) -> ProgressBar {
 
 /// A run's control: `threads` workers, the progress callback, the stop flag.
 fn control<'a>(
-    threads: usize,
-    progress: &'a (dyn Fn(u64) + Sync),
-    stop: &'a AtomicBool,
+    threads: usize, progress: &'a (dyn Fn(u64) + Sync), stop: &'a AtomicBool,
 ) -> Result<RunControl<'a>, Failure> {
     let mut c = RunControl::new(threads)?;
     c.progress = Some(progress);
@@ -127,10 +125,7 @@ impl Resumable for Saved<'_> {
 /// (with those it resumed from) are saved in the checkpoint first (exit code 130; 131 when
 /// there are none or they cannot be saved).
 fn stopped(
-    error: MlmcError,
-    journal: &Journal<'_>,
-    checkpoint: &MlmcCheckpoint,
-    scene: &str,
+    error: MlmcError, journal: &Journal<'_>, checkpoint: &MlmcCheckpoint, scene: &str,
 ) -> Failure {
     if error != MlmcError::Interrupted {
         return Failure::from(error).within(&format!("scene {scene}"));
@@ -157,9 +152,7 @@ fn stopped(
 /// could not be written, saves every block in it instead, so that --resume writes the results
 /// without running again.
 fn deliver(
-    written: Result<(), StudyError>,
-    journal: &Journal<'_>,
-    checkpoint: &MlmcCheckpoint,
+    written: Result<(), StudyError>, journal: &Journal<'_>, checkpoint: &MlmcCheckpoint,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
         return Ok(checkpoint.remove()?);
@@ -311,8 +304,7 @@ fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
 
 /// Writes a plan's report (JSON and Markdown) and says where.
 fn write_plan_report(
-    report: &sdae_study::mlmc::shard::PlanReport,
-    dir: &Path,
+    report: &sdae_study::mlmc::shard::PlanReport, dir: &Path,
 ) -> Result<(), StudyError> {
     write_json(&dir.join("plan-report.json"), report)?;
     write_atomically(&dir.join("plan-report.md"), &plan_markdown(report))?;

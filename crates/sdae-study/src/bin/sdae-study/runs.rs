@@ -86,10 +86,8 @@ struct Ready<'a> {
 impl<'a> Job<'a> {
     /// The job of `scene` with its checkpoint at `file`, saved as `how` says.
     fn new(
-        (scene, settings): (&'a Scene, &'a ConvergenceSettings),
-        shard: (usize, usize),
-        file: PathBuf,
-        how: Resumption,
+        (scene, settings): (&'a Scene, &'a ConvergenceSettings), shard: (usize, usize),
+        file: PathBuf, how: Resumption,
     ) -> Self {
         Job {
             scene,
@@ -164,10 +162,7 @@ impl Resumable for Job<'_> {
 /// files of `outputs` (and of the checkpoint) that killed runs left, and reads the checkpoint
 /// with --resume. A checkpoint found without --resume is refused, or discarded with --fresh.
 pub fn prepare<R: Resumable>(
-    checkpoint: &R,
-    name: &str,
-    how: Resumption,
-    outputs: &[&str],
+    checkpoint: &R, name: &str, how: Resumption, outputs: &[&str],
 ) -> Result<(Option<R::Saved>, RunLock), Failure> {
     let path = checkpoint.file().to_path_buf();
     let dir = path.parent().unwrap_or(Path::new("."));
@@ -280,9 +275,7 @@ impl Ready<'_> {
 /// their checkpoints; if they could not be written, saves the runs' paths in the checkpoints
 /// instead, so that --resume writes the results without running again.
 fn deliver(
-    jobs: &[Ready<'_>],
-    runs: &[ConvergenceRun],
-    written: Result<(), StudyError>,
+    jobs: &[Ready<'_>], runs: &[ConvergenceRun], written: Result<(), StudyError>,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
         return jobs
@@ -383,11 +376,8 @@ struct SceneStudy<'a> {
 /// to `report(run, scene's folder)`, which writes the report and returns what could not be
 /// compared. A report that cannot be written leaves the paths in the checkpoint.
 fn run_scenes(
-    e: &EnsembleArgs,
-    (scenes, settings): (&[Scene], &[ConvergenceSettings]),
-    shard: Option<ShardArg>,
-    study: SceneStudy<'_>,
-    stop: &AtomicBool,
+    e: &EnsembleArgs, (scenes, settings): (&[Scene], &[ConvergenceSettings]),
+    shard: Option<ShardArg>, study: SceneStudy<'_>, stop: &AtomicBool,
     mut report: impl FnMut(ConvergenceRun, &Path) -> Result<Vec<String>, StudyError>,
 ) -> Result<(), Failure> {
     distinct(scenes)?;

@@ -538,6 +538,17 @@ pub struct ReferenceReport {
 }
 
 impl ReferenceReport {
+    /// The report's line on the reference: its failures among `paths` and its time per path.
+    pub fn summary(&self, paths: usize) -> String {
+        format!(
+            "\nReference: {} failures of {paths} paths; {:.1} ms per path.\n",
+            self.failures,
+            self.seconds_per_path * 1e3
+        )
+    }
+}
+
+impl ReferenceReport {
     /// The reference of a run with `settings` from its records, `finished` of which have a
     /// reference that finished (`None` when the run had no reference).
     pub fn of(

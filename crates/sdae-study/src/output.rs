@@ -321,13 +321,7 @@ fn footnotes(report: &ConvergenceReport) -> String {
         );
     }
     if let Some(r) = &report.reference {
-        let _ = write!(
-            s,
-            "\nReference: {} failures of {} paths; {:.1} ms per path.\n",
-            r.failures,
-            report.paths,
-            r.seconds_per_path * 1e3
-        );
+        s += &r.summary(report.paths);
     }
     s += &left_out(&report.skipped);
     s

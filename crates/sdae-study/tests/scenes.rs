@@ -4,20 +4,8 @@
 use sdae_study::StudyError;
 use sdae_study::scene::{BUILT_IN, Scene};
 
-const GOOD: &str = r#"
-name = "test"
-T = 1.0
-outputs = ["position", "velocity", "multiplier"]
-[system.pendulum]
-dim = 2
-length = 1.0
-gravity = 1.0
-noise = 1.0
-friction = 0.0
-[initial]
-position = [0.0, -1.0]
-velocity = [1.0, 0.0]
-"#;
+/// A valid pendulum scene, the base of the broken ones below.
+const GOOD: &str = include_str!("fixtures/pendulum.toml");
 
 fn error_of(text: &str) -> String {
     match Scene::from_toml(text) {

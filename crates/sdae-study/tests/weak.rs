@@ -70,25 +70,19 @@ fn observed_values_belong_to_the_states_compared() {
     }
 }
 
-const PENDULUM: &str = r#"
-name = "p"
-T = 1.0
-outputs = ["position"]
-[system.pendulum]
-dim = 2
-length = 1.0
-gravity = 1.0
-noise = 1.0
-friction = 0.0
-[initial]
-position = [0.0, -1.0]
-velocity = [1.0, 0.0]
-"#;
+/// A valid pendulum scene without a [weak] table, whose only output is the position.
+fn pendulum_positions() -> String {
+    include_str!("fixtures/pendulum.toml").replace(
+        "outputs = [\"position\", \"velocity\", \"multiplier\"]",
+        "outputs = [\"position\"]",
+    )
+}
 
 #[test]
 fn bad_observables_are_named_errors() {
+    let pendulum = pendulum_positions();
     let unknown = Scene::from_toml(&format!(
-        "{PENDULUM}[weak]\nobservables = [\"cos_angel\"]\n"
+        "{pendulum}[weak]\nobservables = [\"cos_angel\"]\n"
     ));
     match unknown {
         Err(e @ StudyError::UnknownObservable { .. }) => {
@@ -98,7 +92,7 @@ fn bad_observables_are_named_errors() {
         }
         other => panic!("{other:?}"),
     }
-    let needs = Scene::from_toml(&format!("{PENDULUM}[weak]\nobservables = [\"energy\"]\n"));
+    let needs = Scene::from_toml(&format!("{pendulum}[weak]\nobservables = [\"energy\"]\n"));
     match needs {
         Err(StudyError::ObservableNeedsOutput {
             observable, output, ..
@@ -106,7 +100,7 @@ fn bad_observables_are_named_errors() {
         other => panic!("{other:?}"),
     }
     let exact = Scene::from_toml(&format!(
-        "{PENDULUM}[weak]\nobservables = [\"height\"]\nexact = {{ cos_angle = 1.0 }}\n"
+        "{pendulum}[weak]\nobservables = [\"height\"]\nexact = {{ cos_angle = 1.0 }}\n"
     ));
     assert!(
         matches!(exact, Err(StudyError::Invalid { .. })),

@@ -187,13 +187,7 @@ pub fn markdown(report: &WeakReport) -> String {
             }
         }
     }
-    let _ = write!(
-        s,
-        "\nReference: {} failures of {} paths; {:.1} ms per path.\n",
-        r.failures,
-        report.paths,
-        r.seconds_per_path * 1e3
-    );
+    s += &r.summary(report.paths);
     s += &left_out(&report.skipped);
     s += "\n![weak error against h](weak_error_vs_h.svg)\n\n![weak error against run time](weak_error_vs_time.svg)\n";
     s

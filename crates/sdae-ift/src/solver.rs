@@ -232,31 +232,7 @@ impl<A: Factorize> BallSolver<A> {
             // reports the failure or falls back to the homotopy.
             self.gamma.fill(0.0);
         }
-        self.probe.fill(0.0);
-        problem.evaluate(
-            &self.probe,
-            &mut self.residual_at_zero,
-            Some(&mut self.matrix),
-        );
-        // max |R(0)|: the convergence test's measure, and NaN or infinite with any entry.
-        let r0 = norm_max(&self.residual_at_zero);
-        if !r0.is_finite() {
-            return Err(IftError::NonFinite {
-                what: "residual",
-                iteration: 0,
-            });
-        }
-        self.matrix
-            .factor_and_solve(
-                &mut self.factor_at_zero,
-                &self.residual_at_zero,
-                &mut self.step,
-            )
-            .map_err(|source| IftError::Singular {
-                iteration: 0,
-                source,
-            })?;
-        let first_step = norm2(&self.step);
+        let (r0, first_step) = self.evaluate_at_zero(problem)?;
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
 
         self.history.clear();
@@ -298,6 +274,38 @@ impl<A: Factorize> BallSolver<A> {
             Err(_) if matches!(newton, Corrector::Converged(_)) => Err(newton_error),
             Err(homotopy_error) => Err(homotopy_error),
         }
+    }
+
+    /// R(0) and J(0) (J(0) factored in `factor_at_zero`) and the first Newton step from 0 in
+    /// `step`, the scale of the right root: max |R(0)| (the convergence test's measure, not
+    /// finite with any entry) and the step's length.
+    fn evaluate_at_zero<P: BallProblem<Matrix = A>>(
+        &mut self, problem: &mut P,
+    ) -> Result<(f64, f64), IftError> {
+        self.probe.fill(0.0);
+        problem.evaluate(
+            &self.probe,
+            &mut self.residual_at_zero,
+            Some(&mut self.matrix),
+        );
+        let r0 = norm_max(&self.residual_at_zero);
+        if !r0.is_finite() {
+            return Err(IftError::NonFinite {
+                what: "residual",
+                iteration: 0,
+            });
+        }
+        self.matrix
+            .factor_and_solve(
+                &mut self.factor_at_zero,
+                &self.residual_at_zero,
+                &mut self.step,
+            )
+            .map_err(|source| IftError::Singular {
+                iteration: 0,
+                source,
+            })?;
+        Ok((r0, norm2(&self.step)))
     }
 
     /// The root of R(gamma) = c0 + c1 gamma + c2 gamma^2 (m = 1) connected to 0, with the checks
@@ -405,43 +413,15 @@ impl<A: Factorize> BallSolver<A> {
         let first_step = (step[0] * step[0]).sqrt();
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
         self.root_in_factor = false;
-        let mut gamma = 0.0;
-        let mut r = residual[0].abs();
-        if !r.is_finite() {
+        let r0 = residual[0].abs();
+        if !r0.is_finite() {
             return None;
         }
-        let mut iterations = 0;
-        if r > self.tolerance {
-            let mut previous_residual = r;
-            gamma -= step[0];
-            loop {
-                iterations += 1;
-                if iterations > self.settings.max_iterations {
-                    return None;
-                }
-                problem.evaluate(&[gamma], &mut residual, Some(&mut self.matrix));
-                r = residual[0].abs();
-                if !r.is_finite() {
-                    return None;
-                }
-                self.matrix.factor_into(&mut self.factor).ok()?;
-                self.root_in_factor = true;
-                let last = iterations == self.settings.max_iterations;
-                if self
-                    .settings
-                    .converged(r, previous_residual, self.tolerance, last)
-                {
-                    break;
-                }
-                if last {
-                    return None;
-                }
-                previous_residual = r;
-                step = residual;
-                self.factor.solve_in_place(&mut step);
-                gamma -= step[0];
-            }
-        }
+        let (gamma, r, iterations) = if r0 > self.tolerance {
+            self.scalar_newton(problem, r0, 0.0 - step[0])?
+        } else {
+            (0.0, r0, 0)
+        };
         self.gamma[0] = gamma;
         let norm = (gamma * gamma).sqrt();
         let bound = self.settings.plausibility_bound(first_step);
@@ -477,6 +457,39 @@ impl<A: Factorize> BallSolver<A> {
             first_step,
             contraction,
         })
+    }
+
+    /// Newton's iterations 1, 2, ... of [`BallSolver::solve_scalar`] from gamma = `start` (0
+    /// less the first step), after |R(0)| = `r0`: the root, its residual and the iterations;
+    /// `None` where the general path must decide (no convergence, a singular or non-finite
+    /// Jacobian or residual).
+    fn scalar_newton<P: BallProblem<Matrix = A>>(
+        &mut self, problem: &mut P, r0: f64, start: f64,
+    ) -> Option<(f64, f64, usize)> {
+        let (mut gamma, mut previous_residual) = (start, r0);
+        let mut residual = [0.0];
+        let max_iterations = self.settings.max_iterations;
+        for iterations in 1..=max_iterations {
+            problem.evaluate(&[gamma], &mut residual, Some(&mut self.matrix));
+            let r = residual[0].abs();
+            if !r.is_finite() {
+                return None;
+            }
+            self.matrix.factor_into(&mut self.factor).ok()?;
+            self.root_in_factor = true;
+            let last = iterations == max_iterations;
+            if self
+                .settings
+                .converged(r, previous_residual, self.tolerance, last)
+            {
+                return Some((gamma, r, iterations));
+            }
+            previous_residual = r;
+            let mut step = residual;
+            self.factor.solve_in_place(&mut step);
+            gamma -= step[0];
+        }
+        None
     }
 
     /// The ball check of a root of Euclidean norm `norm`: `Ok(rounding)` when |gamma| - rounding

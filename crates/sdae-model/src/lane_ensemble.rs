@@ -242,7 +242,7 @@ impl LanePaths {
     /// constraint and at most N noise components.
     #[inline(always)]
     pub fn step_groups<Sch, Sd, const N: usize, K>(
-        &mut self, simd: Sd, scheme: &mut Sch, (h, dw): (f64, &[f64]), kernel: &K,
+        &mut self, simd: Sd, scheme: &mut Sch, input: StepInput<'_>, kernel: &K,
     ) -> bool
     where
         Sch: Scheme + ?Sized,
@@ -250,6 +250,7 @@ impl LanePaths {
         K: LaneKernel<Sch, N>,
     {
         let (stride, l) = (self.stride, self.lane_dw.len());
+        let StepInput { h, dw } = input;
         if self.lane_r.len() != N || self.mu.len() != stride || l > N {
             return false;
         }
@@ -275,7 +276,7 @@ impl LanePaths {
             }
             let mu = Lanes::load(simd, &self.mu[offset..]);
             Lanes::select(done, mu + step.dmu, mu).store(&mut self.mu[offset..]);
-            self.finish_group(scheme, (h, dw), offset, (alive, done), &step.record);
+            self.finish_group(scheme, input, offset, Decided { alive, done }, &step.record);
         }
         true
     }
@@ -290,14 +291,14 @@ impl LanePaths {
     /// ([`LaneRows::new`]); a group without a path that goes on is skipped.
     #[inline(always)]
     pub fn step_wide_groups<Sch, Sd, K>(
-        &mut self, scheme: &mut Sch, (h, dw): (f64, &[f64]), kernel: &mut K,
-        rows: &mut LaneRows<Sd>,
+        &mut self, scheme: &mut Sch, input: StepInput<'_>, kernel: &mut K, rows: &mut LaneRows<Sd>,
     ) where
         Sch: Scheme + ?Sized,
         Sd: Simd,
         K: WideKernel<Sch, Sd>,
     {
         let stride = self.stride;
+        let StepInput { h, dw } = input;
         let simd = rows.simd;
         // With one group, the increments' rows lie as the kernel reads them.
         let whole_increments = if stride == Sd::F64_LANES {
@@ -336,7 +337,12 @@ impl LanePaths {
                     (&r_copy[..], &v_copy[..])
                 }
             };
-            let stepped = kernel.step(scheme, (state.0, state.1, increments), rows);
+            let state = GroupState {
+                r: state.0,
+                v: state.1,
+                dw: increments,
+            };
+            let stepped = kernel.step(scheme, state, rows);
             (rows.r_copy, rows.v_copy, rows.dw) = (r_copy, v_copy, dw_copy);
             let Some((ok, record)) = stepped else {
                 for p in offset..(offset + Sd::F64_LANES).min(self.paths) {
@@ -351,7 +357,7 @@ impl LanePaths {
                 *dmu = *dmu + Lanes::load(simd, &self.mu[j * stride + offset..]);
             }
             store_selected(done, &rows.dmu, &mut self.mu, stride, offset);
-            self.finish_group(scheme, (h, dw), offset, (alive, done), &record);
+            self.finish_group(scheme, input, offset, Decided { alive, done }, &record);
         }
     }
 
@@ -359,12 +365,13 @@ impl LanePaths {
     /// lanes that go on (`alive`).
     #[inline(always)]
     fn finish_group<Sch, Sd>(
-        &mut self, scheme: &mut Sch, (h, dw): (f64, &[f64]), offset: usize,
-        (alive, done): (LaneMask<Sd>, LaneMask<Sd>), record: &LaneRecord<Sd>,
+        &mut self, scheme: &mut Sch, input: StepInput<'_>, offset: usize, lanes: Decided<Sd>,
+        record: &LaneRecord<Sd>,
     ) where
         Sch: Scheme + ?Sized,
         Sd: Simd,
     {
+        let (StepInput { h, dw }, Decided { alive, done }) = (input, lanes);
         self.diagnostics.record_lanes(offset, done, record, h);
         let undecided = alive.and(!done);
         if (!undecided).all() {
@@ -432,7 +439,32 @@ pub trait WideKernel<Sch: ?Sized, Sd: Simd> {
 }
 
 /// A group's r_k, v_k and increments dw, a row of W lanes per coordinate ([`WideKernel::step`]).
-pub type GroupState<'a, Sd> = (&'a [Lanes<Sd>], &'a [Lanes<Sd>], &'a [Lanes<Sd>]);
+#[derive(Clone, Copy)]
+pub struct GroupState<'a, Sd: Simd> {
+    /// r_k, n rows.
+    pub r: &'a [Lanes<Sd>],
+    /// v_k, n rows.
+    pub v: &'a [Lanes<Sd>],
+    /// The increments, l rows.
+    pub dw: &'a [Lanes<Sd>],
+}
+
+/// One ensemble step's size h and the Brownian increments dw of every path (coordinate j of
+/// path p at `j * stride + p`, [`lane_stride`](crate::lane_stride)).
+#[derive(Debug, Clone, Copy)]
+pub struct StepInput<'a> {
+    /// The step size h.
+    pub h: f64,
+    /// The increments, l rows of the ensemble's stride.
+    pub dw: &'a [f64],
+}
+
+/// The lanes of a group whose paths go on (`alive`) and those the kernel decided (`done`).
+#[derive(Clone, Copy)]
+struct Decided<Sd: Simd> {
+    alive: LaneMask<Sd>,
+    done: LaneMask<Sd>,
+}
 
 /// Buffers of a lane form kept between steps whatever their instruction set (the set is chosen
 /// at run time; one scheme keeps one set of buffers). A clone starts empty.

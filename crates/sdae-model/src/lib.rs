@@ -122,7 +122,7 @@ pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, projec
 pub mod engine {
     pub use crate::lane_diagnostics::LaneRecord;
     pub use crate::lane_ensemble::{
-        GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, WideKernel,
+        GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
     pub use crate::sphere_root::{RootLanes, SphereRoot};
 }

@@ -19,7 +19,7 @@ use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
-use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot};
+use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot, StepInput};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_model::{LaneScheme, Scheme, System};
 
@@ -49,35 +49,34 @@ enum Method {
 
 impl<S: CurvedSystem> LaneScheme for EulerMaruyama<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        step_lanes(self, Method::Euler, paths, width, (h, dw))
+        step_lanes(self, Method::Euler, paths, width, StepInput { h, dw })
     }
 }
 
 impl<S: CurvedSystem> LaneScheme for TruncatedEulerMaruyama<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
         let method = Method::Truncated(self.scale());
-        step_lanes(self, method, paths, width, (h, dw))
+        step_lanes(self, method, paths, width, StepInput { h, dw })
     }
 }
 
 impl<S: CurvedSystem> LaneScheme for ProjectedEulerMaruyama<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
         let method = Method::Projected(*self.projection_settings());
-        step_lanes(self, method, paths, width, (h, dw))
+        step_lanes(self, method, paths, width, StepInput { h, dw })
     }
 }
 
 impl<S: CurvedSystem> LaneScheme for StochasticHeun<S> {
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        step_lanes(self, Method::Heun, paths, width, (h, dw))
+        step_lanes(self, Method::Heun, paths, width, StepInput { h, dw })
     }
 }
 
 /// The lanes' step of `method` where the system is a sphere of dimension <= [`MAX_DIM`] with a
 /// diagonal mass and at most as many noise components; `false` otherwise.
 fn step_lanes<Sch: Scheme>(
-    scheme: &mut Sch, method: Method, paths: &mut LanePaths, width: LaneWidth,
-    (h, dw): (f64, &[f64]),
+    scheme: &mut Sch, method: Method, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
 ) -> bool {
     if !<<Sch::System as System>::Mass as Mass>::DIAGONAL {
         return false;
@@ -98,8 +97,7 @@ fn step_lanes<Sch: Scheme>(
             method,
             paths,
             sphere,
-            h,
-            dw,
+            input,
         },
         width,
     )
@@ -128,8 +126,7 @@ struct StepAll<'a, Sch: Scheme> {
     method: Method,
     paths: &'a mut LanePaths,
     sphere: Sphere,
-    h: f64,
-    dw: &'a [f64],
+    input: StepInput<'a>,
 }
 
 impl<Sch: Scheme> WithSimd for StepAll<'_, Sch> {
@@ -160,10 +157,10 @@ impl<Sch: Scheme> StepAll<'_, Sch> {
             sde,
             method: self.method,
             projection,
-            h: self.h,
+            h: self.input.h,
         };
         self.paths
-            .step_groups(simd, self.scheme, (self.h, self.dw), &kernel)
+            .step_groups(simd, self.scheme, self.input, &kernel)
     }
 }
 
@@ -183,11 +180,11 @@ impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
     ) -> Option<LaneStep<Sd, N>> {
         let (system, h) = (scheme.system(), self.h);
         match self.method {
-            Method::Euler => self.sde.euler(system, (r, v), h, dw, None),
-            Method::Truncated(scale) => self.sde.euler(system, (r, v), h, dw, Some(scale)),
-            Method::Heun => self.sde.heun(system, (r, v), h, dw),
+            Method::Euler => self.sde.euler(system, r, v, h, dw, None),
+            Method::Truncated(scale) => self.sde.euler(system, r, v, h, dw, Some(scale)),
+            Method::Heun => self.sde.heun(system, r, v, h, dw),
             Method::Projected(_) => {
-                let step = self.sde.euler(system, (r, v), h, dw, None)?;
+                let step = self.sde.euler(system, r, v, h, dw, None)?;
                 self.projection.map(|root| self.sde.project(&root, step))
             }
         }
@@ -228,7 +225,7 @@ impl<const N: usize> SphereSde<N> {
     /// (the curvature term only with `curvature`, which is the drift's dt = 1).
     #[inline(always)]
     fn constrain<Sd: Simd>(
-        &self, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), inverse_gram: Lanes<Sd>,
+        &self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], inverse_gram: Lanes<Sd>,
         mut force: [Lanes<Sd>; N], curvature: bool,
     ) -> ([Lanes<Sd>; N], Lanes<Sd>) {
         for (f, w) in force.iter_mut().zip(self.inverse_mass) {
@@ -249,7 +246,7 @@ impl<const N: usize> SphereSde<N> {
     /// the system has no lane form.
     #[inline(always)]
     fn parts<S: System, Sd: Simd>(
-        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), dw: &[Lanes<Sd>],
+        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<Parts<Sd, N>> {
         let zero = r[0].splat_like(0.0);
         // G_M(r) = r^T M^-1 r / rho^4, factored as 1 / G_M(r) where finite and nonzero.
@@ -260,7 +257,7 @@ impl<const N: usize> SphereSde<N> {
         if !system.drift_lanes(r, v, &mut force) {
             return None;
         }
-        let (accel, mu_rate) = self.constrain((r, v), inverse_gram, force, true);
+        let (accel, mu_rate) = self.constrain(r, v, inverse_gram, force, true);
         ok = ok.and(all_finite(&accel));
         let (mut noise_v, mut noise_mu) = ([zero; N], zero);
         if !dw.is_empty() {
@@ -268,7 +265,7 @@ impl<const N: usize> SphereSde<N> {
             if !system.add_noise_lanes(r, v, dw, &mut force) {
                 return None;
             }
-            (noise_v, noise_mu) = self.constrain((r, v), inverse_gram, force, false);
+            (noise_v, noise_mu) = self.constrain(r, v, inverse_gram, force, false);
             ok = ok.and(all_finite(&noise_v));
         }
         Some(Parts {
@@ -285,18 +282,17 @@ impl<const N: usize> SphereSde<N> {
     /// v' = v + theta h accel + noise_v, dmu = theta h mu_rate + noise_mu.
     #[inline(always)]
     fn euler<S: System, Sd: Simd>(
-        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64, dw: &[Lanes<Sd>],
+        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, dw: &[Lanes<Sd>],
         scale: Option<f64>,
     ) -> Option<LaneStep<Sd, N>> {
-        let parts = self.parts(system, (r, v), dw)?;
-        Some(Self::euler_with(&parts, (r, v), h, scale))
+        let parts = self.parts(system, r, v, dw)?;
+        Some(Self::euler_with(&parts, r, v, h, scale))
     }
 
     /// [`SphereSde::euler`] with the parts at (r, v) evaluated.
     #[inline(always)]
     fn euler_with<Sd: Simd>(
-        parts: &Parts<Sd, N>, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64,
-        scale: Option<f64>,
+        parts: &Parts<Sd, N>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, scale: Option<f64>,
     ) -> LaneStep<Sd, N> {
         let theta = match scale {
             None => r[0].splat_like(1.0),
@@ -329,11 +325,11 @@ impl<const N: usize> SphereSde<N> {
     /// dmu = h/2 (mu_rate + mu_rate~) + noise_mu.
     #[inline(always)]
     fn heun<S: System, Sd: Simd>(
-        &self, system: &S, (r, v): (&[Lanes<Sd>; N], &[Lanes<Sd>; N]), h: f64, dw: &[Lanes<Sd>],
+        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
-        let parts = self.parts(system, (r, v), dw)?;
-        let predictor = Self::euler_with(&parts, (r, v), h, None);
-        let at_predictor = self.parts(system, (&predictor.r, &predictor.v), &[])?;
+        let parts = self.parts(system, r, v, dw)?;
+        let predictor = Self::euler_with(&parts, r, v, h, None);
+        let at_predictor = self.parts(system, &predictor.r, &predictor.v, &[])?;
         let half = r[0].splat_like(0.5 * h);
         let (mut next_r, mut next_v) = (*r, *v);
         for i in 0..N {

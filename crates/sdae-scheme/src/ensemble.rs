@@ -7,7 +7,7 @@ use std::marker::PhantomData;
 
 use sdae_manifold::lane_form::{ConstraintLanes, LaneFormVisitor};
 use sdae_manifold::{Constraint, Sphere};
-use sdae_model::engine::LanePaths;
+use sdae_model::engine::{LanePaths, StepInput};
 use sdae_model::lanes::LaneWidth;
 use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
 
@@ -114,11 +114,12 @@ impl<S: System> LaneScheme for Stepper<S> {
         let choice = system
             .constraint()
             .lane_form(system.mass(), ChooseKernel(PhantomData));
+        let input = StepInput { h, dw };
         match choice {
             None => false,
-            Some(LaneKernelChoice::Newton(step_all)) => step_all(self, paths, width, (h, dw)),
+            Some(LaneKernelChoice::Newton(step_all)) => step_all(self, paths, width, input),
             Some(LaneKernelChoice::Sphere(sphere, step_all)) => {
-                step_all(self, paths, width, sphere, (h, dw))
+                step_all(self, paths, width, sphere, input)
             }
         }
     }
@@ -134,10 +135,10 @@ enum LaneKernelChoice<S: System> {
 }
 
 /// [`sphere::step_all`].
-type SphereStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, Sphere, (f64, &[f64])) -> bool;
+type SphereStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, Sphere, StepInput<'_>) -> bool;
 
 /// [`newton::step_all`] for one constraint's lane form.
-type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, (f64, &[f64])) -> bool;
+type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
 
 /// Asks a constraint which lane form it has ([`LaneFormVisitor`]); the Newton kernel builds
 /// the form itself when it first steps.

@@ -220,7 +220,8 @@ fn half_explicit_step<S: System>(
     // v~ is formed before the root (it does not depend on it) so that the solver can solve
     // the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton
     // matrix at the root, in the pass that factors that matrix.
-    free_velocity(system, config, (eta, h), (r, v), dw, drift, force);
+    let scale = ForceScale::new(config.rescale_noise, eta, h);
+    free_velocity(system, &scale, r, v, dw, drift, force);
 
     let (certificate, at_y) = {
         let mut problem = KappaProblem {
@@ -244,7 +245,7 @@ fn half_explicit_step<S: System>(
     };
     let r_new: &[f64] = if at_y { y } else { x };
     // v' into the drift buffer (a is no longer needed).
-    constrained_velocity(system, solver, (r, r_new), force, lambda, drift)?;
+    constrained_velocity(system, solver, r, r_new, force, lambda, drift)?;
     r.copy_from_slice(r_new);
     v.copy_from_slice(drift);
     let velocity_residual = config.monitor_velocity_constraint.then(|| {
@@ -265,8 +266,8 @@ fn half_explicit_step<S: System>(
 /// in its last pass, else from the root's factors. A failure if v' is not finite.
 #[inline(always)]
 fn constrained_velocity<S: System>(
-    system: &S, solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>,
-    (r, r_new): (&[f64], &[f64]), free_velocity: &[f64], lambda: &mut [f64], new_v: &mut [f64],
+    system: &S, solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>, r: &[f64],
+    r_new: &[f64], free_velocity: &[f64], lambda: &mut [f64], new_v: &mut [f64],
 ) -> Result<(), StepFailure> {
     let constraint = system.constraint();
     match solver.companion() {
@@ -316,10 +317,9 @@ fn checked_motion<S: System>(
 /// in law a step of eta h ([`ForceScale`]).
 #[inline(always)]
 fn free_velocity<S: System>(
-    system: &S, config: &StepperConfig, (eta, h): (f64, f64), (r, v): (&[f64], &[f64]), dw: &[f64],
-    drift: &[f64], force: &mut [f64],
+    system: &S, scale: &ForceScale<f64>, r: &[f64], v: &[f64], dw: &[f64], drift: &[f64],
+    force: &mut [f64],
 ) {
-    let scale = ForceScale::new(config.rescale_noise, eta, h);
     for (f, a) in force.iter_mut().zip(drift.iter()) {
         *f = scale.drift_h * a;
     }

@@ -29,7 +29,7 @@ use sdae_manifold::lane_form::{
     active_any,
 };
 use sdae_manifold::vector::sum_squares;
-use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, WideKernel};
+use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, StepInput, WideKernel};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
@@ -69,13 +69,12 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
 /// ([`LaneFormVisitor::newton`]): `false` if the constraint offers none for this mass after
 /// all.
 pub(super) fn step_all<S: System, C: ConstraintLanes>(
-    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, (h, dw): (f64, &[f64]),
+    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
 ) -> bool {
     width.dispatch(StepAll {
         stepper,
         paths,
-        h,
-        dw,
+        input,
         constraint: PhantomData::<C>,
     })
 }
@@ -84,8 +83,7 @@ pub(super) fn step_all<S: System, C: ConstraintLanes>(
 struct StepAll<'a, S: System, C> {
     stepper: &'a mut Stepper<S>,
     paths: &'a mut LanePaths,
-    h: f64,
-    dw: &'a [f64],
+    input: StepInput<'a>,
     constraint: PhantomData<C>,
 }
 
@@ -108,9 +106,9 @@ impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
             return false;
         };
         let (kernel, rows) = &mut *buffers;
-        kernel.h = self.h;
+        kernel.h = self.input.h;
         self.paths
-            .step_wide_groups(self.stepper, (self.h, self.dw), kernel, rows);
+            .step_wide_groups(self.stepper, self.input, kernel, rows);
         store.put(buffers);
         self.stepper.lanes = store;
         true
@@ -276,8 +274,8 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// measure of the motion.
     #[inline(always)]
     fn eta(
-        &self, config: &StepperConfig, (v, a): (&[Lanes<Sd>], &[Lanes<Sd>]),
-        (v_norm2, a_norm2): (Lanes<Sd>, Lanes<Sd>),
+        &self, config: &StepperConfig, v: &[Lanes<Sd>], a: &[Lanes<Sd>], v_norm2: Lanes<Sd>,
+        a_norm2: Lanes<Sd>,
     ) -> Lanes<Sd> {
         let local = if config.local_size && config.c_eta.is_some() {
             self.constraint.local_motion(v, a)
@@ -353,7 +351,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             scale,
             root,
         }: Velocity<Sd>,
-        (r, v, v_next, dmu): GroupRows<'_, Sd>,
+        GroupRows { r, v, v_next, dmu }: GroupRows<'_, Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let force = v_next;
         scale.rescale(force);
@@ -459,12 +457,13 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
 }
 
 /// r_k, v_k, v_{k+1} and the increment of mu of a group ([`LaneRows`]).
-type GroupRows<'a, Sd> = (
-    &'a [Lanes<Sd>],
-    &'a [Lanes<Sd>],
-    &'a mut [Lanes<Sd>],
-    &'a mut [Lanes<Sd>],
-);
+struct GroupRows<'a, Sd: Simd> {
+    r: &'a [Lanes<Sd>],
+    v: &'a [Lanes<Sd>],
+    /// The force on entry, v_{k+1} on return.
+    v_next: &'a mut [Lanes<Sd>],
+    dmu: &'a mut [Lanes<Sd>],
+}
 
 /// What the velocity update needs of the step so far, per lane.
 struct Velocity<Sd: Simd> {
@@ -523,11 +522,12 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
     /// documentation).
     #[inline(always)]
     fn step(
-        &mut self, stepper: &Stepper<S>, (r, v, dw): GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
+        &mut self, stepper: &Stepper<S>, state: GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
         let system = stepper.system();
         let config = stepper.config();
         let h = self.h;
+        let GroupState { r, v, dw } = state;
         let LaneRows {
             r: r_next,
             v: v_next,
@@ -546,7 +546,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let a_norm2 = sum_squares(force);
         let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
 
-        let eta = self.eta(config, (v, force), (v_norm2, a_norm2));
+        let eta = self.eta(config, v, force, v_norm2, a_norm2);
         let eta_h = eta * h;
         // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
         // the force here, v~ in the velocity update.
@@ -575,7 +575,12 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
                 scale,
                 root,
             },
-            (r, v, force, dmu),
+            GroupRows {
+                r,
+                v,
+                v_next: force,
+                dmu,
+            },
         );
         // r_{k+1} is in `x`: the rows take it, `x` takes the rows' old buffer (overwritten
         // next step).

@@ -12,7 +12,9 @@ use pulp::{Simd, WithSimd};
 use sdae_ift::{Certificate, Method};
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere, motion_measure};
-use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot};
+use sdae_model::engine::{
+    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot, StepInput,
+};
 use sdae_model::lanes::{LaneWidth, Lanes, dot};
 use sdae_model::{Scheme, StepOutcome, System};
 
@@ -28,7 +30,7 @@ const MAX_DIM: usize = 3;
 /// coordinates).
 pub(super) fn step_all<S: System>(
     stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, sphere: Sphere,
-    (h, dw): (f64, &[f64]),
+    input: StepInput<'_>,
 ) -> bool {
     if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
         return false;
@@ -37,8 +39,7 @@ pub(super) fn step_all<S: System>(
         stepper,
         paths,
         sphere,
-        h,
-        dw,
+        input,
     })
 }
 
@@ -47,8 +48,7 @@ struct StepAll<'a, S: System> {
     stepper: &'a mut Stepper<S>,
     paths: &'a mut LanePaths,
     sphere: Sphere,
-    h: f64,
-    dw: &'a [f64],
+    input: StepInput<'a>,
 }
 
 impl<S: System> WithSimd for StepAll<'_, S> {
@@ -66,11 +66,11 @@ impl<S: System> StepAll<'_, S> {
     /// Every group of W lanes through the closed form; `false` if the mass is not diagonal.
     #[inline(always)]
     fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
-        let Some(kernel) = Kernel::<N>::new(self.stepper, &self.sphere, self.h) else {
+        let Some(kernel) = Kernel::<N>::new(self.stepper, &self.sphere, self.input.h) else {
             return false;
         };
         self.paths
-            .step_groups(simd, self.stepper, (self.h, self.dw), &kernel)
+            .step_groups(simd, self.stepper, self.input, &kernel)
     }
 }
 

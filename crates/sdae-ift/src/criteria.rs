@@ -8,17 +8,25 @@
 use sdae_lanes::{PathMask, Real};
 use sdae_manifold::vector::sum_squares;
 
+/// The map J(0)^-1 J(gamma*) that [`power_iteration`] applies to its probe. A trait rather than
+/// a closure: its method is inlined into a lane kernel compiled for an instruction set, which a
+/// closure would not inherit.
+pub trait ProbeMap<T> {
+    /// image = J(0)^-1 J(gamma*) probe.
+    fn apply(&mut self, probe: &[T], image: &mut [T]);
+}
+
 /// The contraction estimate of the certificate: power iteration on A = J(0)^-1 J(gamma*) - I
 /// started at the unit `probe` p = gamma* / |gamma*| (`norm` = |gamma*|), a lower bound of |A|
-/// that approaches it as the `probes` grow. Each step forms image = A p with `apply` (which
-/// writes J(0)^-1 J(gamma*) p into its second argument, unless `first_image` says the first one
-/// is there already), the estimate |image| and the next probe image / |image|; a path stops at
+/// that approaches it as the `probes` grow. Each step forms image = A p with `map` (which
+/// writes J(0)^-1 J(gamma*) p into `image`, unless `first_image` says the first one is there
+/// already), the estimate |image| and the next probe image / |image|; a path stops at
 /// an estimate of 0. The estimate is 0 where gamma* = 0 and NaN without probes. `probe` and
 /// `image` are scratch afterwards.
 #[inline(always)]
 pub fn power_iteration<T: Real>(
     norm: T, probes: usize, probe: &mut [T], image: &mut [T], mut first_image: bool,
-    mut apply: impl FnMut(&[T], &mut [T]),
+    map: &mut impl ProbeMap<T>,
 ) -> T {
     let zero = norm.splat_like(0.0);
     if probes == 0 {
@@ -32,7 +40,7 @@ pub fn power_iteration<T: Real>(
     let mut stopped = zero.mask_like(false);
     for k in 1..=probes {
         if !std::mem::take(&mut first_image) {
-            apply(probe, image);
+            map.apply(probe, image);
         }
         for (s, p) in image.iter_mut().zip(probe.iter()) {
             *s = *s - *p;

@@ -38,7 +38,7 @@ mod problem;
 mod settings;
 mod solver;
 
-pub use criteria::{QuadraticRoot, power_iteration, quadratic_root};
+pub use criteria::{ProbeMap, QuadraticRoot, power_iteration, quadratic_root};
 pub use error::IftError;
 pub use problem::BallProblem;
 pub use settings::SolverSettings;

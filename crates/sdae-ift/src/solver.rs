@@ -2,7 +2,7 @@
 //! seed eq. 3.10 (the constructive form of the globalized implicit function theorem, Appendix B)
 //! as fallback.
 
-use crate::criteria::{power_iteration, quadratic_root};
+use crate::criteria::{ProbeMap, power_iteration, quadratic_root};
 use crate::error::IftError;
 use crate::problem::BallProblem;
 use crate::settings::SolverSettings;
@@ -432,17 +432,17 @@ impl<A: Factorize> BallSolver<A> {
         }
         // Power iteration on J(0)^-1 J(gamma*) - 1 (exact after one step for m = 1).
         let probes = self.settings.probes(radius).min(1);
-        let (matrix, factor_at_zero) = (&self.matrix, &self.factor_at_zero);
+        let mut map = AtZero {
+            matrix: &self.matrix,
+            factor_at_zero: &self.factor_at_zero,
+        };
         let contraction = power_iteration(
             norm,
             probes,
             &mut [gamma / norm],
             &mut [0.0],
             false,
-            |probe, image| {
-                matrix.mul_vec(probe, image);
-                factor_at_zero.solve_in_place(image);
-            },
+            &mut map,
         );
         // Not certified: the general path repeats the solve and reports it.
         self.contracting(contraction, radius).ok()?;
@@ -760,16 +760,31 @@ impl<A: Factorize> BallSolver<A> {
             settings,
             ..
         } = self;
+        let mut map = AtZero {
+            matrix,
+            factor_at_zero,
+        };
         power_iteration(
             norm,
             settings.probes(radius),
             probe,
             step,
             image_ready,
-            |probe, image| {
-                matrix.mul_vec(probe, image);
-                factor_at_zero.solve_in_place(image);
-            },
+            &mut map,
         )
+    }
+}
+
+/// J(0)^-1 J(gamma*) from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
+struct AtZero<'a, A: Factorize> {
+    matrix: &'a A,
+    factor_at_zero: &'a A::Factor,
+}
+
+impl<A: Factorize> ProbeMap<f64> for AtZero<'_, A> {
+    #[inline(always)]
+    fn apply(&mut self, probe: &[f64], image: &mut [f64]) {
+        self.matrix.mul_vec(probe, image);
+        self.factor_at_zero.solve_in_place(image);
     }
 }

@@ -301,6 +301,10 @@ pub trait Real:
 {
     /// A boolean per path (`bool`, or [`LaneMask`]).
     type Mask: PathMask;
+    /// Whether a value is one path's (`f64`), not W paths' (lanes): a formula over `Real` may
+    /// then take a decision per value, such as a row interchange by index rather than by
+    /// selects, with the same result.
+    const ONE_PATH: bool;
     /// x in every path, of the kind of `self`.
     fn splat_like(self, x: f64) -> Self;
     /// The square root.
@@ -379,6 +383,7 @@ impl<S: Simd> PathMask for LaneMask<S> {
 
 impl Real for f64 {
     type Mask = bool;
+    const ONE_PATH: bool = true;
     #[inline(always)]
     fn splat_like(self, x: f64) -> Self {
         x
@@ -431,6 +436,7 @@ impl Real for f64 {
 
 impl<S: Simd> Real for Lanes<S> {
     type Mask = LaneMask<S>;
+    const ONE_PATH: bool = false;
     #[inline(always)]
     fn splat_like(self, x: f64) -> Self {
         Lanes::splat_like(self, x)

@@ -23,12 +23,36 @@ pub(crate) fn dense_mul<T: Real>(entries: &[T], x: &[T], out: &mut [T]) {
     }
 }
 
+/// The pivot row of an elimination step: an index for one path, a number per path in lanes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum PivotRow<T> {
+    /// The row of the one path (`f64`).
+    Index(usize),
+    /// Each lane's row, as a number.
+    PerPath(T),
+}
+
 /// Step k of the elimination on the row-major `lu` of order m: picks the pivot row p >= k of
-/// column k (the last with the largest |entry|) and swaps rows k and p; returns p (as a number,
-/// per path) and the pivot.
+/// column k (the last with the largest |entry|) and swaps rows k and p (for one path a swap,
+/// in lanes a select per row and lane); returns p and the pivot.
 #[inline(always)]
-pub(crate) fn choose_pivot<T: Real>(lu: &mut [T], m: usize, k: usize) -> (T, T) {
+pub(crate) fn choose_pivot<T: Real>(lu: &mut [T], m: usize, k: usize) -> (PivotRow<T>, T) {
     let mut largest = lu[k * m + k].abs();
+    if T::ONE_PATH {
+        let mut p = k;
+        for i in k + 1..m {
+            let candidate = lu[i * m + k].abs();
+            if largest.at_most(candidate).all() {
+                (largest, p) = (candidate, i);
+            }
+        }
+        if p != k {
+            for j in 0..m {
+                lu.swap(k * m + j, p * m + j);
+            }
+        }
+        return (PivotRow::Index(p), lu[k * m + k]);
+    }
     let mut pivot_row = largest.splat_like(k as f64);
     for i in k + 1..m {
         let candidate = lu[i * m + k].abs();
@@ -46,7 +70,7 @@ pub(crate) fn choose_pivot<T: Real>(lu: &mut [T], m: usize, k: usize) -> (T, T) 
             }
         }
     }
-    (pivot_row, lu[k * m + k])
+    (PivotRow::PerPath(pivot_row), lu[k * m + k])
 }
 
 /// Whether a pivot is rejected: |p| <= `tolerance` (PIVOT_TOLERANCE x max |A_ij|) or p = 0.
@@ -67,18 +91,26 @@ pub(crate) fn eliminate<T: Real>(lu: &mut [T], m: usize, k: usize) {
         let f = lu[i * m + k] / pivot;
         lu[i * m + k] = f;
         for j in k + 1..m {
-            lu[i * m + j] = lu[i * m + j] - f * lu[k * m + j];
+            let upper = lu[k * m + j];
+            let entry = &mut lu[i * m + j];
+            *entry = *entry - f * upper;
         }
     }
 }
 
 /// The row interchanges of the factorization applied to b in elimination order, the pivot row
-/// of step k being `pivot_row(k)`.
+/// of step k being the k-th of `pivot_rows`.
 #[inline(always)]
-pub(crate) fn permute<T: Real>(pivot_row: impl Fn(usize) -> T, b: &mut [T]) {
+pub(crate) fn permute<T: Real>(pivot_rows: impl IntoIterator<Item = PivotRow<T>>, b: &mut [T]) {
     let m = b.len();
-    for k in 0..m {
-        let row = pivot_row(k);
+    for (k, row) in pivot_rows.into_iter().enumerate().take(m) {
+        let row = match row {
+            PivotRow::Index(p) => {
+                b.swap(k, p);
+                continue;
+            }
+            PivotRow::PerPath(row) => row,
+        };
         for i in k + 1..m {
             let swap = row.equal(row.splat_like(i as f64));
             if swap.any() {

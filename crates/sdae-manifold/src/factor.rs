@@ -3,7 +3,7 @@
 //! as often as needed. Every constraint's Gram storage is [`Factorize`]: a matrix, its
 //! factorization, [`Solve`].
 
-use crate::dense_lu;
+use crate::dense_lu::{self, PivotRow};
 use crate::error::LinearError;
 use crate::gram::{DenseGram, GramMatrix, ScalarGram, TridiagonalGram};
 use crate::thomas::{self, Row, ThomasFactors, ThomasSweep, forward_step, tridiagonal_row};
@@ -161,38 +161,24 @@ impl TridiagonalFactor {
         let m = a.diag.len();
         let off = m.saturating_sub(1);
         let (diag, lower, upper) = (&a.diag[..m], &a.lower[..off], &a.upper[..off]);
-        let mut factors = ThomasFactors {
+        let factors = ThomasFactors {
             lower: &mut self.lower[..off],
             inverse_pivot: &mut self.diag[..m],
             upper: &mut self.upper[..off],
         };
-        let mut rhs = rhs.map(|(b, out)| (&b[..m], &mut out[..m]));
-        let mut mapped = mapped.map(|mapped| MappedForward::new(mapped, m));
-        let mut sweep = ThomasSweep::new(0.0);
-        for i in 0..m {
-            // Row i has l = A[i][i-1] (0 in row 0), d = A[i][i], u = A[i][i+1] (0 in the last row).
-            let (l, d) = (sweep.lower(), diag[i]);
-            let next = (i < off).then(|| (upper[i], lower[i]));
-            let forward = sweep.row(&mut factors, i, d, next, rhs.as_ref().map(|(b, _)| b[i]));
-            if !sweep.ok {
+        let mut pass = ThomasPass {
+            factors,
+            rhs: rhs.map(|(b, out)| (&b[..m], &mut out[..m])),
+            mapped: mapped.map(|mapped| MappedForward::new(mapped, m)),
+            sweep: ThomasSweep::new(0.0),
+        };
+        // The last row apart, so that each call knows whether its row has an upper entry.
+        for i in 0..off {
+            if !pass.row(i, diag[i], Some((upper[i], lower[i]))) {
                 return false;
             }
-            if let (Some(forward), Some((_, out))) = (forward, rhs.as_mut()) {
-                out[i] = forward;
-            }
-            if let Some(mapped) = mapped.as_mut() {
-                let u = next.map_or(0.0, |(u, _)| u);
-                mapped.row(
-                    i,
-                    Row {
-                        lower: l,
-                        diag: d,
-                        upper: u,
-                    },
-                );
-            }
         }
-        true
+        pass.row(off, diag[off], None)
     }
 
     /// LU with partial pivoting (the algorithm of LAPACK dgttrf).
@@ -241,6 +227,44 @@ impl TridiagonalFactor {
             }),
             None => Ok(()),
         }
+    }
+}
+
+/// [`TridiagonalFactor::factor_thomas`]'s state: the factors it writes, the right-hand side it
+/// solves for in the same pass, the mapped probe and the sweep.
+struct ThomasPass<'a> {
+    factors: ThomasFactors<'a, f64>,
+    rhs: Option<(&'a [f64], &'a mut [f64])>,
+    mapped: Option<MappedForward<'a>>,
+    sweep: ThomasSweep<f64>,
+}
+
+impl ThomasPass<'_> {
+    /// Row i of diagonal entry `d`, with (u_i, l_i) = (A[i][i+1], A[i+1][i]) unless it is the
+    /// last row; `false` if its pivot is rejected.
+    #[inline(always)]
+    fn row(&mut self, i: usize, d: f64, next: Option<(f64, f64)>) -> bool {
+        let l = self.sweep.lower();
+        let b = self.rhs.as_ref().map(|(b, _)| b[i]);
+        let forward = self.sweep.row(&mut self.factors, i, d, next, b);
+        if !self.sweep.ok {
+            return false;
+        }
+        if let (Some(forward), Some((_, out))) = (forward, self.rhs.as_mut()) {
+            out[i] = forward;
+        }
+        if let Some(mapped) = self.mapped.as_mut() {
+            let upper = next.map_or(0.0, |(u, _)| u);
+            mapped.row(
+                i,
+                Row {
+                    lower: l,
+                    diag: d,
+                    upper,
+                },
+            );
+        }
+        true
     }
 }
 
@@ -427,7 +451,7 @@ impl Solve for DenseFactor {
             DenseFactor::Small { order, lu, perm } => {
                 let b = &mut b[..*order];
                 // The row interchanges in elimination order, then L and U.
-                dense_lu::permute(|k| perm[k] as f64, b);
+                dense_lu::permute(perm.iter().map(|&p| PivotRow::Index(p)), b);
                 dense_lu::forward(lu, b);
                 dense_lu::backward(lu, b);
             }
@@ -484,7 +508,9 @@ impl Factorize for DenseGram {
         let tolerance = scale * PIVOT_TOLERANCE;
         for (k, row) in perm.iter_mut().enumerate() {
             let (pivot_row, pivot) = dense_lu::choose_pivot(lu, m, k);
-            *row = pivot_row as usize;
+            if let PivotRow::Index(p) = pivot_row {
+                *row = p;
+            }
             if dense_lu::pivot_rejected(pivot, tolerance) {
                 return Err(LinearError::Singular { index: k, pivot });
             }

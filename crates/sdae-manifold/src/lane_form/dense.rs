@@ -9,7 +9,7 @@ use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
 use super::{FactorLanes, MatrixLanes, RightHandSide};
-use crate::dense_lu;
+use crate::dense_lu::{self, PivotRow};
 
 /// A dense matrix of order m in each lane, row-major.
 #[derive(Debug, Clone)]
@@ -83,7 +83,9 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
         self.lu.copy_from_slice(&a.entries);
         for k in 0..m {
             let (pivot_row, pivot) = dense_lu::choose_pivot(&mut self.lu, m, k);
-            self.perm[k] = pivot_row;
+            if let PivotRow::PerPath(row) = pivot_row {
+                self.perm[k] = row;
+            }
             ok = ok.and(!dense_lu::pivot_rejected(pivot, tolerance));
             dense_lu::eliminate(&mut self.lu, m, k);
         }
@@ -105,7 +107,7 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
     #[inline(always)]
     fn forward_in_place(&self, b: &mut [Lanes<Sd>]) {
         let b = &mut b[..self.order];
-        dense_lu::permute(|k| self.perm[k], b);
+        dense_lu::permute(self.perm.iter().map(|&row| PivotRow::PerPath(row)), b);
         dense_lu::forward(&self.lu, b);
     }
 }

@@ -22,7 +22,7 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
-use sdae_ift::power_iteration;
+use sdae_ift::{ProbeMap, power_iteration};
 use sdae_manifold::Constraint;
 use sdae_manifold::lane_form::{
     ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
@@ -62,6 +62,20 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
             y[j] = formulas::drifted(r[j], v[j], self.eta_h);
         }
         y
+    }
+}
+
+/// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
+struct AtZero<'a, Sd: Simd, C: ConstraintLanes> {
+    jacobian: &'a Jacobian<Sd, C>,
+    factor_at_zero: &'a C::Factor<Sd>,
+}
+
+impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for AtZero<'_, Sd, C> {
+    #[inline(always)]
+    fn apply(&mut self, probe: &[Lanes<Sd>], image: &mut [Lanes<Sd>]) {
+        self.jacobian.mul_vec(probe, image);
+        self.factor_at_zero.solve_in_place(image);
     }
 }
 
@@ -324,17 +338,12 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             step: image,
             ..
         } = self;
-        let contraction = power_iteration(
-            norm,
-            settings.probes(radius),
-            probe,
-            image,
-            false,
-            |probe, image| {
-                jacobian.mul_vec(probe, image);
-                factor_at_zero.solve_in_place(image);
-            },
-        );
+        let mut map = AtZero::<Sd, C> {
+            jacobian,
+            factor_at_zero,
+        };
+        let contraction =
+            power_iteration(norm, settings.probes(radius), probe, image, false, &mut map);
         ok = ok.and(!settings.not_contracting(contraction, radius));
         (ok, norm, contraction)
     }

@@ -23,6 +23,10 @@ pub fn dot_with<T: Real>(zero: T, a: &[T], b: &[T]) -> T {
     for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
         tail = tail + *x * *y;
     }
+    if n < LANES {
+        // (0 + 0) + (0 + 0) + tail is tail: a sum that starts at +0 is never -0.
+        return tail;
+    }
     for (x, y) in ca.zip(cb) {
         for k in 0..LANES {
             acc[k] = acc[k] + x[k] * y[k];

@@ -51,6 +51,14 @@ impl<T: Real> ForceScale<T> {
     pub(crate) fn new(rescale_noise: bool, eta: T, h: f64) -> Self {
         let one = eta.splat_like(1.0);
         let rescaled = eta.less(one).and(eta.mask_like(rescale_noise));
+        if !rescaled.any() {
+            // No square root where no path needs one (the default: the noise is not rescaled).
+            return Self {
+                rescaled,
+                scale: one,
+                drift_h: eta * h,
+            };
+        }
         let scale = T::select(rescaled, eta.sqrt(), one);
         Self {
             rescaled,

@@ -17,17 +17,21 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 pub fn dot_with<T: Real>(zero: T, a: &[T], b: &[T]) -> T {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [zero; LANES];
-    let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    // Indices rather than zipped iterators: a zip's constructor is not always inlined where
+    // this function is.
+    let full = n - n % LANES;
     let mut tail = zero;
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
-        tail = tail + *x * *y;
+    for i in full..n {
+        tail = tail + a[i] * b[i];
     }
     if n < LANES {
         // (0 + 0) + (0 + 0) + tail is tail: a sum that starts at +0 is never -0.
         return tail;
     }
-    for (x, y) in ca.zip(cb) {
+    let mut acc = [zero; LANES];
+    let b = &b[..full];
+    for (i, x) in a[..full].chunks_exact(LANES).enumerate() {
+        let y = &b[i * LANES..i * LANES + LANES];
         for k in 0..LANES {
             acc[k] = acc[k] + x[k] * y[k];
         }

@@ -37,10 +37,9 @@ pub(crate) fn drifted<T: Real>(r: T, v: T, eta_h: T) -> T {
 /// How eq. 3.1's force eta h a + B dw is formed: with rescaled noise and eta < 1 (in law a
 /// step of eta h) as sqrt(eta) (sqrt(eta) h a + B dw) = eta h a + sqrt(eta) B dw, else as is.
 pub(crate) struct ForceScale<T: Real> {
-    /// The paths whose noise is rescaled.
-    pub(crate) rescaled: T::Mask,
-    /// sqrt(eta) where rescaled, 1 elsewhere.
-    pub(crate) scale: T,
+    /// The paths whose noise is rescaled and sqrt(eta) (1 elsewhere); `None` where no path's
+    /// is (the default, with no square root taken).
+    rescaled: Option<(T::Mask, T)>,
     /// The drift's factor: sqrt(eta) h where rescaled, eta h elsewhere.
     pub(crate) drift_h: T,
 }
@@ -50,19 +49,16 @@ impl<T: Real> ForceScale<T> {
     #[inline(always)]
     pub(crate) fn new(rescale_noise: bool, eta: T, h: f64) -> Self {
         let one = eta.splat_like(1.0);
-        let rescaled = eta.less(one).and(eta.mask_like(rescale_noise));
-        if !rescaled.any() {
-            // No square root where no path needs one (the default: the noise is not rescaled).
+        let rescaled = eta.less(one);
+        if !rescale_noise || !rescaled.any() {
             return Self {
-                rescaled,
-                scale: one,
+                rescaled: None,
                 drift_h: eta * h,
             };
         }
         let scale = T::select(rescaled, eta.sqrt(), one);
         Self {
-            rescaled,
-            scale,
+            rescaled: Some((rescaled, scale)),
             drift_h: T::select(rescaled, scale * h, eta * h),
         }
     }
@@ -70,9 +66,9 @@ impl<T: Real> ForceScale<T> {
     /// force <- sqrt(eta) force in the rescaled paths, once B dw is added to the drift's part.
     #[inline(always)]
     pub(crate) fn rescale(&self, force: &mut [T]) {
-        if self.rescaled.any() {
+        if let Some((rescaled, scale)) = self.rescaled {
             for f in force.iter_mut() {
-                *f = T::select(self.rescaled, *f * self.scale, *f);
+                *f = T::select(rescaled, *f * scale, *f);
             }
         }
     }

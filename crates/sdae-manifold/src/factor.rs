@@ -169,7 +169,7 @@ impl TridiagonalFactor {
         let mut pass = ThomasPass {
             factors,
             rhs: rhs.map(|(b, out)| (&b[..m], &mut out[..m])),
-            mapped: mapped.map(|mapped| MappedForward::new(mapped, m)),
+            mapped: mapped.map(|(other, p, out)| MappedForward::new(other, p, out, m)),
             sweep: ThomasSweep::new(0.0),
         };
         // The last row apart, so that each call knows whether its row has an upper entry.
@@ -285,7 +285,7 @@ struct MappedForward<'a> {
 impl<'a> MappedForward<'a> {
     /// Before row 0, with B's factors, p and out cut to the order `m`.
     #[inline(always)]
-    fn new((other, p, out): (&'a TridiagonalFactor, &'a [f64], &'a mut [f64]), m: usize) -> Self {
+    fn new(other: &'a TridiagonalFactor, p: &'a [f64], out: &'a mut [f64], m: usize) -> Self {
         let off = m.saturating_sub(1);
         Self {
             b_diag: &other.diag[..m],
@@ -322,7 +322,7 @@ impl TridiagonalFactor {
     /// [`TridiagonalFactor::backward`] of two factors and vectors of one order in one pass
     /// (two independent recurrences that overlap), each with its own operations.
     #[inline(always)]
-    fn backward_pair((a, x): (&Self, &mut [f64]), (b, y): (&Self, &mut [f64])) {
+    fn backward_pair(a: &Self, x: &mut [f64], b: &Self, y: &mut [f64]) {
         let off = a.upper.len();
         let (a_upper, b_upper) = (&a.upper[..off], &b.upper[..off]);
         let (x_head, x_last) = x.split_at_mut(off);
@@ -404,7 +404,7 @@ impl Factorize for TridiagonalGram {
         } else {
             match (solve, fused) {
                 (Some((_, out)), Some((other, _, image))) => {
-                    TridiagonalFactor::backward_pair((factor, out), (other, image))
+                    TridiagonalFactor::backward_pair(factor, out, other, image)
                 }
                 (Some((_, out)), None) => factor.backward(out),
                 (None, Some((other, _, image))) => other.backward(image),

@@ -91,22 +91,32 @@ impl PathState {
     }
 }
 
-/// Takes `steps` steps of `grid.h()` from (r, v) = (r_k, v_k), k = `path.k`, with increments
+/// `count` steps of the grid's h ([`advance`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Steps {
+    /// The grid whose steps are taken.
+    pub grid: TimeGrid,
+    /// How many.
+    pub count: usize,
+}
+
+/// Takes `steps.count` steps of `steps.grid.h()` from (r, v) = (r_k, v_k), k = `path.k`, with increments
 /// from `increments`: updates mu and the diagnostics, calls [`Observer::step_done`] after each
 /// step and [`Observer::observe`] at the steps it wants and at k = N. On failure the step index
 /// and time are those of the failing step, (r, v) and `path` hold the last good state.
 pub fn advance<S, I, O>(
-    scheme: &mut S, r: &mut [f64], v: &mut [f64], path: &mut PathState,
-    (grid, steps): (TimeGrid, usize), increments: &mut I, observer: &mut O,
+    scheme: &mut S, r: &mut [f64], v: &mut [f64], path: &mut PathState, steps: Steps,
+    increments: &mut I, observer: &mut O,
 ) -> Result<(), StepError>
 where
     S: Scheme + ?Sized,
     I: IncrementSource + ?Sized,
     O: Observer + ?Sized,
 {
+    let Steps { grid, count } = steps;
     let h = grid.h();
     let mut dw = vec![0.0; increments.dim()];
-    for _ in 0..steps {
+    for _ in 0..count {
         let k = path.k;
         increments.next_increment(h, &mut dw);
         let outcome = path
@@ -182,15 +192,11 @@ where
         return Err(failed(error, &path));
     }
     observer.observe(0, 0.0, r, v, &path.mu);
-    advance(
-        scheme,
-        r,
-        v,
-        &mut path,
-        (grid, grid.steps()),
-        increments,
-        observer,
-    )
-    .map_err(|error| failed(error, &path))?;
+    let steps = Steps {
+        grid,
+        count: grid.steps(),
+    };
+    advance(scheme, r, v, &mut path, steps, increments, observer)
+        .map_err(|error| failed(error, &path))?;
     Ok(path.diagnostics)
 }

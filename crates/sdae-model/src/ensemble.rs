@@ -111,7 +111,7 @@ pub trait PathEnsemble {
         &self, paths: &[usize], mu_len: usize, rows: &mut [f64],
     ) -> Result<(), ModelError> {
         let n = self.system().constraint().dim();
-        for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
+        for_each_row(paths, n, mu_len, rows, |p, r, v, mu| {
             self.state(p, r, v, mu)
         })
     }
@@ -135,7 +135,7 @@ pub trait PathEnsemble {
 /// Checks the length of the rows of [`PathEnsemble::read_rows`] (2n + `mu_len` per path) and
 /// hands `read` each listed path with the (r, v, mu) parts of its row.
 pub(crate) fn for_each_row(
-    paths: &[usize], (n, mu_len): (usize, usize), rows: &mut [f64],
+    paths: &[usize], n: usize, mu_len: usize, rows: &mut [f64],
     mut read: impl FnMut(usize, &mut [f64], &mut [f64], &mut [f64]) -> Result<(), ModelError>,
 ) -> Result<(), ModelError> {
     let row = 2 * n + mu_len;
@@ -204,11 +204,11 @@ impl<Sch: Scheme> PathLoop<Sch> {
         let l = system.noise_dim();
         let fresh = PathState::new(m, true, false);
         let mut ensemble = Self {
-            r: try_filled("the paths' positions", Vec::new(), (paths, 1))?,
-            v: try_filled("the paths' velocities", Vec::new(), (paths, 1))?,
-            states: try_filled("the paths' states", fresh, (paths, 1))?,
-            alive: try_filled("the paths' flags", true, (paths, 1))?,
-            failures: try_filled("the paths' failures", None, (paths, 1))?,
+            r: try_filled("the paths' positions", Vec::new(), paths, 1)?,
+            v: try_filled("the paths' velocities", Vec::new(), paths, 1)?,
+            states: try_filled("the paths' states", fresh, paths, 1)?,
+            alive: try_filled("the paths' flags", true, paths, 1)?,
+            failures: try_filled("the paths' failures", None, paths, 1)?,
             dw: vec![0.0; l],
             scheme,
         };

@@ -58,7 +58,7 @@ pub enum ModelError {
 /// overflows or the memory cannot be reserved: the buffers of an ensemble whose size comes
 /// from its caller.
 pub(crate) fn try_filled<T: Clone>(
-    what: &'static str, value: T, (rows, cols): (usize, usize),
+    what: &'static str, value: T, rows: usize, cols: usize,
 ) -> Result<Vec<T>, ModelError> {
     let entry_bytes = std::mem::size_of::<T>();
     let error = |len| ModelError::Allocation {

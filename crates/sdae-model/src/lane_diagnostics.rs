@@ -67,14 +67,14 @@ impl DiagnosticsColumns {
     /// ([`ModelError::Allocation`] if they do not fit in memory).
     pub(crate) fn new(stride: usize) -> Result<Self, ModelError> {
         let what = "the lanes' diagnostics";
-        let column = || try_filled(what, 0.0, (1, stride));
+        let column = || try_filled(what, 0.0, 1, stride);
         let mut columns = Self {
             stride,
             steps: column()?,
             truncated_steps: column()?,
             min_eta: column()?,
             newton_iterations: column()?,
-            iteration_histogram: try_filled(what, 0.0, (ITERATION_BINS, stride))?,
+            iteration_histogram: try_filled(what, 0.0, ITERATION_BINS, stride)?,
             homotopy_steps: column()?,
             max_position_residual: column()?,
             max_velocity_residual: column()?,

@@ -115,11 +115,11 @@ impl LanePaths {
         let mut state = Self {
             paths,
             stride,
-            r: try_filled("the lanes' positions", 0.0, (n, stride))?,
-            v: try_filled("the lanes' velocities", 0.0, (n, stride))?,
-            mu: try_filled("the lanes' multipliers", 0.0, (m, stride))?,
-            alive: try_filled("the lanes' flags", 0.0, (1, stride))?,
-            failures: try_filled("the paths' failures", None, (paths, 1))?,
+            r: try_filled("the lanes' positions", 0.0, n, stride)?,
+            v: try_filled("the lanes' velocities", 0.0, n, stride)?,
+            mu: try_filled("the lanes' multipliers", 0.0, m, stride)?,
+            alive: try_filled("the lanes' flags", 0.0, 1, stride)?,
+            failures: try_filled("the paths' failures", None, paths, 1)?,
             failed: 0,
             diagnostics: DiagnosticsColumns::new(stride)?,
             scalar_steps: 0,
@@ -672,7 +672,7 @@ impl<Sch: LaneScheme> PathEnsemble for LaneEnsemble<Sch> {
             check_path(p, lanes.paths)?;
         }
         let n = lanes.lane_r.len();
-        for_each_row(paths, (n, mu_len), rows, |p, r, v, mu| {
+        for_each_row(paths, n, mu_len, rows, |p, r, v, mu| {
             let base = lanes.lane_base(p);
             gather(&lanes.r, LANE_BLOCK, base, r);
             gather(&lanes.v, LANE_BLOCK, base, v);

@@ -95,7 +95,7 @@ mod tangent;
 mod ziggurat;
 
 pub use diagnostics::{ITERATION_BINS, PathDiagnostics, PathFailure, TRUNCATION_DOMINATED};
-pub use driver::{INITIAL_STATE_TOLERANCE, PathState, advance, run_path};
+pub use driver::{INITIAL_STATE_TOLERANCE, PathState, Steps, advance, run_path};
 pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};
 pub use error::{FailureKind, ModelError, StepError, StepFailure, check_dim, check_step_size};
 pub use grid::TimeGrid;

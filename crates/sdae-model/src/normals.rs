@@ -322,14 +322,32 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
                     let z = simd.mul_f64s(simd.splat_f64s(scale), x);
                     store_f64s::<S>(z, &mut tile[offset..]);
                     // Kept in a register: a count in memory would chain the draws.
-                    pending = rejected.put(simd, pending, (offset, bits, accepted));
+                    pending = rejected.put(
+                        simd,
+                        pending,
+                        Draw {
+                            offset,
+                            bits,
+                            accepted,
+                        },
+                    );
                     if pending == REJECTED_CAPACITY {
-                        rejected.finish(simd, pending, (scale, tile), (side, at));
+                        rejected.finish(
+                            simd,
+                            pending,
+                            Scaled { scale, out: tile },
+                            SideStreams { states: side, at },
+                        );
                         pending = 0;
                     }
                 }
             }
-            rejected.finish(simd, pending, (scale, tile), (side, at));
+            rejected.finish(
+                simd,
+                pending,
+                Scaled { scale, out: tile },
+                SideStreams { states: side, at },
+            );
             pending = 0;
             for (i, s) in state.iter().enumerate() {
                 store_words::<S>(*s, &mut words[i][at..]);
@@ -341,6 +359,26 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
 /// Steps filled lane group by lane group before going on: their rows stay in cache while every
 /// group writes its lanes.
 const TILE_ROWS: usize = 32;
+
+/// A draw of a lane group: where it was written, its words and the lanes the fast path
+/// accepted.
+struct Draw<S: Simd> {
+    offset: usize,
+    bits: S::u64s,
+    accepted: S::m64s,
+}
+
+/// Where standard normals go, scaled: out[i] = scale z.
+struct Scaled<'a> {
+    scale: f64,
+    out: &'a mut [f64],
+}
+
+/// The side streams of a lane group: the states `states[i][at + lane]` of its lanes.
+struct SideStreams<'a> {
+    states: &'a mut [Vec<u64>; 4],
+    at: usize,
+}
 
 /// How many draws with a rejected lane are put aside before they are finished.
 const REJECTED_CAPACITY: usize = 64;
@@ -372,9 +410,12 @@ impl<S: WordLanes> Rejected<S> {
     /// [`REJECTED_CAPACITY`]) and returns the new count: `len + 1` if a lane was rejected,
     /// else `len`.
     #[inline(always)]
-    fn put(
-        &mut self, simd: S, len: usize, (offset, bits, accepted): (usize, S::u64s, S::m64s),
-    ) -> usize {
+    fn put(&mut self, simd: S, len: usize, draw: Draw<S>) -> usize {
+        let Draw {
+            offset,
+            bits,
+            accepted,
+        } = draw;
         self.offsets[len] = offset;
         self.bits[len] = bits;
         self.accepted[len] = accepted;
@@ -388,10 +429,9 @@ impl<S: WordLanes> Rejected<S> {
     /// (tile[offset + lane] = scale z). The lane group's side streams are the states
     /// `side[i][at + lane]`, read and written only for a rejected lane.
     #[inline(always)]
-    fn finish(
-        &self, simd: S, len: usize, (scale, tile): (f64, &mut [f64]),
-        (side, at): (&mut [Vec<u64>; 4], usize),
-    ) {
+    fn finish(&self, simd: S, len: usize, scaled: Scaled<'_>, side: SideStreams<'_>) {
+        let (scale, tile) = (scaled.scale, scaled.out);
+        let SideStreams { states: side, at } = side;
         let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
         let zero = simd.splat_f64s(0.0);
         for e in 0..len {
@@ -400,7 +440,8 @@ impl<S: WordLanes> Rejected<S> {
             let mut words = [0u64; LANE_BLOCK];
             store_words::<S>(self.bits[e], &mut words);
             let out = &mut tile[self.offsets[e]..];
-            finish_lanes(lanes as u32, &words, (side, at), (scale, out));
+            let streams = SideStreams { states: side, at };
+            finish_lanes(lanes as u32, &words, streams, Scaled { scale, out });
         }
     }
 }
@@ -421,9 +462,10 @@ const LANE_BITS: [f64; LANE_BLOCK] = {
 /// `side[i][at + lane]`, advanced in place; [`finish_draw`]).
 #[inline(never)]
 fn finish_lanes(
-    mut lanes: u32, words: &[u64; LANE_BLOCK], (side, at): (&mut [Vec<u64>; 4], usize),
-    (scale, out): (f64, &mut [f64]),
+    mut lanes: u32, words: &[u64; LANE_BLOCK], side: SideStreams<'_>, scaled: Scaled<'_>,
 ) {
+    let SideStreams { states: side, at } = side;
+    let Scaled { scale, out } = scaled;
     while lanes != 0 {
         let lane = lanes.trailing_zeros() as usize;
         lanes &= lanes - 1;

@@ -93,7 +93,7 @@ fn increments(l: usize, h: f64) -> Vec<Vec<f64>> {
 
 /// The first `paths` paths in an ensemble of that many.
 fn run_ensemble<S: System>(
-    stepper: &Stepper<S>, (width, paths): (LaneWidth, usize), (r0, v0): (&[f64], &[f64]), h: f64,
+    stepper: &Stepper<S>, width: LaneWidth, paths: usize, r0: &[f64], v0: &[f64], h: f64,
 ) -> (Vec<Outcome>, usize)
 where
     Stepper<S>: Clone,
@@ -136,7 +136,7 @@ where
 
 /// The first `paths` paths, each through the scalar stepper.
 fn run_scalar<S: System>(
-    stepper: &Stepper<S>, paths: usize, (r0, v0): (&[f64], &[f64]), h: f64,
+    stepper: &Stepper<S>, paths: usize, r0: &[f64], v0: &[f64], h: f64,
 ) -> Vec<Outcome>
 where
     Stepper<S>: Clone,
@@ -184,7 +184,8 @@ fn check<S: System>(
 where
     Stepper<S>: Clone,
 {
-    let scalar = run_scalar(stepper, PATHS, state, h);
+    let (r0, v0) = state;
+    let scalar = run_scalar(stepper, PATHS, r0, v0, h);
     let mut summary = (0, 0, 0);
     for width in [
         LaneWidth::One,
@@ -192,7 +193,7 @@ where
         LaneWidth::Eight,
         LaneWidth::Best,
     ] {
-        let (lanes, scalar_steps) = run_ensemble(stepper, (width, PATHS), state, h);
+        let (lanes, scalar_steps) = run_ensemble(stepper, width, PATHS, r0, v0, h);
         for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
             assert_eq!(a, b, "{what}, {width:?}, path {p}");
         }
@@ -334,9 +335,9 @@ fn one_group_of_paths_reads_its_increments_where_they_lie() {
     let system = MechanicalSystem::new(chain, IdentityMass, Gravity, noise).unwrap();
     let stepper = Stepper::new(system.clone(), lane_configs(&system)[0].1).unwrap();
     let paths = 8;
-    let scalar = run_scalar(&stepper, paths, (&r0, &v0), 2e-3);
+    let scalar = run_scalar(&stepper, paths, &r0, &v0, 2e-3);
     for width in [LaneWidth::Eight, LaneWidth::Four, LaneWidth::Best] {
-        let (lanes, _) = run_ensemble(&stepper, (width, paths), (&r0, &v0), 2e-3);
+        let (lanes, _) = run_ensemble(&stepper, width, paths, &r0, &v0, 2e-3);
         assert_eq!(lanes.len(), paths);
         for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
             assert_eq!(a, b, "{width:?}, path {p}");

@@ -45,7 +45,7 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 /// Allocations made by `steps` steps of size h from (r, v).
-fn allocations_of_steps<S: Scheme>(scheme: &mut S, (r, v): (&[f64], &[f64]), h: f64) -> usize {
+fn allocations_of_steps<S: Scheme>(scheme: &mut S, r: &[f64], v: &[f64], h: f64) -> usize {
     let (mut r, mut v) = (r.to_vec(), v.to_vec());
     let l = scheme.system().noise_dim();
     let mut noise = GaussianIncrements::for_path(3, 0, l);
@@ -61,24 +61,25 @@ fn allocations_of_steps<S: Scheme>(scheme: &mut S, (r, v): (&[f64], &[f64]), h: 
 /// Every scheme on `system` from `state` with step h: the half-explicit stepper with
 /// `config`, and the inherent-SDE solvers where `inherent`.
 fn check_all<S: CurvedSystem + Clone>(
-    name: &str, system: S, config: StepperConfig, state: (&[f64], &[f64]),
-    (h, inherent): (f64, bool),
+    name: &str, system: S, config: StepperConfig, state: (&[f64], &[f64]), h: f64, inherent: bool,
 ) {
+    let (r, v) = state;
     let mut counts = vec![(
         "half-explicit",
-        allocations_of_steps(&mut Stepper::new(system.clone(), config).unwrap(), state, h),
+        allocations_of_steps(&mut Stepper::new(system.clone(), config).unwrap(), r, v, h),
     )];
     if inherent {
         counts.extend([
             (
                 "Euler-Maruyama",
-                allocations_of_steps(&mut EulerMaruyama::new(system.clone()).unwrap(), state, h),
+                allocations_of_steps(&mut EulerMaruyama::new(system.clone()).unwrap(), r, v, h),
             ),
             (
                 "truncated Euler-Maruyama",
                 allocations_of_steps(
                     &mut TruncatedEulerMaruyama::new(system.clone()).unwrap(),
-                    state,
+                    r,
+                    v,
                     h,
                 ),
             ),
@@ -86,17 +87,17 @@ fn check_all<S: CurvedSystem + Clone>(
                 "projected Euler-Maruyama",
                 allocations_of_steps(
                     &mut ProjectedEulerMaruyama::new(system.clone()).unwrap(),
-                    state,
+                    r,
+                    v,
                     h,
                 ),
             ),
             (
                 "stochastic Heun",
-                allocations_of_steps(&mut StochasticHeun::new(system.clone()).unwrap(), state, h),
+                allocations_of_steps(&mut StochasticHeun::new(system.clone()).unwrap(), r, v, h),
             ),
         ]);
         // The one-shot evaluations of the inherent SDE do not allocate either.
-        let (r, v) = state;
         let mut sde = InherentSde::new(system).unwrap();
         let (n, m, l) = (sde.dim(), sde.n_constraints(), sde.noise_dim());
         let (mut out, mut mu, dw) = (vec![0.0; n], vec![0.0; m], vec![0.1; l]);
@@ -121,7 +122,8 @@ fn steps_do_not_allocate() {
         system,
         config,
         (&[1.0, 0.0], &[0.0, 1.0]),
-        (1e-3, true),
+        1e-3,
+        true,
     );
 
     // A 50-bead chain under gravity, with the certificate computed.
@@ -129,7 +131,7 @@ fn steps_do_not_allocate() {
     let chain = *system.constraint();
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
     let state = (&chain.zigzag(0.5)[..], &vec![0.0; 150][..]);
-    check_all("50-bead chain", system, config, state, (1e-4, false));
+    check_all("50-bead chain", system, config, state, 1e-4, false);
 
     // A 20-bead chain with additive noise only.
     let beads = 20;
@@ -143,7 +145,8 @@ fn steps_do_not_allocate() {
         system,
         config,
         (&r, &vec![0.0; 3 * beads]),
-        (1e-3, true),
+        1e-3,
+        true,
     );
 
     // The counter works: a vector allocates.
@@ -156,7 +159,7 @@ fn steps_do_not_allocate() {
 /// Allocations made by the ensemble steps of 11 paths of `system` from `state`, after the first
 /// step (which makes the lanes' buffers); panics unless every path-step was decided in lanes.
 fn allocations_of_ensemble_steps<S: System>(
-    system: S, config: StepperConfig, (r, v): (&[f64], &[f64]), h: f64,
+    system: S, config: StepperConfig, r: &[f64], v: &[f64], h: f64,
 ) -> usize {
     const PATHS: usize = 11;
     let l = system.noise_dim();
@@ -184,9 +187,8 @@ fn ensemble_steps_in_lanes_do_not_allocate() {
         .unwrap()
         .with_c_eta(1.0)
         .unwrap();
-    let state = (&[1.0, 0.0][..], &[0.0, 1.0][..]);
     assert_eq!(
-        allocations_of_ensemble_steps(system, config, state, 1e-3),
+        allocations_of_ensemble_steps(system, config, &[1.0, 0.0], &[0.0, 1.0], 1e-3),
         0,
         "pendulum"
     );
@@ -194,9 +196,9 @@ fn ensemble_steps_in_lanes_do_not_allocate() {
     let system = common::chain_system(50, 1.0);
     let chain = *system.constraint();
     let config = StepperConfig::new(1.0, f64::INFINITY).unwrap();
-    let state = (&chain.zigzag(0.5)[..], &vec![0.0; 150][..]);
+    let (r, v) = (chain.zigzag(0.5), vec![0.0; 150]);
     assert_eq!(
-        allocations_of_ensemble_steps(system, config, state, 1e-4),
+        allocations_of_ensemble_steps(system, config, &r, &v, 1e-4),
         0,
         "50-bead chain"
     );
@@ -210,7 +212,7 @@ fn ensemble_steps_in_lanes_do_not_allocate() {
         .unwrap();
     let (r, v) = molecule.initial_state();
     assert_eq!(
-        allocations_of_ensemble_steps(molecule, config, (&r, &v), 1e-3),
+        allocations_of_ensemble_steps(molecule, config, &r, &v, 1e-3),
         0,
         "rigid triatomic"
     );

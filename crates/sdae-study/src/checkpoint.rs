@@ -81,8 +81,9 @@ pub struct Checkpoint {
     every: Duration,
 }
 
-/// The paths of shard (index, count) of `paths` paths.
-fn selected((index, count): (usize, usize), paths: usize) -> usize {
+/// The paths of shard `shard` = (index, count) of `paths` paths.
+fn selected(shard: (usize, usize), paths: usize) -> usize {
+    let (index, count) = shard;
     (index..paths).step_by(count.max(1)).count()
 }
 
@@ -236,7 +237,7 @@ impl Checkpoint {
             shard,
             records: records.len(),
         };
-        write_checkpoint(&self.path, (MAGIC, &header), |out| {
+        write_checkpoint(&self.path, MAGIC, &header, |out| {
             records.iter().try_for_each(|r| write_record(out, r))
         })
     }
@@ -255,7 +256,7 @@ impl Checkpoint {
 /// Writes a checkpoint file atomically: the `magic` line, the JSON `header` on one line, then
 /// what `records` writes.
 pub(crate) fn write_checkpoint<H: Serialize>(
-    path: &Path, (magic, header): (&[u8], &H),
+    path: &Path, magic: &[u8], header: &H,
     records: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), StudyError> {
     write_with(path, |out| {

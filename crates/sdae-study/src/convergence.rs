@@ -315,7 +315,8 @@ impl SceneRunner for Runner<'_> {
         run_observed_on(
             scene,
             &prepared,
-            (&[], &observables),
+            &[],
+            &observables,
             self.settings,
             self.shard,
             self.control,
@@ -339,7 +340,8 @@ where
     run_observed_on(
         scene,
         prepared,
-        (extra, &observables),
+        extra,
+        &observables,
         settings,
         shard,
         control,
@@ -350,13 +352,13 @@ where
 /// every path (at the grid points of the coarsest level; the run's settings name them, in
 /// place of the names `settings` gives).
 pub fn run_observed_on<S>(
-    scene: &Scene, prepared: &Prepared<S>,
-    (extra, observables): (&[StudyScheme<S>], &[Observable]), settings: &ConvergenceSettings,
-    (index, count): (usize, usize), control: Control<'_>,
+    scene: &Scene, prepared: &Prepared<S>, extra: &[StudyScheme<S>], observables: &[Observable],
+    settings: &ConvergenceSettings, shard: (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
 {
+    let (index, count) = shard;
     let settings = ConvergenceSettings {
         observables: observables.iter().map(|o| o.name().to_string()).collect(),
         ..settings.clone()
@@ -647,7 +649,7 @@ fn count_kinds(kinds: impl Iterator<Item = FailureKind>) -> BTreeMap<FailureKind
 
 /// The outcomes of scheme `s` at level `j` of the paths whose reference finished.
 fn outcomes<'a>(
-    good: &'a [&PathRecord], (s, j, levels): (usize, usize, usize),
+    good: &'a [&PathRecord], s: usize, j: usize, levels: usize,
 ) -> impl Iterator<Item = &'a TrackOutcome> + 'a {
     good.iter().map(move |p| &p.tracks[s * levels + j])
 }
@@ -665,7 +667,7 @@ pub(crate) fn common_paths<'a>(
 }
 
 /// Distances of output `c` (0: r, 1: v, 2: mu) of scheme `s` at level `j` over `paths`.
-fn distances(paths: &[&PathRecord], (s, j, levels): (usize, usize, usize), c: usize) -> Vec<f64> {
+fn distances(paths: &[&PathRecord], s: usize, j: usize, levels: usize, c: usize) -> Vec<f64> {
     paths
         .iter()
         .filter_map(|p| p.tracks[s * levels + j].distances.map(|d| d[c]))
@@ -674,7 +676,7 @@ fn distances(paths: &[&PathRecord], (s, j, levels): (usize, usize, usize), c: us
 
 fn level_report<'a>(
     steps: usize, settings: &ConvergenceSettings, paths: impl Iterator<Item = &'a TrackOutcome>,
-    (error, compared): (Errors, usize),
+    error: Errors, compared: usize,
 ) -> LevelReport {
     let (mut seconds, mut count, mut failures) = (0.0, 0usize, Vec::new());
     let (mut steps_total, mut truncated, mut iterations) = (0, 0, 0);
@@ -784,7 +786,7 @@ impl Errors {
 /// fitted levels' error intervals come from their order fit's bootstrap (the same intervals
 /// [`lp_error`] gives, one bootstrap for all levels), the others' from [`lp_error`].
 fn scheme_report(
-    (s, name): (usize, &str), good: &[&PathRecord], scene: &Scene, settings: &ConvergenceSettings,
+    s: usize, name: &str, good: &[&PathRecord], scene: &Scene, settings: &ConvergenceSettings,
 ) -> SchemeReport {
     let levels = settings.levels();
     let count = levels.len();
@@ -795,14 +797,14 @@ fn scheme_report(
         .iter()
         .enumerate()
         .map(|(j, &k)| {
-            let paths = outcomes(good, (s, j, count));
+            let paths = outcomes(good, s, j, count);
             let errors = Errors {
                 r: None,
                 v: None,
                 mu: None,
                 indicative: Vec::new(),
             };
-            level_report(1usize << k, settings, paths, (errors, common.len()))
+            level_report(1usize << k, settings, paths, errors, common.len())
         })
         .collect();
     let fitted = fittable(&reports);
@@ -811,7 +813,7 @@ fn scheme_report(
     for (c, fit) in fits.iter_mut().enumerate().filter(|(c, _)| outputs[*c]) {
         let errors: Vec<Vec<f64>> = fitted
             .iter()
-            .map(|&j| distances(&common, (s, j, count), c))
+            .map(|&j| distances(&common, s, j, count, c))
             .collect();
         if let Some((order, level_errors)) = fit_levels(&fitted, &h, &errors, settings.p) {
             *fit = Some(order);
@@ -820,7 +822,7 @@ fn scheme_report(
             }
         }
         for (j, report) in reports.iter_mut().enumerate() {
-            let distances = distances(&common, (s, j, count), c);
+            let distances = distances(&common, s, j, count, c);
             let error = report.error.output(c);
             if error.is_none() {
                 *error = lp_error(&distances, settings.p);
@@ -863,7 +865,7 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         .collect();
     // The schemes' statistics (bootstrap intervals, order fits) on the study's threads; each
     // report depends only on the records.
-    let report = |(s, name): (usize, &String)| scheme_report((s, name), &good, &scene, &settings);
+    let report = |(s, name): (usize, &String)| scheme_report(s, name, &good, &scene, &settings);
     let on_threads = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads.max(1))
         .build();

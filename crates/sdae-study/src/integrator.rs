@@ -125,8 +125,7 @@ where
 /// Builds `kind` for `paths` paths of `system` from (r0, v0) as a [`LaneEnsemble`] (SIMD lanes
 /// where the system has a lane form, else path by path).
 pub fn build_ensemble<S>(
-    kind: SchemeKind, system: &S, constants: &SchemeConstants,
-    (paths, r0, v0): (usize, &[f64], &[f64]),
+    kind: SchemeKind, system: &S, constants: &SchemeConstants, paths: usize, r0: &[f64], v0: &[f64],
 ) -> Result<BoxedEnsemble<S>, StudyError>
 where
     S: CurvedSystem + Clone + 'static,
@@ -272,8 +271,8 @@ impl<S: CurvedSystem + Clone + Send + Sync + 'static> StudyScheme<S> {
         Self {
             name: kind.name().into(),
             build: std::sync::Arc::new(move || build_integrator(kind, &system, &constants)),
-            ensemble: std::sync::Arc::new(move |paths| {
-                build_ensemble(kind, &for_ensemble, &constants, paths)
+            ensemble: std::sync::Arc::new(move |(paths, r0, v0)| {
+                build_ensemble(kind, &for_ensemble, &constants, paths, r0, v0)
             }),
             time_changed: kind == SchemeKind::HalfExplicitRescaled,
         }

@@ -296,6 +296,30 @@ struct Clocks {
     own_clock: bool,
 }
 
+/// The steps of one level through a chunk (a stretch): `count` steps of level `level`, each
+/// compared with the reference's records `per` apart.
+#[derive(Clone, Copy)]
+struct Stretch<'a> {
+    /// The increments, one row of l * stride per step.
+    rows: &'a [f64],
+    /// Records of the reference per step.
+    per: usize,
+    /// The level's exponent k (2^k steps over [0, T]).
+    level: u32,
+    /// Steps to take.
+    count: usize,
+}
+
+/// The paths of one track (a scheme at a level) that go on after a step.
+struct ActivePaths<'a, S: System> {
+    /// The ensemble that steps the track's paths.
+    ensemble: &'a dyn PathEnsemble<System = S>,
+    /// What each path of the block gathered so far, by path.
+    tracks: &'a mut [Track],
+    /// The paths that go on.
+    active: &'a [usize],
+}
+
 /// Step t of a stretch: records `per` apart, of size h, observed every `observe_every` steps
 /// (0 for never).
 #[derive(Debug, Clone, Copy)]
@@ -322,6 +346,14 @@ fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>()
 }
 
+/// The buffers [`Compare::run`] works in, kept from step to step.
+struct Scratch {
+    /// m floats: g(r), then Dg(r) v.
+    residuals: Vec<f64>,
+    /// n floats: M v.
+    momentum: Vec<f64>,
+}
+
 /// Compares a track's state after a step with the reference's record at the same time,
 /// updates residuals and kinetic energy, and checks the limits; returns the first limit broken.
 struct Compare<'a, S> {
@@ -336,12 +368,12 @@ impl<S: System> Compare<'_, S> {
     /// a block's paths, where n may be a constant.
     #[inline(always)]
     fn run(
-        &self, track: &mut Track, (snapshot, record): (&[f64], Option<&[f64]>), clock: Clock,
-        (scratch_m, scratch_n): (&mut [f64], &mut [f64]),
+        &self, track: &mut Track, snapshot: &[f64], record: Option<&[f64]>, clock: Clock,
+        scratch: &mut Scratch,
     ) -> Option<FailureKind> {
         let n = self.dims.n;
         let (r, v, mu) = (&snapshot[..n], &snapshot[n..2 * n], &snapshot[2 * n..]);
-        let (g, dgv) = residuals(self.system.constraint(), r, v, scratch_m);
+        let (g, dgv) = residuals(self.system.constraint(), r, v, &mut scratch.residuals);
         let o = &mut track.outcome;
         o.max_position_residual = o.max_position_residual.max(g);
         o.max_velocity_residual = o.max_velocity_residual.max(dgv);
@@ -364,7 +396,8 @@ impl<S: System> Compare<'_, S> {
         if let Some(after) = self.plan.kinetic_after
             && clock.time >= after * (1.0 - 1e-12)
         {
-            track.kinetic.0 += clock.weight * kinetic_energy(self.system.mass(), v, scratch_n);
+            track.kinetic.0 +=
+                clock.weight * kinetic_energy(self.system.mass(), v, &mut scratch.momentum);
             track.kinetic.1 += clock.weight;
         }
         if let Some(rec) = record {
@@ -456,8 +489,8 @@ struct Lockstep<'a> {
     pending_fine: Vec<usize>,
     /// Steps each path had taken before the current stretch.
     before: Vec<usize>,
-    scratch_m: Vec<f64>,
-    scratch_n: Vec<f64>,
+    /// The comparison's buffers.
+    scratch: Scratch,
     /// Fine steps the reference has taken (whole chunks).
     fine_done: usize,
     /// Per path, the reference's observed values (see [`PathPlan::observing`]).
@@ -465,9 +498,10 @@ struct Lockstep<'a> {
 }
 
 impl<'a> Lockstep<'a> {
-    /// Fails if T is not finite and > 0.
+    /// The first `live` paths of ensembles of `paths` paths, stepped by `tracks` ensembles (one
+    /// per scheme and level). Fails if T is not finite and > 0.
     fn new(
-        plan: &'a PathPlan, dims: Dims, (paths, live): (usize, usize), tracks: usize,
+        plan: &'a PathPlan, dims: Dims, paths: usize, live: usize, tracks: usize,
     ) -> Result<Self, ModelError> {
         let grids = (0..=plan.fine)
             .map(|k| TimeGrid::new(plan.t_end, 1usize << k))
@@ -505,8 +539,10 @@ impl<'a> Lockstep<'a> {
             pending: vec![vec![0.0; dims.l * stride]; tracks],
             pending_fine: vec![0; tracks],
             before: vec![0; paths],
-            scratch_m: vec![0.0; dims.m],
-            scratch_n: vec![0.0; dims.n],
+            scratch: Scratch {
+                residuals: vec![0.0; dims.m],
+                momentum: vec![0.0; dims.n],
+            },
             fine_done: 0,
             reference_observed: vec![Vec::new(); live],
         })
@@ -573,8 +609,8 @@ impl<'a> Lockstep<'a> {
     /// Steps one scheme at one level (track `index`) through the chunk for every path that
     /// goes on, and compares each with the reference.
     fn level_chunk<S: System>(
-        &mut self, ensemble: &mut dyn PathEnsemble<System = S>,
-        (tracks, index): (&mut [Track], usize), level: u32, clocks: Clocks,
+        &mut self, ensemble: &mut dyn PathEnsemble<System = S>, tracks: &mut [Track], index: usize,
+        level: u32, clocks: Clocks,
     ) {
         let (plan, chunk) = (self.plan, self.chunk);
         let stride = 1usize << (plan.fine - level);
@@ -606,13 +642,13 @@ impl<'a> Lockstep<'a> {
         } else {
             std::mem::take(&mut self.pending[index])
         };
-        self.stretch(
-            ensemble,
-            (tracks, active),
-            (&rows, per),
-            (level, count),
-            clocks,
-        );
+        let stretch = Stretch {
+            rows: &rows,
+            per,
+            level,
+            count,
+        };
+        self.stretch(ensemble, tracks, active, stretch, clocks);
         if stride <= chunk {
             self.pyramid[at] = rows;
         } else {
@@ -626,10 +662,15 @@ impl<'a> Lockstep<'a> {
     /// path's state is compared with the reference at once, and a path stops at the first step
     /// that fails or breaks a limit, so where a path stops does not depend on the chunks.
     fn stretch<S: System>(
-        &mut self, ensemble: &mut dyn PathEnsemble<System = S>,
-        (tracks, mut active): (&mut [Track], Vec<usize>), (rows, per): (&[f64], usize),
-        (level, count): (u32, usize), clocks: Clocks,
+        &mut self, ensemble: &mut dyn PathEnsemble<System = S>, tracks: &mut [Track],
+        mut active: Vec<usize>, stretch: Stretch<'_>, clocks: Clocks,
     ) {
+        let Stretch {
+            rows,
+            per,
+            level,
+            count,
+        } = stretch;
         let width = self.dims.l * self.stride;
         let h = self.grids[level as usize].h();
         // Steps between observations (the observed grid's spacing in this level's steps).
@@ -671,12 +712,16 @@ impl<'a> Lockstep<'a> {
                 h,
                 observe_every,
             };
-            let block = (&*ensemble, &mut *tracks, &active[..]);
+            let paths = ActivePaths {
+                ensemble: &*ensemble,
+                tracks: &mut *tracks,
+                active: &active,
+            };
             // Small systems get loops of constant length.
             let stopped = match self.dims.n {
-                2 => self.compare_step(Fixed::<2>, block, step, clocks, charged),
-                3 => self.compare_step(Fixed::<3>, block, step, clocks, charged),
-                _ => self.compare_step(RunTime, block, step, clocks, charged),
+                2 => self.compare_step(Fixed::<2>, paths, step, clocks, charged),
+                3 => self.compare_step(Fixed::<3>, paths, step, clocks, charged),
+                _ => self.compare_step(RunTime, paths, step, clocks, charged),
             };
             if stopped > 0 {
                 // The paths that broke a limit stop where they are.
@@ -699,10 +744,13 @@ impl<'a> Lockstep<'a> {
     /// goes on (`active`) in one call, compares each with the reference and marks the tracks
     /// that broke a limit, charging them the stretch's time so far; returns how many did.
     fn compare_step<S: System, D: StateDim>(
-        &mut self, dim: D,
-        (ensemble, tracks, active): (&dyn PathEnsemble<System = S>, &mut [Track], &[usize]),
-        step: StepAt, clocks: Clocks, charged: f64,
+        &mut self, dim: D, paths: ActivePaths<'_, S>, step: StepAt, clocks: Clocks, charged: f64,
     ) -> usize {
+        let ActivePaths {
+            ensemble,
+            tracks,
+            active,
+        } = paths;
         let StepAt {
             t,
             per,
@@ -752,8 +800,7 @@ impl<'a> Lockstep<'a> {
                 }
             };
             track.time = clock.time;
-            let scratch = (&mut self.scratch_m[..], &mut self.scratch_n[..]);
-            if let Some(kind) = compare.run(track, (snapshot, record), clock, scratch) {
+            if let Some(kind) = compare.run(track, snapshot, record, clock, &mut self.scratch) {
                 track.outcome.failure = Some(kind);
                 track.outcome.seconds += charged;
                 stopped += 1;
@@ -807,9 +854,10 @@ pub fn run_block_until<S: System>(
         });
     }
     let dims = Dims::of(first.system(), plan.want_mu);
-    let mut lockstep = Lockstep::new(plan, dims, (paths, live), tracks.len())?;
+    let mut lockstep = Lockstep::new(plan, dims, paths, live, tracks.len())?;
+    let (r0, v0) = start;
     for ensemble in tracks.iter_mut().chain(reference.as_mut()) {
-        lockstep.restart(ensemble.as_mut(), start)?;
+        lockstep.restart(ensemble.as_mut(), r0, v0)?;
     }
     let mut states: Vec<Vec<Track>> = (0..tracks.len())
         .map(|_| (0..live).map(|_| Track::default()).collect())
@@ -835,7 +883,7 @@ pub fn run_block_until<S: System>(
                 has_reference,
                 own_clock: own_clock.get(index).copied().unwrap_or(false),
             };
-            lockstep.level_chunk(ensemble.as_mut(), (track, index), level, clocks);
+            lockstep.level_chunk(ensemble.as_mut(), track, index, level, clocks);
         }
     }
     lockstep.finish_records(&mut records, tracks, &mut states, has_reference);
@@ -856,10 +904,10 @@ impl PathRecord {
 }
 
 impl Lockstep<'_> {
-    /// Restarts `ensemble` at (r0, v0) = `start` and stops its lanes beyond the block's paths
-    /// (they stay idle).
+    /// Restarts `ensemble` at (r0, v0) and stops its lanes beyond the block's paths (they stay
+    /// idle).
     fn restart<S: System>(
-        &self, ensemble: &mut dyn PathEnsemble<System = S>, (r0, v0): (&[f64], &[f64]),
+        &self, ensemble: &mut dyn PathEnsemble<System = S>, r0: &[f64], v0: &[f64],
     ) -> Result<(), ModelError> {
         ensemble.restart(r0, v0)?;
         for p in self.live..self.paths {

@@ -51,11 +51,11 @@ where
     (run, skipped)
 }
 
-/// Ensembles of `paths` paths for a block: each scheme at each of the plan's levels, and the
-/// reference.
+/// Ensembles of `paths` paths from (r0, v0) for a block: each scheme at each of the plan's
+/// levels, and the reference.
 fn block_ensembles<S>(
-    schemes: &[StudyScheme<S>], reference: Option<&StudyScheme<S>>,
-    (plan, paths): (&PathPlan, usize), (r0, v0): (&[f64], &[f64]),
+    schemes: &[StudyScheme<S>], reference: Option<&StudyScheme<S>>, plan: &PathPlan, paths: usize,
+    r0: &[f64], v0: &[f64],
 ) -> Result<BlockEnsembles<S>, StudyError> {
     let mut tracks = Vec::with_capacity(schemes.len() * plan.levels.len());
     let mut own_clock = Vec::with_capacity(tracks.capacity());
@@ -148,14 +148,14 @@ where
             message: e.to_string(),
         })?;
     let finished = AtomicUsize::new(0);
-    let start = (&prepared.position[..], &prepared.velocity[..]);
+    let (r0, v0) = (&prepared.position[..], &prepared.velocity[..]);
     let block = block_len(mine.len(), selection.threads);
     let reference = reference.cloned();
     let blocks = pool.install(|| {
         mine.par_chunks(block)
             .with_max_len(1)
             .map_init(
-                || block_ensembles(schemes, reference.as_ref(), (plan, block), start),
+                || block_ensembles(schemes, reference.as_ref(), plan, block, r0, v0),
                 |ensembles, indices| {
                     let ensembles = ensembles.as_mut().map_err(|e| e.clone())?;
                     if control.stopped() {
@@ -164,7 +164,7 @@ where
                     let stopped = || control.stopped();
                     let seed = selection.seed;
                     let Some(records) =
-                        run_block_until(plan, ensembles, start, seed, indices, &stopped)?
+                        run_block_until(plan, ensembles, (r0, v0), seed, indices, &stopped)?
                     else {
                         return Ok(Vec::new());
                     };

@@ -69,9 +69,8 @@ pub fn weak_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> 
 /// every path. Needs a reference (`settings.reference`); the paths of shard `index` of `count`,
 /// steered by `control`. [`build_weak_report`] turns the run into the report.
 pub fn run_weak_on<S>(
-    scene: &Scene, prepared: &Prepared<S>,
-    (extra, observables): (&[StudyScheme<S>], &[Observable]), settings: &ConvergenceSettings,
-    shard: (usize, usize), control: Control<'_>,
+    scene: &Scene, prepared: &Prepared<S>, extra: &[StudyScheme<S>], observables: &[Observable],
+    settings: &ConvergenceSettings, shard: (usize, usize), control: Control<'_>,
 ) -> Result<ConvergenceRun, StudyError>
 where
     S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
@@ -80,7 +79,8 @@ where
     run_observed_on(
         scene,
         prepared,
-        (extra, observables),
+        extra,
+        observables,
         settings,
         shard,
         control,
@@ -436,83 +436,6 @@ impl Layout {
     }
 }
 
-/// Scheme `s`'s report rows (the scheme and its extrapolation) for observable `o`.
-fn scheme_rows(
-    (s, name): (usize, &str), (o, basis, layout): (usize, Basis, Layout), good: &[&PathRecord],
-    settings: &ConvergenceSettings,
-) -> Vec<WeakScheme> {
-    let levels = settings.levels();
-    let count = levels.len();
-    let paths = common_paths(good, s, count);
-    let h: Vec<f64> = levels
-        .iter()
-        .map(|&k| settings.t_end / (1u64 << k) as f64)
-        .collect();
-    let last_point = layout.points - 1;
-    let value_at =
-        |p: &PathRecord, j: usize, k: usize| p.tracks[s * count + j].observed[layout.at(k, o)];
-    let reference_at = |p: &PathRecord, k: usize| p.reference_observed[layout.at(k, o)];
-    let base = |p: &PathRecord| match basis {
-        Basis::Exact(x) => x,
-        Basis::Reference => reference_at(p, last_point),
-    };
-    let data = LevelPaths {
-        h: h.clone(),
-        last: (0..count)
-            .map(|j| {
-                paths
-                    .iter()
-                    .map(|p| value_at(p, j, last_point) - base(p))
-                    .collect()
-            })
-            .collect(),
-        grid: (0..count)
-            .map(|j| {
-                (0..layout.points)
-                    .map(|k| {
-                        paths
-                            .iter()
-                            .map(|p| value_at(p, j, k) - reference_at(p, k))
-                            .collect()
-                    })
-                    .collect()
-            })
-            .collect(),
-    };
-    let values: Vec<Vec<f64>> = (0..count)
-        .map(|j| paths.iter().map(|p| value_at(p, j, last_point)).collect())
-        .collect();
-    let seconds: Vec<f64> = (0..count)
-        .map(|j| {
-            paths
-                .iter()
-                .map(|p| p.tracks[s * count + j].seconds)
-                .sum::<f64>()
-                / paths.len().max(1) as f64
-        })
-        .collect();
-    let plain = rows_of(&data, &values, &seconds, &h, settings);
-    let combined: Vec<Vec<f64>> = values
-        .windows(2)
-        .map(|w| w[0].iter().zip(&w[1]).map(|(c, f)| 2.0 * f - c).collect())
-        .collect();
-    let both: Vec<f64> = seconds.windows(2).map(|w| w[0] + w[1]).collect();
-    let extrapolated = rows_of(&data.extrapolated(), &combined, &both, &h[1..], settings);
-    let row = |(levels, order, sup_order): RowParts, extrapolated: bool| WeakScheme {
-        name: if extrapolated {
-            format!("{name} + richardson")
-        } else {
-            name.to_string()
-        },
-        extrapolated,
-        paths: paths.len(),
-        levels,
-        order,
-        sup_order,
-    };
-    vec![row(plain, false), row(extrapolated, true)]
-}
-
 /// A row's levels and orders.
 type RowParts = (Vec<WeakLevel>, Option<WeakOrder>, Option<WeakOrder>);
 
@@ -564,14 +487,7 @@ impl WeakInputs<'_> {
         let jobs: Vec<(usize, usize)> = (0..self.layout.count)
             .flat_map(|o| (0..self.schemes.len()).map(move |s| (o, s)))
             .collect();
-        let rows = |&(o, s): &(usize, usize)| {
-            scheme_rows(
-                (s, &self.schemes[s]),
-                (o, self.bases[o], self.layout),
-                self.good,
-                self.settings,
-            )
-        };
+        let rows = |&(o, s): &(usize, usize)| self.scheme_rows(s, o);
         let on_threads = rayon::ThreadPoolBuilder::new()
             .num_threads(self.settings.threads.max(1))
             .build();
@@ -579,6 +495,82 @@ impl WeakInputs<'_> {
             Ok(pool) => pool.install(|| jobs.par_iter().map(rows).collect()),
             Err(_) => jobs.iter().map(rows).collect(),
         }
+    }
+
+    /// Scheme `s`'s report rows (the scheme and its extrapolation) for observable `o`.
+    fn scheme_rows(&self, s: usize, o: usize) -> Vec<WeakScheme> {
+        let (name, basis, layout) = (&self.schemes[s], self.bases[o], self.layout);
+        let (good, settings) = (self.good, self.settings);
+        let levels = settings.levels();
+        let count = levels.len();
+        let paths = common_paths(good, s, count);
+        let h: Vec<f64> = levels
+            .iter()
+            .map(|&k| settings.t_end / (1u64 << k) as f64)
+            .collect();
+        let last_point = layout.points - 1;
+        let value_at =
+            |p: &PathRecord, j: usize, k: usize| p.tracks[s * count + j].observed[layout.at(k, o)];
+        let reference_at = |p: &PathRecord, k: usize| p.reference_observed[layout.at(k, o)];
+        let base = |p: &PathRecord| match basis {
+            Basis::Exact(x) => x,
+            Basis::Reference => reference_at(p, last_point),
+        };
+        let data = LevelPaths {
+            h: h.clone(),
+            last: (0..count)
+                .map(|j| {
+                    paths
+                        .iter()
+                        .map(|p| value_at(p, j, last_point) - base(p))
+                        .collect()
+                })
+                .collect(),
+            grid: (0..count)
+                .map(|j| {
+                    (0..layout.points)
+                        .map(|k| {
+                            paths
+                                .iter()
+                                .map(|p| value_at(p, j, k) - reference_at(p, k))
+                                .collect()
+                        })
+                        .collect()
+                })
+                .collect(),
+        };
+        let values: Vec<Vec<f64>> = (0..count)
+            .map(|j| paths.iter().map(|p| value_at(p, j, last_point)).collect())
+            .collect();
+        let seconds: Vec<f64> = (0..count)
+            .map(|j| {
+                paths
+                    .iter()
+                    .map(|p| p.tracks[s * count + j].seconds)
+                    .sum::<f64>()
+                    / paths.len().max(1) as f64
+            })
+            .collect();
+        let plain = rows_of(&data, &values, &seconds, &h, settings);
+        let combined: Vec<Vec<f64>> = values
+            .windows(2)
+            .map(|w| w[0].iter().zip(&w[1]).map(|(c, f)| 2.0 * f - c).collect())
+            .collect();
+        let both: Vec<f64> = seconds.windows(2).map(|w| w[0] + w[1]).collect();
+        let extrapolated = rows_of(&data.extrapolated(), &combined, &both, &h[1..], settings);
+        let row = |(levels, order, sup_order): RowParts, extrapolated: bool| WeakScheme {
+            name: if extrapolated {
+                format!("{name} + richardson")
+            } else {
+                name.to_string()
+            },
+            extrapolated,
+            paths: paths.len(),
+            levels,
+            order,
+            sup_order,
+        };
+        vec![row(plain, false), row(extrapolated, true)]
     }
 
     /// One report per observable: the reference's value at T and the rows of every scheme.

@@ -90,7 +90,7 @@ fn lp_intervals_of_skewed_errors_cover_far_better_than_the_clt() {
 /// Per-path errors d_ij = C h_j^q (1 + a h_j) W_i V_ij at levels h_j = 2^-j (j = 1..=6), with a
 /// path factor W_i = e^{Z_i / 2} shared by the levels and level noise V_ij = e^{0.3 Z'_ij}.
 /// With a = 0 the L^2 norm is an exact power law of order q.
-fn model(r: u64, n: usize, (q, a): (f64, f64)) -> (Vec<f64>, Vec<Vec<f64>>) {
+fn model(r: u64, n: usize, q: f64, a: f64) -> (Vec<f64>, Vec<Vec<f64>>) {
     let h: Vec<f64> = (1..=6).map(|j| 0.5f64.powi(j)).collect();
     let z = normals(31, r, n * (1 + h.len()));
     let errors = h
@@ -259,7 +259,7 @@ fn laws(n: usize) -> [Law; 3] {
         ),
         (
             "log-normal path factor",
-            Box::new(move |r| model(r, n, (0.5, 0.0))),
+            Box::new(move |r| model(r, n, 0.5, 0.0)),
             f64::sqrt,
         ),
         (
@@ -407,7 +407,7 @@ fn lp_intervals_on_multiplicative_noise() {
 #[test]
 fn curvature_is_flagged_not_hidden_in_the_interval() {
     // E ~ h (1 + 8 h): the local slope falls from ~1.7 at the coarsest pair towards 1.
-    let (h, errors) = model(0, 4000, (1.0, 8.0));
+    let (h, errors) = model(0, 4000, 1.0, 8.0);
     let data = PathErrors {
         h: &h,
         errors: &errors,
@@ -420,7 +420,7 @@ fn curvature_is_flagged_not_hidden_in_the_interval() {
         "{fit:?}"
     );
     // Without curvature nothing is flagged.
-    let (h, errors) = model(0, 4000, (1.0, 0.0));
+    let (h, errors) = model(0, 4000, 1.0, 0.0);
     let data = PathErrors {
         h: &h,
         errors: &errors,

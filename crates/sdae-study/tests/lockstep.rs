@@ -52,8 +52,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         observing: None,
     };
     let ensembles = |paths: usize| {
-        let build =
-            |kind| build_ensemble(kind, &system, &constants, (paths, &r0[..], &v0[..])).unwrap();
+        let build = |kind| build_ensemble(kind, &system, &constants, paths, &r0, &v0).unwrap();
         BlockEnsembles {
             tracks: levels
                 .iter()
@@ -76,7 +75,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
     }
     assert!(record.reference_failure.is_none());
     let (r0, v0) = (&r0[..], &v0[..]);
-    let direct = direct_distances(system, (r0, v0), (seed, index), fine, levels);
+    let direct = direct_distances(system, r0, v0, seed, index, fine, levels);
     for (j, (&level, sup)) in levels.iter().zip(direct).enumerate() {
         let lockstep = record.tracks[j].distances.unwrap();
         assert_eq!(record.tracks[j].steps, 1usize << level);
@@ -97,7 +96,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
 /// level's grid, computed directly: all 2^fine increments of path `index` in memory, each
 /// level run on their sums.
 fn direct_distances<S: System>(
-    system: S, (r0, v0): (&[f64], &[f64]), (seed, index): (u64, usize), fine: u32, levels: &[u32],
+    system: S, r0: &[f64], v0: &[f64], seed: u64, index: usize, fine: u32, levels: &[u32],
 ) -> Vec<[f64; 3]> {
     let fine_steps = 1usize << fine;
     let mut increments = vec![0.0; 2 * fine_steps];
@@ -173,7 +172,7 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
         observing: None,
     };
     let build = |own_clock: bool| {
-        let build = |kind| build_ensemble(kind, &system, &constants, (4, &r0[..], &v0[..]));
+        let build = |kind| build_ensemble(kind, &system, &constants, 4, &r0, &v0);
         BlockEnsembles {
             tracks: vec![build(SchemeKind::HalfExplicitRescaled).unwrap()],
             own_clock: vec![own_clock],

@@ -136,7 +136,7 @@ impl Linear {
 /// The fitted alpha and beta cover the exact slopes of the closed forms over the same levels
 /// (which still bend by a few percent on the coarse levels), and those are near the
 /// asymptotic rates.
-fn check_rates(model: &Linear, (alpha_limit, beta_limit): (f64, f64)) {
+fn check_rates(model: &Linear, alpha_limit: f64, beta_limit: f64) {
     let rates = rates_of(model);
     let (alpha, beta) = (rates.alpha.unwrap(), rates.beta.unwrap());
     let (exact_alpha, exact_beta) = model.exact_rates();
@@ -166,7 +166,7 @@ fn euler_maruyama_has_alpha_1_and_beta_1_on_geometric_brownian_motion() {
         coarsest: 1,
         seed: 11,
     };
-    check_rates(&gbm, (1.0, 1.0));
+    check_rates(&gbm, 1.0, 1.0);
 }
 
 #[test]
@@ -179,7 +179,7 @@ fn euler_maruyama_has_alpha_1_and_beta_2_on_additive_noise() {
         coarsest: 1,
         seed: 12,
     };
-    check_rates(&ou, (1.0, 2.0));
+    check_rates(&ou, 1.0, 2.0);
 }
 
 #[test]
@@ -319,7 +319,8 @@ impl SamplerTask for Sums<'_, '_> {
                         run_shard(
                             sampler,
                             self.control,
-                            (identity.clone(), self.plan.clone()),
+                            identity.clone(),
+                            self.plan.clone(),
                             (i, n),
                         )
                     })

@@ -125,7 +125,8 @@ impl SceneRunner for Weak<'_> {
         let run = run_weak_on(
             scene,
             &prepared,
-            (&[], &observables),
+            &[],
+            &observables,
             self.settings,
             (0, 1),
             Control::default(),

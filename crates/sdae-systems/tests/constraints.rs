@@ -2,7 +2,7 @@
 //! with the inherent-SDE reference solvers, which agree with the scheme on the same Brownian
 //! path.
 
-use sdae_manifold::state_residuals;
+use sdae_manifold::{StateResiduals, state_residuals};
 use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
 use sdae_reference::{CurvedSystem, TruncatedEulerMaruyama};
 use sdae_scheme::{Stepper, StepperConfig};
@@ -15,7 +15,7 @@ const SEED: u64 = 77;
 
 /// Runs `steps` steps of size h from `state` and returns the largest |g| and |Dg v| seen
 /// after any step, measured independently of the stepper's own report.
-fn max_residuals<S>(system: S, state: (Vec<f64>, Vec<f64>), h: f64, steps: usize) -> (f64, f64)
+fn max_residuals<S>(system: S, state: (Vec<f64>, Vec<f64>), h: f64, steps: usize) -> StateResiduals
 where
     S: System + Clone,
 {
@@ -35,10 +35,11 @@ where
         velocity = velocity.max(residuals.velocity);
     }
     assert!(r.iter().chain(&v).all(|x| x.is_finite()));
-    (position, velocity)
+    StateResiduals { position, velocity }
 }
 
-fn assert_on_tangent_bundle(name: &str, (position, velocity): (f64, f64)) {
+fn assert_on_tangent_bundle(name: &str, residuals: StateResiduals) {
+    let StateResiduals { position, velocity } = residuals;
     eprintln!("{name}: max |g| = {position:e}, max |Dg v| = {velocity:e}");
     assert!(position < 1e-12, "{name}: |g| = {position:e}");
     assert!(velocity < 1e-12, "{name}: |Dg v| = {velocity:e}");

@@ -149,7 +149,7 @@ pub fn adaptive<L: LevelSampler>(
         for l in 0..=top {
             if more[l] > 0 {
                 taken[l] +=
-                    control.extend(sampler, l as u32, (&mut sums[l], taken[l]), more[l], true)?;
+                    control.extend(sampler, l as u32, &mut sums[l], taken[l], more[l], true)?;
             }
         }
         check_levels(&sums)?;
@@ -183,11 +183,11 @@ pub fn adaptive<L: LevelSampler>(
             more = samples_to_add(&variances, &costs, eps, &taken);
         }
     };
-    Ok(finish(sampler, eps, sums, (bias, converged)))
+    Ok(finish(sampler, eps, sums, bias, converged))
 }
 
 fn finish<L: LevelSampler>(
-    sampler: &L, eps: f64, levels: Vec<LevelSums>, (bias, converged): (f64, bool),
+    sampler: &L, eps: f64, levels: Vec<LevelSums>, bias: f64, converged: bool,
 ) -> MlmcEstimate {
     let work = levels
         .iter()
@@ -235,7 +235,7 @@ pub fn run_plan<L: LevelSampler>(
         .enumerate()
         .map(|(l, &n)| {
             let mut sums = LevelSums::default();
-            control.extend(sampler, l as u32, (&mut sums, 0), n, true)?;
+            control.extend(sampler, l as u32, &mut sums, 0, n, true)?;
             Ok(sums)
         })
         .collect()
@@ -256,7 +256,7 @@ pub fn estimate_of_plan<L: LevelSampler>(
     };
     let bias = bias_estimate(&means, alpha);
     let converged = bias <= plan.eps / 2f64.sqrt();
-    Ok(finish(sampler, plan.eps, levels, (bias, converged)))
+    Ok(finish(sampler, plan.eps, levels, bias, converged))
 }
 
 /// Standard Monte Carlo on level `level`: `samples` single fine paths (rounded up to whole
@@ -265,7 +265,7 @@ pub fn standard_monte_carlo<L: LevelSampler>(
     sampler: &L, control: &RunControl<'_>, level: u32, samples: u64,
 ) -> Result<LevelSums, MlmcError> {
     let mut sums = LevelSums::default();
-    control.extend(sampler, level, (&mut sums, 0), samples, false)?;
+    control.extend(sampler, level, &mut sums, 0, samples, false)?;
     Ok(sums)
 }
 

@@ -176,7 +176,7 @@ impl MlmcCheckpoint {
             run: run.clone(),
             blocks: blocks.len(),
         };
-        write_checkpoint(&self.path, (MAGIC, &header), |out| {
+        write_checkpoint(&self.path, MAGIC, &header, |out| {
             blocks
                 .iter()
                 .try_for_each(|(key, sums)| write_block(out, *key, sums))

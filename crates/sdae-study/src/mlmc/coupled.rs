@@ -51,8 +51,8 @@ impl<S> CoupledSampler<S> {
     /// Pairs of `scheme` from (r0, v0) = `start` to T = `t_end`, level 0 on 2^`coarsest`
     /// steps, estimating `observable`, streams from `seed`; antithetic fine paths if asked.
     pub fn new(
-        scheme: StudyScheme<S>, start: (Vec<f64>, Vec<f64>), (t_end, coarsest): (f64, u32),
-        observable: Observable, (seed, antithetic): (u64, bool),
+        scheme: StudyScheme<S>, start: (Vec<f64>, Vec<f64>), t_end: f64, coarsest: u32,
+        observable: Observable, seed: u64, antithetic: bool,
     ) -> Self {
         Self {
             scheme,

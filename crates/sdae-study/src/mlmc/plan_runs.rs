@@ -54,17 +54,18 @@ pub fn run_scene_plan(
     impl SamplerTask for Task<'_, '_> {
         type Output = PlanRun;
         fn run<L: LevelSampler>(self, sampler: &L) -> Result<PlanRun, MlmcError> {
-            let whose = (self.identity, self.plan);
             match self.shard {
                 Some(shard) => Ok(PlanRun::Shard(Box::new(run_shard(
                     sampler,
                     self.control,
-                    whose,
+                    self.identity,
+                    self.plan,
                     shard,
                 )?))),
                 None => {
-                    let sums = run_plan(sampler, self.control, &whose.1.samples)?;
-                    Ok(PlanRun::Whole(Box::new(plan_report(sampler, whose, sums)?)))
+                    let sums = run_plan(sampler, self.control, &self.plan.samples)?;
+                    let report = plan_report(sampler, self.identity, self.plan, sums)?;
+                    Ok(PlanRun::Whole(Box::new(report)))
                 }
             }
         }
@@ -81,8 +82,7 @@ pub fn run_scene_plan(
 
 /// The report of a plan from its merged sums (see [`super::shard::merge`]).
 pub fn merged_report(
-    scene: &Scene, settings: &MlmcSettings, (identity, plan): (Identity, Plan),
-    sums: Vec<LevelSums>,
+    scene: &Scene, settings: &MlmcSettings, identity: Identity, plan: Plan, sums: Vec<LevelSums>,
 ) -> Result<PlanReport, MlmcError> {
     struct Report {
         identity: Identity,
@@ -92,7 +92,7 @@ pub fn merged_report(
     impl SamplerTask for Report {
         type Output = PlanReport;
         fn run<L: LevelSampler>(self, sampler: &L) -> Result<PlanReport, MlmcError> {
-            plan_report(sampler, (self.identity, self.plan), self.sums)
+            plan_report(sampler, self.identity, self.plan, self.sums)
         }
     }
     let task = Report {

@@ -157,7 +157,7 @@ impl<'a> RunControl<'a> {
     /// starting after the `done` samples already summed (a multiple of [`BLOCK`]), folded in
     /// block order into `sums`. Returns the samples added.
     pub fn extend<L: LevelSampler>(
-        &self, sampler: &L, level: u32, (sums, done): (&mut LevelSums, u64), samples: u64,
+        &self, sampler: &L, level: u32, sums: &mut LevelSums, done: u64, samples: u64,
         coupled: bool,
     ) -> Result<u64, MlmcError> {
         let (first, count) = (done / BLOCK, samples.div_ceil(BLOCK));
@@ -169,9 +169,10 @@ impl<'a> RunControl<'a> {
     }
 }
 
-/// The blocks of the first `samples` samples (rounded up) that shard `index` of `count` runs:
-/// block b on shard b mod count.
-pub fn shard_blocks(samples: u64, (index, count): (u64, u64)) -> Vec<u64> {
+/// The blocks of the first `samples` samples (rounded up) that shard `shard` = (index, count)
+/// runs: block b on shard b mod count.
+pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {
+    let (index, count) = shard;
     (0..samples.div_ceil(BLOCK))
         .filter(|b| b % count.max(1) == index)
         .collect()

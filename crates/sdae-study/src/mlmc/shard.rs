@@ -72,9 +72,9 @@ pub struct MlmcShard {
     pub levels: Vec<Vec<BlockSums>>,
 }
 
-/// Runs shard `shard` = (i, n) of `plan`.
+/// Runs shard `shard` = (i, n) of `plan`, whose samples are `identity`'s.
 pub fn run_shard<L: LevelSampler>(
-    sampler: &L, control: &RunControl<'_>, (identity, plan): (Identity, Plan), shard: (u64, u64),
+    sampler: &L, control: &RunControl<'_>, identity: Identity, plan: Plan, shard: (u64, u64),
 ) -> Result<MlmcShard, MlmcError> {
     if shard.1 == 0 || shard.0 >= shard.1 {
         return Err(MlmcError::Setting {
@@ -185,7 +185,7 @@ pub struct PlanReport {
 
 /// The report of a plan's sums.
 pub fn plan_report<L: LevelSampler>(
-    sampler: &L, (identity, plan): (Identity, Plan), levels: Vec<LevelSums>,
+    sampler: &L, identity: Identity, plan: Plan, levels: Vec<LevelSums>,
 ) -> Result<PlanReport, MlmcError> {
     let stats = level_stats(&levels, |l| sampler.path_steps(l));
     let estimate = estimate_of_plan(sampler, &plan, levels)?;

@@ -203,9 +203,11 @@ where
     Ok(CoupledSampler::new(
         scheme,
         (prepared.position.clone(), prepared.velocity.clone()),
-        (settings.t_end, spec.coarsest),
+        settings.t_end,
+        spec.coarsest,
         observable,
-        (settings.seed, spec.antithetic),
+        settings.seed,
+        spec.antithetic,
     ))
 }
 

@@ -370,6 +370,6 @@ pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     settings.t_end = identity.t_end;
     settings.seed = identity.seed;
     let dir = args.out.out.join("mlmc").join(&identity.scene);
-    let report = merged_report(&scene, &settings, (identity, plan), sums)?;
+    let report = merged_report(&scene, &settings, identity, plan, sums)?;
     Ok(write_plan_report(&report, &dir)?)
 }

@@ -84,10 +84,11 @@ struct Ready<'a> {
 }
 
 impl<'a> Job<'a> {
-    /// The job of `scene` with its checkpoint at `file`, saved as `how` says.
+    /// The job of shard `shard` of `scene` under `settings`, its checkpoint at `file` saved as
+    /// `how` says.
     fn new(
-        (scene, settings): (&'a Scene, &'a ConvergenceSettings), shard: (usize, usize),
-        file: PathBuf, how: Resumption,
+        scene: &'a Scene, settings: &'a ConvergenceSettings, shard: (usize, usize), file: PathBuf,
+        how: Resumption,
     ) -> Self {
         Job {
             scene,
@@ -345,7 +346,8 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
     };
     run_scenes(
         e,
-        (&scenes, &settings),
+        &scenes,
+        &settings,
         args.shard,
         study,
         stop,
@@ -376,8 +378,8 @@ struct SceneStudy<'a> {
 /// to `report(run, scene's folder)`, which writes the report and returns what could not be
 /// compared. A report that cannot be written leaves the paths in the checkpoint.
 fn run_scenes(
-    e: &EnsembleArgs, (scenes, settings): (&[Scene], &[ConvergenceSettings]),
-    shard: Option<ShardArg>, study: SceneStudy<'_>, stop: &AtomicBool,
+    e: &EnsembleArgs, scenes: &[Scene], settings: &[ConvergenceSettings], shard: Option<ShardArg>,
+    study: SceneStudy<'_>, stop: &AtomicBool,
     mut report: impl FnMut(ConvergenceRun, &Path) -> Result<Vec<String>, StudyError>,
 ) -> Result<(), Failure> {
     distinct(scenes)?;
@@ -400,7 +402,7 @@ fn run_scenes(
         .map(|(scene, settings)| {
             let dir = e.out.out.join(&scene.name);
             let file = dir.join(format!("{prefix}checkpoint-{index}-of-{count}.bin"));
-            Job::new((scene, settings), (index, count), file, how).ready(how, &outputs)
+            Job::new(scene, settings, (index, count), file, how).ready(how, &outputs)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let mut uncompared = Vec::new();
@@ -568,7 +570,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
         .zip(&settings)
         .map(|(scene, settings)| {
             let file = dir.join(format!("{}.checkpoint.bin", scene.name));
-            Job::new((scene, settings), (0, 1), file, how).ready(how, &STUDY_FILES)
+            Job::new(scene, settings, (0, 1), file, how).ready(how, &STUDY_FILES)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let runs = run_all(&mut jobs, stop)?;
@@ -618,7 +620,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
     for (scene, variants, settings) in &all {
         for (k, (variant, settings)) in variants.iter().zip(settings).enumerate() {
             let file = dir.join(format!("{}-{k}.checkpoint.bin", scene.name));
-            let job = Job::new((&variant.scene, settings), (0, 1), file, how);
+            let job = Job::new(&variant.scene, settings, (0, 1), file, how);
             let mut ready = job.ready(how, &STUDY_FILES)?;
             ready.label = Some(format!("{}: {}", scene.name, variant.label));
             jobs.push(ready);
@@ -682,7 +684,8 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
     };
     run_scenes(
         e,
-        (&scenes, &settings),
+        &scenes,
+        &settings,
         args.shard,
         study,
         stop,

@@ -216,45 +216,33 @@ fn each_word<V: bytemuck::Pod>(mut a: V, op: impl Fn(u64) -> u64) -> V {
     a
 }
 
-#[cfg(target_arch = "x86_64")]
-impl WordLanes for pulp::x86::V3 {
-    #[inline(always)]
-    fn shr12(self, a: Self::u64s) -> Self::u64s {
-        self.shr_const_u64x4::<12>(a)
-    }
-    #[inline(always)]
-    fn shl17(self, a: Self::u64s) -> Self::u64s {
-        self.shl_const_u64x4::<17>(a)
-    }
-    #[inline(always)]
-    fn rotl23(self, a: Self::u64s) -> Self::u64s {
-        self.or_u64x4(self.shl_const_u64x4::<23>(a), self.shr_const_u64x4::<41>(a))
-    }
-    #[inline(always)]
-    fn rotl45(self, a: Self::u64s) -> Self::u64s {
-        self.or_u64x4(self.shl_const_u64x4::<45>(a), self.shr_const_u64x4::<19>(a))
-    }
+/// [`WordLanes`] for an x86 instruction set from its shifts and or of 64-bit words.
+macro_rules! x86_word_lanes {
+    ($simd:ty, $shr:ident, $shl:ident, $or:ident) => {
+        #[cfg(target_arch = "x86_64")]
+        impl WordLanes for $simd {
+            #[inline(always)]
+            fn shr12(self, a: Self::u64s) -> Self::u64s {
+                self.$shr::<12>(a)
+            }
+            #[inline(always)]
+            fn shl17(self, a: Self::u64s) -> Self::u64s {
+                self.$shl::<17>(a)
+            }
+            #[inline(always)]
+            fn rotl23(self, a: Self::u64s) -> Self::u64s {
+                self.$or(self.$shl::<23>(a), self.$shr::<41>(a))
+            }
+            #[inline(always)]
+            fn rotl45(self, a: Self::u64s) -> Self::u64s {
+                self.$or(self.$shl::<45>(a), self.$shr::<19>(a))
+            }
+        }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-impl WordLanes for pulp::x86::V4 {
-    #[inline(always)]
-    fn shr12(self, a: Self::u64s) -> Self::u64s {
-        self.shr_const_u64x8::<12>(a)
-    }
-    #[inline(always)]
-    fn shl17(self, a: Self::u64s) -> Self::u64s {
-        self.shl_const_u64x8::<17>(a)
-    }
-    #[inline(always)]
-    fn rotl23(self, a: Self::u64s) -> Self::u64s {
-        self.or_u64x8(self.shl_const_u64x8::<23>(a), self.shr_const_u64x8::<41>(a))
-    }
-    #[inline(always)]
-    fn rotl45(self, a: Self::u64s) -> Self::u64s {
-        self.or_u64x8(self.shl_const_u64x8::<45>(a), self.shr_const_u64x8::<19>(a))
-    }
-}
+x86_word_lanes!(pulp::x86::V3, shr_const_u64x4, shl_const_u64x4, or_u64x4);
+x86_word_lanes!(pulp::x86::V4, shr_const_u64x8, shl_const_u64x8, or_u64x8);
 
 /// One [`EnsembleIncrements::fill`], run with the instruction set of its width.
 struct FillAll<'a> {

@@ -301,6 +301,10 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
     for tile in dw.chunks_mut(row_len * TILE_ROWS.min(dw.len() / row_len)) {
         let rows = tile.len() / row_len;
         for at in (0..stride).step_by(w) {
+            let mut streams = SideStreams {
+                states: &mut *side,
+                at,
+            };
             let mut state: [S::u64s; 4] = std::array::from_fn(|i| load_words(&words[i][at..]));
             for row in 0..rows {
                 for j in 0..dim {
@@ -320,22 +324,12 @@ fn fill_lanes<S: WordLanes>(simd: S, fill: FillAll<'_>) {
                         },
                     );
                     if pending == REJECTED_CAPACITY {
-                        rejected.finish(
-                            simd,
-                            pending,
-                            Scaled { scale, out: tile },
-                            SideStreams { states: side, at },
-                        );
+                        rejected.finish(simd, pending, Scaled { scale, out: tile }, &mut streams);
                         pending = 0;
                     }
                 }
             }
-            rejected.finish(
-                simd,
-                pending,
-                Scaled { scale, out: tile },
-                SideStreams { states: side, at },
-            );
+            rejected.finish(simd, pending, Scaled { scale, out: tile }, &mut streams);
             pending = 0;
             for (i, s) in state.iter().enumerate() {
                 store_words::<S>(*s, &mut words[i][at..]);
@@ -417,9 +411,8 @@ impl<S: WordLanes> Rejected<S> {
     /// (tile[offset + lane] = scale z). The lane group's side streams are the states
     /// `side[i][at + lane]`, read and written only for a rejected lane.
     #[inline(always)]
-    fn finish(&self, simd: S, len: usize, scaled: Scaled<'_>, side: SideStreams<'_>) {
+    fn finish(&self, simd: S, len: usize, scaled: Scaled<'_>, streams: &mut SideStreams<'_>) {
         let (scale, tile) = (scaled.scale, scaled.out);
-        let SideStreams { states: side, at } = side;
         let lane_bits: S::f64s = load_words(bytemuck::cast_slice(&LANE_BITS));
         let zero = simd.splat_f64s(0.0);
         for e in 0..len {
@@ -428,7 +421,6 @@ impl<S: WordLanes> Rejected<S> {
             let mut words = [0u64; LANE_BLOCK];
             store_words::<S>(self.bits[e], &mut words);
             let out = &mut tile[self.offsets[e]..];
-            let streams = SideStreams { states: side, at };
             finish_lanes(lanes as u32, &words, streams, Scaled { scale, out });
         }
     }
@@ -450,9 +442,10 @@ const LANE_BITS: [f64; LANE_BLOCK] = {
 /// `side[i][at + lane]`, advanced in place; [`finish_draw`]).
 #[inline(never)]
 fn finish_lanes(
-    mut lanes: u32, words: &[u64; LANE_BLOCK], side: SideStreams<'_>, scaled: Scaled<'_>,
+    mut lanes: u32, words: &[u64; LANE_BLOCK], streams: &mut SideStreams<'_>, scaled: Scaled<'_>,
 ) {
-    let SideStreams { states: side, at } = side;
+    let SideStreams { states: side, at } = streams;
+    let at = *at;
     let Scaled { scale, out } = scaled;
     while lanes != 0 {
         let lane = lanes.trailing_zeros() as usize;

@@ -146,7 +146,7 @@ impl TridiagonalFactor {
         self.pivoted
     }
 
-    /// Thomas' algorithm ([`ThomasSweep`]); `false` if a pivot is negligible relative to its
+    /// Thomas' algorithm (`ThomasSweep`); `false` if a pivot is negligible relative to its
     /// row. With `rhs` = (b, out) the forward substitution of b runs in the same pass (into
     /// out), so that its recurrence overlaps the one of the pivots.
     ///
@@ -311,7 +311,7 @@ impl<'a> MappedForward<'a> {
 }
 
 impl TridiagonalFactor {
-    /// The back substitution of Thomas' algorithm ([`thomas::backward`]).
+    /// The back substitution of Thomas' algorithm (`thomas::backward`).
     #[inline(always)]
     fn backward(&self, b: &mut [f64]) {
         thomas::backward(&self.upper, b);

@@ -40,7 +40,7 @@ impl<Sd: Simd> MatrixLanes<Sd> for DenseLanes<Sd> {
         }
     }
 
-    /// out = A x ([`dense_lu::dense_mul`]).
+    /// out = A x (`dense_lu::dense_mul`).
     #[inline(always)]
     fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
         dense_lu::dense_mul(&self.entries, x, &mut out[..self.order]);
@@ -96,14 +96,14 @@ impl<Sd: Simd> FactorLanes<Sd> for LuLanes<Sd> {
         ok
     }
 
-    /// The back substitution of `DenseFactor::solve_in_place` ([`dense_lu::backward`]).
+    /// The back substitution of `DenseFactor::solve_in_place` (`dense_lu::backward`).
     #[inline(always)]
     fn back_substitute(&self, b: &mut [Lanes<Sd>]) {
         dense_lu::backward(&self.lu, &mut b[..self.order]);
     }
 
     /// The first half of `DenseFactor::solve_in_place`: the row interchanges in elimination
-    /// order and the forward substitution ([`dense_lu::permute`], [`dense_lu::forward`]).
+    /// order and the forward substitution (`dense_lu::permute`, `dense_lu::forward`).
     #[inline(always)]
     fn forward_in_place(&self, b: &mut [Lanes<Sd>]) {
         let b = &mut b[..self.order];

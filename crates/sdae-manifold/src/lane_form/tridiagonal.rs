@@ -40,7 +40,7 @@ impl<Sd: Simd> MatrixLanes<Sd> for TridiagonalLanes<Sd> {
         Self { lower, diag, upper }
     }
 
-    /// out = A x ([`thomas::tridiagonal_mul`]).
+    /// out = A x (`thomas::tridiagonal_mul`).
     #[inline(always)]
     fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
         thomas::tridiagonal_mul(&self.lower, &self.diag, &self.upper, x, out);
@@ -60,7 +60,7 @@ impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
     }
 
     /// Factors `a`, and with `rhs` = (b, out) runs the forward substitution in the same pass;
-    /// the lanes where every pivot passed ([`ThomasSweep::row`]).
+    /// the lanes where every pivot passed (`ThomasSweep::row`).
     #[inline(always)]
     fn factor(&mut self, a: &TridiagonalLanes<Sd>, mut rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd> {
         let m = a.diag.len();
@@ -94,7 +94,7 @@ impl<Sd: Simd> FactorLanes<Sd> for ThomasLanes<Sd> {
 }
 
 impl<Sd: Simd> ThomasLanes<Sd> {
-    /// The factors as [`ThomasSweep::row`] writes them.
+    /// The factors as `ThomasSweep::row` writes them.
     #[inline(always)]
     pub(super) fn factors(&mut self) -> ThomasFactors<'_, Lanes<Sd>> {
         ThomasFactors {
@@ -105,7 +105,7 @@ impl<Sd: Simd> ThomasLanes<Sd> {
     }
 
     /// Row i of the forward substitution: b_0 / p_0 for i = 0, else
-    /// [`thomas::forward_step`] with y_{i-1} the previous row's value (`previous`).
+    /// `thomas::forward_step` with y_{i-1} the previous row's value (`previous`).
     #[inline(always)]
     pub(super) fn forward_row(&self, i: usize, b: Lanes<Sd>, previous: Lanes<Sd>) -> Lanes<Sd> {
         if i == 0 {

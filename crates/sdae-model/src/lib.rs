@@ -107,8 +107,8 @@ pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use path_streams::{PathStreams, StandardNormals, path_rng};
 pub use scheme::{Scheme, StepOutcome, StepResult};
 pub use system::{
-    AdditiveNoise, ClosureNoise, Drift, MechanicalSystem, NoNoise, Noise, System, ZeroDrift,
-    check_dimensions, check_step_input,
+    AdditiveNoise, ClosureNoise, Drift, LangevinForm, MechanicalSystem, NoNoise, Noise, System,
+    ZeroDrift, check_dimensions, check_step_input,
 };
 pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, project_state};
 

@@ -41,6 +41,24 @@ pub trait System {
             self.add_noise(r, v, dw, out)
         })
     }
+    /// The system's Langevin form, if it has one: a(r, v) = a(r, 0) - gamma v with a constant
+    /// friction gamma >= 0 and additive noise B = sigma I ([`LangevinForm`]), which splitting
+    /// schemes (BAOAB) need to take the force F(r) = a(r, 0) apart from the friction and to
+    /// update the velocity by the exact Ornstein-Uhlenbeck law. The default has none.
+    fn langevin(&self) -> Option<LangevinForm> {
+        None
+    }
+}
+
+/// The Langevin form of a system ([`System::langevin`]): with the force F(r) = a(r, 0),
+/// M dv = [F(r) - gamma v] dt + sigma dw + grad g(r) dmu. At equilibrium the temperature is
+/// kT = sigma^2 / (2 gamma) (fluctuation-dissipation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LangevinForm {
+    /// The friction gamma >= 0 (the drift's -gamma v).
+    pub friction: f64,
+    /// The noise amplitude sigma >= 0 (B = sigma I).
+    pub noise: f64,
 }
 
 /// The drift a(r, v).
@@ -52,6 +70,11 @@ pub trait Drift {
     #[inline(always)]
     fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
         per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))
+    }
+    /// The constant friction gamma if the drift is a(r, v) = a(r, 0) - gamma v; the default
+    /// (e.g. for a closure) says nothing (`None`).
+    fn friction(&self) -> Option<f64> {
+        None
     }
 }
 
@@ -77,6 +100,10 @@ impl Drift for ZeroDrift {
         }
         true
     }
+    /// gamma = 0.
+    fn friction(&self) -> Option<f64> {
+        Some(0.0)
+    }
 }
 
 /// The noise B(r, v) applied to increments dw.
@@ -92,6 +119,11 @@ pub trait Noise {
         &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         per_lane([r, v, dw], out, |[r, v, dw], out| self.add(r, v, dw, out))
+    }
+    /// sigma if the noise is additive, B = sigma I; the default (e.g. for a closure) says
+    /// nothing (`None`).
+    fn amplitude(&self) -> Option<f64> {
+        None
     }
 }
 
@@ -110,6 +142,10 @@ impl Noise for NoNoise {
         &self, _r: &[Lanes<S>], _v: &[Lanes<S>], _dw: &[Lanes<S>], _out: &mut [Lanes<S>],
     ) -> bool {
         true
+    }
+    /// sigma = 0.
+    fn amplitude(&self) -> Option<f64> {
+        Some(0.0)
     }
 }
 
@@ -159,6 +195,9 @@ impl Noise for AdditiveNoise {
             *o = *o + w * self.sigma;
         }
         true
+    }
+    fn amplitude(&self) -> Option<f64> {
+        Some(self.sigma)
     }
 }
 
@@ -246,6 +285,13 @@ impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, 
         &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         self.noise.add_lanes(r, v, dw, out)
+    }
+    /// The Langevin form where the drift has a constant friction and the noise is additive.
+    fn langevin(&self) -> Option<LangevinForm> {
+        Some(LangevinForm {
+            friction: self.drift.friction()?,
+            noise: self.noise.amplitude()?,
+        })
     }
 }
 

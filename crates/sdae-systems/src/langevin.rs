@@ -37,7 +37,7 @@
 use pulp::Simd;
 use sdae_manifold::{BeadChain, Constraint, DiagonalMass, Mass, RigidBonds};
 use sdae_model::lanes::Lanes;
-use sdae_model::{AdditiveNoise, Noise, System};
+use sdae_model::{AdditiveNoise, LangevinForm, Noise, System};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, non_negative, particle_count, positive};
@@ -174,6 +174,13 @@ impl<C: Constraint, P: Potential> System for Langevin<C, P> {
         &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
     ) -> bool {
         self.noise.add_lanes(r, v, dw, out)
+    }
+    /// a(r, v) = -grad V(r) - gamma v, B = sqrt(2 gamma kT) I.
+    fn langevin(&self) -> Option<LangevinForm> {
+        Some(LangevinForm {
+            friction: self.friction,
+            noise: self.noise.sigma(),
+        })
     }
 }
 

@@ -38,6 +38,10 @@ impl Drift for PendulumDrift {
         }
         true
     }
+    /// gamma: the drift is a(r, 0) - gamma v.
+    fn friction(&self) -> Option<f64> {
+        Some(self.friction)
+    }
 }
 
 /// The seed's stochastic pendulum as a system.

@@ -46,7 +46,7 @@ fn rotor(friction: f64, noise: f64) -> Pendulum {
 /// variance within 4.5 standard errors of their estimators.
 #[test]
 fn rotor_angular_velocity_has_the_exact_ornstein_uhlenbeck_law() {
-    let (gamma, sigma, t, steps, paths) = (1.0, 1.0, 1.0, 4, 16000);
+    let (gamma, sigma, t, steps, paths): (f64, f64, f64, usize, usize) = (1.0, 1.0, 1.0, 4, 16000);
     let omega0 = 1.0;
     let mean = (-gamma * t).exp() * omega0;
     let variance = sigma * sigma / (2.0 * gamma) * (1.0 - (-2.0 * gamma * t).exp());

@@ -10,6 +10,7 @@ use sdae_reference::{
     CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
 use sdae_scheme::{Stepper, StepperConfig};
+use sdae_splitting::{Splitting, SplittingConfig};
 use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
@@ -41,11 +42,17 @@ pub enum SchemeKind {
     /// Stochastic Heun on the inherent SDE (diffusion at the left point: an Ito scheme, also
     /// where the noise depends on v).
     StochasticHeun,
+    /// Constrained BAOAB with SHAKE/RATTLE projections (Langevin systems only): the
+    /// molecular-dynamics standard, `sdae_splitting::SplittingConfig::baoab`.
+    BaoabRattle,
+    /// g-BAOAB, BAOAB with the scene's `geodesic_substeps` SHAKE/RATTLE substeps per drift
+    /// (default 3; Langevin systems only).
+    GBaoab,
 }
 
 impl SchemeKind {
     /// Every scheme, in report order.
-    pub const ALL: [SchemeKind; 9] = [
+    pub const ALL: [SchemeKind; 11] = [
         SchemeKind::HalfExplicitTheory,
         SchemeKind::HalfExplicitPractical,
         SchemeKind::HalfExplicitUntruncated,
@@ -55,6 +62,8 @@ impl SchemeKind {
         SchemeKind::TruncatedEulerMaruyama,
         SchemeKind::ProjectedEulerMaruyama,
         SchemeKind::StochasticHeun,
+        SchemeKind::BaoabRattle,
+        SchemeKind::GBaoab,
     ];
 
     /// The name used in reports and on the command line.
@@ -69,6 +78,8 @@ impl SchemeKind {
             SchemeKind::TruncatedEulerMaruyama => "truncated-euler-maruyama",
             SchemeKind::ProjectedEulerMaruyama => "projected-euler-maruyama",
             SchemeKind::StochasticHeun => "stochastic-heun",
+            SchemeKind::BaoabRattle => "baoab-rattle",
+            SchemeKind::GBaoab => "g-baoab",
         }
     }
 
@@ -77,8 +88,8 @@ impl SchemeKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// Whether the scheme keeps the constraint exactly (the half-explicit family and projected
-    /// Euler-Maruyama) rather than drifting off the manifold by O(h).
+    /// Whether the scheme keeps the constraint exactly (the half-explicit family, projected
+    /// Euler-Maruyama and the splitting schemes) rather than drifting off the manifold by O(h).
     pub fn keeps_constraint(self) -> bool {
         !matches!(
             self,
@@ -100,6 +111,10 @@ pub struct SchemeConstants {
     pub c_kappa: f64,
     /// C_eta of the local size functional (`half-explicit-local`).
     pub local_c_eta: f64,
+    /// K_r of `g-baoab`.
+    pub geodesic_substeps: usize,
+    /// The SHAKE tolerance of `baoab-rattle` and `g-baoab`.
+    pub projection_tolerance: f64,
 }
 
 /// A boxed scheme stepping systems of type `S`.
@@ -185,6 +200,19 @@ where
         SchemeKind::StochasticHeun => Ok(Box::new(
             StochasticHeun::new(system.clone()).map_err(inherent)?,
         )),
+        SchemeKind::BaoabRattle | SchemeKind::GBaoab => {
+            let substeps = match kind {
+                SchemeKind::GBaoab => constants.geodesic_substeps,
+                _ => 1,
+            };
+            let config = SplittingConfig::baoab()
+                .with_substeps(substeps)
+                .and_then(|c| c.with_tolerance(constants.projection_tolerance))
+                .map_err(|e| not_applicable(e.to_string()))?;
+            let scheme =
+                Splitting::new(system.clone(), config).map_err(|e| not_applicable(e.to_string()))?;
+            Ok(Box::new(scheme))
+        }
     }
 }
 

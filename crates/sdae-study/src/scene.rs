@@ -120,10 +120,38 @@ pub struct SchemeSpec {
     /// system, no scaling with the number of beads (default 0.5).
     #[serde(default = "default_local_c_eta")]
     pub local_c_eta: f64,
+    /// K_r of `g-baoab`: geodesic SHAKE/RATTLE substeps per half drift (default 3).
+    #[serde(
+        default = "default_geodesic_substeps",
+        skip_serializing_if = "is_default_substeps"
+    )]
+    pub geodesic_substeps: usize,
+    /// The SHAKE tolerance on max |g| of `baoab-rattle` and `g-baoab` (default 1e-12).
+    #[serde(
+        default = "default_projection_tolerance",
+        skip_serializing_if = "is_default_tolerance"
+    )]
+    pub projection_tolerance: f64,
 }
 
 fn default_local_c_eta() -> f64 {
     0.5
+}
+
+fn default_geodesic_substeps() -> usize {
+    sdae_splitting::G_BAOAB_SUBSTEPS
+}
+
+fn is_default_substeps(k: &usize) -> bool {
+    *k == default_geodesic_substeps()
+}
+
+fn default_projection_tolerance() -> f64 {
+    sdae_splitting::DEFAULT_TOLERANCE
+}
+
+fn is_default_tolerance(t: &f64) -> bool {
+    *t == default_projection_tolerance()
 }
 
 impl Default for SchemeSpec {
@@ -132,6 +160,8 @@ impl Default for SchemeSpec {
             practical_c_eta: 1.0,
             c_kappa: None,
             local_c_eta: default_local_c_eta(),
+            geodesic_substeps: default_geodesic_substeps(),
+            projection_tolerance: default_projection_tolerance(),
         }
     }
 }
@@ -450,6 +480,8 @@ impl Scene {
             practical_c_eta: self.scheme.practical_c_eta,
             c_kappa: self.scheme.c_kappa.unwrap_or(f64::INFINITY),
             local_c_eta: self.scheme.local_c_eta,
+            geodesic_substeps: self.scheme.geodesic_substeps,
+            projection_tolerance: self.scheme.projection_tolerance,
         };
         Ok(Prepared {
             system,

@@ -3,6 +3,7 @@
 //! its study tables gives as the studies will run them. (The checks of the study tables use the
 //! studies' settings, so they sit here, above the studies, not in [`crate::scene`].)
 
+use sdae_splitting::SplittingConfig;
 use sdae_systems::MAX_PARTICLES;
 
 use crate::catalog::BUILT_IN;
@@ -153,6 +154,12 @@ impl Scene {
             && (c.is_nan() || c <= 0.0)
         {
             return Err(self.invalid(format!("scheme.c_kappa = {c}: must be > 0")));
+        }
+        let splitting = SplittingConfig::g_baoab()
+            .with_substeps(self.scheme.geodesic_substeps)
+            .and_then(|c| c.with_tolerance(self.scheme.projection_tolerance));
+        if let Err(e) = splitting {
+            return Err(self.invalid(format!("scheme: {e}")));
         }
         Ok(())
     }

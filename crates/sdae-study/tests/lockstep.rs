@@ -40,6 +40,8 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         practical_c_eta: 1.0,
         c_kappa: f64::INFINITY,
         local_c_eta: 0.5,
+        geodesic_substeps: 3,
+        projection_tolerance: 1e-12,
     };
     let (r0, v0) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let plan = PathPlan {
@@ -159,6 +161,8 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
         practical_c_eta: 0.05,
         c_kappa: f64::INFINITY,
         local_c_eta: 0.5,
+        geodesic_substeps: 3,
+        projection_tolerance: 1e-12,
     };
     let (r0, v0) = (vec![0.0, -1.0], vec![1.5, 0.0]);
     let (level, after, seed, index) = (4, 0.25, 5, 2);

@@ -34,7 +34,7 @@ fn merged_shards_reproduce_the_unsharded_report() {
     let whole = build_report(shard(0, 1, 2));
     let merged = merge_shards((0..3).map(|i| shard(i, 3, 1 + i % 2)).collect()).unwrap();
     assert_eq!(numbers(&whole), numbers(&merged));
-    assert_eq!(whole.schemes.len(), 9);
+    assert_eq!(whole.schemes.len(), 11);
     assert!(whole.schemes.iter().all(|s| {
         s.levels
             .iter()

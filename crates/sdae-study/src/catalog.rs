@@ -1,7 +1,7 @@
 //! The built-in scenes, shipped as TOML files in `scenes/` and compiled into the library.
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 14] = [
+pub const BUILT_IN: [(&str, &str); 15] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
@@ -22,6 +22,10 @@ pub const BUILT_IN: [(&str, &str); 14] = [
     (
         "thermal-pendulum",
         include_str!("../scenes/thermal-pendulum.toml"),
+    ),
+    (
+        "gibbs-pendulum",
+        include_str!("../scenes/gibbs-pendulum.toml"),
     ),
     (
         "chain-molecule",

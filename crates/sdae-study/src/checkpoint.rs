@@ -343,7 +343,9 @@ fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Re
     write_f64(out, r.reference_seconds)?;
     write_varint(out, r.tracks.len() as u64)?;
     for t in &r.tracks {
-        let flags = u8::from(t.distances.is_some()) | (u8::from(t.kinetic_energy.is_some()) << 1);
+        let flags = u8::from(t.distances.is_some())
+            | (u8::from(t.kinetic_energy.is_some()) << 1)
+            | (u8::from(t.time_average.is_some()) << 2);
         out.write_all(&[flags, failure_code(t.failure)])?;
         for d in t.distances.iter().flatten() {
             write_f64(out, *d)?;
@@ -366,8 +368,8 @@ fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Re
         ] {
             write_f64(out, x)?;
         }
-        if let Some(k) = t.kinetic_energy {
-            write_f64(out, k)?;
+        for x in t.kinetic_energy.iter().chain(&t.time_average) {
+            write_f64(out, *x)?;
         }
         write_values(out, &t.observed)?;
     }
@@ -476,8 +478,8 @@ impl<'a> Reader<'a> {
 
     fn track(&mut self) -> Result<TrackOutcome, String> {
         let flags = self.byte()?;
-        if flags > 3 {
-            return Err(format!("track flags {flags} are not 0 to 3"));
+        if flags > 7 {
+            return Err(format!("track flags {flags} are not 0 to 7"));
         }
         let failure = self.failure()?;
         let distances = if flags & 1 == 1 {
@@ -504,6 +506,11 @@ impl<'a> Reader<'a> {
         } else {
             None
         };
+        let time_average = if flags & 4 == 4 {
+            Some(self.f64()?)
+        } else {
+            None
+        };
         let observed = self.values()?;
         Ok(TrackOutcome {
             distances,
@@ -518,6 +525,7 @@ impl<'a> Reader<'a> {
             max_position_residual,
             max_velocity_residual,
             kinetic_energy,
+            time_average,
             observed,
         })
     }
@@ -664,6 +672,7 @@ mod tests {
             max_position_residual: f64::INFINITY,
             max_velocity_residual: 3e-17,
             kinetic_energy: (!k.is_multiple_of(2)).then_some(0.25),
+            time_average: k.is_multiple_of(3).then_some(-0.125 * k as f64),
             observed: (0..k).map(|j| 0.5 * j as f64 - 1.0).collect(),
         }
     }

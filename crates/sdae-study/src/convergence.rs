@@ -65,6 +65,10 @@ pub struct ConvergenceSettings {
     /// default.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub observables: Vec<String>,
+    /// A built-in observable of the scene averaged in time with the kinetic energy (after
+    /// `kinetic_after`): the equipartition study's configurational average.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_averaged: Option<String>,
 }
 
 /// A setting that does not hold: `key = value` breaks `rule`.
@@ -92,6 +96,7 @@ impl ConvergenceSettings {
             limits: Limits::default(),
             kinetic_after: None,
             observables: Vec::new(),
+            time_averaged: None,
         }
     }
 
@@ -383,6 +388,12 @@ where
         kinetic_after: st
             .kinetic_after
             .filter(|_| scene.wants(Output::KineticEnergy)),
+        time_averaged: st
+            .time_averaged
+            .as_deref()
+            .filter(|_| st.kinetic_after.is_some() && scene.wants(Output::KineticEnergy))
+            .map(|name| crate::observable::time_averaged(scene, prepared, name))
+            .transpose()?,
         observing: (!observables.is_empty()).then(|| Observing {
             observables: observables.to_vec(),
             grid_level: st.coarsest,

@@ -4,6 +4,9 @@
 //! half-explicit scheme over a range of C_eta, so that a user can read off which settings give
 //! the right temperature and where truncation biases it (design notes, Section 6).
 
+mod bias;
+mod bias_report;
+
 use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::Path;
@@ -14,8 +17,12 @@ use serde::Serialize;
 
 use sdae_reference::CurvedSystem;
 
+pub use bias::{
+    BIAS_TARGETS, BiasLevel, BiasScheme, BiasStudy, ReferenceKind, TimeToBias, bias_study,
+};
+
 use crate::convergence::{
-    ConvergenceReport, ConvergenceSettings, build_report, run_convergence_on,
+    ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, run_convergence_on,
 };
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
@@ -55,6 +62,7 @@ pub fn variants(scene: &Scene, quick: bool) -> Option<Vec<Variant>> {
         reference: None,
         t_end: spec.t_end,
         kinetic_after: Some(spec.burn_in),
+        time_averaged: spec.configurational.clone(),
         ..ConvergenceSettings::for_scene(scene)
     };
     let per_c_eta = [
@@ -101,7 +109,7 @@ pub fn run_equipartition_on<S>(
 where
     S: CurvedSystem + Clone + Send + Sync + 'static,
 {
-    let mut reports = Vec::new();
+    let mut runs = Vec::new();
     for (i, variant) in variants.iter().enumerate() {
         let mut prepared = prepared.clone();
         prepared.constants.practical_c_eta = variant.scene.scheme.practical_c_eta;
@@ -117,9 +125,9 @@ where
                 ..Control::default()
             },
         )?;
-        reports.push(build_report(run));
+        runs.push(run);
     }
-    Ok(collect(&reports))
+    Ok(collect(&runs))
 }
 
 /// One row: a scheme (with its C_eta where it has one) at one step size.
@@ -161,6 +169,12 @@ pub struct EquipartitionScene {
     pub t_end: f64,
     /// One row per scheme and step size.
     pub rows: Vec<EquipartitionRow>,
+    /// The bias of the scene's configurational average (`[equipartition] configurational`)
+    /// per scheme, step size and run time, with the fitted order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub configurational: Option<BiasStudy>,
+    /// The bias of the kinetic energy against (n - m) kT / 2, likewise.
+    pub kinetic: Option<BiasStudy>,
 }
 
 impl EquipartitionScene {
@@ -187,9 +201,9 @@ impl EquipartitionScene {
     }
 }
 
-/// C_eta of a scheme run in `report`, for its label.
-fn label(report: &ConvergenceReport, name: &str) -> String {
-    let c = &report.scene_definition.scheme;
+/// A scheme of a run, labelled with its C_eta where the variants differ in it.
+fn label(scene: &Scene, name: &str) -> String {
+    let c = &scene.scheme;
     match SchemeKind::from_name(name) {
         Some(SchemeKind::HalfExplicitPractical) => {
             format!("half-explicit C_eta = {}", c.practical_c_eta)
@@ -201,13 +215,15 @@ fn label(report: &ConvergenceReport, name: &str) -> String {
     }
 }
 
-/// Collects the rows of the variants' reports of one scene.
-pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
+/// Collects the rows and the biases of the variants' runs of one scene (`None` without a
+/// kinetic target: not a Langevin system).
+pub fn collect(runs: &[ConvergenceRun]) -> Option<EquipartitionScene> {
+    let reports: Vec<ConvergenceReport> = runs.iter().cloned().map(build_report).collect();
     let first = reports.first()?;
     let target = first.kinetic_target?;
     let spec = first.scene_definition.equipartition.as_ref()?;
     let mut rows = Vec::new();
-    for report in reports {
+    for report in &reports {
         for scheme in &report.schemes {
             for l in &scheme.levels {
                 let ratio = l.kinetic_energy.map(|k| Interval {
@@ -216,7 +232,7 @@ pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
                     ci_high: k.ci_high / target,
                 });
                 rows.push(EquipartitionRow {
-                    scheme: label(report, &scheme.name),
+                    scheme: label(&report.scene_definition, &scheme.name),
                     h: l.h,
                     kinetic_energy: l.kinetic_energy,
                     temperature_ratio: ratio,
@@ -231,12 +247,26 @@ pub fn collect(reports: &[ConvergenceReport]) -> Option<EquipartitionScene> {
             }
         }
     }
+    let by_label = |run: &ConvergenceRun, name: &str| label(&run.scene, name);
+    let configurational = spec.configurational.as_deref().and_then(|name| {
+        let exact = crate::gibbs::exact_average(&first.scene_definition.system, name);
+        bias_study(runs, name, |t| t.time_average, exact, by_label)
+    });
+    let kinetic = bias_study(
+        runs,
+        "kinetic_energy",
+        |t| t.kinetic_energy,
+        Some(target),
+        by_label,
+    );
     Some(EquipartitionScene {
         scene: first.scene.clone(),
         target,
         burn_in: spec.burn_in,
         t_end: spec.t_end,
         rows,
+        configurational,
+        kinetic,
     })
 }
 
@@ -282,6 +312,15 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
         }
     }
     s += "\n![temperature ratio against h](equipartition.svg)\n";
+    for sc in scenes {
+        if sc.configurational.is_some() || sc.kinetic.is_some() {
+            let _ = write!(s, "\n## {}: invariant-measure bias\n", sc.scene);
+        }
+        for study in sc.configurational.iter().chain(&sc.kinetic) {
+            s += &bias_report::markdown(study);
+        }
+    }
+    s += "\n![bias against run time](bias.svg)\n";
     s
 }
 
@@ -392,9 +431,10 @@ fn draw_variant(
     Ok(())
 }
 
-/// Writes `report.json`, `report.md` and `equipartition.svg` into `dir`.
+/// Writes `report.json`, `report.md`, `equipartition.svg` and `bias.svg` into `dir`.
 pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), StudyError> {
     write_json(&dir.join("report.json"), scenes)?;
     write_atomically(&dir.join("report.md"), &markdown(scenes))?;
-    plot(scenes, &dir.join("equipartition.svg"))
+    plot(scenes, &dir.join("equipartition.svg"))?;
+    bias_report::plot(scenes, &dir.join("bias.svg"))
 }

@@ -209,8 +209,8 @@ where
                 .with_substeps(substeps)
                 .and_then(|c| c.with_tolerance(constants.projection_tolerance))
                 .map_err(|e| not_applicable(e.to_string()))?;
-            let scheme =
-                Splitting::new(system.clone(), config).map_err(|e| not_applicable(e.to_string()))?;
+            let scheme = Splitting::new(system.clone(), config)
+                .map_err(|e| not_applicable(e.to_string()))?;
             Ok(Box::new(scheme))
         }
     }

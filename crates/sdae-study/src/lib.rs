@@ -33,6 +33,7 @@ pub mod convergence;
 pub mod equipartition;
 mod error;
 pub mod files;
+pub mod gibbs;
 pub mod integrator;
 pub mod lockstep;
 pub mod memory;

@@ -70,6 +70,9 @@ pub struct PathPlan {
     /// Average the kinetic energy v^T M v / 2 over the grid points with t >= this time (on
     /// the track's own clock where [`BlockEnsembles::own_clock`] says so).
     pub kinetic_after: Option<f64>,
+    /// An observable f(r, v) averaged in time like the kinetic energy (same grid points, weights
+    /// and burn-in `kinetic_after`): a configurational average of the invariant measure.
+    pub time_averaged: Option<Observable>,
     /// Observables to evaluate on the grid of a coarse level (`None`: none, nothing more is
     /// computed).
     pub observing: Option<Observing>,
@@ -134,6 +137,10 @@ pub struct TrackOutcome {
     /// clock for a time-changed scheme).
     #[serde(with = "crate::real::option", default)]
     pub kinetic_energy: Option<f64>,
+    /// Time average of the plan's [`PathPlan::time_averaged`] observable, over the points and
+    /// weights of `kinetic_energy`.
+    #[serde(with = "crate::real::option", default)]
+    pub time_average: Option<f64>,
     /// The plan's observables at the grid points of its [`Observing`] (grid-point-major:
     /// `observed[k * observables + o]` is observable o at t_(k+1)), up to where the path
     /// stopped; empty when the plan observes nothing.
@@ -204,6 +211,8 @@ struct Track {
     squared_sup: [f64; 3],
     /// The weighted sum of v^T M v / 2 and the sum of its weights.
     kinetic: (f64, f64),
+    /// The weighted sum of the plan's time-averaged observable (weights as `kinetic`).
+    averaged: f64,
     /// The track's time after its last step (its own clock or the grid's).
     time: f64,
     outcome: TrackOutcome,
@@ -212,7 +221,7 @@ struct Track {
 impl Track {
     /// The outcome of the whole path: step statistics from the ensemble's diagnostics, the
     /// distances if it finished against a reference, the kinetic energy's time average.
-    fn finish(self, d: &PathDiagnostics, has_reference: bool) -> TrackOutcome {
+    fn finish(self, d: &PathDiagnostics, has_reference: bool, averaging: bool) -> TrackOutcome {
         let mut o = self.outcome;
         o.steps = d.steps;
         o.truncated_steps = d.truncated_steps;
@@ -225,6 +234,9 @@ impl Track {
         }
         if self.kinetic.1 > 0.0 {
             o.kinetic_energy = Some(self.kinetic.0 / self.kinetic.1);
+            if averaging {
+                o.time_average = Some(self.averaged / self.kinetic.1);
+            }
         }
         o
     }
@@ -399,6 +411,9 @@ impl<S: System> Compare<'_, S> {
             track.kinetic.0 +=
                 clock.weight * kinetic_energy(self.system.mass(), v, &mut scratch.momentum);
             track.kinetic.1 += clock.weight;
+            if let Some(f) = &self.plan.time_averaged {
+                track.averaged += clock.weight * f.value(r, v);
+            }
         }
         if let Some(rec) = record {
             let d = [
@@ -957,7 +972,8 @@ impl Lockstep<'_> {
                 .zip(states.iter_mut())
                 .map(|(ensemble, track)| {
                     let diagnostics = ensemble.diagnostics(p).expect("p is a path of the block");
-                    std::mem::take(&mut track[p]).finish(&diagnostics, has_reference)
+                    let averaging = self.plan.time_averaged.is_some();
+                    std::mem::take(&mut track[p]).finish(&diagnostics, has_reference, averaging)
                 })
                 .collect();
         }

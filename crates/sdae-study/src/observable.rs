@@ -86,6 +86,15 @@ pub const PENDULUM: [&str; 5] = [
 /// v^T M v / 2.
 pub const MOLECULE: [&str; 3] = ["end_to_end", "cos_bond_angle", "kinetic_energy"];
 
+/// The built-in observables of the rigid triatomic: those of [`MOLECULE`] and the squared
+/// distance |X - c|^2 of the mean X of the atoms' positions from the trap's centre c.
+pub const TRIATOMIC: [&str; 4] = [
+    "end_to_end",
+    "cos_bond_angle",
+    "kinetic_energy",
+    "centroid_distance_squared",
+];
+
 /// The built-in observables of the fiber: the coordinates of its last bead (the tip), the
 /// end-to-end distance, the mean squared curvature over the inner beads
 /// (1 / (K - 2)) sum_i |u_i - u_(i-1)|^2 / ds_i^2 (u_i the unit tangent of segment i, ds_i the
@@ -104,7 +113,8 @@ pub const FIBER: [&str; 6] = [
 pub fn names_for(system: &SystemSpec) -> &'static [&'static str] {
     match system {
         SystemSpec::Pendulum(_) => &PENDULUM,
-        SystemSpec::ChainMolecule(_) | SystemSpec::Triatomic(_) => &MOLECULE,
+        SystemSpec::ChainMolecule(_) => &MOLECULE,
+        SystemSpec::Triatomic(_) => &TRIATOMIC,
         SystemSpec::Fiber(_) => &FIBER,
         SystemSpec::Custom(_) => &[],
     }
@@ -151,6 +161,24 @@ fn edit_distance(a: &str, b: &str) -> usize {
 /// the outputs it reads (a system built in code takes any name: its observables come as
 /// closures).
 pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
+    check_known(scene, name)?;
+    if let Some(output) = needs(name)
+        .iter()
+        .find(|o| !scene.wants(**o) && !matches!(scene.system, SystemSpec::Custom(_)))
+    {
+        return Err(StudyError::ObservableNeedsOutput {
+            scene: scene.name.clone(),
+            observable: name.to_string(),
+            output: output_key(*output),
+        });
+    }
+    Ok(())
+}
+
+/// Checks that `name` is a built-in observable of the scene's system (any name for a system
+/// built in code), whatever outputs the scene computes: a time average reads the state as the
+/// paths go, not a recorded output.
+pub fn check_known(scene: &Scene, name: &str) -> Result<(), StudyError> {
     if matches!(scene.system, SystemSpec::Custom(_)) {
         return Ok(());
     }
@@ -161,13 +189,6 @@ pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
             name: name.to_string(),
             nearest: nearest(name, known).map(str::to_string),
             known: known.join(", "),
-        });
-    }
-    if let Some(output) = needs(name).iter().find(|o| !scene.wants(**o)) {
-        return Err(StudyError::ObservableNeedsOutput {
-            scene: scene.name.clone(),
-            observable: name.to_string(),
-            output: output_key(*output),
         });
     }
     Ok(())
@@ -196,7 +217,8 @@ where
         .collect()
 }
 
-/// The built-in observable `name` of the scene's system, from its parameters and initial state.
+/// The built-in observable `name` of the scene's system, from its parameters and initial state
+/// (checked with [`check`]: the scene computes the outputs it reads).
 pub fn built_in<S>(
     scene: &Scene, prepared: &Prepared<S>, name: &str,
 ) -> Result<Observable, StudyError>
@@ -204,6 +226,26 @@ where
     S: System + Clone + Send + Sync + 'static,
 {
     check(scene, name)?;
+    build(scene, prepared, name)
+}
+
+/// The built-in observable `name` averaged in time along the paths (checked with
+/// [`check_known`]).
+pub fn time_averaged<S>(
+    scene: &Scene, prepared: &Prepared<S>, name: &str,
+) -> Result<Observable, StudyError>
+where
+    S: System + Clone + Send + Sync + 'static,
+{
+    check_known(scene, name)?;
+    build(scene, prepared, name)
+}
+
+/// The observable `name`, known to be one of the scene's system.
+fn build<S>(scene: &Scene, prepared: &Prepared<S>, name: &str) -> Result<Observable, StudyError>
+where
+    S: System + Clone + Send + Sync + 'static,
+{
     if name == "kinetic_energy" {
         let system = prepared.system.clone();
         return Ok(Observable::new(name, move |_r, v| {
@@ -228,6 +270,18 @@ where
         (SystemSpec::Pendulum(p), "cos_turn") => {
             let (r0, rho2) = (prepared.position.clone(), p.length * p.length);
             Box::new(move |r, _| dot(r, &r0) / rho2)
+        }
+        (SystemSpec::Triatomic(p), "centroid_distance_squared") => {
+            let centre = p.trap.center;
+            Box::new(move |r, _| {
+                let atoms = r.len() / 3;
+                (0..3)
+                    .map(|i| {
+                        let mean = (0..atoms).map(|a| r[3 * a + i]).sum::<f64>() / atoms as f64;
+                        (mean - centre[i]) * (mean - centre[i])
+                    })
+                    .sum()
+            })
         }
         (_, "end_to_end") => Box::new(|r, _| {
             let beads = r.len() / 3;

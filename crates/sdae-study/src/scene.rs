@@ -233,6 +233,12 @@ pub struct EquipartitionSpec {
     pub burn_in: f64,
     /// The values of C_eta of the half-explicit scheme to compare.
     pub c_eta: Vec<f64>,
+    /// A built-in observable of the scene's system whose time average (with the kinetic
+    /// energy's burn-in) measures the schemes' invariant-measure bias: against its closed form
+    /// where the system has one ([`crate::gibbs::exact_average`]), else against the finest
+    /// g-baoab estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub configurational: Option<String>,
 }
 
 /// Settings of the weak-error study: the observables f whose expectations E[f(X_T)] it

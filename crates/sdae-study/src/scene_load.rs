@@ -206,6 +206,9 @@ impl Scene {
                     "equipartition.c_eta contains {c}: each must be finite and > 0"
                 )));
             }
+            if let Some(name) = &eq.configurational {
+                crate::observable::check_known(self, name)?;
+            }
         }
         Ok(())
     }

@@ -51,6 +51,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         want_mu: true,
         limits: Limits::default(),
         kinetic_after: None,
+        time_averaged: None,
         observing: None,
     };
     let ensembles = |paths: usize| {
@@ -173,6 +174,7 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
         want_mu: false,
         limits: Limits::default(),
         kinetic_after: Some(after),
+        time_averaged: None,
         observing: None,
     };
     let build = |own_clock: bool| {

@@ -38,8 +38,9 @@ pub enum Command {
     /// Failures, residuals and truncation on the stiff and extreme scenes (default: every
     /// built-in scene with a [stability] table); writes <OUT>/stability/.
     Stability(EnsembleArgs),
-    /// Kinetic temperature of the Langevin scenes against h and C_eta (default: every
-    /// built-in scene with an [equipartition] table); writes <OUT>/equipartition/.
+    /// Kinetic temperature of the Langevin scenes against h and C_eta, and every scheme's
+    /// invariant-measure bias with its order against h and run time (default: every built-in
+    /// scene with an [equipartition] table); writes <OUT>/equipartition/.
     Equipartition(EnsembleArgs),
     /// Weak errors E[f(X_N)] - E[f(X_T)] of the scene's observables, weak orders and
     /// Richardson-Romberg extrapolation (default: the pendulum scene); writes

@@ -523,11 +523,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
 }
 
 /// The files the stability and equipartition studies put in their folder.
-const STUDY_FILES: [&str; 4] = [
+const STUDY_FILES: [&str; 5] = [
     "report.json",
     "report.md",
     "stability.svg",
     "equipartition.svg",
+    "bias.svg",
 ];
 
 /// Runs `jobs` one after the other; each finished run but the last is saved in its checkpoint
@@ -627,11 +628,11 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         }
     }
     let runs = run_all(&mut jobs, stop)?;
-    let mut reports = runs.iter().map(|run| build_report(run.clone()));
+    let mut scene_runs = runs.iter().cloned();
     let mut results = Vec::new();
     for (scene, variants, _) in &all {
-        let scene_reports: Vec<_> = reports.by_ref().take(variants.len()).collect();
-        results.push(equipartition::collect(&scene_reports).ok_or_else(|| {
+        let variant_runs: Vec<_> = scene_runs.by_ref().take(variants.len()).collect();
+        results.push(equipartition::collect(&variant_runs).ok_or_else(|| {
             Failure::Usage(format!(
                 "scene {} has no equipartition value (not a Langevin system)",
                 scene.name
@@ -650,7 +651,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
         );
     }
     println!(
-        "wrote {0}/report.json, report.md, equipartition.svg",
+        "wrote {0}/report.json, report.md, equipartition.svg, bias.svg",
         dir.display()
     );
     nothing_uncompared(results.iter().flat_map(|s| s.lost()).collect())

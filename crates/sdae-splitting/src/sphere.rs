@@ -38,6 +38,7 @@ impl<S: System> LaneScheme for Splitting<S> {
         if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
             return false;
         }
+        self.refresh_ou(h);
         let input = StepInput { h, dw };
         step_all(
             StepAll {
@@ -114,6 +115,8 @@ struct Kernel<const N: usize> {
 }
 
 impl<const N: usize> Kernel<N> {
+    /// The constants for h; the scheme's O factors must be those of h
+    /// ([`Splitting::refresh_ou`]).
     fn new<S: System>(scheme: &Splitting<S>, sphere: &Sphere, h: f64) -> Self {
         let inverse_mass: [f64; N] = std::array::from_fn(|k| scheme.inverse_mass[k]);
         let config = scheme.config();
@@ -125,7 +128,7 @@ impl<const N: usize> Kernel<N> {
             substeps: config.substeps,
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, f64::INFINITY),
             sphere: *sphere,
-            ou: std::array::from_fn(|k| OuFactors::new(&scheme.form, inverse_mass[k], h)),
+            ou: std::array::from_fn(|k| scheme.ou[k]),
             inverse_mass,
             monitor_velocity: config.monitor_velocity_constraint,
         }

@@ -61,16 +61,17 @@ pub struct Splitting<S: System> {
     /// (M^-1)_ii.
     pub(crate) inverse_mass: Vec<f64>,
     /// The O step's factors for the step size `ou_h`.
-    ou: Vec<OuFactors>,
+    pub(crate) ou: Vec<OuFactors>,
     ou_h: f64,
     solver: BallSolver<Gram<S>>,
     /// G_M(r) and its factors for the velocity projections, valid at `factored_at`.
     gram: Gram<S>,
     factor: <Gram<S> as Factorize>::Factor,
-    /// F(r) at `force_at`.
+    /// F(r) at `cached_at`.
     force: Vec<f64>,
-    /// The point of the cached force and factors (the last step's end), if valid.
-    cached_at: Option<Vec<f64>>,
+    /// The point of the cached force and factors (the last step's end), valid if `cached`.
+    cached_at: Vec<f64>,
+    cached: bool,
     factored: bool,
     r: Vec<f64>,
     v: Vec<f64>,
@@ -134,7 +135,8 @@ impl<S: System> Splitting<S> {
             ],
             ou_h: f64::NAN,
             force: vec![0.0; n],
-            cached_at: None,
+            cached_at: vec![0.0; n],
+            cached: false,
             factored: false,
             r: vec![0.0; n],
             v: vec![0.0; n],
@@ -172,8 +174,8 @@ impl<S: System> Splitting<S> {
     pub(crate) fn general_step(
         &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
-        let reuse = self.cached_at.as_deref() == Some(&*r);
-        self.cached_at = None;
+        let reuse = self.cached && self.cached_at == r;
+        self.cached = false;
         self.factored = reuse;
         self.r.copy_from_slice(r);
         self.v.copy_from_slice(v);
@@ -207,7 +209,8 @@ impl<S: System> Splitting<S> {
         }
         r.copy_from_slice(&self.r);
         v.copy_from_slice(&self.v);
-        self.cached_at = Some(self.r.clone());
+        self.cached_at.copy_from_slice(&self.r);
+        self.cached = true;
         let velocity_residual = self.config.monitor_velocity_constraint.then(|| {
             self.system
                 .constraint()
@@ -243,14 +246,19 @@ impl<S: System> Splitting<S> {
         }
     }
 
-    /// O: the exact Ornstein-Uhlenbeck update of v over h ([`OuFactors`]).
-    fn ornstein_uhlenbeck(&mut self, h: f64, dw: &[f64]) {
+    /// The O step's factors for h, computed when h changes.
+    pub(crate) fn refresh_ou(&mut self, h: f64) {
         if self.ou_h != h {
             for (f, &w) in self.ou.iter_mut().zip(&self.inverse_mass) {
                 *f = OuFactors::new(&self.form, w, h);
             }
             self.ou_h = h;
         }
+    }
+
+    /// O: the exact Ornstein-Uhlenbeck update of v over h ([`OuFactors`]).
+    fn ornstein_uhlenbeck(&mut self, h: f64, dw: &[f64]) {
+        self.refresh_ou(h);
         for (vi, f) in self.v.iter_mut().zip(&self.ou) {
             *vi *= f.decay;
         }

@@ -4,12 +4,12 @@
 //! against.
 //!
 //! - The Gibbs pendulum (unit mass, length rho, gravity c_g, kT = sigma^2 / (2 gamma)), with
-//!   k = c_g rho / kT: the planar <cos phi> = I1(k) / I0(k); the spherical
-//!   <cos phi> = coth(k) - 1 / k.
+//!   k = c_g rho / kT: the planar E[cos phi] = I1(k) / I0(k); the spherical
+//!   E[cos phi] = coth(k) - 1 / k.
 //! - The rigid triatomic in the trap V = sum_a k_t / 2 |x_a - c|^2: a rigid body's volume is
 //!   constant in (centre of mass, orientation), and V = 3 k_t / 2 |X - c|^2 + const with X the
 //!   mean of the atoms' positions, Gaussian with covariance kT / (3 k_t) for every orientation:
-//!   <|X - c|^2> = kT / k_t.
+//!   E[|X - c|^2] = kT / k_t.
 //! - The rigid trimer (three equal masses, two rigid bonds, a bond-angle potential V(theta)):
 //!   in the directions of the two bonds, the induced volume carries the factor
 //!   sqrt(4 - cos^2 theta) (a Gram determinant), and cos theta is uniform under the bond

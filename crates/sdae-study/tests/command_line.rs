@@ -357,8 +357,8 @@ fn wrong_lengths() -> [WrongLength; 9] {
         (
             triatomic,
             "levels",
-            "levels = [9, 15]",
-            "levels = [9, 15, 16]".into(),
+            "levels = [11, 17]",
+            "levels = [11, 17, 18]".into(),
             length(3, 2),
         ),
         (

@@ -57,6 +57,9 @@ pub struct TimeToBias {
     pub h: Option<f64>,
     /// Its seconds per path.
     pub seconds: Option<f64>,
+    /// Whether the sample can tell: false when no step size reached the target and even the
+    /// narrowest bias interval is wider than 2 x target (more paths are needed).
+    pub resolved: bool,
 }
 
 /// One scheme's biases.
@@ -260,10 +263,15 @@ fn cheapest(levels: &[BiasLevel], target: f64) -> TimeToBias {
                 .is_some_and(|b| b.ci_low >= -target && b.ci_high <= target)
         })
         .min_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    let narrowest = levels
+        .iter()
+        .filter_map(|l| l.bias.map(|b| b.ci_high - b.ci_low))
+        .fold(f64::INFINITY, f64::min);
     TimeToBias {
         target,
         h: best.map(|l| l.h),
         seconds: best.map(|l| l.seconds),
+        resolved: best.is_some() || narrowest <= 2.0 * target,
     }
 }
 
@@ -328,6 +336,16 @@ mod tests {
         let t = cheapest(&levels, 1e-2);
         assert_eq!((t.h, t.seconds), (Some(0.2), Some(5.0)));
         assert_eq!(cheapest(&levels, 1e-3).h, Some(0.1));
-        assert_eq!(cheapest(&levels, 1e-5).h, None);
+        let beyond = cheapest(&levels, 1e-5);
+        assert_eq!((beyond.h, beyond.resolved), (None, false));
+        // Narrow intervals away from 0: resolved, not reached.
+        for l in &mut levels {
+            l.bias = Some(Interval {
+                estimate: 0.5,
+                ci_low: 0.5 - 1e-6,
+                ci_high: 0.5 + 1e-6,
+            });
+        }
+        assert!(cheapest(&levels, 1e-3).resolved);
     }
 }

@@ -34,7 +34,8 @@ pub fn markdown(study: &BiasStudy) -> String {
          log |D(h)| against log h, D(h) = E[X_h - X_(h/2)] on the same Brownian paths, over \
          the differences whose 95% interval excludes 0, with a 95% paired-bootstrap interval. \
          Time: mean seconds per path of the cheapest step size whose bias interval lies within \
-         the target.\n\n| scheme | order [95% CI] | fitted on h | s/path to 1e-2 | s/path to 1e-3 |\n|---|---|---|---|---|\n",
+         the target (below resolution: no interval is narrow enough to tell; more paths are \
+         needed).\n\n| scheme | order [95% CI] | fitted on h | s/path to 1e-2 | s/path to 1e-3 |\n|---|---|---|---|---|\n",
         study.quantity, study.reference
     );
     for scheme in &study.schemes {
@@ -48,7 +49,8 @@ pub fn markdown(study: &BiasStudy) -> String {
                 .get(k)
                 .map_or("-".into(), |t| match (t.h, t.seconds) {
                     (Some(h), Some(sec)) => format!("{sec:.2e} (h = {h:.1e})"),
-                    _ => "not reached".into(),
+                    _ if t.resolved => "not reached".into(),
+                    _ => "below resolution".into(),
                 })
         };
         let _ = writeln!(

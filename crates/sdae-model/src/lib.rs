@@ -89,6 +89,7 @@ mod normals;
 mod observer;
 mod path_streams;
 mod scheme;
+mod sphere_lanes;
 mod sphere_root;
 mod system;
 mod tangent;
@@ -124,5 +125,6 @@ pub mod engine {
     pub use crate::lane_ensemble::{
         GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
+    pub use crate::sphere_lanes::{SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_lanes};
     pub use crate::sphere_root::{RootLanes, SphereRoot};
 }

@@ -13,13 +13,13 @@
 //!
 //! [`InherentSde`]: crate::InherentSde
 
-use std::marker::PhantomData;
-
-use pulp::{Simd, WithSimd};
+use pulp::Simd;
 use sdae_ift::SolverSettings;
-use sdae_manifold::lane_form::LaneFormVisitor;
-use sdae_manifold::{Constraint, Mass, Sphere};
-use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot, StepInput};
+use sdae_manifold::{Mass, Sphere};
+use sdae_model::engine::{
+    LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
+    step_sphere_lanes,
+};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_model::{LaneScheme, Scheme, System};
 
@@ -29,9 +29,6 @@ use crate::inherent::CurvedSystem;
 use crate::projected::ProjectedEulerMaruyama;
 use crate::truncated::TruncatedEulerMaruyama;
 use crate::updates;
-
-/// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
-const MAX_DIM: usize = 3;
 
 /// Which solver's step the lanes take.
 #[derive(Debug, Clone, Copy)]
@@ -73,94 +70,38 @@ impl<S: CurvedSystem> LaneScheme for StochasticHeun<S> {
     }
 }
 
-/// The lanes' step of `method` where the system is a sphere of dimension <= [`MAX_DIM`] with a
-/// diagonal mass and at most as many noise components; `false` otherwise.
+/// The lanes' step of `method` where the system is a sphere of dimension <= 3 with a diagonal
+/// mass and at most as many noise components ([`step_sphere_lanes`]); `false` otherwise.
 fn step_lanes<Sch: Scheme>(
     scheme: &mut Sch, method: Method, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
 ) -> bool {
-    if !<<Sch::System as System>::Mass as Mass>::DIAGONAL {
-        return false;
-    }
-    let system = scheme.system();
-    let choice = system
-        .constraint()
-        .lane_form(system.mass(), SphereOnly(PhantomData));
-    let Some((sphere, step_all)) = choice else {
-        return false;
-    };
-    if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
-        return false;
-    }
-    step_all(
-        StepAll {
-            scheme,
-            method,
-            paths,
-            sphere,
-            input,
-        },
-        width,
-    )
+    step_sphere_lanes(scheme, Kernels(method), paths, width, input)
 }
 
-/// Takes the sphere a constraint offers ([`LaneFormVisitor::sphere`]) with the lanes' step
-/// for it, so that the step is compiled only for systems on a sphere.
-struct SphereOnly<Sch>(PhantomData<Sch>);
+/// The solvers' kernels on a sphere ([`SphereKernels`]) for `method`.
+struct Kernels(Method);
 
-/// [`StepAll`] at the instruction set of a width.
-type SphereStep<'a, Sch> = fn(StepAll<'a, Sch>, LaneWidth) -> bool;
-
-impl<'a, Sch: Scheme> LaneFormVisitor for SphereOnly<&'a mut Sch> {
-    type Output = Option<(Sphere, SphereStep<'a, Sch>)>;
-    fn none(self) -> Self::Output {
-        None
-    }
-    fn sphere(self, sphere: &Sphere) -> Self::Output {
-        Some((*sphere, |step, width| width.dispatch(step)))
-    }
-}
-
-/// One step of every path.
-struct StepAll<'a, Sch: Scheme> {
-    scheme: &'a mut Sch,
-    method: Method,
-    paths: &'a mut LanePaths,
-    sphere: Sphere,
-    input: StepInput<'a>,
-}
-
-impl<Sch: Scheme> WithSimd for StepAll<'_, Sch> {
-    type Output = bool;
+impl<Sch: Scheme> SphereKernels<Sch> for Kernels {
+    type Kernel<const N: usize> = Kernel<N>;
     #[inline(always)]
-    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
-        match self.sphere.dim() {
-            2 => self.step::<Sd, 2>(simd),
-            _ => self.step::<Sd, 3>(simd),
-        }
-    }
-}
-
-impl<Sch: Scheme> StepAll<'_, Sch> {
-    #[inline(always)]
-    fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
-        let sde = SphereSde::<N>::new(self.scheme.system(), &self.sphere);
-        let projection = match self.method {
+    fn kernel<const N: usize>(&self, scheme: &Sch, sphere: &Sphere, h: f64) -> Option<Kernel<N>> {
+        let method = self.0;
+        let sde = SphereSde::<N>::new(scheme.system(), sphere);
+        let projection = match method {
             Method::Projected(settings) => Some(SphereRoot::new(
-                &self.sphere,
+                sphere,
                 sde.inverse_mass,
                 &settings,
                 f64::INFINITY,
             )),
             _ => None,
         };
-        let kernel = Kernel {
+        Some(Kernel {
             sde,
-            method: self.method,
+            method,
             projection,
-            h: self.input.h,
-        };
-        self.paths
-            .step_groups(simd, self.scheme, self.input, &kernel)
+            h,
+        })
     }
 }
 

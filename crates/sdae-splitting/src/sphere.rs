@@ -6,94 +6,38 @@
 //! A lane it does not decide (no real root: tau |v| beyond the radius; a non-finite value)
 //! goes through the scalar step, which reports the failure as for one path.
 
-use std::marker::PhantomData;
-
-use pulp::{Simd, WithSimd};
+use pulp::Simd;
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
-use sdae_model::engine::{LaneKernel, LanePaths, LaneRecord, LaneStep, SphereRoot, StepInput};
+use sdae_model::engine::{
+    LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
+    step_sphere_lanes,
+};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_model::{LaneScheme, StepOutcome, System};
 
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
-/// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
-const MAX_DIM: usize = 3;
-
 impl<S: System> LaneScheme for Splitting<S> {
     /// The sphere's closed form in lanes where the constraint is a sphere of dimension <= 3
     /// with a diagonal mass; `false` (every path through the scalar step) otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        if !<S::Mass as Mass>::DIAGONAL {
-            return false;
-        }
-        let system = &self.system;
-        let choice = system
-            .constraint()
-            .lane_form(system.mass(), SphereOnly(PhantomData));
-        let Some((sphere, step_all)) = choice else {
-            return false;
-        };
-        if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
-            return false;
-        }
         self.refresh_ou(h);
-        let input = StepInput { h, dw };
-        step_all(
-            StepAll {
-                scheme: self,
-                paths,
-                sphere,
-                input,
-            },
-            width,
-        )
+        step_sphere_lanes(self, Kernels, paths, width, StepInput { h, dw })
     }
 }
 
-/// Takes the sphere a constraint offers ([`LaneFormVisitor::sphere`]) with the lanes' step
-/// for it, so that the step is compiled only for systems on a sphere.
-struct SphereOnly<S>(PhantomData<S>);
+/// The splitting step's kernels on a sphere ([`SphereKernels`]).
+struct Kernels;
 
-/// [`StepAll`] at the instruction set of a width.
-type SphereStep<'a, S> = fn(StepAll<'a, S>, LaneWidth) -> bool;
-
-impl<'a, S: System> LaneFormVisitor for SphereOnly<&'a mut Splitting<S>> {
-    type Output = Option<(Sphere, SphereStep<'a, S>)>;
-    fn none(self) -> Self::Output {
-        None
-    }
-    fn sphere(self, sphere: &Sphere) -> Self::Output {
-        Some((*sphere, |step, width| width.dispatch(step)))
-    }
-}
-
-/// One step of every path.
-struct StepAll<'a, S: System> {
-    scheme: &'a mut Splitting<S>,
-    paths: &'a mut LanePaths,
-    sphere: Sphere,
-    input: StepInput<'a>,
-}
-
-impl<S: System> WithSimd for StepAll<'_, S> {
-    type Output = bool;
+impl<S: System> SphereKernels<Splitting<S>> for Kernels {
+    type Kernel<const N: usize> = Kernel<N>;
     #[inline(always)]
-    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
-        match self.sphere.dim() {
-            2 => self.step::<Sd, 2>(simd),
-            _ => self.step::<Sd, 3>(simd),
-        }
-    }
-}
-
-impl<S: System> StepAll<'_, S> {
-    #[inline(always)]
-    fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
-        let kernel = Kernel::<N>::new(self.scheme, &self.sphere, self.input.h);
-        self.paths
-            .step_groups(simd, self.scheme, self.input, &kernel)
+    fn kernel<const N: usize>(
+        &self, scheme: &Splitting<S>, sphere: &Sphere, h: f64,
+    ) -> Option<Kernel<N>> {
+        Some(Kernel::new(scheme, sphere, h))
     }
 }
 

@@ -392,7 +392,10 @@ where
             .time_averaged
             .as_deref()
             .filter(|_| st.kinetic_after.is_some() && scene.wants(Output::KineticEnergy))
-            .map(|name| crate::observable::time_averaged(scene, prepared, name))
+            .map(|name| {
+                crate::observable::check_known(scene, name)?;
+                crate::observable::build(scene, prepared, name)
+            })
             .transpose()?,
         observing: (!observables.is_empty()).then(|| Observing {
             observables: observables.to_vec(),

@@ -229,20 +229,11 @@ where
     build(scene, prepared, name)
 }
 
-/// The built-in observable `name` averaged in time along the paths (checked with
-/// [`check_known`]).
-pub fn time_averaged<S>(
+/// The observable `name`, known to be one of the scene's system ([`check_known`]; a time
+/// average reads the state as the paths go, whatever outputs the scene records).
+pub(crate) fn build<S>(
     scene: &Scene, prepared: &Prepared<S>, name: &str,
 ) -> Result<Observable, StudyError>
-where
-    S: System + Clone + Send + Sync + 'static,
-{
-    check_known(scene, name)?;
-    build(scene, prepared, name)
-}
-
-/// The observable `name`, known to be one of the scene's system.
-fn build<S>(scene: &Scene, prepared: &Prepared<S>, name: &str) -> Result<Observable, StudyError>
 where
     S: System + Clone + Send + Sync + 'static,
 {

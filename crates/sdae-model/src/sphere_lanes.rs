@@ -1,0 +1,116 @@
+//! The way a scheme steps the paths of a system on a sphere (dimension 2 or 3, a diagonal mass)
+//! in lanes, shared by the schemes whose lane form is a [`LaneKernel`] per sphere dimension:
+//! take the sphere the constraint offers ([`LaneFormVisitor::sphere`], so that the kernels are
+//! compiled only for systems on a sphere), choose the instruction set of the width and the
+//! dimension, build the kernel and step every group of lanes
+//! ([`LanePaths::step_groups`]).
+
+use std::marker::PhantomData;
+
+use pulp::{Simd, WithSimd};
+use sdae_manifold::lane_form::LaneFormVisitor;
+use sdae_manifold::{Constraint, Mass, Sphere};
+
+use crate::lane_ensemble::{LaneKernel, LanePaths, StepInput};
+use crate::lanes::LaneWidth;
+use crate::scheme::Scheme;
+use crate::system::System;
+
+/// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
+pub const SPHERE_LANES_MAX_DIM: usize = 3;
+
+/// A scheme's lane kernels on a sphere: the kernel of one step of size h for a sphere of N = 2
+/// or 3 coordinates, or `None` where the scheme has none (every path then goes through the
+/// scalar step).
+pub trait SphereKernels<Sch: ?Sized> {
+    /// The kernel for N coordinates.
+    type Kernel<const N: usize>: LaneKernel<Sch, N>;
+    /// The kernel of a step of size h on `sphere`.
+    fn kernel<const N: usize>(
+        &self, scheme: &Sch, sphere: &Sphere, h: f64,
+    ) -> Option<Self::Kernel<N>>;
+}
+
+/// Steps every path of `paths` through the kernels of `kernels` where the scheme's system is a
+/// sphere of dimension at most [`SPHERE_LANES_MAX_DIM`] with a diagonal mass and at most as many
+/// noise components; `false`, having changed nothing, otherwise.
+pub fn step_sphere_lanes<Sch, K>(
+    scheme: &mut Sch, kernels: K, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
+) -> bool
+where
+    Sch: Scheme,
+    K: SphereKernels<Sch>,
+{
+    if !<<Sch::System as System>::Mass as Mass>::DIAGONAL {
+        return false;
+    }
+    let system = scheme.system();
+    let choice = system.constraint().lane_form(
+        system.mass(),
+        SphereOnly::<'_, Sch, K>(PhantomData, PhantomData),
+    );
+    let Some((sphere, step_all)) = choice else {
+        return false;
+    };
+    if sphere.dim() > SPHERE_LANES_MAX_DIM || paths.noise_dim() > sphere.dim() {
+        return false;
+    }
+    let all = StepAll {
+        scheme,
+        kernels,
+        paths,
+        sphere,
+        input,
+    };
+    step_all(all, width)
+}
+
+/// Takes the sphere a constraint offers with the step for it.
+struct SphereOnly<'a, Sch, K>(PhantomData<&'a mut Sch>, PhantomData<K>);
+
+/// [`StepAll`] at the instruction set of a width.
+type SphereStep<'a, Sch, K> = fn(StepAll<'a, Sch, K>, LaneWidth) -> bool;
+
+impl<'a, Sch: Scheme, K: SphereKernels<Sch>> LaneFormVisitor for SphereOnly<'a, Sch, K> {
+    type Output = Option<(Sphere, SphereStep<'a, Sch, K>)>;
+    fn none(self) -> Self::Output {
+        None
+    }
+    fn sphere(self, sphere: &Sphere) -> Self::Output {
+        Some((*sphere, |step, width| width.dispatch(step)))
+    }
+}
+
+/// One step of every path.
+struct StepAll<'a, Sch, K> {
+    scheme: &'a mut Sch,
+    kernels: K,
+    paths: &'a mut LanePaths,
+    sphere: Sphere,
+    input: StepInput<'a>,
+}
+
+impl<Sch: Scheme, K: SphereKernels<Sch>> WithSimd for StepAll<'_, Sch, K> {
+    type Output = bool;
+    #[inline(always)]
+    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
+        match self.sphere.dim() {
+            2 => self.step::<Sd, 2>(simd),
+            _ => self.step::<Sd, 3>(simd),
+        }
+    }
+}
+
+impl<Sch: Scheme, K: SphereKernels<Sch>> StepAll<'_, Sch, K> {
+    #[inline(always)]
+    fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
+        let Some(kernel) = self
+            .kernels
+            .kernel::<N>(self.scheme, &self.sphere, self.input.h)
+        else {
+            return false;
+        };
+        self.paths
+            .step_groups(simd, self.scheme, self.input, &kernel)
+    }
+}

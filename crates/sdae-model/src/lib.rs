@@ -125,6 +125,8 @@ pub mod engine {
     pub use crate::lane_ensemble::{
         GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
-    pub use crate::sphere_lanes::{SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_lanes};
+    pub use crate::sphere_lanes::{
+        SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_groups, step_sphere_lanes,
+    };
     pub use crate::sphere_root::{RootLanes, SphereRoot};
 }

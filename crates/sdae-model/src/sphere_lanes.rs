@@ -52,9 +52,30 @@ where
     let Some((sphere, step_all)) = choice else {
         return false;
     };
-    if sphere.dim() > SPHERE_LANES_MAX_DIM || paths.noise_dim() > sphere.dim() {
-        return false;
-    }
+    step_all(
+        StepAll {
+            scheme,
+            kernels,
+            paths,
+            sphere,
+            input,
+        },
+        width,
+    )
+}
+
+/// [`step_sphere_lanes`] for a scheme that has taken the sphere from its constraint itself:
+/// `false`, having changed nothing, beyond [`SPHERE_LANES_MAX_DIM`] coordinates, with more
+/// noise components than coordinates or where the kernels give none.
+#[inline(always)]
+pub fn step_sphere_groups<Sch, K>(
+    scheme: &mut Sch, kernels: K, paths: &mut LanePaths, width: LaneWidth, sphere: Sphere,
+    input: StepInput<'_>,
+) -> bool
+where
+    Sch: Scheme,
+    K: SphereKernels<Sch>,
+{
     let all = StepAll {
         scheme,
         kernels,
@@ -62,7 +83,7 @@ where
         sphere,
         input,
     };
-    step_all(all, width)
+    all.checked(width)
 }
 
 /// Takes the sphere a constraint offers with the step for it.
@@ -77,7 +98,7 @@ impl<'a, Sch: Scheme, K: SphereKernels<Sch>> LaneFormVisitor for SphereOnly<'a, 
         None
     }
     fn sphere(self, sphere: &Sphere) -> Self::Output {
-        Some((*sphere, |step, width| width.dispatch(step)))
+        Some((*sphere, StepAll::checked))
     }
 }
 
@@ -102,6 +123,16 @@ impl<Sch: Scheme, K: SphereKernels<Sch>> WithSimd for StepAll<'_, Sch, K> {
 }
 
 impl<Sch: Scheme, K: SphereKernels<Sch>> StepAll<'_, Sch, K> {
+    /// Every group at the instruction set of `width`, if the dimensions fit.
+    #[inline(always)]
+    fn checked(self, width: LaneWidth) -> bool {
+        let n = self.sphere.dim();
+        if n > SPHERE_LANES_MAX_DIM || self.paths.noise_dim() > n {
+            return false;
+        }
+        width.dispatch(self)
+    }
+
     #[inline(always)]
     fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
         let Some(kernel) = self

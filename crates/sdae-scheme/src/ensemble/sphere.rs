@@ -8,12 +8,13 @@
 //! The ensemble runs it W paths at a time; [`Stepper`]'s own step of one path runs the same
 //! code at W = 1, in plain f64 ([`step_one_lane`]).
 
-use pulp::{Simd, WithSimd};
+use pulp::Simd;
 use sdae_ift::{Certificate, Method};
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere, motion_measure};
 use sdae_model::engine::{
-    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereRoot, StepInput,
+    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
+    step_sphere_groups,
 };
 use sdae_model::lanes::{LaneWidth, Lanes, dot};
 use sdae_model::{Scheme, StepOutcome, System};
@@ -22,55 +23,27 @@ use super::newton::kappa_ratio;
 use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
 
-/// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
-const MAX_DIM: usize = 3;
-
-/// One step of every path of an ensemble whose constraint is `sphere`; `false` where the
-/// lanes do not apply (more than [`MAX_DIM`] coordinates, or more noise components than
-/// coordinates).
+/// One step of every path of an ensemble whose constraint is `sphere`
+/// ([`step_sphere_groups`]); `false` where the lanes do not apply (more than three
+/// coordinates, more noise components than coordinates, a mass that is not diagonal).
 pub(super) fn step_all<S: System>(
     stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, sphere: Sphere,
     input: StepInput<'_>,
 ) -> bool {
-    if sphere.dim() > MAX_DIM || paths.noise_dim() > sphere.dim() {
-        return false;
-    }
-    width.dispatch(StepAll {
-        stepper,
-        paths,
-        sphere,
-        input,
-    })
+    step_sphere_groups(stepper, Kernels, paths, width, sphere, input)
 }
 
-/// [`step_all`] at one instruction set.
-struct StepAll<'a, S: System> {
-    stepper: &'a mut Stepper<S>,
-    paths: &'a mut LanePaths,
-    sphere: Sphere,
-    input: StepInput<'a>,
-}
+/// The stepper's kernels on a sphere ([`SphereKernels`]).
+struct Kernels;
 
-impl<S: System> WithSimd for StepAll<'_, S> {
-    type Output = bool;
+impl<S: System> SphereKernels<Stepper<S>> for Kernels {
+    type Kernel<const N: usize> = Kernel<N>;
+    /// The kernel, or `None` if the mass is not diagonal.
     #[inline(always)]
-    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
-        match self.sphere.dim() {
-            2 => self.step::<Sd, 2>(simd),
-            _ => self.step::<Sd, 3>(simd),
-        }
-    }
-}
-
-impl<S: System> StepAll<'_, S> {
-    /// Every group of W lanes through the closed form; `false` if the mass is not diagonal.
-    #[inline(always)]
-    fn step<Sd: Simd, const N: usize>(self, simd: Sd) -> bool {
-        let Some(kernel) = Kernel::<N>::new(self.stepper, &self.sphere, self.input.h) else {
-            return false;
-        };
-        self.paths
-            .step_groups(simd, self.stepper, self.input, &kernel)
+    fn kernel<const N: usize>(
+        &self, stepper: &Stepper<S>, sphere: &Sphere, h: f64,
+    ) -> Option<Kernel<N>> {
+        Kernel::new(stepper, sphere, h)
     }
 }
 

@@ -341,6 +341,8 @@ impl LanePaths {
                 r: state.0,
                 v: state.1,
                 dw: increments,
+                group: offset / Sd::F64_LANES,
+                alive,
             };
             let stepped = kernel.step(scheme, state, rows);
             (rows.r_copy, rows.v_copy, rows.dw) = (r_copy, v_copy, dw_copy);
@@ -447,6 +449,11 @@ pub struct GroupState<'a, Sd: Simd> {
     pub v: &'a [Lanes<Sd>],
     /// The increments, l rows.
     pub dw: &'a [Lanes<Sd>],
+    /// The group's index in the ensemble (its paths are W * group .. W * (group + 1)): a
+    /// kernel may keep what it computed for the group's next step.
+    pub group: usize,
+    /// The lanes whose paths go on: only their r_{k+1} and v_{k+1} are stored.
+    pub alive: LaneMask<Sd>,
 }
 
 /// One ensemble step's size h and the Brownian increments dw of every path (coordinate j of

@@ -83,6 +83,7 @@ mod grid;
 mod increments;
 mod lane_diagnostics;
 mod lane_ensemble;
+mod newton_root;
 /// W paths at once in SIMD lanes ([`sdae_lanes`], re-exported).
 pub use sdae_lanes as lanes;
 mod normals;
@@ -118,13 +119,17 @@ pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, projec
 /// a group of lanes in a step ([`GroupState`](engine::GroupState), [`LaneStep`](engine::LaneStep)),
 /// the kernels ([`LaneKernel`](engine::LaneKernel) at a fixed width, [`WideKernel`](engine::WideKernel)
 /// over an instruction set), the per-lane diagnostics ([`LaneRecord`](engine::LaneRecord)), the
-/// buffers a scheme keeps for them ([`LaneStore`](engine::LaneStore)) and the kappa root of a
-/// sphere in lanes ([`SphereRoot`](engine::SphereRoot), [`RootLanes`](engine::RootLanes)).
+/// buffers a scheme keeps for them ([`LaneStore`](engine::LaneStore)) and the kappa root in
+/// lanes: in closed form on a sphere ([`SphereRoot`](engine::SphereRoot),
+/// [`RootLanes`](engine::RootLanes)), by Newton for a constraint's lane formulas
+/// ([`NewtonRoot`](engine::NewtonRoot), [`NewtonLanes`](engine::NewtonLanes) at
+/// [`Drifted`](engine::Drifted)).
 pub mod engine {
     pub use crate::lane_diagnostics::LaneRecord;
     pub use crate::lane_ensemble::{
         GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
+    pub use crate::newton_root::{Drifted, NewtonLanes, NewtonRoot, build_lane_form};
     pub use crate::sphere_lanes::{
         SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_groups, step_sphere_lanes,
     };

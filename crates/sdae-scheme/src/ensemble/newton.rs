@@ -18,66 +18,21 @@
 //! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
 //! scalar functions path by path ([`per_path`]).
 
-use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
-use sdae_ift::{ProbeMap, power_iteration};
-use sdae_manifold::Constraint;
-use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
-    active_any,
-};
+use sdae_manifold::lane_form::{ConstraintLanes, FactorLanes};
 use sdae_manifold::vector::sum_squares;
-use sdae_model::engine::{GroupState, LanePaths, LaneRecord, LaneRows, StepInput, WideKernel};
+use sdae_model::engine::{
+    Drifted, GroupState, LanePaths, LaneRecord, LaneRows, NewtonLanes, NewtonRoot, StepInput,
+    WideKernel, build_lane_form,
+};
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
 use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
-
-/// y = r_k + eta h v_k of eq. 3.1, formed where it is read: the same bits each time, and no
-/// pass that stores it.
-pub(super) struct Drifted<'a, Sd: Simd> {
-    pub(super) r: &'a [Lanes<Sd>],
-    pub(super) v: &'a [Lanes<Sd>],
-    pub(super) eta_h: Lanes<Sd>,
-}
-
-impl<Sd: Simd> Drifted<'_, Sd> {
-    /// y_k.
-    #[inline(always)]
-    fn at(&self, k: usize) -> Lanes<Sd> {
-        self.coords::<1>(k)[0]
-    }
-}
-
-impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
-    #[inline(always)]
-    fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
-        let (r, v) = (self.r.coords::<N>(k), self.v.coords::<N>(k));
-        let mut y = r;
-        for j in 0..N {
-            y[j] = formulas::drifted(r[j], v[j], self.eta_h);
-        }
-        y
-    }
-}
-
-/// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
-struct AtZero<'a, Sd: Simd, C: ConstraintLanes> {
-    jacobian: &'a Jacobian<Sd, C>,
-    factor_at_zero: &'a C::Factor<Sd>,
-}
-
-impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for AtZero<'_, Sd, C> {
-    #[inline(always)]
-    fn apply(&mut self, probe: &[Lanes<Sd>], image: &mut [Lanes<Sd>]) {
-        self.jacobian.mul_vec(probe, image);
-        self.factor_at_zero.solve_in_place(image);
-    }
-}
 
 /// One step of every path of an ensemble whose constraint has the lane form C
 /// ([`LaneFormVisitor::newton`]): `false` if the constraint offers none for this mass after
@@ -108,9 +63,7 @@ impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
         let mut store = std::mem::take(&mut self.stepper.lanes);
         let kept = store.take::<(Kernel<Sd, C>, LaneRows<Sd>)>().or_else(|| {
             let system = self.stepper.system();
-            let constraint = system
-                .constraint()
-                .lane_form(system.mass(), Build::<C>(PhantomData))?;
+            let constraint = build_lane_form::<C, _>(system)?;
             let (n, m) = constraint.dims();
             let rows = LaneRows::new(simd, n, m, system.noise_dim());
             Some(Box::new((Kernel::new(simd, constraint), rows)))
@@ -129,159 +82,26 @@ impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
     }
 }
 
-/// Builds the lane form C that a constraint offered ([`LaneFormVisitor::newton`]) when an
-/// ensemble first steps.
-struct Build<C>(PhantomData<C>);
-
-impl<C: ConstraintLanes> LaneFormVisitor for Build<C> {
-    type Output = Option<C>;
-    fn none(self) -> Option<C> {
-        None
-    }
-    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Option<C> {
-        // L is C: the constraint offers one lane form, which chose this kernel.
-        let built: Box<dyn Any> = Box::new(build()?);
-        built.downcast::<C>().ok().map(|lanes| *lanes)
-    }
-}
-
 /// The constraint's lane form and the buffers of one group's step.
 struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     h: f64,
     constraint: C,
-    x: Vec<Lanes<Sd>>,
-    /// Scratch for R(gamma) of the kappa system (a constraint that stores g(x1)).
-    residual: Vec<Lanes<Sd>>,
-    /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
-    jacobian: Jacobian<Sd, C>,
-    factor_at_zero: C::Factor<Sd>,
-    factor: C::Factor<Sd>,
-    /// gamma, then the contraction's probes, then -Dg(r_{k+1}) v_{k+1}.
-    gamma: Vec<Lanes<Sd>>,
-    step: Vec<Lanes<Sd>>,
+    /// The kappa root; its `gamma` rows are scratch after it (-Dg(r_{k+1}) v_{k+1}).
+    root: NewtonRoot<Sd, C>,
     /// Path-by-path buffers of a system without lane forms of this size.
     scratch: Vec<f64>,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     fn new(simd: Sd, constraint: C) -> Self {
-        let (n, m) = constraint.dims();
-        let zero = Lanes::splat(simd, 0.0);
         Self {
             simd,
             h: 0.0,
+            root: NewtonRoot::new(simd, &constraint),
             constraint,
-            x: vec![zero; n],
-            residual: vec![zero; m],
-            jacobian: MatrixLanes::zeros(simd, m),
-            factor_at_zero: FactorLanes::zeros(simd, m),
-            factor: FactorLanes::zeros(simd, m),
-            gamma: vec![zero; m],
-            step: vec![zero; m],
             scratch: Vec::new(),
         }
-    }
-
-    #[inline(always)]
-    fn splat(&self, x: f64) -> Lanes<Sd> {
-        Lanes::splat(self.simd, x)
-    }
-
-    /// The kappa root's Newton iteration from 0 at y = r_k + eta h v_k and its certificate,
-    /// with max_i |y_i| for the residual floor (`BallSolver::solve` on the general path,
-    /// without the homotopy): the lanes it decides, with r_{k+1} in `x` (the caller takes y
-    /// where the root is 0), the Jacobian at the root factored in `factor` (or
-    /// `factor_at_zero`, `true` in the returned flag's lanes) and the certificate's numbers.
-    #[inline(always)]
-    fn kappa_root_lanes(
-        &mut self, config: &StepperConfig, y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
-    ) -> KappaLanes<Sd> {
-        let r = y.r;
-        let settings = &config.solver;
-        let zero = self.splat(0.0);
-        let one = self.splat(1.0);
-        // The residual floor of g near y (`Constraint::value_roundoff`) and the tolerance.
-        let floor = self.splat(4.0 * f64::EPSILON) * max_abs_y / self.constraint.roundoff_length();
-        let tolerance = self.splat(settings.tolerance).max(floor);
-
-        let mut step = std::mem::take(&mut self.step);
-        let (at_y, first_step) = self.first_newton_step(y, &mut step);
-        let (residual_at_zero, ok) = (at_y.largest, at_y.ok);
-        let at_zero = residual_at_zero.le(tolerance);
-        for (g, s) in self.gamma.iter_mut().zip(&step) {
-            *g = Lanes::select(at_zero, zero, zero - *s);
-        }
-        let mut lanes = Iterates {
-            ok,
-            active: ok.and(!at_zero),
-            iterations: zero,
-            residual: residual_at_zero,
-            previous: residual_at_zero,
-        };
-        let mut iterated = false;
-        let max_iterations = settings.max_iterations;
-        for k in 1..=max_iterations {
-            if !active_any(lanes.active) {
-                break;
-            }
-            iterated = true;
-            self.constraint
-                .displace(r, &self.gamma, Some(y), &mut self.x);
-            let at_x = self.constraint.evaluate_and_factor(
-                &self.x[..],
-                r,
-                &mut self.residual,
-                &mut self.jacobian,
-                &mut self.factor,
-                &mut step,
-            );
-            let r_k = at_x.largest;
-            let converged = settings.converged(r_k, lanes.previous, tolerance, k == max_iterations);
-            // The next Newton step only if a lane goes on (most often none does: one
-            // iteration converges); the factors at the root are kept for the velocity either way.
-            if active_any(lanes.active.and(!converged)) {
-                self.factor.back_substitute(&mut step);
-            }
-            // A lane that fails now (no finite residual, a rejected pivot, the last
-            // iteration without convergence) goes through the scalar step.
-            let fails = (!at_x.ok).or(if k == max_iterations {
-                !converged
-            } else {
-                !one.eq(one)
-            });
-            lanes.record(self.splat(k as f64), r_k, converged, fails);
-            self.newton_update(lanes.active, &step);
-        }
-        self.step = step;
-        let (ok, norm, contraction) = self.certificate(config, first_step, lanes.ok);
-        KappaLanes {
-            ok,
-            iterated,
-            at_zero: lanes.iterations.eq(zero),
-            iterations: lanes.iterations,
-            residual: lanes.residual,
-            norm,
-            contraction,
-        }
-    }
-
-    /// R(0) and J(0) at x = y, J(0) factored into `factor_at_zero`, and the first Newton step
-    /// J(0)^-1 R(0) into `step`: the evaluation's result and the step's length.
-    #[inline(always)]
-    fn first_newton_step(
-        &mut self, y: &Drifted<'_, Sd>, step: &mut [Lanes<Sd>],
-    ) -> (Evaluation<Sd>, Lanes<Sd>) {
-        let at_y = self.constraint.evaluate_and_factor(
-            y,
-            y.r,
-            &mut self.residual,
-            &mut self.jacobian,
-            &mut self.factor_at_zero,
-            step,
-        );
-        self.factor_at_zero.back_substitute(step);
-        (at_y, sum_squares(step).sqrt())
     }
 
     /// eta of eq. 3.2 from v, a and their squared norms, or with the constraint's local
@@ -297,55 +117,6 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             None
         };
         formulas::eta(config.c_eta, self.h, v_norm2.sqrt(), a_norm2.sqrt(), local)
-    }
-
-    /// gamma <- gamma - step in the `active` lanes (the Newton update).
-    #[inline(always)]
-    fn newton_update(&mut self, active: LaneMask<Sd>, step: &[Lanes<Sd>]) {
-        if active.all() {
-            for (g, s) in self.gamma.iter_mut().zip(step) {
-                *g = *g - *s;
-            }
-        } else if active_any(active) {
-            let zero = self.splat(0.0);
-            for (g, s) in self.gamma.iter_mut().zip(step) {
-                *g = *g - Lanes::select(active, *s, zero);
-            }
-        }
-    }
-
-    /// The root's certificate in the lanes `ok` (`BallSolver`'s): |gamma*| inside the ball of
-    /// radius C_kappa, within the plausibility bound of the first Newton step, and a
-    /// contraction estimate below its maximum where the radius is finite. The lanes that
-    /// pass, |gamma*| and the contraction estimate.
-    #[inline(always)]
-    fn certificate(
-        &mut self, config: &StepperConfig, first_step: Lanes<Sd>, mut ok: LaneMask<Sd>,
-    ) -> (LaneMask<Sd>, Lanes<Sd>, Lanes<Sd>) {
-        let settings = &config.solver;
-        let norm = sum_squares(&self.gamma).sqrt();
-        let radius = config.c_kappa;
-        ok = ok.and(norm.lt(self.splat(radius)));
-        ok = ok.and(!settings.implausible(norm, settings.plausibility_bound(first_step)));
-        // gamma* is not read again: the probes take its place, starting at gamma* / |gamma*|.
-        for p in self.gamma.iter_mut() {
-            *p = *p / norm;
-        }
-        let Self {
-            jacobian,
-            factor_at_zero,
-            gamma: probe,
-            step: image,
-            ..
-        } = self;
-        let mut map = AtZero::<Sd, C> {
-            jacobian,
-            factor_at_zero,
-        };
-        let contraction =
-            power_iteration(norm, settings.probes(radius), probe, image, false, &mut map);
-        ok = ok.and(!settings.not_contracting(contraction, radius));
-        (ok, norm, contraction)
     }
 
     /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw, which
@@ -366,23 +137,19 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         scale.rescale(force);
         // lambda = -Dg(r') v~ solved with the Newton matrix at the root. Lanes whose root is 0
         // were evaluated again at 0 if any lane iterated: then `factor` holds every lane's.
-        let factor = if root.iterated {
-            &self.factor
-        } else {
-            &self.factor_at_zero
-        };
+        let factor = self.root.root_factor(&root);
         self.constraint
-            .velocity_right_hand_side(&self.x, force, v, factor, dmu);
+            .velocity_right_hand_side(&self.root.x, force, v, factor, dmu);
         factor.back_substitute(dmu);
         // v' = v~ + M^-1 grad g(r) lambda in place of v~, and max_i |(Dg(r') v')_i| (gamma's
         // rows are free until the next step's Newton iteration sets them).
         let (finite, velocity_residual) = self.constraint.finish_velocity(
             r,
             dmu,
-            &self.x,
+            &self.root.x,
             config.monitor_velocity_constraint,
             force,
-            &mut self.gamma,
+            &mut self.root.gamma,
         );
         ok = ok.and(finite);
         Some((
@@ -399,12 +166,12 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         ))
     }
 
-    /// [`Kernel::kappa_root_lanes`] compiled once per instruction set and constraint, not once
-    /// per system.
+    /// The kappa root ([`NewtonRoot::solve`] in the ball of radius C_kappa) compiled once per
+    /// instruction set and constraint, not once per system.
     #[inline(never)]
     fn kappa_root(
         &mut self, config: &StepperConfig, y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
-    ) -> KappaLanes<Sd> {
+    ) -> NewtonLanes<Sd> {
         let simd = self.simd;
         simd.vectorize(KappaRootOp {
             kernel: self,
@@ -430,8 +197,8 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     }
 }
 
-/// [`Kernel::kappa_root_lanes`] as an operation `Simd::vectorize` compiles as a function of
-/// its own with the caller's instruction set (a closure would not inherit it).
+/// [`Kernel::kappa_root`] as an operation `Simd::vectorize` compiles as a function of its own
+/// with the caller's instruction set (a closure would not inherit it).
 struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
     kernel: &'a mut Kernel<Sd, C>,
     config: &'a StepperConfig,
@@ -440,11 +207,20 @@ struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
 }
 
 impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
-    type Output = KappaLanes<Sd>;
+    type Output = NewtonLanes<Sd>;
     #[inline(always)]
-    fn with_simd<S: Simd>(self, _simd: S) -> KappaLanes<Sd> {
-        self.kernel
-            .kappa_root_lanes(self.config, self.y, self.max_abs_y)
+    fn with_simd<S: Simd>(self, _simd: S) -> NewtonLanes<Sd> {
+        let Kernel {
+            constraint, root, ..
+        } = self.kernel;
+        let config = self.config;
+        root.solve(
+            constraint,
+            &config.solver,
+            config.c_kappa,
+            self.y,
+            self.max_abs_y,
+        )
     }
 }
 
@@ -480,50 +256,7 @@ struct Velocity<Sd: Simd> {
     eta: Lanes<Sd>,
     /// The lanes whose noise is rescaled, and the factor sqrt(eta) (1 elsewhere).
     scale: ForceScale<Lanes<Sd>>,
-    root: KappaLanes<Sd>,
-}
-
-/// The kappa root's Newton iteration, per lane, while it runs.
-struct Iterates<Sd: Simd> {
-    /// The lanes not failed so far.
-    ok: LaneMask<Sd>,
-    /// The lanes still iterating.
-    active: LaneMask<Sd>,
-    /// The iteration at which a lane converged (0 while it runs, and at a root of 0).
-    iterations: Lanes<Sd>,
-    /// The residual at which a lane converged.
-    residual: Lanes<Sd>,
-    /// The residual of the last iteration of the lanes still iterating.
-    previous: Lanes<Sd>,
-}
-
-impl<Sd: Simd> Iterates<Sd> {
-    /// Iteration k with residual `r_k`: the active lanes that `fails` drop out of `ok`, those
-    /// `converged` (and not failed) record k and r_k, the rest go on.
-    #[inline(always)]
-    fn record(
-        &mut self, k: Lanes<Sd>, r_k: Lanes<Sd>, converged: LaneMask<Sd>, fails: LaneMask<Sd>,
-    ) {
-        self.ok = self.ok.and(!self.active.and(fails));
-        let finished = self.active.and(converged).and(!fails);
-        self.iterations = Lanes::select(finished, k, self.iterations);
-        self.residual = Lanes::select(finished, r_k, self.residual);
-        self.active = self.active.and(!converged).and(!fails);
-        self.previous = Lanes::select(self.active, r_k, self.previous);
-    }
-}
-
-/// What the kappa root's Newton iteration decided, per lane.
-struct KappaLanes<Sd: Simd> {
-    ok: LaneMask<Sd>,
-    /// Whether any Newton iteration ran (then `factor` holds every lane's Jacobian at its root).
-    iterated: bool,
-    /// The lanes whose root is 0 (R(0) within the tolerance): r_{k+1} = y.
-    at_zero: LaneMask<Sd>,
-    iterations: Lanes<Sd>,
-    residual: Lanes<Sd>,
-    norm: Lanes<Sd>,
-    contraction: Lanes<Sd>,
+    root: NewtonLanes<Sd>,
 }
 
 impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
@@ -536,7 +269,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         let system = stepper.system();
         let config = stepper.config();
         let h = self.h;
-        let GroupState { r, v, dw } = state;
+        let GroupState { r, v, dw, .. } = state;
         let LaneRows {
             r: r_next,
             v: v_next,
@@ -560,7 +293,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
         // the force here, v~ in the velocity update.
         let scale = ForceScale::new(config.rescale_noise, eta, h);
-        let y = Drifted { r, v, eta_h };
+        let y = Drifted { r, v, tau: eta_h };
         let max_abs_y = scale_and_max_abs(&y, scale.drift_h, force);
         if !system.add_noise_lanes(r, v, dw, force) {
             per_path([r, v, dw], force, &mut self.scratch, |[r, v, dw], out| {
@@ -569,12 +302,8 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         }
         let root = self.kappa_root(config, &y, max_abs_y);
         ok = ok.and(root.ok);
-        // r_{k+1}: y where the root is 0, else x (most often no lane's root is 0).
-        if active_any(root.at_zero) {
-            for (k, x) in self.x.iter_mut().enumerate() {
-                *x = Lanes::select(root.at_zero, y.at(k), *x);
-            }
-        }
+        // r_{k+1}: y where the root is 0, else x.
+        self.root.point(&root, &y);
 
         let outcomes = self.velocity(
             config,
@@ -593,7 +322,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
         );
         // r_{k+1} is in `x`: the rows take it, `x` takes the rows' old buffer (overwritten
         // next step).
-        std::mem::swap(r_next, &mut self.x);
+        std::mem::swap(r_next, &mut self.root.x);
         outcomes
     }
 }

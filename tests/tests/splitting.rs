@@ -249,7 +249,8 @@ fn check_residuals(scheme: &str, system: &str, (position, velocity): (f64, f64),
 
 /// Each path of an ensemble, at every lane width, has the numbers of its own run through
 /// `run_path` with the same increments, bit for bit: the pendulum (the sphere's closed form
-/// in lanes) and the chain molecule (its paths one at a time through the scalar step).
+/// in lanes), the chain molecule (Newton's SHAKE over lanes with Thomas' algorithm) and the
+/// rigid triatomic (the same with an LU factorization per lane, unequal masses).
 #[test]
 fn lanes_and_widths_give_each_path_its_own_numbers() {
     let thermal = pendulum(PendulumParams {
@@ -261,20 +262,43 @@ fn lanes_and_widths_give_each_path_its_own_numbers() {
     .unwrap();
     let molecule = chain_molecule(&ChainMoleculeParams::default()).unwrap();
     let (r_mol, v_mol) = molecule.initial_state();
-    for (name, config) in configs() {
+    let triatomic = rigid_triatomic(&RigidTriatomicParams::default()).unwrap();
+    let (r_tri, v_tri) = triatomic.initial_state();
+    // Monitored: an ensemble's diagnostics hold the residuals the scheme reports, and
+    // `run_path` measures those it does not.
+    for (name, config) in configs().map(|(name, config)| (name, config.monitored())) {
         let pendulum_scheme = || Splitting::new(thermal.clone(), config).unwrap();
         let r0 = [0.6, 0.0, -0.8];
         let v0 = [0.0, 0.9, 0.0];
         compare_with_one_path(name, pendulum_scheme, &r0, &v0, 0.05, 13, true);
         let molecule_scheme = || Splitting::new(molecule.clone(), config).unwrap();
-        compare_with_one_path(name, molecule_scheme, &r_mol, &v_mol, 0.01, 5, false);
+        compare_with_one_path(name, molecule_scheme, &r_mol, &v_mol, 0.01, 11, true);
+        let triatomic_scheme = || Splitting::new(triatomic.clone(), config).unwrap();
+        compare_with_one_path(name, triatomic_scheme, &r_tri, &v_tri, 2e-3, 9, true);
     }
 }
 
+/// At steps where SHAKE fails on some chain molecules (no root near the drifted point, or no
+/// convergence), the ensemble's lanes decide the other paths with their own numbers, and the
+/// failing paths stop with the failure `run_path` reports, after the same good steps.
+#[test]
+fn lanes_hand_failing_projections_to_the_scalar_step() {
+    let molecule = chain_molecule(&ChainMoleculeParams::default()).unwrap();
+    let (r0, v0) = molecule.initial_state();
+    let (name, config) = ("baoab", SplittingConfig::baoab().monitored());
+    let scheme = || Splitting::new(molecule.clone(), config).unwrap();
+    let failed = compare_with_one_path(name, scheme, &r0, &v0, 0.17, 16, true);
+    assert!(failed > 0 && failed < 16, "{failed} of 16 paths failed");
+}
+
+/// Compares each path of an ensemble at widths 1, 4 and 8 with its run through `run_path`
+/// (`steps` steps of h): (r, v), mu, the diagnostics and, for a path that fails, the failure's
+/// kind. `in_lanes`: every step is decided in lanes but the failing ones (which the scalar
+/// step reports). Returns the number of failed paths.
 fn compare_with_one_path<S: System + Clone>(
     name: &str, build: impl Fn() -> Splitting<S>, r0: &[f64], v0: &[f64], h: f64, paths: usize,
     in_lanes: bool,
-) {
+) -> usize {
     let (n, steps) = (r0.len(), 50);
     let l = build().system().noise_dim();
     let indices: Vec<u64> = (0..paths as u64).collect();
@@ -285,9 +309,14 @@ fn compare_with_one_path<S: System + Clone>(
         let mut scheme = build();
         let grid = TimeGrid::new(steps as f64 * h, steps).unwrap();
         let mut last = LastMu(Vec::new());
-        run_path(&mut scheme, &mut r, &mut v, grid, &mut noise, &mut last).unwrap();
-        expected.push((r, v, last.0));
+        let outcome = run_path(&mut scheme, &mut r, &mut v, grid, &mut noise, &mut last);
+        let (diagnostics, failure) = match outcome {
+            Ok(diagnostics) => (diagnostics, None),
+            Err(failure) => (*failure.diagnostics, Some(failure.error.failure.kind())),
+        };
+        expected.push((r, v, last.0, diagnostics, failure));
     }
+    let failed = expected.iter().filter(|e| e.4.is_some()).count();
     for width in [LaneWidth::One, LaneWidth::Four, LaneWidth::Eight] {
         let mut ensemble = LaneEnsemble::new(build(), paths, r0, v0)
             .unwrap()
@@ -300,14 +329,27 @@ fn compare_with_one_path<S: System + Clone>(
         }
         let m = ensemble.system().constraint().n_constraints();
         let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
-        for (p, (er, ev, emu)) in expected.iter().enumerate() {
+        for (p, (er, ev, emu, diagnostics, failure)) in expected.iter().enumerate() {
+            let at = format!("{name}, {width:?}, path {p}");
             ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
-            assert_eq!((&r, &v, &mu), (er, ev, emu), "{name}, {width:?}, path {p}");
+            assert_eq!((&r, &v), (er, ev), "{at}");
+            let ours = ensemble.failure(p).unwrap().map(StepFailure::kind);
+            assert_eq!(ours, *failure, "{at}");
+            if failure.is_none() {
+                assert_eq!(&mu, emu, "{at}");
+            }
+            assert_eq!(&ensemble.diagnostics(p).unwrap(), diagnostics, "{at}");
         }
+        assert_eq!(ensemble.failed_paths(), failed, "{name}, {width:?}");
         if in_lanes {
-            assert_eq!(ensemble.scalar_steps(), 0, "{name}: every step in lanes");
+            let scalar = ensemble.scalar_steps();
+            assert_eq!(
+                scalar, failed,
+                "{name}, {width:?}: the failing steps alone scalar"
+            );
         }
     }
+    failed
 }
 
 /// The path's last mu.

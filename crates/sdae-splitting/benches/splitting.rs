@@ -18,9 +18,9 @@
 //!   iteration is P consecutive steps of the path.
 //! - `splitting_ensemble/<scene>/<scheme>`: P paths in a `LaneEnsemble`
 //!   (`sdae_scheme::Ensemble` for the half-explicit scheme), W paths at once where the scheme
-//!   has a lane form for the scene: the half-explicit scheme for all three, the splitting
-//!   schemes for the pendulum (the sphere's closed form) while their molecules go path by path
-//!   through the scalar step. One iteration is one step of every path.
+//!   has a lane form for the scene: the sphere's closed form for the pendulum, Newton over
+//!   lanes for the molecules (the kappa root for the half-explicit scheme, the SHAKE
+//!   projections for the splitting schemes). One iteration is one step of every path.
 //!
 //! P is [`PENDULUM_PATHS`] for the pendulum and [`MOLECULE_PATHS`] for the molecules, so an
 //! iteration is P path-steps in both; throughput is reported per path-step (criterion's

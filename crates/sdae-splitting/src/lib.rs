@@ -16,8 +16,11 @@
 //! - [`SplittingConfig`]: K_r geodesic substeps (1: BAOAB, 3: g-BAOAB), the SHAKE tolerance
 //!   (1e-12 on max |g| by default) and iteration limit;
 //! - [`Splitting`]: the scheme, an implementation of the one step trait
-//!   [`sdae_model::Scheme`], and of [`sdae_model::LaneScheme`] (the sphere's closed form over
-//!   SIMD lanes, so that a [`sdae_model::LaneEnsemble`] steps W pendulums at once);
+//!   [`sdae_model::Scheme`], and of [`sdae_model::LaneScheme`], so that a
+//!   [`sdae_model::LaneEnsemble`] steps W paths at once in SIMD lanes: the sphere's closed form
+//!   for the pendulums, Newton's SHAKE over lanes ([`sdae_model::engine::NewtonRoot`], the
+//!   half-explicit ensemble's root) for a constraint that offers formulas over lanes (bead
+//!   chains, rigid bonds, a user's constraint), each lane with its path's scalar numbers;
 //! - [`OuFactors`]: the O step's exact Ornstein-Uhlenbeck update.
 //!
 //! ```
@@ -36,6 +39,7 @@
 
 mod config;
 mod error;
+mod newton;
 mod ou;
 mod scheme;
 mod sphere;

@@ -16,15 +16,19 @@ use sdae_model::engine::{
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_model::{LaneScheme, StepOutcome, System};
 
+use crate::newton;
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
 impl<S: System> LaneScheme for Splitting<S> {
     /// The sphere's closed form in lanes where the constraint is a sphere of dimension <= 3
-    /// with a diagonal mass; `false` (every path through the scalar step) otherwise.
+    /// with a diagonal mass, Newton's SHAKE in lanes where it offers formulas over lanes
+    /// ([`crate::newton`]); `false` (every path through the scalar step) otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
         self.refresh_ou(h);
-        step_sphere_lanes(self, Kernels, paths, width, StepInput { h, dw })
+        let input = StepInput { h, dw };
+        step_sphere_lanes(self, Kernels, paths, width, input)
+            || newton::step_lanes(self, paths, width, input)
     }
 }
 

@@ -5,6 +5,7 @@
 use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, Factorize, Mass, Solve, scratch_len};
+use sdae_model::engine::LaneStore;
 use sdae_model::{
     KappaProblem, LangevinForm, StepFailure, StepOutcome, StepResult, System, check_dimensions,
 };
@@ -90,6 +91,8 @@ pub struct Splitting<S: System> {
     scratch: Vec<f64>,
     lambda: Vec<f64>,
     pub(crate) impulse: Vec<f64>,
+    /// The buffers of the lane form of a constraint solved by Newton, kept between steps.
+    pub(crate) lanes: LaneStore,
 }
 
 /// What the position projections of a step add up to.
@@ -155,6 +158,7 @@ impl<S: System> Splitting<S> {
             scratch: vec![0.0; scratch_len(n, m)],
             lambda: vec![0.0; m],
             impulse: vec![0.0; m],
+            lanes: LaneStore::default(),
             system,
             config,
         })

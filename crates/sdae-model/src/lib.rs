@@ -83,6 +83,7 @@ mod grid;
 mod increments;
 mod lane_diagnostics;
 mod lane_ensemble;
+mod newton_lanes;
 mod newton_root;
 /// W paths at once in SIMD lanes ([`sdae_lanes`], re-exported).
 pub use sdae_lanes as lanes;
@@ -123,12 +124,14 @@ pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, projec
 /// lanes: in closed form on a sphere ([`SphereRoot`](engine::SphereRoot),
 /// [`RootLanes`](engine::RootLanes)), by Newton for a constraint's lane formulas
 /// ([`NewtonRoot`](engine::NewtonRoot), [`NewtonLanes`](engine::NewtonLanes) at
-/// [`Drifted`](engine::Drifted)).
+/// [`Drifted`](engine::Drifted)), and the way a scheme steps such a constraint's paths
+/// ([`NewtonKernels`](engine::NewtonKernels), [`step_newton_lanes`](engine::step_newton_lanes)).
 pub mod engine {
     pub use crate::lane_diagnostics::LaneRecord;
     pub use crate::lane_ensemble::{
         GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
+    pub use crate::newton_lanes::{NewtonKernels, step_newton_lanes};
     pub use crate::newton_root::{Drifted, NewtonLanes, NewtonRoot, build_lane_form};
     pub use crate::sphere_lanes::{
         SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_groups, step_sphere_lanes,

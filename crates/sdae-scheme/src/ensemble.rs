@@ -7,7 +7,7 @@ use std::marker::PhantomData;
 
 use sdae_manifold::lane_form::{ConstraintLanes, LaneFormVisitor};
 use sdae_manifold::{Constraint, Sphere};
-use sdae_model::engine::{LanePaths, StepInput};
+use sdae_model::engine::{LanePaths, StepInput, step_newton_lanes};
 use sdae_model::lanes::LaneWidth;
 use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
 
@@ -130,14 +130,15 @@ impl<S: System> LaneScheme for Stepper<S> {
 enum LaneKernelChoice<S: System> {
     /// The sphere's closed form ([`sphere::step_all`]).
     Sphere(Sphere, SphereStep<S>),
-    /// Newton with the constraint's formulas over lanes ([`newton::step_all`] for them).
+    /// Newton with the constraint's formulas over lanes ([`step_newton_lanes`] with the
+    /// kernel of `newton.rs`).
     Newton(NewtonStep<S>),
 }
 
 /// [`sphere::step_all`].
 type SphereStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, Sphere, StepInput<'_>) -> bool;
 
-/// [`newton::step_all`] for one constraint's lane form.
+/// [`step_newton_lanes`] for one constraint's lane form.
 type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
 
 /// Asks a constraint which lane form it has ([`LaneFormVisitor`]); the Newton kernel builds
@@ -154,6 +155,6 @@ impl<S: System> LaneFormVisitor for ChooseKernel<S> {
     }
     fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
         let _ = build;
-        Some(LaneKernelChoice::Newton(newton::step_all::<S, L>))
+        Some(LaneKernelChoice::Newton(step_newton_lanes::<Stepper<S>, L>))
     }
 }

@@ -132,3 +132,26 @@ mod tests {
         assert!(!c.solver.homotopy);
     }
 }
+
+/// The sizes of one step of size h: h, the geodesic substep tau = h / (2 K_r), 1 / tau and
+/// K_r.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StepSizes {
+    pub(crate) h: f64,
+    pub(crate) tau: f64,
+    pub(crate) inverse_tau: f64,
+    pub(crate) substeps: usize,
+}
+
+impl StepSizes {
+    /// The sizes of a step of h with `config`'s substeps.
+    pub(crate) fn new(config: &SplittingConfig, h: f64) -> Self {
+        let tau = h / (2 * config.substeps) as f64;
+        Self {
+            h,
+            tau,
+            inverse_tau: 1.0 / tau,
+            substeps: config.substeps,
+        }
+    }
+}

@@ -21,12 +21,13 @@ use sdae_manifold::lane_form::{
 };
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
-    Drifted, GroupState, LanePaths, LaneRecord, LaneRows, NewtonRoot, StepInput, WideKernel,
-    build_lane_form,
+    Drifted, GroupState, LanePaths, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot,
+    StepInput, WideKernel, step_newton_lanes,
 };
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
 use sdae_model::{LANE_BLOCK, Scheme, System};
 
+use crate::config::{SplittingConfig, StepSizes};
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
@@ -45,11 +46,11 @@ pub(crate) fn step_lanes<S: System>(
     }
 }
 
-/// [`step_all`] for one constraint's lane form.
+/// [`step_newton_lanes`] for one constraint's lane form.
 type NewtonStep<S> = fn(&mut Splitting<S>, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
 
-/// Asks a constraint for its lane form: [`step_all`] compiled only for the constraints that
-/// offer one.
+/// Asks a constraint for its lane form: the step compiled only for the constraints that offer
+/// one.
 struct Choose<S>(PhantomData<S>);
 
 impl<S: System> LaneFormVisitor for Choose<S> {
@@ -59,64 +60,27 @@ impl<S: System> LaneFormVisitor for Choose<S> {
     }
     fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
         let _ = build;
-        Some(step_all::<S, L>)
+        Some(step_newton_lanes::<Splitting<S>, L>)
     }
 }
 
-/// One step of every path whose constraint has the lane form C at the width's instruction set.
-fn step_all<S: System, C: ConstraintLanes>(
-    scheme: &mut Splitting<S>, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
-) -> bool {
-    width.dispatch(StepAll {
-        scheme,
-        paths,
-        input,
-        constraint: PhantomData::<C>,
-    })
-}
-
-/// [`step_all`] at the instruction set Sd.
-struct StepAll<'a, S: System, C> {
-    scheme: &'a mut Splitting<S>,
-    paths: &'a mut LanePaths,
-    input: StepInput<'a>,
-    constraint: PhantomData<C>,
-}
-
-impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
-    type Output = bool;
-    #[inline(always)]
-    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
-        let mut store = std::mem::take(&mut self.scheme.lanes);
-        let kept = store.take::<(Kernel<Sd, C>, LaneRows<Sd>)>().or_else(|| {
-            let system = self.scheme.system();
-            let constraint = build_lane_form::<C, _>(system)?;
-            let (n, m) = constraint.dims();
-            let rows = LaneRows::new(simd, n, m, system.noise_dim());
-            Some(Box::new((Kernel::new(simd, constraint), rows)))
-        });
-        let Some(mut buffers) = kept else {
-            self.scheme.lanes = store;
-            return false;
-        };
-        let (kernel, rows) = &mut *buffers;
-        kernel.constants = Constants::new(self.scheme, self.input.h);
-        self.paths
-            .step_wide_groups(self.scheme, self.input, kernel, rows);
-        store.put(buffers);
-        self.scheme.lanes = store;
-        true
+impl<S: System> NewtonKernels for Splitting<S> {
+    type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
+    fn kernel<Sd: Simd, C: ConstraintLanes>(&self, simd: Sd, constraint: C) -> Kernel<Sd, C> {
+        Kernel::new(simd, constraint)
+    }
+    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
+        kernel.constants = Constants::new(self, h);
+    }
+    fn lane_store(&mut self) -> &mut LaneStore {
+        &mut self.lanes
     }
 }
 
 /// The scheme's numbers for one step size.
 #[derive(Clone)]
 struct Constants {
-    h: f64,
-    /// tau = h / (2 K_r) and 1 / tau.
-    tau: f64,
-    inverse_tau: f64,
-    substeps: usize,
+    sizes: StepSizes,
     settings: SolverSettings,
     /// The O step's factors for h.
     ou: Vec<OuFactors>,
@@ -128,12 +92,8 @@ impl Constants {
     /// ([`Splitting::refresh_ou`]).
     fn new<S: System>(scheme: &Splitting<S>, h: f64) -> Self {
         let config = scheme.config();
-        let tau = h / (2 * config.substeps) as f64;
         Self {
-            h,
-            tau,
-            inverse_tau: 1.0 / tau,
-            substeps: config.substeps,
+            sizes: StepSizes::new(config, h),
             settings: config.solver,
             ou: scheme.ou.clone(),
             monitor_velocity: config.monitor_velocity_constraint,
@@ -142,7 +102,7 @@ impl Constants {
 }
 
 /// The constraint's lane form, the step's constants and the buffers of one group's step.
-struct Kernel<Sd: Simd, C: ConstraintLanes> {
+pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     constants: Constants,
     constraint: C,
@@ -202,10 +162,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         Self {
             simd,
             constants: Constants {
-                h: f64::NAN,
-                tau: f64::NAN,
-                inverse_tau: f64::NAN,
-                substeps: 1,
+                sizes: StepSizes::new(&SplittingConfig::baoab(), f64::NAN),
                 settings: SolverSettings::default(),
                 ou: Vec::new(),
                 monitor_velocity: false,
@@ -292,7 +249,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// B: v <- v + (h/2) M^-1 F(r).
     #[inline(always)]
     fn kick(&self, v: &mut [Lanes<Sd>]) {
-        let half_h = 0.5 * self.constants.h;
+        let half_h = 0.5 * self.constants.sizes.h;
         let inverse_mass = self.constraint.inverse_mass();
         for (k, (vi, &fi)) in v.iter_mut().zip(&self.force).enumerate() {
             *vi = *vi + inverse_mass.apply(k, fi) * half_h;
@@ -328,7 +285,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// the velocity v + M^-1 grad g(r) kappa / tau, RATTLE at the new point.
     #[inline(always)]
     fn geodesic_drift(&mut self, m: &mut Motion<'_, Sd>) {
-        let tau = Lanes::splat(self.simd, self.constants.tau);
+        let tau = Lanes::splat(self.simd, self.constants.sizes.tau);
         let y = Drifted {
             r: m.r,
             v: m.v,
@@ -346,7 +303,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         m.iterations = m.iterations + root.iterations;
         m.residual = root.residual;
         // gamma* is kept: no contraction probes without a ball.
-        let inverse_tau = self.constants.inverse_tau;
+        let inverse_tau = self.constants.sizes.inverse_tau;
         for (l, k) in self.lambda.iter_mut().zip(&self.root.gamma) {
             *l = *k * inverse_tau;
         }
@@ -366,7 +323,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     #[inline(always)]
     fn drift_and_thermostat(&mut self, m: &mut Motion<'_, Sd>, dw: &[Lanes<Sd>], factored: bool) {
         self.project_velocity(m, !factored);
-        for _ in 0..self.constants.substeps {
+        for _ in 0..self.constants.sizes.substeps {
             self.geodesic_drift(m);
         }
         for (vi, ou) in m.v.iter_mut().zip(&self.constants.ou) {
@@ -376,7 +333,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             *vi = *vi + w * ou.noise;
         }
         self.project_velocity(m, false);
-        for _ in 0..self.constants.substeps {
+        for _ in 0..self.constants.sizes.substeps {
             self.geodesic_drift(m);
         }
     }

@@ -16,6 +16,7 @@ use sdae_model::engine::{
 use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_model::{LaneScheme, StepOutcome, System};
 
+use crate::config::StepSizes;
 use crate::newton;
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
@@ -23,7 +24,7 @@ use crate::splitting::Splitting;
 impl<S: System> LaneScheme for Splitting<S> {
     /// The sphere's closed form in lanes where the constraint is a sphere of dimension <= 3
     /// with a diagonal mass, Newton's SHAKE in lanes where it offers formulas over lanes
-    /// ([`crate::newton`]); `false` (every path through the scalar step) otherwise.
+    /// (`newton.rs`); `false` (every path through the scalar step) otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
         self.refresh_ou(h);
         let input = StepInput { h, dw };
@@ -47,11 +48,7 @@ impl<S: System> SphereKernels<Splitting<S>> for Kernels {
 
 /// The constants of one step: the scheme's and the sphere's.
 struct Kernel<const N: usize> {
-    h: f64,
-    /// tau = h / (2 K_r) and 1 / tau.
-    tau: f64,
-    inverse_tau: f64,
-    substeps: usize,
+    sizes: StepSizes,
     /// The SHAKE root (an unbounded ball: no certificate is claimed).
     root: SphereRoot<N>,
     sphere: Sphere,
@@ -68,12 +65,8 @@ impl<const N: usize> Kernel<N> {
     fn new<S: System>(scheme: &Splitting<S>, sphere: &Sphere, h: f64) -> Self {
         let inverse_mass: [f64; N] = std::array::from_fn(|k| scheme.inverse_mass[k]);
         let config = scheme.config();
-        let tau = h / (2 * config.substeps) as f64;
         Self {
-            h,
-            tau,
-            inverse_tau: 1.0 / tau,
-            substeps: config.substeps,
+            sizes: StepSizes::new(config, h),
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, f64::INFINITY),
             sphere: *sphere,
             ou: std::array::from_fn(|k| scheme.ou[k]),
@@ -112,7 +105,7 @@ impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
             residual: zero,
         };
         self.kick(system, &mut m)?;
-        for _ in 0..self.substeps {
+        for _ in 0..self.sizes.substeps {
             self.geodesic_drift(&mut m);
         }
         for (vi, ou) in m.v.iter_mut().zip(&self.ou) {
@@ -122,7 +115,7 @@ impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
             *vi = *vi + w * ou.noise;
         }
         self.project_velocity(&mut m);
-        for _ in 0..self.substeps {
+        for _ in 0..self.sizes.substeps {
             self.geodesic_drift(&mut m);
         }
         self.kick(system, &mut m)?;
@@ -159,7 +152,7 @@ impl<const N: usize> Kernel<N> {
             return None;
         }
         m.ok = m.ok.and(dot(&force, &force).is_finite());
-        let half_h = 0.5 * self.h;
+        let half_h = 0.5 * self.sizes.h;
         for ((vi, &fi), &wi) in m.v.iter_mut().zip(&force).zip(&self.inverse_mass) {
             *vi = *vi + fi * wi * half_h;
         }
@@ -189,12 +182,12 @@ impl<const N: usize> Kernel<N> {
     fn geodesic_drift<Sd: Simd>(&self, m: &mut Motion<Sd, N>) {
         let mut y = m.r;
         for (yi, &vi) in y.iter_mut().zip(&m.v) {
-            *yi = *yi + vi * self.tau;
+            *yi = *yi + vi * self.sizes.tau;
         }
         let root = self.root.solve(&m.r, &y);
         m.ok = m.ok.and(root.ok);
         m.residual = root.residual;
-        let lambda = root.gamma * self.inverse_tau;
+        let lambda = root.gamma * self.sizes.inverse_tau;
         m.impulse = m.impulse + lambda;
         let mut v = m.v;
         self.sphere

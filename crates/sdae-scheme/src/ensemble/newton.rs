@@ -18,72 +18,35 @@
 //! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
 //! scalar functions path by path ([`per_path`]).
 
-use std::marker::PhantomData;
-
 use pulp::{Simd, WithSimd};
 use sdae_manifold::lane_form::{ConstraintLanes, FactorLanes};
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
-    Drifted, GroupState, LanePaths, LaneRecord, LaneRows, NewtonLanes, NewtonRoot, StepInput,
-    WideKernel, build_lane_form,
+    Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,
+    WideKernel,
 };
-use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
+use sdae_model::lanes::{LaneMask, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
 use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
 
-/// One step of every path of an ensemble whose constraint has the lane form C
-/// ([`LaneFormVisitor::newton`]): `false` if the constraint offers none for this mass after
-/// all.
-pub(super) fn step_all<S: System, C: ConstraintLanes>(
-    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
-) -> bool {
-    width.dispatch(StepAll {
-        stepper,
-        paths,
-        input,
-        constraint: PhantomData::<C>,
-    })
-}
-
-/// [`step_all`] at the instruction set Sd.
-struct StepAll<'a, S: System, C> {
-    stepper: &'a mut Stepper<S>,
-    paths: &'a mut LanePaths,
-    input: StepInput<'a>,
-    constraint: PhantomData<C>,
-}
-
-impl<S: System, C: ConstraintLanes> WithSimd for StepAll<'_, S, C> {
-    type Output = bool;
-    #[inline(always)]
-    fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
-        let mut store = std::mem::take(&mut self.stepper.lanes);
-        let kept = store.take::<(Kernel<Sd, C>, LaneRows<Sd>)>().or_else(|| {
-            let system = self.stepper.system();
-            let constraint = build_lane_form::<C, _>(system)?;
-            let (n, m) = constraint.dims();
-            let rows = LaneRows::new(simd, n, m, system.noise_dim());
-            Some(Box::new((Kernel::new(simd, constraint), rows)))
-        });
-        let Some(mut buffers) = kept else {
-            self.stepper.lanes = store;
-            return false;
-        };
-        let (kernel, rows) = &mut *buffers;
-        kernel.h = self.input.h;
-        self.paths
-            .step_wide_groups(self.stepper, self.input, kernel, rows);
-        store.put(buffers);
-        self.stepper.lanes = store;
-        true
+impl<S: System> NewtonKernels for Stepper<S> {
+    type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
+    fn kernel<Sd: Simd, C: ConstraintLanes>(&self, simd: Sd, constraint: C) -> Kernel<Sd, C> {
+        Kernel::new(simd, constraint)
+    }
+    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
+        kernel.h = h;
+    }
+    fn lane_store(&mut self) -> &mut LaneStore {
+        &mut self.lanes
     }
 }
 
 /// The constraint's lane form and the buffers of one group's step.
-struct Kernel<Sd: Simd, C: ConstraintLanes> {
+pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     h: f64,
     constraint: C,

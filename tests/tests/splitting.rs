@@ -15,8 +15,8 @@ use sdae_model::{
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_splitting::{Splitting, SplittingConfig, SplittingError};
 use sdae_systems::{
-    ChainMoleculeParams, Fiber, FiberParams, Pendulum, PendulumParams, RigidTriatomicParams,
-    chain_molecule, pendulum, rigid_triatomic,
+    ChainMolecule, ChainMoleculeParams, Fiber, FiberParams, Pendulum, PendulumParams,
+    RigidTriatomicParams, chain_molecule, pendulum, rigid_triatomic,
 };
 
 /// BAOAB and g-BAOAB.
@@ -276,6 +276,51 @@ fn lanes_and_widths_give_each_path_its_own_numbers() {
         let triatomic_scheme = || Splitting::new(triatomic.clone(), config).unwrap();
         compare_with_one_path(name, triatomic_scheme, &r_tri, &v_tri, 2e-3, 9, true);
     }
+}
+
+/// An ensemble's groups keep F and G_M's factors at their end points for the next step; after
+/// a restart (every path back at its start) they are not reused: the ensemble continues with
+/// the numbers of a fresh one.
+#[test]
+fn a_restart_does_not_reuse_the_groups_end_points() {
+    let molecule = chain_molecule(&ChainMoleculeParams::default()).unwrap();
+    let (r0, v0) = molecule.initial_state();
+    let l = molecule.noise_dim();
+    let (paths, h) = (11, 0.01);
+    let indices: Vec<u64> = (0..paths as u64).collect();
+    let run = |ensemble: &mut LaneEnsemble<Splitting<ChainMolecule>>, seed: u64, steps: usize| {
+        let mut noise = EnsembleIncrements::for_paths(seed, &indices, l);
+        let mut dw = vec![0.0; l * ensemble.stride()];
+        for _ in 0..steps {
+            noise.fill(h, &mut dw).unwrap();
+            ensemble.step(h, &dw).unwrap();
+        }
+    };
+    let config = SplittingConfig::g_baoab();
+    let build = || {
+        LaneEnsemble::new(
+            Splitting::new(molecule.clone(), config).unwrap(),
+            paths,
+            &r0,
+            &v0,
+        )
+    };
+    let mut fresh = build().unwrap();
+    run(&mut fresh, 3, 30);
+    let mut restarted = build().unwrap();
+    run(&mut restarted, 9, 20);
+    restarted.restart(&r0, &v0).unwrap();
+    run(&mut restarted, 3, 30);
+    let m = molecule.constraint().n_constraints();
+    let state = |ensemble: &LaneEnsemble<_>, p| {
+        let (mut r, mut v, mut mu) = (vec![0.0; r0.len()], vec![0.0; r0.len()], vec![0.0; m]);
+        ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
+        (r, v, mu)
+    };
+    for p in 0..paths {
+        assert_eq!(state(&restarted, p), state(&fresh, p), "path {p}");
+    }
+    assert_eq!(restarted.scalar_steps(), 0);
 }
 
 /// At steps where SHAKE fails on some chain molecules (no root near the drifted point, or no

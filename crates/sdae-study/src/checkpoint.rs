@@ -28,7 +28,7 @@ use crate::parallel::Control;
 use crate::scene::Scene;
 
 /// The first line of a checkpoint file: its format and version.
-const MAGIC: &[u8] = b"sdae-study checkpoint 1\n";
+const MAGIC: &[u8] = b"sdae-study checkpoint 2\n";
 
 /// How often a run saves its finished paths unless told otherwise.
 pub const DEFAULT_INTERVAL: Duration = Duration::from_secs(60);
@@ -373,7 +373,8 @@ fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Re
         }
         write_values(out, &t.observed)?;
     }
-    write_values(out, &r.reference_observed)
+    write_values(out, &r.reference_observed)?;
+    write_values(out, &r.reference_coarse_observed)
 }
 
 /// Reads what [`write_record`] (and the other checkpoints' writers) wrote, failing with a
@@ -473,6 +474,7 @@ impl<'a> Reader<'a> {
             reference_seconds,
             tracks,
             reference_observed: self.values()?,
+            reference_coarse_observed: self.values()?,
         })
     }
 
@@ -685,6 +687,7 @@ mod tests {
             reference_seconds: 0.5,
             tracks: (0..6).map(outcome).collect(),
             reference_observed: vec![0.25, -0.0, f64::MIN_POSITIVE],
+            reference_coarse_observed: vec![0.5, f64::MAX, -3.0],
         };
         let mut out = BufWriter::new(Vec::new());
         write_record(&mut out, &record).unwrap();

@@ -69,6 +69,11 @@ pub struct ConvergenceSettings {
     /// `kinetic_after`): the equipartition study's configurational average.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_averaged: Option<String>,
+    /// The reference also runs at 2^(`reference` - 1) steps on the same paths, its
+    /// observables recorded beside the reference's (the weak study's Richardson-extrapolated
+    /// reference and its bias bound, [`crate::weak`]); needs observables and a reference.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub paired_reference: bool,
 }
 
 /// A setting that does not hold: `key = value` breaks `rule`.
@@ -97,6 +102,7 @@ impl ConvergenceSettings {
             kinetic_after: None,
             observables: Vec::new(),
             time_averaged: None,
+            paired_reference: false,
         }
     }
 
@@ -401,6 +407,7 @@ where
             observables: observables.to_vec(),
             grid_level: st.coarsest,
         }),
+        paired_reference: st.paired_reference && st.reference.is_some() && !observables.is_empty(),
     };
     let records = run_paths(
         &plan,
@@ -653,7 +660,9 @@ impl ConvergenceReport {
     }
 }
 
-fn count_kinds(kinds: impl Iterator<Item = FailureKind>) -> BTreeMap<FailureKind, usize> {
+pub(crate) fn count_kinds(
+    kinds: impl Iterator<Item = FailureKind>,
+) -> BTreeMap<FailureKind, usize> {
     let mut map = BTreeMap::new();
     for k in kinds {
         *map.entry(k).or_insert(0) += 1;
@@ -961,6 +970,19 @@ impl ConvergenceRun {
             } else {
                 tracks
             };
+            let paired = if self.settings.paired_reference && r.reference_failure.is_none() {
+                r.reference_observed.len()
+            } else {
+                0
+            };
+            if r.reference_coarse_observed.len() != paired {
+                return Err(format!(
+                    "path {} has {} observed values of the paired reference where {paired} are \
+                     expected",
+                    r.index,
+                    r.reference_coarse_observed.len()
+                ));
+            }
             if r.tracks.len() != expected {
                 return Err(format!(
                     "path {} has {} scheme-level results where {expected} are expected                      ({} schemes x {} levels)",

@@ -88,6 +88,17 @@ impl SchemeKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
+    /// The scheme's weak order for smooth observables at a fixed time: 2 for the splitting
+    /// schemes (BAOAB and g-BAOAB with SHAKE/RATTLE, Leimkuhler and Matthews), 1 for the
+    /// half-explicit family and the Euler-type schemes on the inherent SDE (eq. 2.4). The weak
+    /// study extrapolates its reference with it.
+    pub fn weak_order(self) -> u32 {
+        match self {
+            SchemeKind::BaoabRattle | SchemeKind::GBaoab => 2,
+            _ => 1,
+        }
+    }
+
     /// Whether the scheme keeps the constraint exactly (the half-explicit family, projected
     /// Euler-Maruyama and the splitting schemes) rather than drifting off the manifold by O(h).
     pub fn keeps_constraint(self) -> bool {

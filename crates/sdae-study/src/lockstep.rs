@@ -76,6 +76,11 @@ pub struct PathPlan {
     /// Observables to evaluate on the grid of a coarse level (`None`: none, nothing more is
     /// computed).
     pub observing: Option<Observing>,
+    /// The reference also runs at half its steps, 2^(`fine` - 1), on the same Brownian path
+    /// (pairwise sums of its increments), its observables recorded on the same grid: the
+    /// reference's two finest levels, whose difference bounds its bias and Richardson-extrapolates
+    /// it (the weak study, [`crate::weak`]). Only with a reference and observables.
+    pub paired_reference: bool,
 }
 
 /// Observables f(r, v) evaluated on every track and the reference at the grid points
@@ -171,6 +176,14 @@ pub struct PathRecord {
         with = "crate::real::vec"
     )]
     pub reference_observed: Vec<f64>,
+    /// The same on the reference at half its steps ([`PathPlan::paired_reference`]; empty
+    /// without it).
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        with = "crate::real::vec"
+    )]
+    pub reference_coarse_observed: Vec<f64>,
 }
 
 /// The chunk length: a power of two that keeps the buffers within [`CHUNK_BUDGET`], whatever
@@ -202,6 +215,8 @@ pub struct BlockEnsembles<S> {
     pub own_clock: Vec<bool>,
     /// The fine reference.
     pub reference: Option<BoxedEnsemble<S>>,
+    /// The reference's scheme at half its steps ([`PathPlan::paired_reference`]).
+    pub coarse_reference: Option<BoxedEnsemble<S>>,
 }
 
 /// What one path of one scheme at one level gathered so far.
@@ -510,6 +525,8 @@ struct Lockstep<'a> {
     fine_done: usize,
     /// Per path, the reference's observed values (see [`PathPlan::observing`]).
     reference_observed: Vec<Vec<f64>>,
+    /// Per path, the observed values of the reference at half its steps.
+    reference_coarse_observed: Vec<Vec<f64>>,
 }
 
 impl<'a> Lockstep<'a> {
@@ -525,12 +542,15 @@ impl<'a> Lockstep<'a> {
         let finest = plan.levels.last().copied().unwrap_or(plan.fine);
         let record_stride = 1usize << (plan.fine - finest);
         let stride = lane_stride(paths);
+        // The paired reference steps on sums of two fine increments within a chunk.
         let chunk = chunk_len(
             fine_steps,
             record_stride,
             dims.row() * stride,
             dims.l * stride,
-        );
+        )
+        .max(if plan.paired_reference { 2 } else { 1 })
+        .min(fine_steps);
         let depth = chunk.trailing_zeros() as usize;
         // A chunk shorter than a step of the finest level holds at most one record.
         let record_rows = (chunk / record_stride).max(1);
@@ -560,6 +580,7 @@ impl<'a> Lockstep<'a> {
             },
             fine_done: 0,
             reference_observed: vec![Vec::new(); live],
+            reference_coarse_observed: vec![Vec::new(); live],
         })
     }
 
@@ -594,6 +615,49 @@ impl<'a> Lockstep<'a> {
         }
         self.fine_done += self.chunk;
         let failed = |p: &usize| reference.failure(*p).is_ok_and(|f| f.is_some());
+        if any_failed {
+            (0..self.live).filter(failed).collect()
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// Runs the paired reference ([`PathPlan::paired_reference`]) over the chunk on sums of two
+    /// fine increments, evaluating the observables on its state at the points of the observed
+    /// grid; returns the paths that have stopped (if any stopped in this chunk). Called after
+    /// [`Lockstep::reference_chunk`] (whose count of fine steps already includes the chunk).
+    fn coarse_reference_chunk<S: System>(
+        &mut self, coarse: &mut dyn PathEnsemble<System = S>,
+    ) -> Vec<usize> {
+        let Some(observing) = &self.plan.observing else {
+            return Vec::new();
+        };
+        let width = self.dims.l * self.stride;
+        let h = self.grids[self.plan.fine as usize - 1].h();
+        let every = 1usize << (self.plan.fine - 1 - observing.grid_level);
+        let done = (self.fine_done - self.chunk) / 2;
+        let n = self.dims.n;
+        let mut any_failed = false;
+        for t in 0..self.chunk / 2 {
+            let dw = &self.pyramid[1][t * width..(t + 1) * width];
+            any_failed |= coarse.step(h, dw).expect("the block's increments fit") > 0;
+            if !(done + t + 1).is_multiple_of(every) {
+                continue;
+            }
+            let states = &mut self.snapshot[..self.live * 2 * n];
+            coarse
+                .read_rows(&self.block, 0, states)
+                .expect("the block's rows fit its ensembles");
+            for p in (0..self.live).filter(|&p| !self.dropped[p]) {
+                let state = &states[p * 2 * n..(p + 1) * 2 * n];
+                observing.evaluate(
+                    &state[..n],
+                    &state[n..],
+                    &mut self.reference_coarse_observed[p],
+                );
+            }
+        }
+        let failed = |p: &usize| coarse.failure(*p).is_ok_and(|f| f.is_some());
         if any_failed {
             (0..self.live).filter(failed).collect()
         } else {
@@ -856,6 +920,7 @@ pub fn run_block_until<S: System>(
         tracks,
         own_clock,
         reference,
+        coarse_reference,
     } = ensembles;
     let Some(first) = tracks.first().or(reference.as_ref()) else {
         return Ok(Some(records));
@@ -871,7 +936,11 @@ pub fn run_block_until<S: System>(
     let dims = Dims::of(first.system(), plan.want_mu);
     let mut lockstep = Lockstep::new(plan, dims, paths, live, tracks.len())?;
     let (r0, v0) = start;
-    for ensemble in tracks.iter_mut().chain(reference.as_mut()) {
+    for ensemble in tracks
+        .iter_mut()
+        .chain(reference.as_mut())
+        .chain(coarse_reference.as_mut())
+    {
         lockstep.restart(ensemble.as_mut(), r0, v0)?;
     }
     let mut states: Vec<Vec<Track>> = (0..tracks.len())
@@ -890,7 +959,11 @@ pub fn run_block_until<S: System>(
         }
         fill_pyramid(&mut lockstep.pyramid, &mut noise, h_fine)?;
         if let Some(reference) = reference.as_deref_mut() {
-            lockstep.run_reference(reference, tracks, &mut records)?;
+            let references = References {
+                fine: reference,
+                coarse: coarse_reference.as_deref_mut(),
+            };
+            lockstep.run_reference(references, tracks, &mut records)?;
         }
         for (index, (ensemble, track)) in tracks.iter_mut().zip(&mut states).enumerate() {
             let level = plan.levels[index % plan.levels.len()];
@@ -914,8 +987,15 @@ impl PathRecord {
             reference_seconds: 0.0,
             tracks: Vec::new(),
             reference_observed: Vec::new(),
+            reference_coarse_observed: Vec::new(),
         }
     }
+}
+
+/// The reference of a block and, where the plan pairs it, the same scheme at half its steps.
+struct References<'a, S> {
+    fine: &'a mut dyn PathEnsemble<System = S>,
+    coarse: Option<&'a mut (dyn PathEnsemble<System = S> + 'static)>,
 }
 
 impl Lockstep<'_> {
@@ -931,22 +1011,34 @@ impl Lockstep<'_> {
         Ok(())
     }
 
-    /// Runs the reference over the chunk and charges each path of the block its share of the
-    /// time; a path whose reference failed gets the failure in its record and is left out of
-    /// the errors: its schemes (`tracks`) stop there.
+    /// Runs the reference (and its pair at half the steps) over the chunk and charges each
+    /// path of the block its share of the time; a path whose reference (or pair) failed gets
+    /// the failure in its record and is left out of the errors: its schemes (`tracks`) stop
+    /// there.
     fn run_reference<S: System>(
-        &mut self, reference: &mut dyn PathEnsemble<System = S>, tracks: &mut [BoxedEnsemble<S>],
+        &mut self, references: References<'_, S>, tracks: &mut [BoxedEnsemble<S>],
         records: &mut [PathRecord],
     ) -> Result<(), ModelError> {
+        let References { fine, mut coarse } = references;
         let clock = Instant::now();
-        let failed = self.reference_chunk(reference);
+        let mut failed = self.reference_chunk(fine);
+        let mut failed_coarse = Vec::new();
+        if let Some(coarse) = coarse.as_deref_mut() {
+            failed_coarse = self.coarse_reference_chunk(coarse);
+        }
         let seconds = clock.elapsed().as_secs_f64() / self.live as f64;
         for record in records.iter_mut() {
             record.reference_seconds += seconds;
         }
+        failed.extend(&failed_coarse);
         for p in failed {
             if !self.dropped[p] {
-                records[p].reference_failure = reference.failure(p)?.map(|f| f.kind());
+                let fine_failure = fine.failure(p)?;
+                let failure = match (fine_failure, coarse.as_deref()) {
+                    (None, Some(c)) => c.failure(p)?,
+                    (f, _) => f,
+                };
+                records[p].reference_failure = failure.map(|f| f.kind());
                 self.dropped[p] = true;
                 for ensemble in tracks.iter_mut() {
                     ensemble.stop(p)?;
@@ -967,6 +1059,8 @@ impl Lockstep<'_> {
                 continue;
             }
             record.reference_observed = std::mem::take(&mut self.reference_observed[p]);
+            record.reference_coarse_observed =
+                std::mem::take(&mut self.reference_coarse_observed[p]);
             record.tracks = tracks
                 .iter()
                 .zip(states.iter_mut())

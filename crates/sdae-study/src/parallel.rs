@@ -52,7 +52,7 @@ where
 }
 
 /// Ensembles of `paths` paths from (r0, v0) for a block: each scheme at each of the plan's
-/// levels, and the reference.
+/// levels, the reference, and its pair at half the steps where the plan asks for it.
 fn block_ensembles<S>(
     schemes: &[StudyScheme<S>], reference: Option<&StudyScheme<S>>, plan: &PathPlan, paths: usize,
     r0: &[f64], v0: &[f64],
@@ -65,13 +65,16 @@ fn block_ensembles<S>(
             own_clock.push(scheme.time_changed());
         }
     }
-    let reference = reference
-        .map(|s| s.build_ensemble(paths, r0, v0))
+    let build = |s: &StudyScheme<S>| s.build_ensemble(paths, r0, v0);
+    let coarse_reference = reference
+        .filter(|_| plan.paired_reference)
+        .map(build)
         .transpose()?;
     Ok(BlockEnsembles {
         tracks,
         own_clock,
-        reference,
+        reference: reference.map(build).transpose()?,
+        coarse_reference,
     })
 }
 

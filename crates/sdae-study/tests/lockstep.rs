@@ -53,6 +53,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
         kinetic_after: None,
         time_averaged: None,
         observing: None,
+        paired_reference: false,
     };
     let ensembles = |paths: usize| {
         let build = |kind| build_ensemble(kind, &system, &constants, paths, &r0, &v0).unwrap();
@@ -63,6 +64,7 @@ fn matches_a_direct_run(fine: u32, levels: &[u32]) {
                 .collect(),
             own_clock: vec![false; levels.len()],
             reference: Some(build(SchemeKind::HalfExplicitPractical)),
+            coarse_reference: None,
         }
     };
     let (seed, index) = (11, 3);
@@ -176,6 +178,7 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
         kinetic_after: Some(after),
         time_averaged: None,
         observing: None,
+        paired_reference: false,
     };
     let build = |own_clock: bool| {
         let build = |kind| build_ensemble(kind, &system, &constants, 4, &r0, &v0);
@@ -183,6 +186,7 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
             tracks: vec![build(SchemeKind::HalfExplicitRescaled).unwrap()],
             own_clock: vec![own_clock],
             reference: None,
+            coarse_reference: None,
         }
     };
     let run = |own_clock| {
@@ -228,4 +232,66 @@ fn a_time_changed_scheme_averages_over_its_own_clock() {
     );
     assert!(close(grid, sum / count), "{grid} against {}", sum / count);
     assert!(!close(own, grid), "the clocks should differ here");
+}
+
+/// The paired reference runs at half the reference's steps on pairwise sums of its increments:
+/// its observed values are exactly those of the same scheme run as a track at that level, and
+/// the reference's own values are those of the run without the pair (fine grid longer than one
+/// chunk, so that the pair's steps and observations cross chunks).
+#[test]
+fn the_paired_reference_is_the_scheme_at_half_the_steps() {
+    use sdae_study::lockstep::Observing;
+    use sdae_study::observable::Observable;
+    let system = pendulum(PendulumParams::default()).unwrap();
+    let constants = SchemeConstants {
+        theory: None,
+        practical_c_eta: 1.0,
+        c_kappa: f64::INFINITY,
+        local_c_eta: 0.5,
+        geodesic_substeps: 3,
+        projection_tolerance: 1e-12,
+    };
+    let (r0, v0) = (vec![0.0, -1.0], vec![1.0, 0.0]);
+    let fine = 14;
+    let height = Observable::new("height", |r: &[f64], _: &[f64]| r[1]);
+    let speed = Observable::new("speed", |_: &[f64], v: &[f64]| v[0].hypot(v[1]));
+    let plan = |paired_reference| PathPlan {
+        t_end: 1.0,
+        fine,
+        levels: vec![2, fine - 1],
+        want_mu: false,
+        limits: Limits::default(),
+        kinetic_after: None,
+        time_averaged: None,
+        observing: Some(Observing {
+            observables: vec![height.clone(), speed.clone()],
+            grid_level: 2,
+        }),
+        paired_reference,
+    };
+    let kind = SchemeKind::BaoabRattle;
+    let build = || build_ensemble(kind, &system, &constants, 4, &r0, &v0).unwrap();
+    let mut paired = BlockEnsembles {
+        tracks: vec![build(), build()],
+        own_clock: vec![false; 2],
+        reference: Some(build()),
+        coarse_reference: Some(build()),
+    };
+    let mut alone = BlockEnsembles {
+        tracks: vec![build(), build()],
+        own_clock: vec![false; 2],
+        reference: Some(build()),
+        coarse_reference: None,
+    };
+    let indices = [0, 7, 3];
+    let with = run_block(&plan(true), &mut paired, (&r0, &v0), 5, &indices).unwrap();
+    let without = run_block(&plan(false), &mut alone, (&r0, &v0), 5, &indices).unwrap();
+    for (a, b) in with.iter().zip(&without) {
+        assert!(a.reference_failure.is_none());
+        assert_eq!(a.reference_coarse_observed.len(), 2 * 4);
+        assert_eq!(a.reference_coarse_observed, a.tracks[1].observed);
+        assert_eq!(a.reference_observed, b.reference_observed);
+        assert!(b.reference_coarse_observed.is_empty());
+        assert_ne!(a.reference_observed, a.reference_coarse_observed);
+    }
 }

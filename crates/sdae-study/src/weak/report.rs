@@ -16,32 +16,77 @@ use crate::output::{decades, left_out, readable};
 use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
 use crate::stats::Interval;
 
-/// "order [low, high]" and the levels left out as unresolved, or "-".
+/// "order [low, high]", then the levels left out of the fit and why (unresolved,
+/// pre-asymptotic), and the bend of a slope still moving at the finest levels; or "-".
 pub fn describe_order(order: Option<&WeakOrder>, row: &WeakScheme) -> String {
     let Some(o) = order else {
         return "-".into();
     };
-    let i = &o.order;
-    let mut s = format!("{:.2} [{:.2}, {:.2}]", i.estimate, i.ci_low, i.ci_high);
-    if !o.unresolved.is_empty() {
-        let n: Vec<String> = o
-            .unresolved
+    let notes = order_notes(o, row);
+    let s = order_text(o);
+    if notes.is_empty() {
+        s
+    } else {
+        format!("{s}; {}", notes.join("; "))
+    }
+}
+
+/// "order [low, high]", or "-" where the levels do not tell it.
+fn order_text(o: &WeakOrder) -> String {
+    o.order.map_or("-".into(), |i| {
+        format!("{:.2} [{:.2}, {:.2}]", i.estimate, i.ci_low, i.ci_high)
+    })
+}
+
+/// What an order leaves out and why: "unresolved at N = ...", "pre-asymptotic N = ...", "still
+/// bending by ... per level".
+fn order_notes(o: &WeakOrder, row: &WeakScheme) -> Vec<String> {
+    let mut s = Vec::new();
+    let n = |levels: &[usize]| -> String {
+        let n: Vec<String> = levels
             .iter()
             .filter_map(|&j| row.levels.get(j).map(|l| l.n_steps.to_string()))
             .collect();
-        let _ = write!(s, " (unresolved at N = {})", n.join(", "));
+        n.join(", ")
+    };
+    if !o.unresolved.is_empty() {
+        s.push(format!("unresolved at N = {}", n(&o.unresolved)));
+    }
+    if !o.pre_asymptotic.is_empty() {
+        s.push(format!("pre-asymptotic N = {}", n(&o.pre_asymptotic)));
+    }
+    if let Some(b) = o.bending {
+        s.push(format!("still bending by {b:.2} per level"));
+    }
+    match (o.order, o.after_crossing) {
+        (None, _) => s.push("too few levels after the error's change of sign".into()),
+        (Some(_), Some(x)) => s.push(format!("{x:.2} off after the error's change of sign")),
+        _ => {}
     }
     s
+}
+
+/// The levels a row lost, or "".
+fn describe_lost(row: &WeakScheme) -> String {
+    let lost: Vec<String> = row.lost.iter().map(|l| l.describe()).collect();
+    lost.join("; ")
 }
 
 fn cell(i: &Interval) -> String {
     format!("{:.2e} [{:.1e}, {:.1e}]", i.estimate, i.ci_low, i.ci_high)
 }
 
-fn basis_text(basis: Basis) -> String {
-    match basis {
-        Basis::Exact(x) => format!("the exact value {}", readable(x)),
-        Basis::Reference => "the reference on the same paths".into(),
+fn basis_text(o: &ObservableReport) -> String {
+    match (o.basis, &o.reference_bias) {
+        (Basis::Exact(x), _) => format!("the exact value {}", readable(x)),
+        (Basis::Reference, None) => "the reference on the same paths".into(),
+        (Basis::Reference, Some(b)) => format!(
+            "the reference on the same paths, extrapolated from its two finest levels for weak order {} (E[f_R - f_(R-1)] = {}); its bias is bounded by B = {:.1e} at T and {:.1e} over the grid, added to every interval",
+            b.order,
+            cell(&b.difference),
+            b.bound,
+            b.grid_bound
+        ),
     }
 }
 
@@ -93,16 +138,29 @@ fn upper_bound(e: &Interval) -> f64 {
     e.ci_low.abs().max(e.ci_high.abs())
 }
 
-/// The level of the rows `rows` that reaches |error| <= `target` (its whole interval within
-/// +-target) with the least run time per path: (seconds, scheme, N).
+/// Whether level `j` of `row` holds |error| <= `target`: its interval and those of every finer
+/// level of the row lie within +-target, and no finer level was lost (a zero crossing of the
+/// error, or a level whose finer neighbours are worse, is no accuracy).
+fn holds(row: &WeakScheme, j: usize, target: f64) -> bool {
+    let n = row.levels[j].n_steps;
+    row.levels[j..]
+        .iter()
+        .all(|l| upper_bound(&l.error) <= target)
+        && row.lost.iter().all(|l| l.n_steps < n)
+}
+
+/// The level of the rows `rows` that holds |error| <= `target` ([`holds`]) with the least run
+/// time per path: (seconds, scheme, N).
 fn fastest_to<'a>(
     rows: impl Iterator<Item = &'a WeakScheme>, target: f64,
 ) -> Option<(f64, &'a str, usize)> {
     rows.flat_map(|row| {
-        row.levels
-            .iter()
-            .filter(move |l| upper_bound(&l.error) <= target)
-            .map(move |l| (l.seconds_per_path, row.name.as_str(), l.n_steps))
+        (0..row.levels.len())
+            .filter(move |&j| holds(row, j, target))
+            .map(move |j| {
+                let l = &row.levels[j];
+                (l.seconds_per_path, row.name.as_str(), l.n_steps)
+            })
     })
     .min_by(|a, b| a.0.total_cmp(&b.0))
 }
@@ -139,7 +197,7 @@ fn fastest(report: &WeakReport) -> String {
         return s;
     }
     format!(
-        "## Fastest to a given weak error\n\nFor each weak error level, the row that reached it with the least run time per path, without and with Richardson-Romberg extrapolation (a level counts when the whole 95% interval of its final-time error lies within +-error).\n\n| observable | error <= | scheme | N | us/path | with extrapolation | N | us/path |\n|---|---|---|---|---|---|---|---|\n{s}"
+        "## Fastest to a given weak error\n\nFor each weak error level, the row that reached it with the least run time per path, without and with Richardson-Romberg extrapolation (a level counts when the whole 95% interval of its final-time error, the reference's bias bound included, lies within +-error, and so do those of every finer level of the same row, none of which was lost).\n\n| observable | error <= | scheme | N | us/path | with extrapolation | N | us/path |\n|---|---|---|---|---|---|---|---|\n{s}"
     )
 }
 
@@ -163,7 +221,7 @@ pub fn markdown(report: &WeakReport) -> String {
     let r = &report.reference;
     let grid: Vec<String> = report.grid.iter().map(|t| readable(*t)).collect();
     let mut s = format!(
-        "# Weak-error study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference {} with {} steps on the same Brownian paths, T = {}, seed {}. Weak errors E[f(X_N)] - E[f(X_T)] with 95% intervals: at T against the exact value where the scene gives one, otherwise against the reference from the per-path differences f(X_N) - f(X_ref); the largest error over the grid always against the reference, over the grid of the coarsest level, t = {}. Orders are fitted over the resolved levels (|error| above the half-width of its interval), with 95% bootstrap intervals over whole paths. Each scheme is followed by its Richardson-Romberg extrapolation 2 E[f(X_(h/2))] - E[f(X_h)] (labelled with the finer N; its run time is both levels').\n\n",
+        "# Weak-error study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference {} with {} steps{} on the same Brownian paths, T = {}, seed {}. Weak errors E[f(X_N)] - E[f(X_T)] with 95% intervals: at T against the exact value where the scene gives one, otherwise against the reference from the per-path differences f(X_N) - f(X_ref), the interval widened by the bound on the reference's own bias; the largest error over the grid always against the reference, over the grid of the coarsest level, t = {}. A level is resolved when |error| is above the half-width of its interval. Orders are fitted over the resolved levels after the last change of sign of the error, less the coarse levels whose local slope departs from the finer levels' (pre-asymptotic, named); where the local slope still changes between the finest levels, the order's interval holds that bend. Intervals are 95% bootstrap intervals over whole paths. Levels where paths failed or gave values that are not finite are lost (named, left out). Each scheme is followed by its Richardson-Romberg extrapolation 2 E[f(X_(h/2))] - E[f(X_h)] (labelled with the finer N; its run time is both levels').\n\n",
         report.scene,
         report.scene_definition.description,
         report.paths,
@@ -171,6 +229,14 @@ pub fn markdown(report: &WeakReport) -> String {
         st.finest,
         r.scheme,
         r.n_steps,
+        if st.paired_reference {
+            format!(
+                " (and {} for its extrapolation and bias bound)",
+                r.n_steps / 2
+            )
+        } else {
+            String::new()
+        },
         readable(report.t_end),
         report.seed,
         grid.join(", "),
@@ -195,19 +261,20 @@ pub fn markdown(report: &WeakReport) -> String {
 
 fn observable_section(o: &ObservableReport) -> String {
     let mut s = format!(
-        "## {}\n\nErrors at T against {}; E[f(X_ref)] = {}.\n\n| scheme | weak order at T | weak order of the largest error over the grid | paths |\n|---|---|---|---|\n",
+        "## {}\n\nErrors at T against {}; E[f(X_ref)] = {}.\n\n| scheme | weak order at T | weak order of the largest error over the grid | paths | levels lost |\n|---|---|---|---|---|\n",
         o.name,
-        basis_text(o.basis),
+        basis_text(o),
         o.reference_value.as_ref().map_or("-".into(), cell),
     );
     for row in &o.schemes {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} |",
             row.name,
             describe_order(row.order.as_ref(), row),
             describe_order(row.sup_order.as_ref(), row),
-            row.paths
+            row.paths,
+            describe_lost(row)
         );
     }
     s += "\n";
@@ -218,27 +285,21 @@ fn observable_section(o: &ObservableReport) -> String {
 /// error and run time.
 pub fn print_summary(report: &WeakReport) {
     for o in &report.observables {
-        println!(
-            "{} (errors at T against {})",
-            o.name,
-            match o.basis {
-                Basis::Exact(_) => "the exact value",
-                Basis::Reference => "the reference",
-            }
-        );
+        let against = match (o.basis, &o.reference_bias) {
+            (Basis::Exact(_), _) => "the exact value".to_string(),
+            (Basis::Reference, None) => "the reference".to_string(),
+            (Basis::Reference, Some(b)) => format!(
+                "the extrapolated reference, bias bound {:.1e} in every interval",
+                b.bound
+            ),
+        };
+        println!("{} (errors at T against {against})", o.name);
         println!(
             "  {:<40} {:>22} {:>22} {:>24} {:>10}",
             "scheme", "weak order", "order of sup", "finest error", "us/path"
         );
         for row in &o.schemes {
-            let f = |w: Option<&WeakOrder>| {
-                w.map_or("-".into(), |w| {
-                    format!(
-                        "{:.2} [{:.2}, {:.2}]",
-                        w.order.estimate, w.order.ci_low, w.order.ci_high
-                    )
-                })
-            };
+            let f = |w: Option<&WeakOrder>| w.map_or("-".into(), order_text);
             let finest = row.levels.last();
             println!(
                 "  {:<40} {:>22} {:>22} {:>24} {:>10.1}",
@@ -248,6 +309,16 @@ pub fn print_summary(report: &WeakReport) {
                 finest.map_or("-".into(), |l| cell(&l.error)),
                 finest.map_or(0.0, |l| l.seconds_per_path * 1e6)
             );
+            let mut notes = row
+                .order
+                .as_ref()
+                .map_or_else(Vec::new, |o| order_notes(o, row));
+            if !row.lost.is_empty() {
+                notes.push(format!("lost {}", describe_lost(row)));
+            }
+            if !notes.is_empty() {
+                println!("      {}", notes.join("; "));
+            }
         }
     }
     let r = &report.reference;

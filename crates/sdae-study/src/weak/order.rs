@@ -1,0 +1,321 @@
+//! Weak orders fitted over the asymptotic levels only.
+//!
+//! The levels considered are those whose error is resolved (|e| above the half-width of its
+//! interval, which includes the reference's bias bound). From them, coarse to fine, the
+//! coarsest is left out as pre-asymptotic while
+//!
+//! - it lies before a change of sign of the error (a zero crossing of e(h) is no sign of
+//!   accuracy: the fit of log |e| needs one sign; where the two finest levels differ in sign
+//!   there is no order), or
+//! - its local slope log(|e_a| / |e_b|) / log(h_a / h_b) to the next level differs from the
+//!   least-squares slope of the finer levels by more than [`PRE_ASYMPTOTIC_TOLERANCE`] and
+//!   beyond the Monte Carlo error (the 95% bootstrap interval of the difference excludes 0),
+//!   as long as three levels remain,
+//!
+//! which is the strong study's rule ([`crate::stats::fit_order`]) for signed errors. The
+//! order is the least-squares slope of log |e| against log h over the remaining levels.
+//!
+//! The order's interval is the bootstrap interval of the slope, widened by the model error
+//! that the levels show:
+//!
+//! - at least +-[`PRE_ASYMPTOTIC_TOLERANCE`]: the rule above takes local slopes that differ
+//!   by less for one order, so the fit does not tell orders apart more finely;
+//! - after a change of sign, the error is not yet a power law: e(h) = c h^p (1 - h / h0) with
+//!   its zero at h0 has the local slope p + log2((1 - 2x) / (1 - x)) between 2h and h, x = h /
+//!   h0. With h0 taken at the first fitted level (the sign changed before it, so h0 is at
+//!   least that coarse, and x at most what this takes), the finest local slope's interval is
+//!   widened by |log2((1 - 2x) / (1 - x))|; with fewer than three levels after the change
+//!   (x > 1/4) the levels do not tell the order at all;
+//! - precise errors resolve the bend of an error curve that is not yet a power law at the finest
+//! levels (e(h) = c h^p (1 + d h + ...): the local slopes s_k approach p like 2^-k, so what is
+//! left of the approach after the finest pair is about the last change s_k - s_(k-1)). Where
+//! that change is beyond the Monte Carlo error (its interval excludes 0) it is reported as the
+//! order's `bending`, and the order's interval is widened to hold the finest local slope's
+//! interval moved by the change either way: the verdict covers the model error too, instead of
+//! a tight interval around a slope that is still moving. All intervals come from one bootstrap
+//! over whole paths ([`super::bootstrap::path_bootstrap`]), so the correlation between levels
+//! is kept.
+
+use serde::Serialize;
+
+use crate::stats::Interval;
+
+/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
+/// the Monte Carlo error and by more than this (as in the strong study).
+pub const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
+
+/// The slope between two neighbouring fitted levels, with its 95% bootstrap interval.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WeakSlope {
+    /// Index of the coarser level (into the row's levels).
+    pub coarse: usize,
+    /// Index of the finer level.
+    pub fine: usize,
+    /// log(|e_coarse| / |e_fine|) / log(h_coarse / h_fine).
+    pub slope: Interval,
+}
+
+/// A fitted weak order.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WeakOrder {
+    /// Least-squares slope of log |e| against log h over the fitted levels, with its 95%
+    /// bootstrap interval over whole paths widened by the model error (module documentation);
+    /// `None` where too few levels follow a change of sign of the error to tell the order.
+    pub order: Option<Interval>,
+    /// Indices (into the row's levels) of the levels fitted: resolved and asymptotic.
+    pub fitted: Vec<usize>,
+    /// Indices of the levels whose error is not resolved: |e| within the half-width of its
+    /// interval (the Monte Carlo error plus the reference's bias bound).
+    pub unresolved: Vec<usize>,
+    /// Indices of the coarse levels left out as pre-asymptotic (module documentation).
+    pub pre_asymptotic: Vec<usize>,
+    /// Local slopes between neighbouring resolved levels, coarse to fine.
+    pub local_slopes: Vec<WeakSlope>,
+    /// Where the local slope still changes between the two finest pairs of fitted levels
+    /// beyond the Monte Carlo error: that change (module documentation). The order's interval
+    /// includes the finest local slope's interval widened by it on each side.
+    pub bending: Option<f64>,
+    /// Where the error changed sign before the fitted levels: how far the finest local slope
+    /// can still be from the order (module documentation). The order's interval includes the
+    /// finest local slope's interval widened by it on each side.
+    pub after_crossing: Option<f64>,
+}
+
+/// The least-squares slope of log |e_j| against log h_j over `levels` (NaN with fewer than 2).
+pub fn log_slope(h: &[f64], e: &[f64], levels: &[usize]) -> f64 {
+    if levels.len() < 2 {
+        return f64::NAN;
+    }
+    let x: Vec<f64> = levels.iter().map(|&j| h[j].ln()).collect();
+    let y: Vec<f64> = levels.iter().map(|&j| e[j].abs().ln()).collect();
+    let mx = x.iter().sum::<f64>() / x.len() as f64;
+    let my = y.iter().sum::<f64>() / y.len() as f64;
+    let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx) * (a - mx)).sum();
+    sxy / sxx
+}
+
+/// The slopes a weak order is chosen from, over the resolved levels `usable` (coarse to fine,
+/// m of them): the slope over each run of finer levels usable[k..] (k < m - 1), the local slope
+/// of each neighbouring pair, and the difference between the local slope of usable[k],
+/// usable[k + 1] and the slope over usable[k + 1..] (k < m - 2). Laid out in that order in the
+/// statistic a bootstrap resamples ([`OrderCandidates::push`]).
+pub struct OrderCandidates<'a> {
+    h: &'a [f64],
+    usable: Vec<usize>,
+    unresolved: Vec<usize>,
+}
+
+impl<'a> OrderCandidates<'a> {
+    /// The candidates over the levels of step sizes `h` whose error is resolved.
+    pub fn new(h: &'a [f64], resolved: impl Fn(usize) -> bool) -> Self {
+        let (usable, unresolved) = (0..h.len()).partition(|&j| resolved(j));
+        Self {
+            h,
+            usable,
+            unresolved,
+        }
+    }
+
+    /// Values this adds to a statistic.
+    pub fn len(&self) -> usize {
+        let m = self.usable.len();
+        if m < 2 { 0 } else { 2 * (m - 1) + 2 * (m - 2) }
+    }
+
+    /// Whether this adds nothing (fewer than two resolved levels).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Appends the candidates' values for the errors `e` (one per level) to `out`.
+    pub fn push(&self, e: &[f64], out: &mut Vec<f64>) {
+        let (u, h) = (&self.usable, self.h);
+        if u.len() < 2 {
+            return;
+        }
+        let suffix = |k: usize| log_slope(h, e, &u[k..]);
+        let local = |k: usize| log_slope(h, e, &u[k..k + 2]);
+        out.extend((0..u.len() - 1).map(suffix));
+        out.extend((0..u.len() - 1).map(local));
+        out.extend((0..u.len() - 2).map(|k| local(k) - suffix(k + 1)));
+        out.extend((0..u.len() - 2).map(|k| local(k + 1) - local(k)));
+    }
+
+    /// The order from the errors `e` of all paths and the bootstrap `intervals` of the values
+    /// [`OrderCandidates::push`] gives (in its layout): the pre-asymptotic levels dropped as the
+    /// module documentation says. `None` with fewer than two resolved levels or where the two
+    /// finest differ in sign.
+    pub fn choose(&self, e: &[f64], intervals: &[Option<Interval>]) -> Option<WeakOrder> {
+        let (u, m) = (&self.usable, self.usable.len());
+        if m < 2 || intervals.len() != self.len() {
+            return None;
+        }
+        let (suffix, rest) = intervals.split_at(m - 1);
+        let (local, rest) = rest.split_at(m - 1);
+        let (differences, changes) = rest.split_at(m - 2);
+        // Every level up to the last change of sign, then coarse levels off the finer slope.
+        let mut start = (0..m - 1)
+            .rev()
+            .find(|&k| e[u[k]].signum() != e[u[k + 1]].signum())
+            .map_or(0, |k| k + 1);
+        if m - start < 2 {
+            return None;
+        }
+        while m - start > 3
+            && differences[start]
+                .as_ref()
+                .is_some_and(|d| d.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE && !d.contains(0.0))
+        {
+            start += 1;
+        }
+        // The change of the local slope between the two finest pairs of fitted levels.
+        let bending = (m - start >= 3)
+            .then(|| changes[m - 3])
+            .flatten()
+            .filter(|c| !c.contains(0.0))
+            .map(|c| c.estimate.abs());
+        // After a change of sign, x = h_finest / h0 with h0 at the first fitted level.
+        let crossing = (start > 0 && e[u[start - 1]].signum() != e[u[start]].signum())
+            .then(|| self.h[u[m - 1]] / self.h[u[start]]);
+        let after_crossing = crossing.map(|x| {
+            if x > 0.25 {
+                f64::INFINITY
+            } else {
+                ((1.0 - 2.0 * x) / (1.0 - x)).log2().abs()
+            }
+        });
+        let order = suffix[start].filter(|_| after_crossing.is_none_or(f64::is_finite));
+        let order = order.map(|mut order| {
+            let tolerance = PRE_ASYMPTOTIC_TOLERANCE;
+            order.ci_low = order.ci_low.min(order.estimate - tolerance);
+            order.ci_high = order.ci_high.max(order.estimate + tolerance);
+            for widen in [bending, after_crossing].into_iter().flatten() {
+                if let Some(finest) = local[m - 2] {
+                    order.ci_low = order.ci_low.min(finest.ci_low - widen);
+                    order.ci_high = order.ci_high.max(finest.ci_high + widen);
+                }
+            }
+            order
+        });
+        Some(WeakOrder {
+            order,
+            bending,
+            after_crossing: after_crossing.filter(|x| x.is_finite()),
+            fitted: u[start..].to_vec(),
+            unresolved: self.unresolved.clone(),
+            pre_asymptotic: u[..start].to_vec(),
+            local_slopes: u
+                .windows(2)
+                .zip(local)
+                .filter_map(|(w, slope)| {
+                    slope.map(|slope| WeakSlope {
+                        coarse: w[0],
+                        fine: w[1],
+                        slope,
+                    })
+                })
+                .collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Intervals of width `half` around the values of `push` for the errors `e`.
+    fn intervals(c: &OrderCandidates<'_>, e: &[f64], half: f64) -> Vec<Option<Interval>> {
+        let mut values = Vec::new();
+        c.push(e, &mut values);
+        values
+            .into_iter()
+            .map(|x| {
+                Some(Interval {
+                    estimate: x,
+                    ci_low: x - half,
+                    ci_high: x + half,
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_coarse_level_off_the_power_law_is_dropped_and_named() {
+        // e = h + 4 h^2 at h = 1/4 .. 1/128: the coarse levels fall faster than first order.
+        let h: Vec<f64> = (2..8).map(|k| 0.5f64.powi(k)).collect();
+        let e: Vec<f64> = h.iter().map(|h| h + 4.0 * h * h).collect();
+        let c = OrderCandidates::new(&h, |_| true);
+        let fit = c.choose(&e, &intervals(&c, &e, 0.01)).unwrap();
+        assert!(!fit.pre_asymptotic.is_empty(), "{fit:?}");
+        assert_eq!(fit.pre_asymptotic[0], 0);
+        let order = fit.order.unwrap();
+        assert!((order.estimate - 1.0).abs() < 0.1, "{fit:?}");
+        assert_eq!(fit.local_slopes.len(), 5);
+        // Within the Monte Carlo error, nothing is dropped.
+        let wide = c.choose(&e, &intervals(&c, &e, 1.0)).unwrap();
+        assert!(wide.pre_asymptotic.is_empty());
+    }
+
+    #[test]
+    fn levels_before_a_zero_crossing_are_pre_asymptotic() {
+        // e changes sign between h = 1/8 and 1/16, then follows -h.
+        let h: Vec<f64> = (2..7).map(|k| 0.5f64.powi(k)).collect();
+        let e = [0.2, 0.05, -h[2], -h[3], -h[4]];
+        let c = OrderCandidates::new(&h, |_| true);
+        let fit = c.choose(&e, &intervals(&c, &e, 0.01)).unwrap();
+        assert_eq!(fit.pre_asymptotic, vec![0, 1]);
+        assert_eq!(fit.fitted, vec![2, 3, 4]);
+        let order = fit.order.unwrap();
+        assert!((order.estimate - 1.0).abs() < 1e-12);
+        // Three levels after the change: x = 1/4, the slope may still be log2(3/2) off.
+        let off = fit.after_crossing.unwrap();
+        assert!((off - 1.5f64.log2()).abs() < 1e-12);
+        assert!((order.ci_high - (1.0 + 0.01 + off)).abs() < 1e-12);
+        // Two levels after it tell no order.
+        let late = [0.2, 0.05, 0.01, -h[3], -h[4]];
+        let fit = c.choose(&late, &intervals(&c, &late, 0.01)).unwrap();
+        assert_eq!(fit.fitted, vec![3, 4]);
+        assert!(fit.order.is_none());
+    }
+
+    #[test]
+    fn the_true_order_of_the_model_with_a_zero_is_covered() {
+        // e = h (1 - 16 h): zero at h0 = 1/16, levels h = 1/4 .. 1/128.
+        let h: Vec<f64> = (2..8).map(|k| 0.5f64.powi(k)).collect();
+        let e: Vec<f64> = h.iter().map(|h| h * (1.0 - 16.0 * h)).collect();
+        let c = OrderCandidates::new(&h, |j| j != 2);
+        let fit = c.choose(&e, &intervals(&c, &e, 0.01)).unwrap();
+        let order = fit.order.unwrap();
+        assert!(order.estimate < 0.8, "{fit:?}");
+        assert!(order.contains(1.0), "{fit:?}");
+    }
+
+    #[test]
+    fn a_slope_still_moving_at_the_finest_levels_widens_the_interval_to_the_true_order() {
+        // e = h (1 - 3 h)... with h = 1/8 .. 1/64: local slopes below 1 and rising towards it.
+        let h: Vec<f64> = (3..7).map(|k| 0.5f64.powi(k)).collect();
+        let e: Vec<f64> = h.iter().map(|h| h * (1.0 - 3.0 * h)).collect();
+        let c = OrderCandidates::new(&h, |_| true);
+        let fit = c.choose(&e, &intervals(&c, &e, 1e-3)).unwrap();
+        let bending = fit.bending.expect("the slopes still change");
+        assert!(bending > 0.05, "{fit:?}");
+        let order = fit.order.unwrap();
+        assert!(order.estimate < 0.95, "{fit:?}");
+        assert!(order.contains(1.0), "{fit:?}");
+        // A power law does not bend: its interval is the fit's resolution.
+        let plain: Vec<f64> = h.iter().map(|h| 0.3 * h).collect();
+        let fit = c.choose(&plain, &intervals(&c, &plain, 1e-3)).unwrap();
+        assert_eq!(fit.bending, None);
+        let order = fit.order.unwrap();
+        assert!((order.ci_high - order.ci_low - 2.0 * PRE_ASYMPTOTIC_TOLERANCE).abs() < 1e-12);
+    }
+
+    #[test]
+    fn fewer_than_two_resolved_levels_give_no_order() {
+        let h = [0.5, 0.25, 0.125];
+        let c = OrderCandidates::new(&h, |j| j == 1);
+        assert!(c.is_empty());
+        assert!(c.choose(&[1.0, 0.5, 0.25], &[]).is_none());
+    }
+}

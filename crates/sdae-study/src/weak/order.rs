@@ -8,7 +8,8 @@
 //!   accuracy: the fit of log |e| needs one sign; where the two finest levels differ in sign
 //!   there is no order), or
 //! - its local slope log(|e_a| / |e_b|) / log(h_a / h_b) to the next level differs from the
-//!   least-squares slope of the finer levels by more than [`PRE_ASYMPTOTIC_TOLERANCE`] and
+//!   least-squares slope of the finer levels by more than the strong study's tolerance
+//!   ([`PRE_ASYMPTOTIC_TOLERANCE`](crate::convergence::PRE_ASYMPTOTIC_TOLERANCE), 0.05) and
 //!   beyond the Monte Carlo error (the 95% bootstrap interval of the difference excludes 0),
 //!   as long as three levels remain,
 //!
@@ -18,14 +19,18 @@
 //! The order's interval is the bootstrap interval of the slope, widened by the model error
 //! that the levels show:
 //!
-//! - at least +-[`PRE_ASYMPTOTIC_TOLERANCE`]: the rule above takes local slopes that differ
-//!   by less for one order, so the fit does not tell orders apart more finely;
+//! - at least +-0.05, the tolerance above: the rule takes local slopes that differ by less for
+//!   one order, so the fit does not tell orders apart more finely;
 //! - after a change of sign, the error is not yet a power law: e(h) = c h^p (1 - h / h0) with
 //!   its zero at h0 has the local slope p + log2((1 - 2x) / (1 - x)) between 2h and h, x = h /
 //!   h0. With h0 taken at the first fitted level (the sign changed before it, so h0 is at
 //!   least that coarse, and x at most what this takes), the finest local slope's interval is
 //!   widened by |log2((1 - 2x) / (1 - x))|; with fewer than three levels after the change
 //!   (x > 1/4) the levels do not tell the order at all;
+//! - where the local slopes do not settle ([`WeakOrder::unsettled`]: the last
+//!   change beyond the Monte Carlo error and 0.05, and no smaller than the one before), the
+//!   levels tell
+//!   no order at all;
 //! - precise errors resolve the bend of an error curve that is not yet a power law at the finest
 //! levels (e(h) = c h^p (1 + d h + ...): the local slopes s_k approach p like 2^-k, so what is
 //! left of the approach after the finest pair is about the last change s_k - s_(k-1)). Where
@@ -38,11 +43,8 @@
 
 use serde::Serialize;
 
+use crate::convergence::PRE_ASYMPTOTIC_TOLERANCE;
 use crate::stats::Interval;
-
-/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
-/// the Monte Carlo error and by more than this (as in the strong study).
-pub const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
 
 /// The slope between two neighbouring fitted levels, with its 95% bootstrap interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -71,6 +73,10 @@ pub struct WeakOrder {
     pub pre_asymptotic: Vec<usize>,
     /// Local slopes between neighbouring resolved levels, coarse to fine.
     pub local_slopes: Vec<WeakSlope>,
+    /// The local slopes do not settle: their change between the two finest pairs is beyond the
+    /// Monte Carlo error and the tolerance 0.05, and no smaller than the change before it (approaching an order, the
+    /// changes shrink, about by half a level). The levels then tell no order.
+    pub unsettled: bool,
     /// Where the local slope still changes between the two finest pairs of fitted levels
     /// beyond the Monte Carlo error: that change (module documentation). The order's interval
     /// includes the finest local slope's interval widened by it on each side.
@@ -155,10 +161,11 @@ impl<'a> OrderCandidates<'a> {
         let (local, rest) = rest.split_at(m - 1);
         let (differences, changes) = rest.split_at(m - 2);
         // Every level up to the last change of sign, then coarse levels off the finer slope.
-        let mut start = (0..m - 1)
+        let after_sign = (0..m - 1)
             .rev()
             .find(|&k| e[u[k]].signum() != e[u[k + 1]].signum())
             .map_or(0, |k| k + 1);
+        let mut start = after_sign;
         if m - start < 2 {
             return None;
         }
@@ -185,7 +192,20 @@ impl<'a> OrderCandidates<'a> {
                 ((1.0 - 2.0 * x) / (1.0 - x)).log2().abs()
             }
         });
-        let order = suffix[start].filter(|_| after_crossing.is_none_or(f64::is_finite));
+        // The local slopes after the change of sign do not settle where their last change is
+        // beyond the Monte Carlo error and the tolerance, and no smaller than the change before.
+        let unsettled = bending.is_some()
+            && m - after_sign >= 4
+            && match (changes[m - 3], changes[m - 4]) {
+                (Some(last), Some(before)) => {
+                    last.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE
+                        && last.estimate.abs() >= before.estimate.abs()
+                }
+                _ => false,
+            };
+        let order = suffix[start]
+            .filter(|_| after_crossing.is_none_or(f64::is_finite))
+            .filter(|_| !unsettled);
         let order = order.map(|mut order| {
             let tolerance = PRE_ASYMPTOTIC_TOLERANCE;
             order.ci_low = order.ci_low.min(order.estimate - tolerance);
@@ -200,6 +220,7 @@ impl<'a> OrderCandidates<'a> {
         });
         Some(WeakOrder {
             order,
+            unsettled,
             bending,
             after_crossing: after_crossing.filter(|x| x.is_finite()),
             fitted: u[start..].to_vec(),
@@ -309,6 +330,32 @@ mod tests {
         assert_eq!(fit.bending, None);
         let order = fit.order.unwrap();
         assert!((order.ci_high - order.ci_low - 2.0 * PRE_ASYMPTOTIC_TOLERANCE).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slopes_that_grow_apart_tell_no_order() {
+        // Local slopes 0.1, 0.4, 1.1, 2.5 (an error switched off by truncation at small h).
+        let h: Vec<f64> = (2..7).map(|k| 0.5f64.powi(k)).collect();
+        let slopes = [0.1, 0.4, 1.1, 2.5];
+        let mut e = vec![1.0];
+        for s in slopes {
+            let last = e[e.len() - 1];
+            e.push(last / 2f64.powf(s));
+        }
+        let c = OrderCandidates::new(&h, |_| true);
+        let fit = c.choose(&e, &intervals(&c, &e, 0.01)).unwrap();
+        assert!(fit.unsettled, "{fit:?}");
+        assert!(fit.order.is_none());
+        // Slopes that settle (changes 0.4, 0.2) do tell one.
+        let mut settling = vec![1.0];
+        for s in [0.3, 0.7, 0.9, 1.0] {
+            let last = settling[settling.len() - 1];
+            settling.push(last / 2f64.powf(s));
+        }
+        let fit = c
+            .choose(&settling, &intervals(&c, &settling, 0.01))
+            .unwrap();
+        assert!(!fit.unsettled && fit.order.is_some(), "{fit:?}");
     }
 
     #[test]

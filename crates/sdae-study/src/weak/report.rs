@@ -59,6 +59,7 @@ fn order_notes(o: &WeakOrder, row: &WeakScheme) -> Vec<String> {
         s.push(format!("still bending by {b:.2} per level"));
     }
     match (o.order, o.after_crossing) {
+        (None, _) if o.unsettled => s.push("the local slopes do not settle yet".into()),
         (None, _) => s.push("too few levels after the error's change of sign".into()),
         (Some(_), Some(x)) => s.push(format!("{x:.2} off after the error's change of sign")),
         _ => {}
@@ -90,15 +91,21 @@ fn basis_text(o: &ObservableReport) -> String {
     }
 }
 
-/// The CSV table: one row per observable, scheme (or extrapolation) and step size.
+/// The CSV table: one row per observable, scheme (or extrapolation) and step size compared;
+/// `bias_bound` is the reference's bias bound B added to each error interval (0 against an
+/// exact value).
 pub fn csv(report: &WeakReport) -> String {
     let mut s = String::from(
-        "observable,basis,scheme,extrapolated,n_steps,h,value,value_lo,value_hi,error,error_lo,error_hi,resolved,sup_error,sup_error_lo,sup_error_hi,seconds_per_path\n",
+        "observable,basis,bias_bound,scheme,extrapolated,n_steps,h,value,value_lo,value_hi,error,error_lo,error_hi,resolved,sup_error,sup_error_lo,sup_error_hi,seconds_per_path\n",
     );
     for o in &report.observables {
         let basis = match o.basis {
             Basis::Exact(_) => "exact",
             Basis::Reference => "reference",
+        };
+        let bound = match (o.basis, &o.reference_bias) {
+            (Basis::Reference, Some(b)) => b.bound,
+            _ => 0.0,
         };
         for row in &o.schemes {
             for l in &row.levels {
@@ -109,7 +116,7 @@ pub fn csv(report: &WeakReport) -> String {
                     });
                 let _ = writeln!(
                     s,
-                    "{},{basis},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e}",
+                    "{},{basis},{bound:e},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e}",
                     o.name,
                     row.name,
                     row.extrapolated,

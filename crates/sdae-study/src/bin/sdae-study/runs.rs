@@ -229,7 +229,12 @@ impl Ready<'_> {
         let job = &self.job;
         let (scene, st, (index, count)) = (job.scene, job.settings, job.shard);
         let reference = st.reference.map_or("no reference".into(), |r| {
-            format!("reference 2^{r} ({})", st.reference_scheme.name())
+            let pair = if st.paired_reference {
+                format!(" and 2^{}, extrapolated", r - 1)
+            } else {
+                String::new()
+            };
+            format!("reference 2^{r}{pair} ({})", st.reference_scheme.name())
         });
         eprintln!(
             "{}: {} paths (shard {index}/{count}), N = 2^{}..2^{}, {reference}, T = {}, {} threads",

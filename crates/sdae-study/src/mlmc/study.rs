@@ -86,6 +86,17 @@ impl MlmcSettings {
                 rule: "the final time must be finite and > 0".into(),
             });
         }
+        if s.coarsest == 0 {
+            return Err(MlmcError::Setting {
+                key: "coarsest",
+                value: "0".into(),
+                rule: "level 0 must have at least 2 steps (coarsest >= 1): one step of the \
+                       half-explicit schemes moves the position by h v_0 alone, so P_0 of a \
+                       position observable has no variance and N_l ~ sqrt(V_l) gives level 0 \
+                       no samples"
+                    .into(),
+            });
+        }
         if s.coarsest + s.max_level > MAX_STEP_EXPONENT {
             return Err(MlmcError::Levels {
                 reason: format!(
@@ -123,6 +134,14 @@ impl MlmcSettings {
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// [`Self::validate`], and the observable checked against the scene (its system has it,
+    /// and the scene computes the outputs it reads): every input error before anything runs.
+    pub fn validate_for(&self, scene: &Scene) -> Result<(), MlmcError> {
+        self.validate()?;
+        crate::observable::check(scene, &self.spec.observable)?;
         Ok(())
     }
 }

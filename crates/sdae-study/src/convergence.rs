@@ -25,7 +25,7 @@ pub const MAX_THREADS: usize = 1024;
 
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
 /// the Monte Carlo error and by more than this.
-const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
+pub const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
 
 /// The finest grid observables are kept on: 2^8 points per path and track.
 const MAX_OBSERVED_LEVEL: u32 = 8;

@@ -110,8 +110,9 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Study
 }
 
 /// The fields of a report that differ between runs of one study: timings, what is computed
-/// from them (an MLMC report's costs, savings, speed-up and cost rate gamma), and the thread count.
-pub const RUN_DEPENDENT: [&str; 11] = [
+/// from them (an MLMC report's costs in seconds, speed-up, the slope of its seconds per sample
+/// and its standard run's predicted seconds), and the thread count.
+pub const RUN_DEPENDENT: [&str; 12] = [
     "seconds_per_path",
     "steps_per_second",
     "threads",
@@ -121,8 +122,9 @@ pub const RUN_DEPENDENT: [&str; 11] = [
     "speedup",
     "mlmc_cost",
     "standard_cost",
-    "savings",
-    "gamma",
+    "gamma_seconds",
+    "predicted_seconds",
+    "cap_seconds",
 ];
 
 /// A report (or shard) in JSON without its [`RUN_DEPENDENT`] fields: what is equal for every

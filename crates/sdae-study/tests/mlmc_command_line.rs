@@ -28,6 +28,15 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
         &["mlmc", "--observable", "energie", "--quick", "--out", out],
         &["energie", "did you mean 'energy'?", "cos_angle"],
     );
+    // Refused before the run's header line, and the scene named once.
+    let refused = study(&["mlmc", "--observable", "energie", "--quick", "--out", out]);
+    let stderr = text(&refused.stderr);
+    assert!(!stderr.contains("MLMC of"), "{stderr}");
+    assert_eq!(stderr.matches("scene pendulum").count(), 1, "{stderr}");
+    usage_error(
+        &["mlmc", "--coarsest", "0", "--quick", "--out", out],
+        &["coarsest = 0", "at least 2 steps"],
+    );
     usage_error(
         &[
             "mlmc",

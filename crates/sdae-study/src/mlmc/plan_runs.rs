@@ -12,8 +12,7 @@ use super::study::{MlmcReport, MlmcSettings, SamplerTask, plan_from_test, with_s
 use super::sums::LevelSums;
 use crate::scene::Scene;
 
-/// The plan that reaches `eps` by the convergence test of `report` (its alpha, at least 0.5;
-/// 1 where none was fitted).
+/// The plan that reaches `eps` by the convergence test of `report`.
 pub fn plan_for_eps(
     scene: &Scene, settings: &MlmcSettings, report: &MlmcReport, eps: f64,
 ) -> Result<Plan, MlmcError> {
@@ -24,8 +23,7 @@ pub fn plan_for_eps(
     impl SamplerTask for FromTest<'_> {
         type Output = Plan;
         fn run<L: LevelSampler>(self, sampler: &L) -> Result<Plan, MlmcError> {
-            let alpha = self.report.rates.alpha.map_or(1.0, |a| a.estimate.max(0.5));
-            plan_from_test(sampler, &self.report.test, alpha, self.eps)
+            plan_from_test(sampler, &self.report.test, self.eps)
         }
     }
     with_sampler(scene, settings, FromTest { report, eps })

@@ -181,12 +181,12 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
             .collect::<Vec<_>>()
     };
     let costs = Panel {
-        title: "eps^2 x cost (seconds)".into(),
+        title: "eps^2 x work (steps)".into(),
         axes: ("accuracy eps", "eps^2 cost"),
         formats: (power_of_ten, power_of_ten),
         lines: vec![
-            ("MLMC".into(), cost(|r| r.mlmc_cost)),
-            ("standard MC".into(), cost(|r| r.standard_cost)),
+            ("MLMC".into(), cost(|r| r.mlmc_work)),
+            ("standard MC".into(), cost(|r| r.standard_work)),
         ],
     };
     draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])

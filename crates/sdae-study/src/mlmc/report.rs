@@ -5,7 +5,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::study::MlmcReport;
+use super::fit::Rates;
+use super::study::{MlmcReport, StandardRun};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::readable;
@@ -21,12 +22,12 @@ pub fn describe(i: Option<&Interval>) -> String {
 /// The convergence test (`table,level,...`) and the complexity table (`complexity,eps,...`).
 pub fn csv(report: &MlmcReport) -> String {
     let mut s = String::from(
-        "level,steps,samples,failed_fine,failed_coarse,mean_dp,var_dp,mean_p,var_p,kurtosis,consistency,seconds_per_sample\n",
+        "level,steps,samples,failed_fine,failed_coarse,mean_dp,var_dp,mean_p,var_p,kurtosis,consistency,work_per_sample,seconds_per_sample\n",
     );
     for l in &report.test {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+            "{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e}",
             l.level,
             l.steps,
             l.samples,
@@ -38,28 +39,32 @@ pub fn csv(report: &MlmcReport) -> String {
             l.var_p,
             l.kurtosis,
             l.consistency,
+            l.work_per_sample,
             l.seconds_per_sample
         );
     }
-    s.push_str("\neps,estimate,ci_low,ci_high,bias,converged,levels,samples,failed,mlmc_cost,standard_cost,savings,seconds\n");
+    s.push_str("\neps,estimate,ci_low,ci_high,bias,bias_alpha,converged,levels,samples,failed,mlmc_work,standard_work,savings,mlmc_cost,standard_cost,seconds\n");
     for row in &report.complexity {
         let r = &row.run;
         let joined = |v: Vec<u64>| v.iter().map(u64::to_string).collect::<Vec<_>>().join(" ");
         let _ = writeln!(
             s,
-            "{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e}",
+            "{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
             r.eps,
             r.estimate.estimate,
             r.estimate.ci_low,
             r.estimate.ci_high,
             r.bias,
+            r.bias_alpha,
             r.converged,
             row.samples.len(),
             joined(row.samples.clone()),
             joined(r.levels.iter().map(|l| l.failed).collect()),
+            row.mlmc_work,
+            row.standard_work,
+            row.savings,
             row.mlmc_cost,
             row.standard_cost,
-            row.savings,
             r.seconds
         );
     }
@@ -104,11 +109,11 @@ fn test_section(report: &MlmcReport) -> String {
         "{} samples per level; Y_l = P_l - P_l-1 (Y_0 = P_0).\n",
         st.spec.test_samples
     );
-    s.push_str("| l | steps | mean Y_l | var Y_l | mean P_l | var P_l | kurtosis | check | seconds/sample | failed (fine/coarse) |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    s.push_str("| l | steps | mean Y_l | var Y_l | mean P_l | var P_l | kurtosis | check | work/sample (steps) | seconds/sample | failed (fine/coarse) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     for l in &report.test {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.4e} | {:.4e} | {:.6} | {:.4e} | {:.2} | {:.2} | {:.3e} | {}/{} |",
+            "| {} | {} | {:.4e} | {:.4e} | {:.6} | {:.4e} | {:.2} | {:.2} | {} | {:.3e} | {}/{} |",
             l.level,
             l.steps,
             l.mean_y,
@@ -117,77 +122,145 @@ fn test_section(report: &MlmcReport) -> String {
             l.var_p,
             l.kurtosis,
             l.consistency,
+            l.work_per_sample,
             l.seconds_per_sample,
             l.failed_fine,
             l.failed_coarse
         );
     }
-    let r = &report.rates;
-    let _ = writeln!(
-        s,
-        "\nRates fitted over levels l >= {} (95% intervals): alpha = {}, beta = {}, gamma = {}.",
+    s.push('\n');
+    for line in rates_lines(&report.rates) {
+        let _ = writeln!(s, "{line}");
+    }
+    s
+}
+
+/// The levels of a list, "1, 2".
+fn listed(levels: &[u32]) -> String {
+    levels
+        .iter()
+        .map(u32::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The fitted rates and the levels left out of them, one sentence a line (the Markdown
+/// report and the terminal).
+pub fn rates_lines(r: &Rates) -> Vec<String> {
+    let mut lines = vec![format!(
+        "Rates over levels l >= {} (95% intervals): alpha = {}, beta = {}, gamma = {} from the \
+         work per sample in steps (measured seconds per sample: {}).",
         r.from_level,
         describe(r.alpha.as_ref()),
         describe(r.beta.as_ref()),
-        describe(r.gamma.as_ref())
-    );
-    if !r.unresolved.is_empty() {
-        let _ = writeln!(
-            s,
-            "Levels {:?} have |mean Y_l| below two standard errors: unresolved, not in alpha.",
-            r.unresolved
-        );
+        describe(r.gamma.as_ref()),
+        describe(r.gamma_seconds.as_ref())
+    )];
+    for (rate, levels) in [
+        ("alpha", &r.alpha_pre_asymptotic),
+        ("beta", &r.beta_pre_asymptotic),
+    ] {
+        if !levels.is_empty() {
+            lines.push(format!(
+                "Pre-asymptotic levels left out of {rate}: {} (their local slope departs from the \
+                 finer levels' beyond the Monte Carlo error and by more than {}).",
+                listed(levels),
+                crate::convergence::PRE_ASYMPTOTIC_TOLERANCE
+            ));
+        }
     }
-    s
+    if !r.unresolved.is_empty() {
+        lines.push(format!(
+            "Unresolved levels left out of alpha (|mean Y_l| below two standard errors): {}.",
+            listed(&r.unresolved)
+        ));
+    }
+    for out in &r.left_out {
+        lines.push(format!(
+            "Level {} left out of every rate: {}.",
+            out.level, out.reason
+        ));
+    }
+    lines
 }
 
 /// The complexity table, one row per eps, and the direct standard Monte Carlo run if any.
 fn complexity_section(report: &MlmcReport) -> String {
     let mut s = String::from(
-        "\n## Complexity\n\n| eps | estimate [95%] | bias est. | L | N_l | MLMC cost (s) | standard MC cost (s) | savings | run (s) |\n|---|---|---|---|---|---|---|---|---|\n",
+        "\n## Complexity\n\n| eps | estimate [95%] | bias est. (alpha) | L | N_l | MLMC work (steps) | standard MC work (steps) | savings | MLMC cost (s) | standard MC cost (s) | run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for row in &report.complexity {
         let e = &row.run;
         let n: Vec<String> = row.samples.iter().map(u64::to_string).collect();
         let _ = writeln!(
             s,
-            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e}{} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} |",
+            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
             e.eps,
             e.estimate.estimate,
             e.estimate.ci_low,
             e.estimate.ci_high,
             e.bias,
+            e.bias_alpha,
             if e.converged { "" } else { " (not converged)" },
             row.samples.len() - 1,
             n.join(" "),
+            row.mlmc_work,
+            row.standard_work,
+            row.savings,
             row.mlmc_cost,
             row.standard_cost,
-            row.savings,
             e.seconds
         );
     }
     s.push_str(
-        "\nCosts from the convergence test's measured seconds per sample; standard Monte Carlo \
-         needs 2 V[P_L] / eps^2 paths on the finest level L of the MLMC run.\n",
+        "\nWork in steps from the work per sample (the savings); costs in seconds from the \
+         convergence test's measured seconds per sample, beside it. Standard Monte Carlo needs \
+         2 V[P_L] / eps^2 paths on the finest level L of the MLMC run. The bias estimate raises \
+         each of the last means by its standard error and takes alpha at the low end of its \
+         interval over the asymptotic levels.\n",
     );
     if let Some(d) = &report.standard {
-        let _ = writeln!(
-            s,
-            "\nDirect standard Monte Carlo at eps = {:.0e} on level {} ({} paths, {} failed): \
-             {:.6} [{:.6}, {:.6}] in {:.3} s, against {:.3} s for MLMC: {:.1}x.",
-            d.eps,
-            d.level,
-            d.samples,
-            d.failed,
-            d.estimate.estimate,
-            d.estimate.ci_low,
-            d.estimate.ci_high,
-            d.seconds,
-            d.mlmc_seconds,
-            d.speedup
-        );
+        let _ = writeln!(s, "\n{}", standard_line(d));
     }
     s
+}
+
+/// What the direct standard Monte Carlo run did, with its cap.
+pub fn standard_line(d: &StandardRun) -> String {
+    let capped = d.eps > d.target_eps;
+    let (accuracy, scaled) = if capped {
+        (
+            format!(
+                "at eps = {:.0e} it would need {:.3e} steps (predicted {:.1} s), above the cap, so \
+                 it ran at eps = {:.2e}",
+                d.target_eps, d.target_work, d.predicted_seconds, d.eps
+            ),
+            format!(
+                "; scaled by (eps_run / eps)^2 to eps = {:.0e}: {:.3} s",
+                d.target_eps,
+                d.seconds * (d.eps / d.target_eps).powi(2)
+            ),
+        )
+    } else {
+        (format!("at eps = {:.0e}", d.eps), String::new())
+    };
+    format!(
+        "Direct standard Monte Carlo (cap: the MLMC part's work, {:.3e} steps, predicted {:.1} s): \
+         {accuracy} on level {} ({} paths, {} failed): {:.6} [{:.6}, {:.6}] in {:.3} s{scaled}, \
+         against {:.3} s for MLMC (seconds of all threads together, which bound the wall-clock \
+         time): {:.1}x.",
+        d.cap_work,
+        d.cap_seconds,
+        d.level,
+        d.samples,
+        d.failed,
+        d.estimate.estimate,
+        d.estimate.ci_low,
+        d.estimate.ci_high,
+        d.seconds,
+        d.mlmc_seconds,
+        d.speedup
+    )
 }
 
 /// The run's warnings as a list, or nothing without any.
@@ -204,35 +277,33 @@ fn warnings(report: &MlmcReport) -> String {
 
 /// Prints the rates and the complexity table on the terminal.
 pub fn print_summary(report: &MlmcReport) {
-    let r = &report.rates;
     println!(
-        "{} ({}, E[{}]): alpha = {}, beta = {}, gamma = {}",
-        report.scene,
-        report.scheme,
-        report.observable,
-        describe(r.alpha.as_ref()),
-        describe(r.beta.as_ref()),
-        describe(r.gamma.as_ref())
+        "{} ({}, E[{}]):",
+        report.scene, report.scheme, report.observable
     );
+    for line in rates_lines(&report.rates) {
+        println!("  {line}");
+    }
     for row in &report.complexity {
         let e = &row.run;
         println!(
-            "  eps {:.0e}: {:.6} [{:.6}, {:.6}], L = {}, N_l = {:?}, savings {:.1}x, {:.3} s",
+            "  eps {:.0e}: {:.6} [{:.6}, {:.6}], bias est. {:.2e} (alpha {:.2}), L = {}, N_l = {:?}, \
+             work {:.3e} steps, savings {:.1}x, {:.3} s",
             e.eps,
             e.estimate.estimate,
             e.estimate.ci_low,
             e.estimate.ci_high,
+            e.bias,
+            e.bias_alpha,
             row.samples.len() - 1,
             row.samples,
+            row.mlmc_work,
             row.savings,
             e.seconds
         );
     }
     if let Some(d) = &report.standard {
-        println!(
-            "  standard Monte Carlo at eps {:.0e}: {:.3} s against MLMC's {:.3} s ({:.1}x)",
-            d.eps, d.seconds, d.mlmc_seconds, d.speedup
-        );
+        println!("  {}", standard_line(d));
     }
     for w in &report.warnings {
         println!("  warning: {w}");

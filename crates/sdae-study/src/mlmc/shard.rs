@@ -187,7 +187,7 @@ pub struct PlanReport {
 pub fn plan_report<L: LevelSampler>(
     sampler: &L, identity: Identity, plan: Plan, levels: Vec<LevelSums>,
 ) -> Result<PlanReport, MlmcError> {
-    let stats = level_stats(&levels, |l| sampler.path_steps(l));
+    let stats = level_stats(&levels, sampler);
     let estimate = estimate_of_plan(sampler, &plan, levels)?;
     Ok(PlanReport {
         identity,

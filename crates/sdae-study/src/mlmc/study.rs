@@ -1,8 +1,9 @@
 //! The MLMC study of a scene, as Giles's `mlmc_test` runs it: a convergence test (a fixed
 //! number of samples on levels 0..=L) with its table and the fitted rates, then the adaptive
 //! algorithm for each eps of a list (the complexity table), the savings against standard
-//! Monte Carlo from the measured variances and costs, one direct standard Monte Carlo run for
-//! comparison, and the warnings.
+//! Monte Carlo from the measured variances and the work per sample (the measured seconds
+//! beside them), one direct standard Monte Carlo run for comparison (its work capped by the
+//! MLMC part's), and the warnings.
 
 use serde::{Deserialize, Serialize};
 
@@ -35,7 +36,8 @@ pub struct MlmcSettings {
     pub threads: usize,
     /// Giles's N_0: samples on a level when it is first run.
     pub initial_samples: u64,
-    /// Run standard Monte Carlo directly at the largest eps (for the measured speed-up).
+    /// Run standard Monte Carlo directly at the largest eps, or at the accuracy the MLMC
+    /// part's work affords (for the measured speed-up).
     pub standard_run: bool,
 }
 
@@ -86,6 +88,17 @@ impl MlmcSettings {
                 rule: "the final time must be finite and > 0".into(),
             });
         }
+        if s.coarsest == 0 {
+            return Err(MlmcError::Setting {
+                key: "coarsest",
+                value: "0".into(),
+                rule: "level 0 must have at least 2 steps (coarsest >= 1): one step of the \
+                       half-explicit schemes moves the position by h v_0 alone, so P_0 of a \
+                       position observable has no variance and N_l ~ sqrt(V_l) gives level 0 \
+                       no samples"
+                    .into(),
+            });
+        }
         if s.coarsest + s.max_level > MAX_STEP_EXPONENT {
             return Err(MlmcError::Levels {
                 reason: format!(
@@ -125,6 +138,14 @@ impl MlmcSettings {
         }
         Ok(())
     }
+
+    /// [`Self::validate`], and the observable checked against the scene (its system has it,
+    /// and the scene computes the outputs it reads): every input error before anything runs.
+    pub fn validate_for(&self, scene: &Scene) -> Result<(), MlmcError> {
+        self.validate()?;
+        crate::observable::check(scene, &self.spec.observable)?;
+        Ok(())
+    }
 }
 
 /// One row of the complexity table.
@@ -134,19 +155,35 @@ pub struct ComplexityRow {
     pub run: MlmcEstimate,
     /// N_l attempted per level.
     pub samples: Vec<u64>,
-    /// MLMC cost in seconds, sum_l N_l c_l with c_l the test's measured seconds per sample.
-    pub mlmc_cost: f64,
-    /// Standard Monte Carlo's cost for the same eps on the finest level L: 2 V\[P_L\] / eps^2
-    /// paths at the test's measured seconds per path.
-    pub standard_cost: f64,
-    /// standard_cost / mlmc_cost.
+    /// MLMC work in steps, sum_l N_l C_l with C_l the work per sample of level l.
+    pub mlmc_work: f64,
+    /// Standard Monte Carlo's work for the same eps on the finest level L: 2 V\[P_L\] / eps^2
+    /// paths of 2^(k0 + L) steps.
+    pub standard_work: f64,
+    /// standard_work / mlmc_work.
     pub savings: f64,
+    /// MLMC cost in seconds, sum_l N_l c_l with c_l the test's measured seconds per sample
+    /// (beside the work: not used by anything).
+    pub mlmc_cost: f64,
+    /// Standard Monte Carlo's cost in seconds, its paths at the test's measured seconds per
+    /// path.
+    pub standard_cost: f64,
 }
 
-/// A direct standard Monte Carlo run next to the MLMC run at the same eps.
+/// A direct standard Monte Carlo run next to the MLMC run of the largest eps.
+///
+/// Its work is capped by the MLMC part's (the convergence test and the adaptive runs, in
+/// steps): it runs 2 V\[P_L\] / eps^2 paths of 2^(k0 + L) steps at the largest eps when that
+/// work is within the cap, else at the accuracy the cap affords,
+/// eps_run = eps sqrt(work(eps) / cap) (as many paths as the cap's steps allow). The cap
+/// counts steps rather than seconds so that a resumed run makes the same choice as an
+/// uninterrupted one; its predicted seconds, at the test's measured seconds per path on level
+/// L (all threads together: the wall-clock time is at most that), are printed with it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StandardRun {
-    /// The accuracy.
+    /// The accuracy of the MLMC run compared (the largest of the list).
+    pub target_eps: f64,
+    /// The accuracy run: `target_eps`, or the larger one the cap affords.
     pub eps: f64,
     /// The level run (the MLMC run's finest).
     pub level: u32,
@@ -156,11 +193,21 @@ pub struct StandardRun {
     pub failed: u64,
     /// The estimate with its interval.
     pub estimate: Interval,
+    /// Work in steps that standard Monte Carlo needs at `target_eps`.
+    pub target_work: f64,
+    /// The cap on the work: the MLMC part's steps.
+    pub cap_work: f64,
+    /// Predicted seconds at `target_eps`: its paths at the test's measured seconds per path
+    /// (the seconds of all threads together, which bound the wall-clock time).
+    pub predicted_seconds: f64,
+    /// The cap in predicted seconds (all threads together).
+    pub cap_seconds: f64,
     /// Measured seconds (all threads).
     pub seconds: f64,
-    /// The MLMC run's measured seconds at this eps.
+    /// The MLMC run's measured seconds at `target_eps`.
     pub mlmc_seconds: f64,
-    /// seconds / mlmc_seconds.
+    /// The measured seconds scaled to `target_eps` by the 1 / eps^2 law,
+    /// seconds (eps / target_eps)^2, over mlmc_seconds.
     pub speedup: f64,
 }
 
@@ -181,7 +228,7 @@ pub struct MlmcReport {
     pub rates: Rates,
     /// The adaptive runs, one per eps.
     pub complexity: Vec<ComplexityRow>,
-    /// The direct standard Monte Carlo run at the largest eps.
+    /// The direct standard Monte Carlo run at the largest eps (or what its cap affords).
     pub standard: Option<StandardRun>,
     /// Giles's warnings (kurtosis, consistency, weak convergence) and the failed paths.
     pub warnings: Vec<String>,
@@ -224,7 +271,22 @@ fn seconds_per_sample<L: LevelSampler>(sampler: &L, test: &[LevelStats], level: 
     }
 }
 
-/// The complexity row of an adaptive run from the test's variances and costs.
+/// The measured seconds of one path of level l alone (standard Monte Carlo): the test's per
+/// sample, scaled by the work.
+fn seconds_per_path<L: LevelSampler>(sampler: &L, test: &[LevelStats], level: u32) -> f64 {
+    seconds_per_sample(sampler, test, level) * sampler.path_steps(level) as f64
+        / sampler.pair_steps(level) as f64
+}
+
+/// V\[P_l\] from the test (its finest level's beyond it).
+fn variance_of_p(test: &[LevelStats], level: u32) -> f64 {
+    test.get(level as usize)
+        .or(test.last())
+        .map_or(f64::NAN, |s| s.var_p)
+}
+
+/// The complexity row of an adaptive run from the test's variances, the work per sample and
+/// the measured seconds.
 fn complexity_row<L: LevelSampler>(
     sampler: &L, test: &[LevelStats], run: MlmcEstimate,
 ) -> ComplexityRow {
@@ -235,18 +297,15 @@ fn complexity_row<L: LevelSampler>(
         .enumerate()
         .map(|(l, &n)| n as f64 * seconds_per_sample(sampler, test, l as u32))
         .sum::<f64>();
-    let var_p = test
-        .get(top as usize)
-        .or(test.last())
-        .map_or(f64::NAN, |s| s.var_p);
-    let per_path = seconds_per_sample(sampler, test, top) * sampler.path_steps(top) as f64
-        / sampler.pair_steps(top) as f64;
-    let standard_cost = 2.0 * var_p / (run.eps * run.eps) * per_path;
+    let paths = 2.0 * variance_of_p(test, top) / (run.eps * run.eps);
+    let standard_work = paths * sampler.path_steps(top) as f64;
     ComplexityRow {
         samples,
+        mlmc_work: run.work,
+        standard_work,
+        savings: standard_work / run.work,
         mlmc_cost,
-        standard_cost,
-        savings: standard_cost / mlmc_cost,
+        standard_cost: paths * seconds_per_path(sampler, test, top),
         run,
     }
 }
@@ -316,7 +375,7 @@ pub fn run_study<L: LevelSampler>(
         control,
         &vec![spec.test_samples; spec.test_levels as usize + 1],
     )?;
-    let test = level_stats(&test_sums, |l| sampler.path_steps(l));
+    let test = level_stats(&test_sums, sampler);
     let rates = fit_rates(&test, 1);
     let mut complexity = Vec::with_capacity(spec.eps.len());
     for &eps in &spec.eps {
@@ -333,29 +392,19 @@ pub fn run_study<L: LevelSampler>(
         complexity.push(complexity_row(sampler, &test, run));
     }
     let standard = if settings.standard_run {
-        let row = complexity
+        let cap_work = test_sums
             .iter()
-            .max_by(|a, b| a.run.eps.total_cmp(&b.run.eps))
-            .expect("at least one eps");
-        let level = (row.samples.len() - 1) as u32;
-        let var_p = test
-            .get(level as usize)
-            .or(test.last())
-            .map_or(0.0, |s| s.var_p);
-        let eps = row.run.eps;
-        let samples = (2.0 * var_p / (eps * eps)).ceil().max(2.0) as u64;
-        let sums = standard_monte_carlo(sampler, control, level, samples)?;
-        let seconds = sums.seconds;
-        Some(StandardRun {
-            eps,
-            level,
-            samples: sums.attempted(),
-            failed: sums.failed,
-            estimate: super::algorithm::estimate_of(&[sums]),
-            seconds,
-            mlmc_seconds: row.run.seconds,
-            speedup: seconds / row.run.seconds,
-        })
+            .enumerate()
+            .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
+            .chain(complexity.iter().map(|row| row.run.work))
+            .sum();
+        Some(standard_run(
+            sampler,
+            control,
+            &test,
+            &complexity,
+            cap_work,
+        )?)
     } else {
         None
     };
@@ -372,17 +421,59 @@ pub fn run_study<L: LevelSampler>(
     })
 }
 
+/// The direct standard Monte Carlo run at the largest eps of `complexity`, its work capped by
+/// `cap_work` steps (see [`StandardRun`]).
+fn standard_run<L: LevelSampler>(
+    sampler: &L, control: &RunControl<'_>, test: &[LevelStats], complexity: &[ComplexityRow],
+    cap_work: f64,
+) -> Result<StandardRun, MlmcError> {
+    let row = complexity
+        .iter()
+        .max_by(|a, b| a.run.eps.total_cmp(&b.run.eps))
+        .expect("at least one eps");
+    let level = (row.samples.len() - 1) as u32;
+    let target_eps = row.run.eps;
+    let steps = sampler.path_steps(level) as f64;
+    let paths = (2.0 * variance_of_p(test, level) / (target_eps * target_eps)).max(2.0);
+    let target_work = paths * steps;
+    let (eps, paths) = if target_work <= cap_work {
+        (target_eps, paths)
+    } else {
+        (
+            target_eps * (target_work / cap_work).sqrt(),
+            (cap_work / steps).max(2.0),
+        )
+    };
+    let sums = standard_monte_carlo(sampler, control, level, paths.ceil() as u64)?;
+    let per_step = seconds_per_path(sampler, test, level) / steps;
+    Ok(StandardRun {
+        target_eps,
+        eps,
+        level,
+        samples: sums.attempted(),
+        failed: sums.failed,
+        estimate: super::algorithm::estimate_of(&[sums]),
+        target_work,
+        cap_work,
+        predicted_seconds: target_work * per_step,
+        cap_seconds: cap_work * per_step,
+        seconds: sums.seconds,
+        mlmc_seconds: row.run.seconds,
+        speedup: sums.seconds * (eps / target_eps).powi(2) / row.run.seconds,
+    })
+}
+
 /// The plan for accuracy `eps` from a convergence test (the cluster's pilot): the fewest
-/// levels 0..=L (L >= 2) whose bias estimate is within eps / sqrt(2), and the optimal N_l from
+/// levels 0..=L (L >= 2) whose bias estimate ([`bias_estimate`]) is within eps / sqrt(2), and the optimal N_l from
 /// the test's variances and the work per sample. Fails if the test's levels do not reach that
 /// bias.
 pub fn plan_from_test<L: LevelSampler>(
-    sampler: &L, test: &[LevelStats], alpha: f64, eps: f64,
+    sampler: &L, test: &[LevelStats], eps: f64,
 ) -> Result<Plan, MlmcError> {
     let eps = check_eps(eps)?;
-    let means: Vec<f64> = test.iter().map(|s| s.mean_y.abs()).collect();
+    let means: Vec<(f64, f64)> = test.iter().map(|s| (s.mean_y, s.se_y)).collect();
     let top = (2..means.len())
-        .find(|&l| bias_estimate(&means[..=l], alpha) <= eps / 2f64.sqrt())
+        .find(|&l| bias_estimate(&means[..=l]).0 <= eps / 2f64.sqrt())
         .ok_or_else(|| MlmcError::Levels {
             reason: format!(
                 "the convergence test's levels 0..={} do not bring the bias estimate below \

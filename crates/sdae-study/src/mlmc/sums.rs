@@ -6,6 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::sampler::LevelSampler;
+
 /// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
 /// for a single path), or which path of the pair failed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -172,6 +174,9 @@ pub struct LevelStats {
     pub level: u32,
     /// Steps of the fine path, 2^(k0 + l).
     pub steps: u64,
+    /// Work per sample in steps: the fine path (twice with the antithetic option) and the
+    /// coarse path ([`LevelSampler::pair_steps`]).
+    pub work_per_sample: u64,
     /// Samples with a value.
     pub samples: u64,
     /// Samples whose fine path failed.
@@ -206,8 +211,8 @@ pub struct LevelStats {
     pub seconds_per_sample: f64,
 }
 
-/// The statistics of each level from its sums (`steps[l]` the fine path's steps of level l).
-pub fn level_stats(sums: &[LevelSums], steps: impl Fn(u32) -> u64) -> Vec<LevelStats> {
+/// The statistics of each level from its sums, with the steps of `sampler`'s paths.
+pub fn level_stats<L: LevelSampler>(sums: &[LevelSums], sampler: &L) -> Vec<LevelStats> {
     let mut out: Vec<LevelStats> = Vec::with_capacity(sums.len());
     for (l, s) in sums.iter().enumerate() {
         let n = s.samples as f64;
@@ -221,7 +226,8 @@ pub fn level_stats(sums: &[LevelSums], steps: impl Fn(u32) -> u64) -> Vec<LevelS
         };
         out.push(LevelStats {
             level: l as u32,
-            steps: steps(l as u32),
+            steps: sampler.path_steps(l as u32),
+            work_per_sample: sampler.pair_steps(l as u32),
             samples: s.samples,
             failed_fine: s.failed_fine,
             failed_coarse: s.failed_coarse,

@@ -58,11 +58,19 @@ impl Failure {
         }
     }
 
-    /// The same failure with `context` (a scene's name, say) in front.
+    /// The same failure with `context` (a scene's name, say) in front, unless the message
+    /// already begins with it (errors that name their scene themselves).
     pub fn within(self, context: &str) -> Failure {
+        let prefixed = |m: String| {
+            if m.starts_with(&format!("{context}: ")) {
+                m
+            } else {
+                format!("{context}: {m}")
+            }
+        };
         match self {
-            Failure::Usage(m) => Failure::Usage(format!("{context}: {m}")),
-            Failure::Failed(m) => Failure::Failed(format!("{context}: {m}")),
+            Failure::Usage(m) => Failure::Usage(prefixed(m)),
+            Failure::Failed(m) => Failure::Failed(prefixed(m)),
             Failure::Interrupted(m) => Failure::Interrupted(m),
             Failure::Unsaved(m) => Failure::Unsaved(m),
         }

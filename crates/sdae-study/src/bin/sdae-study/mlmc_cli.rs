@@ -218,7 +218,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     };
     let settings = args.settings(scene);
     settings
-        .validate()
+        .validate_for(scene)
         .map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
     let plan: Option<Plan> = args.plan.as_deref().map(read_json).transpose()?;
     let shard = args

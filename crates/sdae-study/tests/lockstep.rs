@@ -14,6 +14,18 @@ use sdae_study::integrator::{SchemeConstants, SchemeKind, build_ensemble};
 use sdae_study::lockstep::{BlockEnsembles, Limits, PathPlan, run_block};
 use sdae_systems::{PendulumParams, pendulum};
 
+/// The schemes' constants with the practical C_eta `practical_c_eta` and no ball on kappa.
+fn constants(practical_c_eta: f64) -> SchemeConstants {
+    SchemeConstants {
+        theory: None,
+        practical_c_eta,
+        c_kappa: f64::INFINITY,
+        local_c_eta: 0.5,
+        geodesic_substeps: 3,
+        projection_tolerance: 1e-12,
+    }
+}
+
 fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
@@ -35,14 +47,7 @@ fn a_reference_far_above_the_finest_level_gives_the_same_distances() {
 
 fn matches_a_direct_run(fine: u32, levels: &[u32]) {
     let system = pendulum(PendulumParams::default()).unwrap();
-    let constants = SchemeConstants {
-        theory: None,
-        practical_c_eta: 1.0,
-        c_kappa: f64::INFINITY,
-        local_c_eta: 0.5,
-        geodesic_substeps: 3,
-        projection_tolerance: 1e-12,
-    };
+    let constants = constants(1.0);
     let (r0, v0) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let plan = PathPlan {
         t_end: 1.0,
@@ -159,14 +164,7 @@ fn direct_distances<S: System>(
 #[test]
 fn a_time_changed_scheme_averages_over_its_own_clock() {
     let system = pendulum(PendulumParams::default()).unwrap();
-    let constants = SchemeConstants {
-        theory: None,
-        practical_c_eta: 0.05,
-        c_kappa: f64::INFINITY,
-        local_c_eta: 0.5,
-        geodesic_substeps: 3,
-        projection_tolerance: 1e-12,
-    };
+    let constants = constants(0.05);
     let (r0, v0) = (vec![0.0, -1.0], vec![1.5, 0.0]);
     let (level, after, seed, index) = (4, 0.25, 5, 2);
     let plan = PathPlan {
@@ -243,14 +241,7 @@ fn the_paired_reference_is_the_scheme_at_half_the_steps() {
     use sdae_study::lockstep::Observing;
     use sdae_study::observable::Observable;
     let system = pendulum(PendulumParams::default()).unwrap();
-    let constants = SchemeConstants {
-        theory: None,
-        practical_c_eta: 1.0,
-        c_kappa: f64::INFINITY,
-        local_c_eta: 0.5,
-        geodesic_substeps: 3,
-        projection_tolerance: 1e-12,
-    };
+    let constants = constants(1.0);
     let (r0, v0) = (vec![0.0, -1.0], vec![1.0, 0.0]);
     let fine = 14;
     let height = Observable::new("height", |r: &[f64], _: &[f64]| r[1]);

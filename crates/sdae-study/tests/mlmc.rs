@@ -28,6 +28,18 @@ struct Linear {
 }
 
 impl Linear {
+    /// The Ornstein-Uhlenbeck process dX = -X / 2 dt + dW / 2 from level 0 on 2 steps, T = 1.
+    fn ou(seed: u64) -> Self {
+        Linear {
+            a: -0.5,
+            b: 0.5,
+            multiplicative: false,
+            t_end: 1.0,
+            coarsest: 1,
+            seed,
+        }
+    }
+
     fn step(&self, x: f64, h: f64, dw: f64) -> f64 {
         let noise = if self.multiplicative {
             self.b * x
@@ -191,14 +203,7 @@ fn euler_maruyama_has_alpha_1_and_beta_1_on_geometric_brownian_motion() {
 
 #[test]
 fn euler_maruyama_has_alpha_1_and_beta_2_on_additive_noise() {
-    let ou = Linear {
-        a: -0.5,
-        b: 0.5,
-        multiplicative: false,
-        t_end: 1.0,
-        coarsest: 1,
-        seed: 12,
-    };
+    let ou = Linear::ou(12);
     check_rates(&ou, 1.0, 2.0);
 }
 
@@ -514,14 +519,7 @@ fn beta_over_the_default_levels_matches_beta_over_ten_levels_on_the_pendulum() {
 /// the adaptive run) and runs at the accuracy that cap affords.
 #[test]
 fn the_direct_standard_run_is_capped_by_the_mlmc_work() {
-    let ou = Linear {
-        a: -0.5,
-        b: 0.5,
-        multiplicative: false,
-        t_end: 1.0,
-        coarsest: 1,
-        seed: 14,
-    };
+    let ou = Linear::ou(14);
     let mut settings = circle_settings(&circle(UNIT_CIRCLE).0, 3, 2);
     settings.spec.eps = vec![2e-4];
     settings.spec.test_levels = 5;

@@ -2,15 +2,16 @@
 //! numbers, named errors for bad observables, a user's closure as a built-in one, and the weak
 //! errors of every scheme on the rotor against the closed form of E[cos(angle turned)].
 
+mod weak_run;
+
 use sdae_study::StudyError;
 use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings, build_report, run_convergence};
-use sdae_study::observable::{Observable, built_in_all};
+use sdae_study::observable::Observable;
 use sdae_study::parallel::Control;
-use sdae_study::scene::{Prepared, Scene, SceneRunner, SystemSpec};
-use sdae_study::weak::{
-    Basis, WeakReport, build_weak_report, circle_cos_turn, run_weak_on, weak_settings,
-};
+use sdae_study::scene::{Scene, SystemSpec};
+use sdae_study::weak::{Basis, circle_cos_turn, weak_settings};
 use statrs::distribution::{ContinuousCDF, Normal};
+use weak_run::Weak;
 
 fn small(scene: &Scene, observables: &[&str]) -> ConvergenceSettings {
     ConvergenceSettings {
@@ -106,34 +107,6 @@ fn bad_observables_are_named_errors() {
         matches!(exact, Err(StudyError::Invalid { .. })),
         "{exact:?}"
     );
-}
-
-/// The weak report of a scene's own observables plus a user's closure `extra`, with `settings`.
-struct Weak<'a> {
-    settings: &'a ConvergenceSettings,
-    extra: Option<Observable>,
-}
-
-impl SceneRunner for Weak<'_> {
-    type Output = WeakReport;
-    fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> WeakReport
-    where
-        S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
-    {
-        let mut observables = built_in_all(scene, &prepared, &self.settings.observables).unwrap();
-        observables.extend(self.extra);
-        let run = run_weak_on(
-            scene,
-            &prepared,
-            &[],
-            &observables,
-            self.settings,
-            (0, 1),
-            Control::default(),
-        )
-        .unwrap();
-        build_weak_report(run).unwrap()
-    }
 }
 
 #[test]

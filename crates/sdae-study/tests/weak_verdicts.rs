@@ -9,42 +9,14 @@
 //! the study's own 95% intervals (Monte Carlo error from a bootstrap over whole paths, plus the
 //! model error the levels show, `sdae_study::weak::order`).
 
+mod weak_run;
+
 use sdae_study::convergence::ConvergenceSettings;
 use sdae_study::integrator::SchemeKind;
-use sdae_study::parallel::Control;
-use sdae_study::scene::{Prepared, Scene, SceneRunner};
+use sdae_study::scene::Scene;
 use sdae_study::weak::report::markdown;
-use sdae_study::weak::{
-    Basis, WeakReport, WeakScheme, build_weak_report, circle_cos_turn, run_weak_on, weak_settings,
-};
-
-/// The weak report of `scene` with `settings`.
-struct Weak<'a> {
-    settings: &'a ConvergenceSettings,
-}
-
-impl SceneRunner for Weak<'_> {
-    type Output = WeakReport;
-    fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> WeakReport
-    where
-        S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
-    {
-        let observables =
-            sdae_study::observable::built_in_all(scene, &prepared, &self.settings.observables)
-                .unwrap();
-        let run = run_weak_on(
-            scene,
-            &prepared,
-            &[],
-            &observables,
-            self.settings,
-            (0, 1),
-            Control::default(),
-        )
-        .unwrap();
-        build_weak_report(run).unwrap()
-    }
-}
+use sdae_study::weak::{Basis, WeakReport, WeakScheme, circle_cos_turn, weak_settings};
+use weak_run::Weak;
 
 fn row<'a>(report: &'a WeakReport, name: &str) -> &'a WeakScheme {
     report.observables[0]
@@ -79,6 +51,7 @@ fn the_default_pendulum_gets_each_schemes_true_order() {
     };
     let report = scene.run(Weak {
         settings: &settings,
+        extra: None,
     });
     let report = report.unwrap();
     let cos = &report.observables[0];
@@ -159,6 +132,7 @@ fn on_a_circle_every_order_given_is_true_and_the_reference_is_the_closed_form() 
     let report = scene
         .run(Weak {
             settings: &settings,
+            extra: None,
         })
         .unwrap();
     let cos = &report.observables[0];
@@ -235,6 +209,7 @@ fn a_scheme_that_loses_its_coarsest_level_keeps_the_finer_ones() {
     let report = scene
         .run(Weak {
             settings: &settings,
+            extra: None,
         })
         .unwrap();
     let untruncated = row(&report, "half-explicit-untruncated");

@@ -9,7 +9,7 @@
 //!   there is no order), or
 //! - its local slope log(|e_a| / |e_b|) / log(h_a / h_b) to the next level differs from the
 //!   least-squares slope of the finer levels by more than the strong study's tolerance
-//!   ([`PRE_ASYMPTOTIC_TOLERANCE`](crate::convergence::PRE_ASYMPTOTIC_TOLERANCE), 0.05) and
+//!   ([`crate::convergence::PRE_ASYMPTOTIC_TOLERANCE`], 0.05) and
 //!   beyond the Monte Carlo error (the 95% bootstrap interval of the difference excludes 0),
 //!   as long as three levels remain,
 //!
@@ -27,19 +27,18 @@
 //!   least that coarse, and x at most what this takes), the finest local slope's interval is
 //!   widened by |log2((1 - 2x) / (1 - x))|; with fewer than three levels after the change
 //!   (x > 1/4) the levels do not tell the order at all;
-//! - where the local slopes do not settle ([`WeakOrder::unsettled`]: the last
-//!   change beyond the Monte Carlo error and 0.05, and no smaller than the one before), the
-//!   levels tell
-//!   no order at all;
-//! - precise errors resolve the bend of an error curve that is not yet a power law at the finest
-//! levels (e(h) = c h^p (1 + d h + ...): the local slopes s_k approach p like 2^-k, so what is
-//! left of the approach after the finest pair is about the last change s_k - s_(k-1)). Where
-//! that change is beyond the Monte Carlo error (its interval excludes 0) it is reported as the
-//! order's `bending`, and the order's interval is widened to hold the finest local slope's
-//! interval moved by the change either way: the verdict covers the model error too, instead of
-//! a tight interval around a slope that is still moving. All intervals come from one bootstrap
-//! over whole paths ([`super::bootstrap::path_bootstrap`]), so the correlation between levels
-//! is kept.
+//! - where the local slopes do not settle ([`WeakOrder::unsettled`]: the last change beyond
+//!   the Monte Carlo error and 0.05, and no smaller than the one before), the levels tell no
+//!   order at all;
+//! - where the local slope still changes beyond the Monte Carlo error between the two finest
+//!   pairs of fitted levels (the order's `bending`), the finest local slope's interval moved
+//!   by that change either way: an error e(h) = c h^p (1 + d h + ...) that is not yet a power
+//!   law has local slopes s_k that approach p like 2^-k, so what is left of the approach after
+//!   the finest pair is about the last change s_k - s_(k-1).
+//!
+//! So the verdict covers the model error too, instead of a tight interval around a slope that
+//! is still moving. All intervals come from one bootstrap over whole paths
+//! ([`super::bootstrap::path_bootstrap`]), so the correlation between levels is kept.
 
 use serde::Serialize;
 
@@ -102,10 +101,11 @@ pub fn log_slope(h: &[f64], e: &[f64], levels: &[usize]) -> f64 {
 }
 
 /// The slopes a weak order is chosen from, over the resolved levels `usable` (coarse to fine,
-/// m of them): the slope over each run of finer levels usable[k..] (k < m - 1), the local slope
-/// of each neighbouring pair, and the difference between the local slope of usable[k],
-/// usable[k + 1] and the slope over usable[k + 1..] (k < m - 2). Laid out in that order in the
-/// statistic a bootstrap resamples ([`OrderCandidates::push`]).
+/// m of them): the slope over each run of finer levels `usable[k..]` (k < m - 1), the local
+/// slope of each neighbouring pair, the difference between the local slope of `usable[k]`,
+/// `usable[k + 1]` and the slope over `usable[k + 1..]` (k < m - 2), and the change between
+/// neighbouring local slopes (k < m - 2). Laid out in that order in the statistic a bootstrap
+/// resamples ([`OrderCandidates::push`]).
 pub struct OrderCandidates<'a> {
     h: &'a [f64],
     usable: Vec<usize>,

@@ -339,11 +339,20 @@ fn any_indicative(report: &ConvergenceReport) -> bool {
 }
 
 /// A short table on the terminal: per scheme, its orders and its finest level.
+/// A closed standard output (`| head`) ends the printing, not the caller.
 pub fn print_summary(report: &ConvergenceReport) {
-    println!(
+    let _ = write_summary(report, &mut std::io::stdout().lock());
+}
+
+/// The summary [`print_summary`] prints, written to `out`.
+pub fn write_summary(
+    report: &ConvergenceReport, out: &mut impl std::io::Write,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
         "{:<28} {:>22} {:>22} {:>22} {:>10} {:>6}",
         "scheme", "order r", "order v", "order mu", "us/path", "fail"
-    );
+    )?;
     for scheme in &report.schemes {
         let o = &scheme.observed_order;
         let f = |fit: &Option<OrderFit>| {
@@ -358,7 +367,8 @@ pub fn print_summary(report: &ConvergenceReport) {
             })
         };
         let finest = scheme.levels.last();
-        println!(
+        writeln!(
+            out,
             "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
             scheme.name,
             f(&o.r),
@@ -366,12 +376,13 @@ pub fn print_summary(report: &ConvergenceReport) {
             f(&o.mu),
             finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
             scheme.levels.iter().map(|l| l.failures).sum::<usize>()
-        );
+        )?;
     }
     if any_indicative(report) {
-        println!(
+        writeln!(
+            out,
             "* indicative: fewer than {INDICATIVE_BELOW} effective paths (errors too heavy-tailed for the paths run, or a degenerate bootstrap); the interval's coverage falls short of 95%"
-        );
+        )?;
     }
     for scheme in &report.schemes {
         let biased: Vec<String> = scheme
@@ -381,16 +392,18 @@ pub fn print_summary(report: &ConvergenceReport) {
             .map(|l| l.n_steps.to_string())
             .collect();
         if !biased.is_empty() {
-            println!(
+            writeln!(
+                out,
                 "stable but biased: {} is truncated on more than {:.0}% of the steps at N = {}",
                 scheme.name,
                 100.0 * sdae_model::TRUNCATION_DOMINATED,
                 biased.join(", ")
-            );
+            )?;
         }
     }
     if let Some(r) = &report.reference {
-        println!(
+        writeln!(
+            out,
             "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
             format!("ref {}", r.scheme),
             "-",
@@ -398,9 +411,10 @@ pub fn print_summary(report: &ConvergenceReport) {
             "-",
             r.seconds_per_path * 1e6,
             r.failures
-        );
+        )?;
         if r.failures > 0 {
-            println!(
+            writeln!(
+                out,
                 "the reference failed on {} of {} paths ({}): they are left out of every error",
                 r.failures,
                 report.paths,
@@ -409,12 +423,13 @@ pub fn print_summary(report: &ConvergenceReport) {
                     .map(|(kind, n)| format!("{kind} {n}"))
                     .collect::<Vec<_>>()
                     .join(", ")
-            );
+            )?;
         }
     }
     for skipped in &report.skipped {
-        println!("left out {}: {}", skipped.name, skipped.reason);
+        writeln!(out, "left out {}: {}", skipped.name, skipped.reason)?;
     }
+    Ok(())
 }
 
 /// Writes `report.json`, `report.csv`, `report.md`, `error_vs_h.svg` and `error_vs_time.svg`

@@ -158,12 +158,19 @@ where
         mine.par_chunks(block)
             .with_max_len(1)
             .map_init(
-                || block_ensembles(schemes, reference.as_ref(), plan, block, r0, v0),
+                || None,
                 |ensembles, indices| {
-                    let ensembles = ensembles.as_mut().map_err(|e| e.clone())?;
+                    // Checked before the ensembles are built: after a stop, the blocks left end
+                    // at once.
                     if control.stopped() {
                         return Ok(Vec::new());
                     }
+                    let ensembles = ensembles
+                        .get_or_insert_with(|| {
+                            block_ensembles(schemes, reference.as_ref(), plan, block, r0, v0)
+                        })
+                        .as_mut()
+                        .map_err(|e| e.clone())?;
                     let stopped = || control.stopped();
                     let seed = selection.seed;
                     let Some(records) =

@@ -276,17 +276,25 @@ fn warnings(report: &MlmcReport) -> String {
 }
 
 /// Prints the rates and the complexity table on the terminal.
+/// A closed standard output (`| head`) ends the printing, not the caller.
 pub fn print_summary(report: &MlmcReport) {
-    println!(
+    let _ = write_summary(report, &mut std::io::stdout().lock());
+}
+
+/// The summary [`print_summary`] prints, written to `out`.
+pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std::io::Result<()> {
+    writeln!(
+        out,
         "{} ({}, E[{}]):",
         report.scene, report.scheme, report.observable
-    );
+    )?;
     for line in rates_lines(&report.rates) {
-        println!("  {line}");
+        writeln!(out, "  {line}")?;
     }
     for row in &report.complexity {
         let e = &row.run;
-        println!(
+        writeln!(
+            out,
             "  eps {:.0e}: {:.6} [{:.6}, {:.6}], bias est. {:.2e} (alpha {:.2}), L = {}, N_l = {:?}, \
              work {:.3e} steps, savings {:.1}x, {:.3} s",
             e.eps,
@@ -300,14 +308,15 @@ pub fn print_summary(report: &MlmcReport) {
             row.mlmc_work,
             row.savings,
             e.seconds
-        );
+        )?;
     }
     if let Some(d) = &report.standard {
-        println!("  {}", standard_line(d));
+        writeln!(out, "  {}", standard_line(d))?;
     }
     for w in &report.warnings {
-        println!("  warning: {w}");
+        writeln!(out, "  warning: {w}")?;
     }
+    Ok(())
 }
 
 /// Writes `report.json`, `report.csv`, `report.md`, `levels.svg`, `samples.svg` and

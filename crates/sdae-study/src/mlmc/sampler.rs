@@ -115,7 +115,7 @@ impl<'a> RunControl<'a> {
                 .par_iter()
                 .with_max_len(1)
                 .map_init(
-                    || sampler.worker(),
+                    || None,
                     |worker, &b| {
                         let key = BlockKey {
                             level,
@@ -128,10 +128,15 @@ impl<'a> RunControl<'a> {
                             }
                             return Ok(saved);
                         }
-                        let worker = worker.as_mut().map_err(|e| e.clone())?;
+                        // Checked before a worker is built: after a stop, each of the blocks
+                        // left (millions in a direct standard run) ends at once.
                         if self.stopped() {
                             return Err(MlmcError::Interrupted);
                         }
+                        let worker = worker
+                            .get_or_insert_with(|| sampler.worker())
+                            .as_mut()
+                            .map_err(|e| e.clone())?;
                         let start = Instant::now();
                         let samples = sampler.run_block(
                             worker,
@@ -176,4 +181,63 @@ pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {
     (0..samples.div_ceil(BLOCK))
         .filter(|b| b % count.max(1) == index)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::AtomicUsize;
+
+    use super::*;
+
+    /// A sampler that counts the workers it builds (each sample is 1).
+    struct Counting {
+        workers: AtomicUsize,
+    }
+
+    impl LevelSampler for Counting {
+        type Worker = ();
+        fn worker(&self) -> Result<(), MlmcError> {
+            self.workers.fetch_add(1, Ordering::SeqCst);
+            Ok(())
+        }
+        fn run_block(
+            &self, _: &mut (), _: u32, indices: Range<u64>, _: bool,
+        ) -> Result<Vec<Sample>, MlmcError> {
+            Ok(indices
+                .map(|_| Sample::Value {
+                    fine: 1.0,
+                    coarse: 0.0,
+                })
+                .collect())
+        }
+        fn path_steps(&self, level: u32) -> u64 {
+            1 << level
+        }
+        fn pair_steps(&self, level: u32) -> u64 {
+            1 << level
+        }
+    }
+
+    #[test]
+    fn after_a_stop_the_blocks_left_end_without_building_a_worker() {
+        let sampler = Counting {
+            workers: AtomicUsize::new(0),
+        };
+        let stop = AtomicBool::new(false);
+        let mut control = RunControl::new(2).unwrap();
+        control.stop = Some(&stop);
+        let mut sums = LevelSums::default();
+        control
+            .extend(&sampler, 3, &mut sums, 0, 64 * BLOCK, false)
+            .unwrap();
+        assert_eq!(sums.attempted(), 64 * BLOCK);
+        let built = sampler.workers.load(Ordering::SeqCst);
+        assert!(built >= 1);
+        // A direct standard run of a million blocks, stopped: no block runs, no worker is
+        // built (each used to build one before it looked at the stop flag).
+        stop.store(true, Ordering::SeqCst);
+        let stopped = control.extend(&sampler, 3, &mut sums, 0, 1 << 25, false);
+        assert_eq!(stopped, Err(MlmcError::Interrupted));
+        assert_eq!(sampler.workers.load(Ordering::SeqCst), built);
+    }
 }

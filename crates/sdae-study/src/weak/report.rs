@@ -290,7 +290,13 @@ fn observable_section(o: &ObservableReport) -> String {
 
 /// A short table on the terminal: per observable and scheme, its weak orders, its finest level's
 /// error and run time.
+/// A closed standard output (`| head`) ends the printing, not the caller.
 pub fn print_summary(report: &WeakReport) {
+    let _ = write_summary(report, &mut std::io::stdout().lock());
+}
+
+/// The summary [`print_summary`] prints, written to `out`.
+pub fn write_summary(report: &WeakReport, out: &mut impl std::io::Write) -> std::io::Result<()> {
     for o in &report.observables {
         let against = match (o.basis, &o.reference_bias) {
             (Basis::Exact(_), _) => "the exact value".to_string(),
@@ -300,22 +306,24 @@ pub fn print_summary(report: &WeakReport) {
                 b.bound
             ),
         };
-        println!("{} (errors at T against {against})", o.name);
-        println!(
+        writeln!(out, "{} (errors at T against {against})", o.name)?;
+        writeln!(
+            out,
             "  {:<40} {:>22} {:>22} {:>24} {:>10}",
             "scheme", "weak order", "order of sup", "finest error", "us/path"
-        );
+        )?;
         for row in &o.schemes {
             let f = |w: Option<&WeakOrder>| w.map_or("-".into(), order_text);
             let finest = row.levels.last();
-            println!(
+            writeln!(
+                out,
                 "  {:<40} {:>22} {:>22} {:>24} {:>10.1}",
                 row.name,
                 f(row.order.as_ref()),
                 f(row.sup_order.as_ref()),
                 finest.map_or("-".into(), |l| cell(&l.error)),
                 finest.map_or(0.0, |l| l.seconds_per_path * 1e6)
-            );
+            )?;
             let mut notes = row
                 .order
                 .as_ref()
@@ -324,20 +332,22 @@ pub fn print_summary(report: &WeakReport) {
                 notes.push(format!("lost {}", describe_lost(row)));
             }
             if !notes.is_empty() {
-                println!("      {}", notes.join("; "));
+                writeln!(out, "      {}", notes.join("; "))?;
             }
         }
     }
     let r = &report.reference;
     if r.failures > 0 {
-        println!(
+        writeln!(
+            out,
             "the reference failed on {} of {} paths: they are left out of every error",
             r.failures, report.paths
-        );
+        )?;
     }
     for skipped in &report.skipped {
-        println!("left out {}: {}", skipped.name, skipped.reason);
+        writeln!(out, "left out {}: {}", skipped.name, skipped.reason)?;
     }
+    Ok(())
 }
 
 /// What the x axis shows.

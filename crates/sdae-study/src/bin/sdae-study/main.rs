@@ -1,25 +1,35 @@
 //! `sdae-study`: convergence, stability and equipartition studies of the schemes on built-in or
 //! user scenes (run by `cargo xtask study`; `sdae-study --help` lists the options).
 
+/// Prints a line on standard output; a closed output (`| head`) ends the printing, never the
+/// study.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// Prints a line on standard error; a closed stream ends the printing, never the study.
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod args;
 mod mlmc_cli;
 mod runs;
 mod shard;
-
-use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+mod stopping;
 
 use clap::Parser;
 use sdae_study::StudyError;
+use std::process::ExitCode;
 
 use args::{Cli, Command};
-
-/// Raised by Ctrl-C, SIGTERM or SIGHUP: no new path starts, the paths in progress are
-/// dropped, and the finished ones are saved.
-static STOP: AtomicBool = AtomicBool::new(false);
-
-/// The stop signals received so far.
-static SIGNALS: AtomicUsize = AtomicUsize::new(0);
+use stopping::{STOP, catch_signals};
 
 /// Why the program stops with a non-zero exit code.
 #[derive(Debug)]
@@ -100,55 +110,33 @@ fn flag(key: &str) -> Option<&'static str> {
     flags.iter().copied().find(|flag| args::typed(flag))
 }
 
-/// Ctrl-C, SIGTERM or SIGHUP raises [`STOP`]. Later signals change nothing: the finished
-/// paths the first one promised are saved whatever comes after it (but SIGKILL, which loses
-/// the paths finished since the last periodic checkpoint).
-fn stop_on_signals() {
-    let installed = ctrlc::set_handler(|| {
-        STOP.store(true, Ordering::SeqCst);
-        if SIGNALS.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!(
-                "\nstopping: the paths in progress are dropped, the finished ones are being saved"
-            );
-        } else {
-            eprintln!("\nalready stopping: the finished paths are being saved");
-        }
-    });
-    if let Err(e) = installed {
-        eprintln!(
-            "sdae-study: warning: cannot catch Ctrl-C and SIGTERM ({e}); an interrupted run saves \
-             only its periodic checkpoints"
-        );
-    }
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         None => {
-            stop_on_signals();
+            catch_signals();
             runs::convergence(&cli.convergence, &STOP)
         }
         Some(Command::Convergence(args)) => {
-            stop_on_signals();
+            catch_signals();
             runs::convergence(&args, &STOP)
         }
         Some(Command::Stability(args)) => {
-            stop_on_signals();
+            catch_signals();
             runs::stability(&args, &STOP)
         }
         Some(Command::Equipartition(args)) => {
-            stop_on_signals();
+            catch_signals();
             runs::equipartition(&args, &STOP)
         }
         Some(Command::Weak(args)) => {
-            stop_on_signals();
+            catch_signals();
             runs::weak(&args, &STOP)
         }
         Some(Command::Merge(args)) => runs::merge(&args.dirs, &args.out.out),
         Some(Command::Trace(args)) => runs::trace(&args),
         Some(Command::Mlmc(args)) => {
-            stop_on_signals();
+            catch_signals();
             mlmc_cli::mlmc(&args, &STOP)
         }
         Some(Command::MlmcMerge(args)) => mlmc_cli::mlmc_merge(&args),
@@ -161,19 +149,19 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::Usage(message)) => {
-            eprintln!("error: {message}\n\nFor more information, try '--help'.");
+            note!("error: {message}\n\nFor more information, try '--help'.");
             ExitCode::from(2)
         }
         Err(Failure::Failed(message)) => {
-            eprintln!("error: {message}");
+            note!("error: {message}");
             ExitCode::FAILURE
         }
         Err(Failure::Interrupted(message)) => {
-            eprintln!("{message}");
+            note!("{message}");
             ExitCode::from(130)
         }
         Err(Failure::Unsaved(message)) => {
-            eprintln!("{message}");
+            note!("{message}");
             ExitCode::from(131)
         }
     }

@@ -16,9 +16,9 @@ use sdae_study::mlmc::study::{MlmcSettings, run_mlmc};
 use sdae_study::mlmc::{MlmcError, RunControl};
 use sdae_study::scene::Scene;
 
-use crate::Failure;
 use crate::args::{MlmcArgs, MlmcMergeArgs};
 use crate::runs::{Resumable, Resumption, prepare};
+use crate::{Failure, stopping};
 
 impl From<MlmcError> for Failure {
     fn from(e: MlmcError) -> Failure {
@@ -148,6 +148,23 @@ fn stopped(
     }
 }
 
+/// Saves every block of a finished run in the checkpoint before its report is written, so
+/// that a stop signal from now on ends the process at once, losing nothing.
+fn keep(journal: &Journal<'_>, checkpoint: &MlmcCheckpoint, scene: &str) -> Result<(), Failure> {
+    let file = checkpoint.path().display();
+    journal.save().map_err(|e| {
+        Failure::Failed(format!(
+            "{scene}: every block finished, but they could not be saved in {file}: {e}"
+        ))
+    })?;
+    stopping::all_saved(format!(
+        "{scene}: stopped after every block finished; all {} blocks of samples are saved in \
+         {file}: run the same command with --resume to write the results without running again",
+        journal.blocks()
+    ));
+    Ok(())
+}
+
 /// After a finished run's results were written (`written`): removes the checkpoint; if they
 /// could not be written, saves every block in it instead, so that --resume writes the results
 /// without running again.
@@ -155,7 +172,9 @@ fn deliver(
     written: Result<(), StudyError>, journal: &Journal<'_>, checkpoint: &MlmcCheckpoint,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
-        return Ok(checkpoint.remove()?);
+        checkpoint.remove()?;
+        stopping::running();
+        return Ok(());
     };
     Err(Failure::Failed(match journal.save() {
         Ok(()) => format!(
@@ -252,6 +271,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         let done = run_scene_plan(scene, &settings, &control, plan.clone(), shard);
         bar.finish_and_clear();
         let done = done.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
+        keep(&journal, &checkpoint, &scene.name)?;
         let written = match done {
             PlanRun::Shard(s) => write_shard(&s, &dir),
             PlanRun::Whole(r) => write_plan_report(&r, &dir),
@@ -259,7 +279,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         return deliver(written, &journal, &checkpoint);
     }
     let s = &settings.spec;
-    eprintln!(
+    note!(
         "{}: MLMC of E[{}] with {}, level 0 on 2^{} steps, {}eps {:?}, {} threads",
         scene.name,
         s.observable,
@@ -272,14 +292,15 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let report = run_mlmc(scene, &settings, &control);
     bar.finish_and_clear();
     let report = report.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
+    keep(&journal, &checkpoint, &scene.name)?;
     deliver(write_report(&report, &dir), &journal, &checkpoint)?;
     print_summary(&report);
-    println!("wrote {}", dir.join("report.md").display());
+    say!("wrote {}", dir.join("report.md").display());
     if let Some(file) = &args.write_plan {
         let eps = s.eps.iter().copied().fold(f64::INFINITY, f64::min);
         let plan = plan_for_eps(scene, &settings, &report, eps)?;
         write_json(file, &plan)?;
-        println!(
+        say!(
             "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
             file.display(),
             plan.samples
@@ -295,7 +316,7 @@ fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
         shard.shard.0, shard.shard.1
     ));
     write_json(&file, shard)?;
-    println!(
+    say!(
         "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
         file.display()
     );
@@ -309,7 +330,7 @@ fn write_plan_report(
     write_json(&dir.join("plan-report.json"), report)?;
     write_atomically(&dir.join("plan-report.md"), &plan_markdown(report))?;
     let e = &report.estimate;
-    println!(
+    say!(
         "{}: {:.6} [{:.6}, {:.6}] (eps {:.0e}, N_l {:?}); wrote {}",
         report.identity.scene,
         e.estimate.estimate,

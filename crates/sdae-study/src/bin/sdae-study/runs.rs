@@ -22,9 +22,9 @@ use sdae_study::scene::{BUILT_IN, Scene};
 use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
 use sdae_study::{equipartition, trace, weak};
 
-use crate::Failure;
 use crate::args::{CheckpointArgs, ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
 use crate::shard::ShardArg;
+use crate::{Failure, stopping};
 
 /// A progress bar of `len` items on stderr, drawn when stderr is a terminal (CI logs stay
 /// clean).
@@ -169,8 +169,9 @@ pub fn prepare<R: Resumable>(
     let dir = path.parent().unwrap_or(Path::new("."));
     check_writable(dir).map_err(refused)?;
     let lock = checkpoint.lock().map_err(refused)?;
+    stopping::hold(lock.path().to_path_buf());
     if let Some(pid) = lock.took_over {
-        eprintln!(
+        note!(
             "note: {} was left by process {pid}, which is gone: taken over",
             lock.path().display()
         );
@@ -179,7 +180,7 @@ pub fn prepare<R: Resumable>(
     let names: Vec<&str> = outputs.iter().copied().chain([own]).collect();
     let removed = remove_stale_temporaries(dir, &names);
     if removed > 0 {
-        eprintln!(
+        note!(
             "note: removed {removed} temporary file(s) in {} left by a killed run",
             dir.display()
         );
@@ -189,12 +190,12 @@ pub fn prepare<R: Resumable>(
             .load()
             .map_err(|e| refused(e).within(&format!("scene {name}")))?;
         match &saved {
-            Some(s) => eprintln!(
+            Some(s) => note!(
                 "{name}: resuming from {} saved in {}",
                 checkpoint.describe(s),
                 path.display()
             ),
-            None => eprintln!(
+            None => note!(
                 "{name}: nothing to resume ({} does not exist): starting from the beginning",
                 path.display()
             ),
@@ -212,7 +213,7 @@ pub fn prepare<R: Resumable>(
                 path.display()
             )));
         }
-        eprintln!("note: --fresh: discarding {} ({what})", path.display());
+        note!("note: --fresh: discarding {} ({what})", path.display());
         checkpoint.remove().map_err(refused)?;
         None
     } else {
@@ -236,7 +237,7 @@ impl Ready<'_> {
             };
             format!("reference 2^{r}{pair} ({})", st.reference_scheme.name())
         });
-        eprintln!(
+        note!(
             "{}: {} paths (shard {index}/{count}), N = 2^{}..2^{}, {reference}, T = {}, {} threads",
             scene.name,
             st.paths,
@@ -245,6 +246,7 @@ impl Ready<'_> {
             readable(st.t_end),
             st.threads
         );
+        stopping::running();
         let saved = self.saved.take();
         let bar = bar(job.selected(), "paths");
         bar.set_position(saved.as_ref().map_or(0, |s| s.records.len()) as u64);
@@ -257,7 +259,10 @@ impl Ready<'_> {
         bar.finish_and_clear();
         let file = job.checkpoint.path().display();
         match resumed {
-            Ok(Resumed::Finished(run)) => Ok(*run),
+            Ok(Resumed::Finished(run)) => {
+                self.keep(&run)?;
+                Ok(*run)
+            }
             Ok(Resumed::Interrupted { saved: 0, selected }) => Err(Failure::Unsaved(format!(
                 "{}: interrupted before any of its {selected} paths finished: nothing saved",
                 scene.name
@@ -277,6 +282,30 @@ impl Ready<'_> {
     }
 }
 
+impl Ready<'_> {
+    /// Saves the finished `run` in the job's checkpoint before its report is computed, so that
+    /// a stop signal from now on ends the process at once, losing nothing: the same command
+    /// with --resume writes the report without running again.
+    fn keep(&self, run: &ConvergenceRun) -> Result<(), Failure> {
+        let file = self.job.checkpoint.path();
+        self.job.checkpoint.save(run).map_err(|e| {
+            Failure::Failed(format!(
+                "{}: every path finished, but they could not be saved in {}: {e}",
+                self.job.scene.name,
+                file.display()
+            ))
+        })?;
+        stopping::all_saved(format!(
+            "{}: stopped after every path finished; all {} paths are saved in {}: run the same \
+             command with --resume to write the results without running again",
+            self.job.scene.name,
+            run.records.len(),
+            file.display()
+        ));
+        Ok(())
+    }
+}
+
 /// After the finished `runs` of `jobs` were written (`written`, the report first): removes
 /// their checkpoints; if they could not be written, saves the runs' paths in the checkpoints
 /// instead, so that --resume writes the results without running again.
@@ -284,10 +313,12 @@ fn deliver(
     jobs: &[Ready<'_>], runs: &[ConvergenceRun], written: Result<(), StudyError>,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
-        return jobs
+        let removed = jobs
             .iter()
             .try_for_each(|r| r.job.checkpoint.remove())
             .map_err(Failure::from);
+        stopping::running();
+        return removed;
     };
     let kept: Result<Vec<String>, StudyError> = jobs
         .iter()
@@ -360,7 +391,7 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
             let report = build_report(run);
             print_summary(&report);
             write_report(&report, dir)?;
-            println!(
+            say!(
                 "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
                 dir.display()
             );
@@ -421,7 +452,7 @@ fn run_scenes(
                 std::slice::from_ref(&run),
                 write_json(&file, &run),
             )?;
-            println!(
+            say!(
                 "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
                 file.display(),
                 run.records.len()
@@ -521,7 +552,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
         let report = build_report(run);
         print_summary(&report);
         write_report(&report, &dir)?;
-        println!("wrote {}/report.{{json,csv,md}} and plots", dir.display());
+        say!("wrote {}/report.{{json,csv,md}} and plots", dir.display());
         uncompared.extend(uncompared_in(&report));
     }
     nothing_uncompared(uncompared)
@@ -536,21 +567,18 @@ const STUDY_FILES: [&str; 5] = [
     "bias.svg",
 ];
 
-/// Runs `jobs` one after the other; each finished run but the last is saved in its checkpoint
-/// (the study's report needs them all, and an interruption of a later one must not lose them).
+/// Runs `jobs` one after the other; each finished run is saved in its checkpoint (the study's
+/// report needs them all, and an interruption of a later one must not lose them).
 fn run_all(jobs: &mut [Ready<'_>], stop: &AtomicBool) -> Result<Vec<ConvergenceRun>, Failure> {
     let mut runs = Vec::new();
-    let last = jobs.len().saturating_sub(1);
-    for (k, ready) in jobs.iter_mut().enumerate() {
+    for ready in jobs.iter_mut() {
         if let Some(label) = ready.label.take() {
-            eprintln!("{label}");
+            note!("{label}");
         }
-        let run = ready.run(stop)?;
-        if k < last {
-            ready.job.checkpoint.save(&run)?;
-        }
-        runs.push(run);
+        runs.push(ready.run(stop)?);
     }
+    // Every run is saved ([`Ready::keep`]); a stop signal while the report is computed ends
+    // the process with the message of the last.
     Ok(runs)
 }
 
@@ -595,8 +623,8 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
     deliver(&jobs, &runs, stability::write_report(&report, &dir))?;
     let table = stability::markdown(&report);
     let head: Vec<&str> = table.lines().take(4 + report.scenes.len()).collect();
-    println!("{}", head.join("\n"));
-    println!(
+    say!("{}", head.join("\n"));
+    say!(
         "wrote {0}/report.json, report.md, stability.svg",
         dir.display()
     );
@@ -648,14 +676,14 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
     for scene in &results {
         let biased = scene.rows.iter().filter(|r| r.biased == Some(true)).count();
         let (failed, paths) = scene.failed_paths();
-        println!(
+        say!(
             "{}: {biased} of {} settings biased (95% interval excludes the set temperature), \
              {failed} of {paths} paths failed",
             scene.scene,
             scene.rows.len()
         );
     }
-    println!(
+    say!(
         "wrote {0}/report.json, report.md, equipartition.svg, bias.svg",
         dir.display()
     );
@@ -707,7 +735,7 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
 fn write_weak(report: &weak::WeakReport, dir: &Path) -> Result<(), StudyError> {
     weak::report::print_summary(report);
     weak::report::write_report(report, dir)?;
-    println!(
+    say!(
         "wrote {0}/weak.json, weak.csv, weak.md, weak_error_vs_h.svg, weak_error_vs_time.svg",
         dir.display()
     );
@@ -735,7 +763,7 @@ pub fn trace(args: &TraceArgs) -> Result<(), Failure> {
     for (scene, &steps) in scenes.iter().zip(&steps) {
         let trace = trace::trace(scene, steps, args.seed)?;
         if let Some(failure) = &trace.failure {
-            bar.suspend(|| eprintln!("{}: the path stopped early: {failure}", scene.name));
+            bar.suspend(|| note!("{}: the path stopped early: {failure}", scene.name));
         }
         let file = dir.join(format!("{}.csv", scene.name));
         sdae_study::files::write_atomically(&file, &trace::csv(&trace))?;
@@ -746,7 +774,7 @@ pub fn trace(args: &TraceArgs) -> Result<(), Failure> {
         );
         trace::plot(&trace, &title, &dir.join(format!("{}.svg", scene.name)))?;
         bar.suspend(|| {
-            println!(
+            say!(
                 "wrote {0}/{1}.svg and {0}/{1}.csv",
                 dir.display(),
                 scene.name
@@ -768,7 +796,7 @@ pub fn compare(first: &Path, second: &Path) -> Result<(), Failure> {
     };
     match first_difference(&numbers(first)?, &numbers(second)?) {
         None => {
-            println!(
+            say!(
                 "{} and {} hold the same numbers",
                 first.display(),
                 second.display()
@@ -785,15 +813,15 @@ pub fn compare(first: &Path, second: &Path) -> Result<(), Failure> {
 
 /// The built-in scenes and the schemes.
 pub fn list() {
-    println!("built-in scenes:");
+    say!("built-in scenes:");
     for (name, _) in BUILT_IN {
         match Scene::built_in(name) {
-            Ok(scene) => println!("  {name:<24} {}", scene.description),
-            Err(e) => println!("  {name:<24} (broken: {e})"),
+            Ok(scene) => say!("  {name:<24} {}", scene.description),
+            Err(e) => say!("  {name:<24} (broken: {e})"),
         }
     }
-    println!("schemes:");
+    say!("schemes:");
     for kind in SchemeKind::ALL {
-        println!("  {}", kind.name());
+        say!("  {}", kind.name());
     }
 }

@@ -172,9 +172,8 @@ fn deliver(
     written: Result<(), StudyError>, journal: &Journal<'_>, checkpoint: &MlmcCheckpoint,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
-        checkpoint.remove()?;
         stopping::running();
-        return Ok(());
+        return Ok(checkpoint.remove()?);
     };
     Err(Failure::Failed(match journal.save() {
         Ok(()) => format!(

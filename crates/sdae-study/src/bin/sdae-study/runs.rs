@@ -313,12 +313,13 @@ fn deliver(
     jobs: &[Ready<'_>], runs: &[ConvergenceRun], written: Result<(), StudyError>,
 ) -> Result<(), Failure> {
     let Err(e) = written else {
-        let removed = jobs
+        // The results are written: a signal from now on need not end the process (and the
+        // checkpoint it would name is going).
+        stopping::running();
+        return jobs
             .iter()
             .try_for_each(|r| r.job.checkpoint.remove())
             .map_err(Failure::from);
-        stopping::running();
-        return removed;
     };
     let kept: Result<Vec<String>, StudyError> = jobs
         .iter()

@@ -44,7 +44,7 @@ pub mod parallel;
 pub mod plots;
 pub mod real;
 pub mod scene;
-mod scene_load;
+pub mod scene_load;
 pub mod stability;
 pub mod stats;
 pub mod trace;

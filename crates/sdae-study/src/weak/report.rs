@@ -13,7 +13,7 @@ use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakSchem
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::{decades, left_out, readable};
-use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
+use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, drawable, log_range};
 use crate::stats::Interval;
 
 /// "order [low, high]", then the levels left out of the fit and why (unresolved,
@@ -406,37 +406,45 @@ fn observable_panel(
         .draw()?;
     for (k, row) in o.schemes.iter().enumerate() {
         let colour = COLOURS[(k / 2) % COLOURS.len()];
-        draw_row(&mut chart, row, axis, colour, y_range.start)?;
+        draw_row(&mut chart, row, axis, colour, y_range.clone())?;
     }
     draw_legend(&mut chart, 9, SeriesLabelPosition::LowerRight)
 }
 
-/// A row's |error| against `axis` and its error bars, kept above `floor`: in `colour`, thinner
-/// and lighter if extrapolated.
+/// A row's |error| against `axis` and its error bars, kept within the axis `range` (levels
+/// whose x cannot be drawn left out): in `colour`, thinner and lighter if extrapolated.
 fn draw_row(
-    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor, floor: f64,
+    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor,
+    range: std::ops::Range<f64>,
 ) -> DrawResult<()> {
+    let (floor, ceiling) = (range.start, range.end);
+    let within = |v: f64| {
+        if v.is_nan() {
+            floor
+        } else {
+            v.clamp(floor, ceiling)
+        }
+    };
+    let levels = || row.levels.iter().filter(|l| drawable(axis.of(l)));
     let style = if row.extrapolated {
         colour.mix(0.6).stroke_width(1)
     } else {
         colour.stroke_width(2)
     };
-    let points: Vec<(f64, f64)> = row
-        .levels
-        .iter()
-        .map(|l| (axis.of(l), l.error.estimate.abs().max(floor)))
+    let points: Vec<(f64, f64)> = levels()
+        .map(|l| (axis.of(l), within(l.error.estimate.abs())))
         .collect();
     chart
         .draw_series(LineSeries::new(points, style))?
         .label(&row.name)
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-    chart.draw_series(row.levels.iter().map(|l| {
-        let low = (l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low)).max(floor);
+    chart.draw_series(levels().map(|l| {
+        let low = within(l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low));
         ErrorBar::new_vertical(
             axis.of(l),
             low,
-            l.error.estimate.abs().max(floor),
-            upper_bound(&l.error),
+            within(l.error.estimate.abs()),
+            within(upper_bound(&l.error)),
             style,
             4,
         )

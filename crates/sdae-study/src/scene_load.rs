@@ -280,8 +280,9 @@ impl Scene {
     }
 }
 
-/// The key in the scene file's table `table` of a study setting that
-/// [`ConvergenceSettings::validate`] names by its [study] key (`study.paths`) or field (`T`).
+/// The key in the scene file's table `table` (`study`, `stability`, `equipartition`, `weak`)
+/// of a study setting that [`ConvergenceSettings::validate`] names by its `[study]` key
+/// (`study.paths`) or field (`T`): `weak.paths` for the weak study's paths.
 pub fn key_in_table(table: &str, key: &'static str) -> &'static str {
     match (table, key) {
         ("weak", "study.paths") => "weak.paths",

@@ -809,3 +809,39 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
     assert!(scheme["observed_order"]["v"].is_null(), "{scheme}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn weak_errors_that_underflow_give_no_order() {
+    // At T = 1e-140 every weak error is exactly 0: no order is fitted to them.
+    let dir = folder("zero-weak-errors");
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/pendulum.toml"),
+            "T = 1.0",
+            "T = 1e-140",
+        ),
+    );
+    let ran = study(&[
+        "weak",
+        "--quick",
+        "--paths",
+        "16",
+        "--threads",
+        "1",
+        "--scene-file",
+        path(&file),
+        "--out",
+        path(&dir),
+    ]);
+    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("test").join("weak.json")).unwrap())
+            .unwrap();
+    for o in json["observables"].as_array().unwrap() {
+        for s in o["schemes"].as_array().unwrap() {
+            assert!(s["order"].is_null(), "{}: {}", o["name"], s["order"]);
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

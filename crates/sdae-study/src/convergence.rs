@@ -23,6 +23,12 @@ use crate::stats::{
 /// The most worker threads a study starts.
 pub const MAX_THREADS: usize = 1024;
 
+/// The smallest step size a study runs: 2^-511 = sqrt(f64::MIN_POSITIVE), about 1.5e-154.
+/// Errors and differences of size h are squared (L^2 norms, variances): below this their
+/// squares are 0 or subnormal, and the errors and orders would be those of the underflow,
+/// not of the scheme.
+pub const MIN_STEP: f64 = 1.4916681462400413e-154;
+
 /// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
 /// the Monte Carlo error and by more than this.
 pub const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
@@ -108,7 +114,7 @@ impl ConvergenceSettings {
 
     /// Checks the settings; the error names the bad one by its scene-file key (`study.paths`)
     /// or settings field (`p`). Besides the ranges: every step size T / 2^k (levels and
-    /// reference) must be a normal float (not 0 nor subnormal), at most [`MAX_THREADS`]
+    /// reference) must be at least [`MIN_STEP`] (a normal float whose square is normal), at most [`MAX_THREADS`]
     /// threads, and the paths' records must fit in the available memory
     /// ([`memory::available`]; see [`ConvergenceSettings::fits_in_memory`]).
     pub fn validate(&self) -> Result<(), StudyError> {
@@ -172,10 +178,11 @@ impl ConvergenceSettings {
         // The finest grid gives the smallest step: h = T / 2^k underflows there first.
         let finest = self.reference.unwrap_or(self.finest);
         let h = self.t_end / 2f64.powi(finest as i32);
-        if !h.is_normal() {
+        if h < MIN_STEP {
             let rule = format!(
                 "gives the step h = T / 2^{finest} = {h:e} at level {finest}: every step size \
-                 must be a normal float (not 0 nor subnormal)"
+                 must be a normal float whose square is one too (h >= {MIN_STEP:e} = 2^-511), \
+                 else the squared errors underflow"
             );
             return bad("T", format!("{:e}", self.t_end), rule);
         }
@@ -542,6 +549,29 @@ pub struct SchemeReport {
     /// (`stable_but_biased`): their error measures the truncation, a step of eta h, not the
     /// order of the scheme's step.
     pub not_fitted_truncated: Vec<usize>,
+    /// Levels left out of an output's fit because their error underflowed: zero or subnormal
+    /// ([`underflowed`]), the scheme's and the reference's paths equal to the last bit or
+    /// closer than f64 resolves. Such an error measures the arithmetic, not the scheme.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unresolved: Vec<Unresolved>,
+}
+
+/// A level whose error of one output underflowed (see [`SchemeReport::unresolved`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unresolved {
+    /// The output: `r`, `v` or `mu`.
+    pub output: &'static str,
+    /// The level's index (into the scheme's levels).
+    pub level: usize,
+    /// Its L^p error: 0 or subnormal.
+    #[serde(with = "crate::real")]
+    pub error: f64,
+}
+
+/// Whether an error underflowed: zero or subnormal (below `f64::MIN_POSITIVE`), or not a
+/// number. An order fitted to it would be the arithmetic's, not the scheme's.
+pub fn underflowed(error: f64) -> bool {
+    error.is_nan() || error < f64::MIN_POSITIVE
 }
 
 /// The reference solution.
@@ -830,10 +860,26 @@ fn scheme_report(
             level_report(1usize << k, settings, paths, errors, common.len())
         })
         .collect();
-    let fitted = fittable(&reports);
-    let h: Vec<f64> = fitted.iter().map(|&j| reports[j].h).collect();
+    let fittable = fittable(&reports);
     let mut fits: [Option<OrderFit>; 3] = [None, None, None];
+    let mut unresolved = Vec::new();
     for (c, fit) in fits.iter_mut().enumerate().filter(|(c, _)| outputs[*c]) {
+        // Levels whose error underflowed are named, not fitted.
+        let mut fitted = Vec::new();
+        for &j in &fittable {
+            let error = lp_error(&distances(&common, s, j, count, c), settings.p)
+                .map_or(f64::NAN, |e| e.estimate);
+            if underflowed(error) && !error.is_nan() {
+                unresolved.push(Unresolved {
+                    output: OUTPUT_NAMES[c],
+                    level: j,
+                    error,
+                });
+            } else {
+                fitted.push(j);
+            }
+        }
+        let h: Vec<f64> = fitted.iter().map(|&j| reports[j].h).collect();
         let errors: Vec<Vec<f64>> = fitted
             .iter()
             .map(|&j| distances(&common, s, j, count, c))
@@ -861,11 +907,12 @@ fn scheme_report(
         name: name.to_string(),
         observed_order: Orders { r, v, mu },
         not_fitted_for_failures: (0..reports.len())
-            .filter(|&j| !fitted.contains(&j) && !reports[j].stable_but_biased)
+            .filter(|&j| !fittable.contains(&j) && !reports[j].stable_but_biased)
             .collect(),
         not_fitted_truncated: (0..reports.len())
-            .filter(|&j| !fitted.contains(&j) && reports[j].stable_but_biased)
+            .filter(|&j| !fittable.contains(&j) && reports[j].stable_but_biased)
             .collect(),
+        unresolved,
         levels: reports,
     }
 }
@@ -1039,4 +1086,42 @@ pub fn merge_runs(shards: Vec<ConvergenceRun>) -> Result<ConvergenceRun, StudyEr
         )));
     }
     Ok(merged)
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+
+    #[test]
+    fn the_smallest_step_is_the_square_root_of_the_smallest_normal_float() {
+        assert_eq!(MIN_STEP, f64::MIN_POSITIVE.sqrt());
+        assert!((MIN_STEP * MIN_STEP).is_normal());
+    }
+
+    #[test]
+    fn final_times_whose_steps_square_to_an_underflow_are_refused() {
+        let scene = Scene::built_in("pendulum").unwrap();
+        let mut s = ConvergenceSettings::for_scene(&scene);
+        let finest = s.reference.unwrap();
+        s.t_end = MIN_STEP * 2f64.powi(finest as i32);
+        assert_eq!(s.validate(), Ok(()));
+        for t in [s.t_end / 2.0, 1e-160, 1e-300, 5e-324] {
+            s.t_end = t;
+            match s.validate() {
+                Err(StudyError::Setting { key: "T", rule, .. }) => {
+                    assert!(rule.contains("2^-511"), "{rule}")
+                }
+                other => panic!("T = {t:e}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn errors_that_underflow_are_not_resolved() {
+        assert!(underflowed(0.0));
+        assert!(underflowed(1e-310));
+        assert!(underflowed(f64::NAN));
+        assert!(!underflowed(f64::MIN_POSITIVE));
+        assert!(!underflowed(1e-3));
+    }
 }

@@ -1,6 +1,7 @@
 //! Studies of schemes for constrained stochastic mechanical systems (seed eq. 1.1).
 //!
-//! - [`scene`]: what to simulate, as data (TOML files; built-in scenes ship as files).
+//! - [`scene`]: what to simulate, as data (TOML files; built-in scenes ship as files);
+//!   [`scene_load`] reads and checks them, every study table as the studies run it.
 //! - [`integrator`]: the schemes compared, behind one interface: the half-explicit
 //!   drift-truncated Euler scheme (seed eq. 3.1-3.2) with the theory's and a practical C_eta and
 //!   untruncated, and Euler-Maruyama, truncated, projected and stochastic Heun on the inherent
@@ -44,7 +45,7 @@ pub mod parallel;
 pub mod plots;
 pub mod real;
 pub mod scene;
-mod scene_load;
+pub mod scene_load;
 pub mod stability;
 pub mod stats;
 pub mod trace;

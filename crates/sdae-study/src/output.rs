@@ -276,6 +276,26 @@ fn orders_section(report: &ConvergenceReport) -> String {
         );
     }
     for scheme in &report.schemes {
+        if !scheme.unresolved.is_empty() {
+            let levels: Vec<String> = scheme
+                .unresolved
+                .iter()
+                .map(|u| {
+                    format!(
+                        "{} at N = {} (error {:e})",
+                        u.output, scheme.levels[u.level].n_steps, u.error
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "\nNot fitted, unresolved (the error underflowed to zero or a subnormal float: \
+                 the paths agree to the last bit, the arithmetic is measured, not the scheme): \
+                 {}: {}.",
+                scheme.name,
+                levels.join("; ")
+            );
+        }
         if !scheme.not_fitted_truncated.is_empty() {
             let levels: Vec<String> = scheme
                 .not_fitted_truncated
@@ -376,6 +396,14 @@ pub fn write_summary(
             f(&o.mu),
             finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
             scheme.levels.iter().map(|l| l.failures).sum::<usize>()
+        )?;
+    }
+    let unresolved: usize = report.schemes.iter().map(|s| s.unresolved.len()).sum();
+    if unresolved > 0 {
+        writeln!(
+            out,
+            "note: {unresolved} error(s) underflowed to zero or a subnormal float and are not \
+             fitted (unresolved: see report.md)"
         )?;
     }
     if any_indicative(report) {

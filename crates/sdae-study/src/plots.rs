@@ -2,6 +2,7 @@
 //! and against run time per path, one panel per component (r, v, mu), one line per scheme, on
 //! log-log axes with 95% error bars.
 
+use std::io::Write as _;
 use std::path::Path;
 
 use plotters::coord::Shift;
@@ -71,10 +72,24 @@ pub fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(
         .draw()
 }
 
-/// Padded logarithmic range covering the positive finite values.
+/// The smallest value a logarithmic axis draws. Smaller ones (subnormal, or within a few
+/// hundred decades of it) are left out of the plots with a note: an axis must stay a finite,
+/// bounded range for the plotting library to place its ticks.
+pub const MIN_DRAWN: f64 = 1e-300;
+
+/// The largest value a logarithmic axis draws (see [`MIN_DRAWN`]).
+pub const MAX_DRAWN: f64 = 1e300;
+
+/// Whether a logarithmic axis can draw `v`: finite and within [`MIN_DRAWN`]..=[`MAX_DRAWN`].
+pub fn drawable(v: f64) -> bool {
+    (MIN_DRAWN..=MAX_DRAWN).contains(&v)
+}
+
+/// Padded logarithmic range covering the values that can be drawn ([`drawable`]): always
+/// finite, positive and within a factor 1.5 of [`MIN_DRAWN`]..[`MAX_DRAWN`].
 pub fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
-        .filter(|v| v.is_finite() && *v > 0.0)
+        .filter(|&v| drawable(v))
         .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         });
@@ -83,7 +98,6 @@ pub fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     }
     lo / 1.5..hi * 1.5
 }
-
 /// What the x axis shows.
 #[derive(Clone, Copy)]
 enum Axis {
@@ -106,14 +120,23 @@ impl Axis {
     }
 }
 
-/// The finished points (x, error) of a scheme for a component.
-fn points(
+/// Every point (x, error) of a scheme for a component with an error.
+fn all_points(
     s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis,
 ) -> Vec<(f64, Interval)> {
     s.levels
         .iter()
         .filter_map(|l| pick(&l.error).map(|e| (axis.of(l), e)))
-        .filter(|(x, e)| *x > 0.0 && e.estimate.is_finite() && e.estimate > 0.0)
+        .collect()
+}
+
+/// The points (x, error) of a scheme for a component that can be drawn ([`drawable`]).
+fn points(
+    s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis,
+) -> Vec<(f64, Interval)> {
+    all_points(s, pick, axis)
+        .into_iter()
+        .filter(|(x, e)| drawable(*x) && drawable(e.estimate))
         .collect()
 }
 
@@ -126,7 +149,7 @@ fn fitted_line(
         .iter()
         .filter_map(|&j| scheme.levels.get(j))
         .filter_map(|l| pick(&l.error).map(|e| (l.h, e.estimate)))
-        .filter(|(h, e)| *h > 0.0 && *e > 0.0 && e.is_finite())
+        .filter(|(h, e)| drawable(*h) && drawable(*e))
         .collect();
     if points.len() < 2 || !fit.order.estimate.is_finite() {
         return Vec::new();
@@ -138,6 +161,7 @@ fn fitted_line(
     points
         .iter()
         .map(|(h, _)| (*h, (my + fit.order.estimate * (h.ln() - mx)).exp()))
+        .filter(|(_, e)| drawable(*e))
         .collect()
 }
 
@@ -221,9 +245,9 @@ fn draw_scheme(
     chart.draw_series(pts.iter().map(|(x, i)| {
         ErrorBar::new_vertical(
             *x,
-            i.ci_low.max(f64::MIN_POSITIVE),
+            i.ci_low.clamp(MIN_DRAWN, i.estimate),
             i.estimate,
-            i.ci_high,
+            i.ci_high.clamp(i.estimate, MAX_DRAWN),
             colour.filled(),
             5,
         )
@@ -257,8 +281,24 @@ fn draw(
         .titled(title, ("sans-serif", 20))
         .map_err(|e| err(&e))?;
     let panels = root.split_evenly((1, components.len().max(1)));
+    let mut left_out = 0;
     for (area, component) in panels.iter().zip(components) {
         panel(area, report, component, axis)?;
+        left_out += report
+            .schemes
+            .iter()
+            .flat_map(|s| all_points(s, component.pick, axis))
+            .filter(|(x, e)| !(drawable(*x) && drawable(e.estimate)))
+            .count();
+    }
+    if left_out > 0 {
+        // A closed standard error ends the note, not the plot.
+        let _ = writeln!(
+            &mut std::io::stderr(),
+            "note: {}: {left_out} error(s) left out of the plot: zero, not finite, or beyond \
+             {MIN_DRAWN:e}..{MAX_DRAWN:e} (the report has them)",
+            path.display()
+        );
     }
     root.present().map_err(|e| err(&e))
 }
@@ -278,4 +318,20 @@ pub fn write_plots(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyEr
         &format!("{stem}: strong error against run time"),
         Axis::RunTime,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_ranges_are_finite_and_bounded_whatever_the_values() {
+        let range = log_range([1e308, 1e-310, 0.0, f64::INFINITY, f64::NAN, 1.0].into_iter());
+        assert_eq!(range, 1.0 / 1.5..1.5);
+        let range = log_range([1e300, 1e-300].into_iter());
+        assert!(range.start > 0.0 && range.end.is_finite(), "{range:?}");
+        assert_eq!(log_range([f64::MAX, 5e-324].into_iter()), 1e-3..1.0);
+        assert!(!drawable(1e-310) && !drawable(1e308) && !drawable(0.0));
+        assert!(drawable(1e-300) && drawable(1e300));
+    }
 }

@@ -386,6 +386,25 @@ impl Scene {
         scene.prepare(system, position, None)
     }
 
+    /// Builds the scene's system, initial state and scheme constants and drops them: a
+    /// parameter the system refuses (a NaN mass, a negative length) is found before any study
+    /// runs. A system built in code has nothing to build here.
+    pub fn check_system(&self) -> Result<(), StudyError> {
+        struct Build;
+        impl SceneRunner for Build {
+            type Output = ();
+            fn run<S>(self, _: &Scene, _: Prepared<S>)
+            where
+                S: CurvedSystem + Clone + Send + Sync + 'static,
+            {
+            }
+        }
+        match self.system {
+            SystemSpec::Custom(_) => Ok(()),
+            _ => self.run(Build),
+        }
+    }
+
     /// Builds the system, the initial state and the scheme constants, and hands them to
     /// `runner`.
     pub fn run<R: SceneRunner>(&self, runner: R) -> Result<R::Output, StudyError> {

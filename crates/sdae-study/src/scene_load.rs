@@ -10,8 +10,10 @@ use crate::catalog::BUILT_IN;
 use crate::convergence::ConvergenceSettings;
 use crate::equipartition;
 use crate::error::StudyError;
+use crate::mlmc::{MlmcError, MlmcSettings};
 use crate::scene::{InitialSpec, Output, Scene, SchemeSpec, StudyDefaults, SystemSpec, WeakSpec};
 use crate::stability::stability_settings;
+use crate::weak::weak_table_settings;
 
 impl Scene {
     /// Reads a scene from TOML text.
@@ -214,8 +216,9 @@ impl Scene {
     }
 
     /// Checks the study settings each table of the scene gives ([study], [stability],
-    /// [equipartition]) as the studies will run them (before the command line changes them),
-    /// naming a bad value by its key in that table.
+    /// [equipartition], [weak] with and without `--quick`, [mlmc] with and without `--quick`)
+    /// as the studies will run them (before the command line changes them), naming a bad value
+    /// by its key in that table.
     fn validate_studies(&self) -> Result<(), StudyError> {
         let tables = [
             ("study", Some(ConvergenceSettings::for_scene(self))),
@@ -227,12 +230,22 @@ impl Scene {
                     .map(|v| v.settings),
             ),
         ];
-        for (table, settings) in tables {
+        let weak = [false, true].map(|quick| ("weak", weak_table_settings(self, quick)));
+        for (table, settings) in tables.into_iter().chain(weak) {
             if let Some(Err(StudyError::Setting { key, value, rule })) =
                 settings.map(|s| s.validate())
             {
                 let key = key_in_table(table, key);
                 return Err(self.invalid(format!("{key} = {value}: {rule}")));
+            }
+        }
+        if self.mlmc.is_some() {
+            let settings = MlmcSettings::for_scene(self);
+            for settings in [settings.clone(), settings.quick()] {
+                settings.validate().map_err(|e| match e {
+                    MlmcError::Study(e) => e,
+                    e => self.invalid(e.to_string()),
+                })?;
             }
         }
         Ok(())
@@ -267,10 +280,14 @@ impl Scene {
     }
 }
 
-/// The key in the scene file's table `table` of a study setting that
-/// [`ConvergenceSettings::validate`] names by its [study] key (`study.paths`) or field (`T`).
-fn key_in_table(table: &str, key: &'static str) -> &'static str {
+/// The key in the scene file's table `table` (`study`, `stability`, `equipartition`, `weak`)
+/// of a study setting that [`ConvergenceSettings::validate`] names by its `[study]` key
+/// (`study.paths`) or field (`T`): `weak.paths` for the weak study's paths.
+pub fn key_in_table(table: &str, key: &'static str) -> &'static str {
     match (table, key) {
+        ("weak", "study.paths") => "weak.paths",
+        ("weak", "study.levels") => "weak.levels",
+        ("weak", "study.reference") => "weak.reference",
         ("stability", "study.paths") => "stability.paths",
         ("stability", "study.levels") => "stability.levels",
         ("stability", "study.reference") => "stability.reference",
@@ -280,5 +297,63 @@ fn key_in_table(table: &str, key: &'static str) -> &'static str {
         ("equipartition", "study.levels") => "equipartition.levels",
         ("equipartition", "T") => "equipartition.T",
         (_, key) => key,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PENDULUM: &str = include_str!("../scenes/pendulum.toml");
+
+    /// The message of the error reading the pendulum scene with `from` replaced by `to`.
+    fn refused(from: &str, to: &str) -> String {
+        assert!(PENDULUM.contains(from), "'{from}' not in the scene");
+        Scene::from_toml(&PENDULUM.replace(from, to))
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn weak_table_settings_are_named_by_their_own_key() {
+        // The [study] table's paths stay 10000: the [weak] table's are named.
+        let message = refused("paths = 40000", "paths = 0");
+        assert!(
+            message.contains("weak.paths = 0: must be >= 2"),
+            "{message}"
+        );
+        assert!(!message.contains("study.paths"), "{message}");
+        let message = refused(
+            "levels = [2, 7]\nreference = 11",
+            "levels = [2, 7]\nreference = 40",
+        );
+        assert!(message.contains("weak.reference = 40"), "{message}");
+        let message = refused("levels = [2, 7]\nreference = 11", "levels = [2, 30]");
+        assert!(message.contains("weak.levels = 2..30"), "{message}");
+        let message = refused("levels = [2, 7]\nreference = 11", "levels = [9, 10]");
+        assert!(message.contains("weak.levels = 9..10"), "{message}");
+    }
+
+    #[test]
+    fn mlmc_table_settings_are_named_by_their_own_key() {
+        let with = |table: &str| {
+            Scene::from_toml(&format!("{PENDULUM}\n[mlmc]\n{table}\n"))
+                .unwrap_err()
+                .to_string()
+        };
+        let message = with("coarsest = 0");
+        assert!(message.contains("mlmc.coarsest = 0"), "{message}");
+        let message = with("test_samples = 1000000000000");
+        assert!(
+            message.contains("mlmc.test_samples = 1000000000000") && message.contains("available"),
+            "{message}"
+        );
+        let message = with("coarsest = 4294967295\nmax_level = 2");
+        assert!(message.contains("mlmc.max_level = 2"), "{message}");
+        let message = with("eps = [1e-2, 1e-300]");
+        assert!(message.contains("mlmc.eps = 1e-300"), "{message}");
+        let message = with("eps = []");
+        assert!(message.contains("mlmc.eps = []"), "{message}");
+        assert!(Scene::from_toml(&format!("{PENDULUM}\n[mlmc]\ncoarsest = 3\n")).is_ok());
     }
 }

@@ -52,6 +52,16 @@ use bootstrap::Resample;
 /// steps ([`ConvergenceSettings::paired_reference`]) for its Richardson extrapolation and
 /// bias bound ([`ReferenceBias`]). `None` without a `[weak]` table.
 pub fn weak_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> {
+    let settings = weak_table_settings(scene, quick)?;
+    Some(ConvergenceSettings {
+        reference_scheme: weak_reference(scene),
+        ..settings
+    })
+}
+
+/// [`weak_settings`] with the default reference scheme: what the `[weak]` table gives,
+/// without building the scene's system (for checking the table).
+pub(crate) fn weak_table_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> {
     let weak = scene.weak.as_ref()?;
     let [coarsest, mut finest] = weak.levels.unwrap_or([2, 7]);
     let mut paths = weak.paths.unwrap_or(10_000);
@@ -67,7 +77,6 @@ pub fn weak_settings(scene: &Scene, quick: bool) -> Option<ConvergenceSettings> 
         finest,
         reference: Some(reference),
         observables: weak.observables.clone(),
-        reference_scheme: weak_reference(scene),
         paired_reference: true,
         ..ConvergenceSettings::for_scene(scene)
     })
@@ -417,9 +426,12 @@ impl LevelPaths {
     }
 }
 
-/// Whether an error's interval excludes 0 by its half-width: |estimate| > (high - low) / 2.
+/// Whether an error's interval excludes 0 by its half-width, |estimate| > (high - low) / 2,
+/// and the error is a normal float: one that underflowed (zero or subnormal, as the errors of a
+/// run whose steps are below the rounding of the state are) measures the arithmetic, not the
+/// scheme, and is unresolved.
 fn resolved(e: &Interval) -> bool {
-    e.estimate.abs() > 0.5 * (e.ci_high - e.ci_low)
+    e.estimate.abs() >= f64::MIN_POSITIVE && e.estimate.abs() > 0.5 * (e.ci_high - e.ci_low)
 }
 
 /// `interval` widened by `by` on each side.
@@ -932,6 +944,18 @@ pub fn build_weak_report(run: ConvergenceRun) -> Result<WeakReport, StudyError> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn errors_that_underflow_are_unresolved() {
+        let exact = |e: f64| Interval {
+            estimate: e,
+            ci_low: e,
+            ci_high: e,
+        };
+        assert!(resolved(&exact(-1e-3)));
+        assert!(!resolved(&exact(-3.5e-317)));
+        assert!(!resolved(&exact(0.0)));
+    }
 
     #[test]
     fn exact_power_law_differences_give_their_order() {

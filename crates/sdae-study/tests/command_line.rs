@@ -592,3 +592,256 @@ fn compare_finds_runs_equal_across_thread_counts_and_names_the_first_difference(
     );
     usage_error(&["compare", path(&one)], &["<B>"]);
 }
+
+#[test]
+fn checkpoint_intervals_beyond_a_year_are_refused_by_every_subcommand() {
+    let dir = folder("interval");
+    for study in ["convergence", "stability", "equipartition", "weak", "mlmc"] {
+        usage_error(
+            &[
+                study,
+                "--checkpoint-every",
+                "2e19",
+                "--quick",
+                "--out",
+                path(&dir),
+            ],
+            &["--checkpoint-every", "at most 31536000 seconds (a year)"],
+        );
+    }
+    usage_error(
+        &["--checkpoint-every", "31536001", "--out", path(&dir)],
+        &["--checkpoint-every", "a year"],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn weak_table_settings_are_named_by_their_key_and_file() {
+    let dir = folder("weak-keys");
+    let pendulum = include_str!("../scenes/pendulum.toml");
+    // The [study] table's paths are 10000: the [weak] table's 0 is the one named.
+    for (from, to, words) in [
+        ("paths = 40000", "paths = 0", "weak.paths = 0: must be >= 2"),
+        ("paths = 40000", "paths = 1", "weak.paths = 1: must be >= 2"),
+        (
+            "levels = [2, 7]\nreference = 11",
+            "levels = [2, 7]\nreference = 30",
+            "weak.reference = 30",
+        ),
+        (
+            "levels = [2, 7]\nreference = 11",
+            "levels = [2, 7]\nreference = 5",
+            "weak.reference = 5",
+        ),
+        (
+            "levels = [2, 7]\nreference = 11",
+            "levels = [2, 40]",
+            "weak.levels = 2..40",
+        ),
+        (
+            "levels = [2, 7]\nreference = 11",
+            "levels = [9, 10]",
+            "weak.levels = 9..10",
+        ),
+    ] {
+        let file = scene_file(&dir, &edited(pendulum, from, to));
+        let args = ["weak", "--scene-file", path(&file), "--out", path(&dir)];
+        usage_error(&args, &[words, path(&file)]);
+        let stderr = text(&study(&args).stderr);
+        assert!(!stderr.contains("study."), "{stderr}");
+        assert!(!stderr.contains("--paths"), "{stderr}");
+    }
+    // A flag the user typed is still named as typed.
+    usage_error(
+        &["weak", "--paths", "1", "--quick", "--out", path(&dir)],
+        &["--paths 1: must be >= 2"],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_bad_system_in_a_later_scene_stops_the_command_before_the_first_scene_runs() {
+    let dir = folder("later-scene");
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/pendulum.toml"),
+            "gravity = 1.0",
+            "gravity = nan",
+        ),
+    );
+    for study in ["convergence", "weak", "trace"] {
+        let mut args = vec![study, "--scene", "pendulum", "--scene-file", path(&file)];
+        if study != "trace" {
+            args.extend(["--quick", "--paths", "4"]);
+        }
+        args.extend(["--out", path(&dir)]);
+        usage_error(&args, &["gravity", path(&file)]);
+        let out = study_output(&args);
+        assert!(!out.contains("wrote"), "{study}: {out}");
+        assert!(
+            !dir.join("pendulum").exists(),
+            "{study} ran the first scene"
+        );
+        assert!(!dir.join("trace").exists(), "{study} ran the first scene");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// What a run printed on stdout.
+fn study_output(args: &[&str]) -> String {
+    text(&study(args).stdout)
+}
+
+#[test]
+fn final_times_whose_errors_would_underflow_are_refused_before_running() {
+    let dir = folder("tiny-t");
+    for t in ["1e-160", "1e-300"] {
+        usage_error(
+            &["--quick", "--t-end", t, "--out", path(&dir)],
+            &[&format!("--t-end {t}"), "h = T / 2^", "2^-511"],
+        );
+        usage_error(
+            &["mlmc", "--quick", "--t-end", t, "--out", path(&dir)],
+            &[&format!("--t-end {t}"), "2^-511"],
+        );
+    }
+    usage_error(
+        &["mlmc", "--quick", "--t-end", "5e-324", "--out", path(&dir)],
+        &["--t-end 5e-324", "2^-511"],
+    );
+    assert!(!dir.join("pendulum").exists() && !dir.join("mlmc").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
+    let dir = folder("extreme-distance");
+    let shards = dir.join("shards");
+    let ran = study(&[
+        "--quick",
+        "--paths",
+        "4",
+        "--threads",
+        "1",
+        "--shard",
+        "0/1",
+        "--out",
+        path(&shards),
+    ]);
+    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
+    let file = shards.join("pendulum").join("shard-0-of-1.json");
+    let shard: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    for value in [1e308, 1e-310] {
+        let mut edited = shard.clone();
+        edited["records"][0]["tracks"][4]["distances"][0] = serde_json::json!(value);
+        let input = dir.join(format!("in-{value:e}"));
+        std::fs::create_dir_all(&input).unwrap();
+        std::fs::write(input.join("shard-0-of-1.json"), edited.to_string()).unwrap();
+        let out = dir.join(format!("out-{value:e}"));
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sdae-study"))
+            .args(["merge", path(&input), "--out", path(&out)])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(60) {
+                let _ = child.kill();
+                panic!("merge with a distance of {value:e} still running after 60 s");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        };
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+        assert_eq!(status.code(), Some(0), "{value:e}: {stderr}");
+        for svg in ["error_vs_h.svg", "error_vs_time.svg"] {
+            assert!(out.join("pendulum").join(svg).exists(), "{svg} missing");
+        }
+        if value > 1.0 {
+            assert!(
+                stderr.contains("left out of the plot") && stderr.contains("1e300"),
+                "{stderr}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn errors_that_underflow_are_named_unresolved_not_fitted() {
+    // At T = 1e-100 a step moves the state by less than its rounding: the velocity errors of
+    // the half-explicit schemes are exactly 0.
+    let dir = folder("zero-errors");
+    let ran = study(&[
+        "--quick",
+        "--paths",
+        "8",
+        "--threads",
+        "1",
+        "--schemes",
+        "half-explicit-practical",
+        "--t-end",
+        "1e-100",
+        "--out",
+        path(&dir),
+    ]);
+    let stderr = text(&ran.stderr);
+    assert_eq!(ran.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("underflowed"), "{stderr}");
+    let md = std::fs::read_to_string(dir.join("pendulum").join("report.md")).unwrap();
+    assert!(
+        md.contains("Not fitted, unresolved") && md.contains("v at N = 8 (error 0e0)"),
+        "{md}"
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("pendulum").join("report.json")).unwrap(),
+    )
+    .unwrap();
+    let scheme = &json["schemes"][0];
+    assert_eq!(scheme["unresolved"][0]["output"], "v");
+    assert!(scheme["observed_order"]["v"].is_null(), "{scheme}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn weak_errors_that_underflow_give_no_order() {
+    // At T = 1e-140 every weak error is exactly 0: no order is fitted to them.
+    let dir = folder("zero-weak-errors");
+    let file = scene_file(
+        &dir,
+        &edited(
+            include_str!("../scenes/pendulum.toml"),
+            "T = 1.0",
+            "T = 1e-140",
+        ),
+    );
+    let ran = study(&[
+        "weak",
+        "--quick",
+        "--paths",
+        "16",
+        "--threads",
+        "1",
+        "--scene-file",
+        path(&file),
+        "--out",
+        path(&dir),
+    ]);
+    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("test").join("weak.json")).unwrap())
+            .unwrap();
+    for o in json["observables"].as_array().unwrap() {
+        for s in o["schemes"].as_array().unwrap() {
+            assert!(s["order"].is_null(), "{}: {}", o["name"], s["order"]);
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -420,7 +420,20 @@ fn bad_settings_are_named_errors() {
     assert!(matches!(settings.validate(), Err(MlmcError::Eps { .. })));
     settings.spec.eps = vec![1e-2];
     settings.spec.coarsest = 20;
-    assert!(matches!(settings.validate(), Err(MlmcError::Levels { .. })));
+    assert!(matches!(
+        settings.validate(),
+        Err(MlmcError::Setting {
+            key: "mlmc.max_level",
+            ..
+        })
+    ));
+    // Step exponents that would wrap in u32 are refused, not wrapped.
+    let max_level = settings.spec.max_level;
+    settings.spec.coarsest = u32::MAX;
+    settings.spec.max_level = 2;
+    let err = settings.validate().unwrap_err();
+    assert!(err.to_string().contains("2^4294967297 steps"), "{err}");
+    settings.spec.max_level = max_level;
     settings.spec.coarsest = 2;
     settings.spec.observable = "energie".into();
     let control = RunControl::new(1).unwrap();

@@ -35,7 +35,7 @@ fn bad_input_is_a_named_error_with_exit_code_2() {
     assert_eq!(stderr.matches("scene pendulum").count(), 1, "{stderr}");
     usage_error(
         &["mlmc", "--coarsest", "0", "--quick", "--out", out],
-        &["coarsest = 0", "at least 2 steps"],
+        &["--coarsest 0", "at least 2 steps"],
     );
     usage_error(
         &[
@@ -142,4 +142,171 @@ fn strip_times(v: &mut serde_json::Value) {
         serde_json::Value::Array(items) => items.iter_mut().for_each(strip_times),
         _ => {}
     }
+}
+
+/// Asserts exit code 2 with `words` in the message, and that nothing ran: no run header, no
+/// folder of results.
+fn refused_before_running(args: &[&str], words: &[&str], out: &Path) {
+    usage_error(args, words);
+    let stderr = text(&study(args).stderr);
+    assert!(!stderr.contains("MLMC of"), "{args:?} ran: {stderr}");
+    assert!(
+        !out.join("mlmc/pendulum/report.json").exists(),
+        "{args:?} wrote a report"
+    );
+}
+
+#[test]
+fn counts_levels_and_threads_are_bounded_before_anything_runs() {
+    let dir = scratch("mlmc-bounds");
+    let out = dir.to_str().unwrap();
+    let run = |extra: &[&str], words: &[&str]| {
+        let mut args = vec!["mlmc", "--out", out];
+        args.extend(extra);
+        refused_before_running(&args, words, &dir);
+    };
+    run(
+        &["--eps", "1e-300"],
+        &["--eps 1e-300", "not a normal float", "2^-511"],
+    );
+    run(
+        &["--test-samples", "1000000000000"],
+        &["--test-samples 1000000000000", "available"],
+    );
+    run(
+        &["--coarsest", "4294967295", "--max-level", "2"],
+        &["--max-level 2", "2^4294967297 steps", "above 2^24"],
+    );
+    run(&["--threads", "2000"], &["--threads", "at most 1024"]);
+    run(&["--threads", "0"], &["--threads", "at least 1"]);
+    run(&["--t-end", "5e-324"], &["--t-end 5e-324", "2^-511"]);
+    // The same values from a scene's [mlmc] table are named by their keys and the file.
+    std::fs::create_dir_all(&dir).unwrap();
+    for (table, words) in [
+        (
+            "test_samples = 1000000000000",
+            &["mlmc.test_samples = 1000000000000", "available"][..],
+        ),
+        ("eps = [1e-300]", &["mlmc.eps = 1e-300"][..]),
+        (
+            "coarsest = 4294967295\nmax_level = 2",
+            &["mlmc.max_level = 2"][..],
+        ),
+    ] {
+        let file = dir.join("scene.toml");
+        let scene = include_str!("../scenes/pendulum.toml")
+            .replace("name = \"pendulum\"", "name = \"test\"");
+        std::fs::write(&file, format!("{scene}\n[mlmc]\n{table}\n")).unwrap();
+        let mut all = words.to_vec();
+        all.push(file.to_str().unwrap());
+        refused_before_running(
+            &["mlmc", "--scene-file", file.to_str().unwrap(), "--out", out],
+            &all,
+            &dir,
+        );
+    }
+}
+
+#[test]
+fn an_accuracy_the_machine_cannot_hold_is_refused_by_name() {
+    // Found from the convergence test's variances (seconds), before the adaptive runs.
+    let dir = scratch("mlmc-tiny-eps");
+    let out = dir.to_str().unwrap();
+    let args = [
+        "mlmc",
+        "--eps",
+        "1e-12",
+        "--test-levels",
+        "2",
+        "--test-samples",
+        "64",
+        "--threads",
+        "1",
+        "--out",
+        out,
+    ];
+    usage_error(&args, &["--eps 1e-12", "optimal N_l", "available"]);
+    assert!(!dir.join("mlmc/pendulum/report.json").exists());
+}
+
+#[test]
+fn plans_and_plan_files_are_checked_before_anything_runs() {
+    let dir = scratch("mlmc-plans");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let plan = |name: &str, json: &str| {
+        let file = dir.join(name);
+        std::fs::write(&file, json).unwrap();
+        file.to_str().unwrap().to_string()
+    };
+    let cases = [
+        (
+            plan("empty.json", r#"{"eps": 0.01, "samples": []}"#),
+            vec!["plan.samples = []", "names no level"],
+        ),
+        (
+            plan("negative.json", r#"{"eps": -1, "samples": [64, 64, 64]}"#),
+            vec!["plan.eps = -1", "finite and > 0"],
+        ),
+        (
+            plan(
+                "huge.json",
+                r#"{"eps": 0.01, "samples": [1000000000000000000, 64]}"#,
+            ),
+            vec!["plan.samples", "available"],
+        ),
+        (
+            plan(
+                "deep.json",
+                &format!(r#"{{"eps": 0.01, "samples": {:?}}}"#, vec![64; 40]),
+            ),
+            vec!["plan.samples = 40 levels", "at most 23 levels"],
+        ),
+        (
+            plan("garbage.json", "not a plan"),
+            vec!["cannot read", "garbage.json"],
+        ),
+        (
+            dir.join("missing.json").to_str().unwrap().to_string(),
+            vec!["cannot read", "missing.json"],
+        ),
+    ];
+    for (file, words) in &cases {
+        let mut words = words.clone();
+        words.push(file.rsplit('/').next().unwrap());
+        usage_error(&["mlmc", "--plan", file, "--out", out], &words);
+        usage_error(
+            &["mlmc", "--plan", file, "--shard", "0/2", "--out", out],
+            &words,
+        );
+    }
+    // --write-plan into a folder that cannot be made (its parent is a file): refused first.
+    let file = dir.join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let target = file.join("plan.json");
+    refused_before_running(
+        &[
+            "mlmc",
+            "--quick",
+            "--write-plan",
+            target.to_str().unwrap(),
+            "--out",
+            out,
+        ],
+        &["--write-plan", "a-file", "nothing was run"],
+        Path::new(out),
+    );
+    // A truncated shard is refused by name (exit code 2).
+    let shards = dir.join("shards");
+    std::fs::create_dir_all(&shards).unwrap();
+    std::fs::write(
+        shards.join("mlmc-shard-0-of-1.json"),
+        r#"{"identity": {"sce"#,
+    )
+    .unwrap();
+    usage_error(
+        &["mlmc-merge", shards.to_str().unwrap(), "--out", out],
+        &["cannot read", "mlmc-shard-0-of-1.json"],
+    );
 }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fit::{LogPoint, asymptotic_decay, fit_slope, resolved_mean};
 use super::sampler::{BLOCK, LevelSampler, RunControl};
-use super::settings::{MlmcError, check_eps};
+use super::settings::{MlmcError, check_eps, samples_exceed_memory};
 use super::sums::LevelSums;
 use crate::convergence::PRE_ASYMPTOTIC_TOLERANCE;
 use crate::stats::{Interval, t975};
@@ -120,17 +120,22 @@ pub fn bias_estimate(means: &[(f64, f64)]) -> (f64, f64) {
 }
 
 /// The samples each level still needs: the optimal counts for the estimated variances and
-/// costs at the tolerance `eps`, less those `taken`.
-fn samples_to_add(variances: &[f64], costs: &[f64], eps: f64, taken: &[u64]) -> Vec<u64> {
-    optimal_samples(variances, costs, eps)
+/// costs at the tolerance `eps`, less those `taken`; refused ([`check_counts`]) when the
+/// counts do not fit in the memory available.
+fn samples_to_add(
+    variances: &[f64], costs: &[f64], eps: f64, taken: &[u64],
+) -> Result<Vec<u64>, MlmcError> {
+    check_counts(&optimal_counts(variances, costs, eps), eps)?;
+    Ok(optimal_samples(variances, costs, eps)
         .iter()
         .zip(taken)
         .map(|(w, n)| w.saturating_sub(*n))
-        .collect()
+        .collect())
 }
 
-/// N_l = ceil(2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k)).
-pub fn optimal_samples(variances: &[f64], costs: &[f64], eps: f64) -> Vec<u64> {
+/// N_l = 2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k) as reals (not rounded, perhaps huge or
+/// infinite): what [`optimal_samples`] rounds up.
+pub fn optimal_counts(variances: &[f64], costs: &[f64], eps: f64) -> Vec<f64> {
     let total: f64 = variances
         .iter()
         .zip(costs)
@@ -139,8 +144,38 @@ pub fn optimal_samples(variances: &[f64], costs: &[f64], eps: f64) -> Vec<u64> {
     variances
         .iter()
         .zip(costs)
-        .map(|(v, c)| (2.0 / (eps * eps) * (v / c).sqrt() * total).ceil() as u64)
+        .map(|(v, c)| 2.0 / (eps * eps) * (v / c).sqrt() * total)
         .collect()
+}
+
+/// N_l = ceil(2 eps^-2 sqrt(V_l / C_l) sum_k sqrt(V_k C_k)) ([`optimal_counts`] rounded up,
+/// saturating at `u64::MAX`; [`check_counts`] refuses counts a run cannot hold).
+pub fn optimal_samples(variances: &[f64], costs: &[f64], eps: f64) -> Vec<u64> {
+    optimal_counts(variances, costs, eps)
+        .into_iter()
+        .map(|n| n.ceil() as u64)
+        .collect()
+}
+
+/// Refuses an accuracy `eps` whose optimal sample counts `counts` (per level, as reals) do not
+/// fit in the memory available ([`samples_exceed_memory`]): a named error (the eps and the
+/// counts) instead of an allocation that aborts.
+pub fn check_counts(counts: &[f64], eps: f64) -> Result<(), MlmcError> {
+    let what = format!(
+        "the optimal N_l of levels 0..={} (from the measured variances)",
+        counts.len().saturating_sub(1)
+    );
+    // A count that is not a number (from a variance that is not) is left to the levels' own
+    // checks.
+    let counts: Vec<f64> = counts.iter().copied().filter(|n| !n.is_nan()).collect();
+    match samples_exceed_memory(&counts, &what) {
+        None => Ok(()),
+        Some(rule) => Err(MlmcError::Setting {
+            key: "mlmc.eps",
+            value: format!("{eps:e}"),
+            rule: format!("{rule}: ask for a larger accuracy"),
+        }),
+    }
 }
 
 /// The slope of log2 of `values` over levels 1.. (Giles's regression), negated.
@@ -203,7 +238,7 @@ pub fn adaptive<L: LevelSampler>(
             variances[l] = variances[l].max(0.5 * variances[l - 1] / 2f64.powf(beta));
         }
         beta = decay_rate(&variances).map_or(0.5, |b| b.max(0.5));
-        more = samples_to_add(&variances, &costs, eps, &taken);
+        more = samples_to_add(&variances, &costs, eps, &taken)?;
         let settled = more
             .iter()
             .zip(&taken)
@@ -221,7 +256,7 @@ pub fn adaptive<L: LevelSampler>(
             costs.push(sampler.pair_steps(top as u32) as f64);
             sums.push(LevelSums::default());
             taken.push(0);
-            more = samples_to_add(&variances, &costs, eps, &taken);
+            more = samples_to_add(&variances, &costs, eps, &taken)?;
         }
     };
     Ok(finish(sampler, eps, sums, bias, converged))

@@ -212,9 +212,10 @@ fn unusable(s: &LevelStats) -> Option<String> {
 }
 
 /// The point of level l's mean m of P_l - P_{l-1} in a fit of alpha: log2 |m| with the
-/// standard error se(m) / (|m| ln 2); `None` when the mean is unresolved, |m| <= 2 se(m).
+/// standard error se(m) / (|m| ln 2); `None` when the mean is unresolved, |m| <= 2 se(m), or
+/// underflowed (zero or subnormal: its logarithm would measure the arithmetic).
 pub fn resolved_mean(level: u32, mean: f64, se: f64) -> Option<LogPoint> {
-    (mean.abs() > 2.0 * se).then(|| LogPoint {
+    (mean.abs() >= f64::MIN_POSITIVE && mean.abs() > 2.0 * se).then(|| LogPoint {
         level,
         y: mean.abs().log2(),
         se: se / (mean.abs() * std::f64::consts::LN_2),
@@ -247,7 +248,8 @@ pub fn fit_rates(levels: &[LevelStats], from_level: u32) -> Rates {
     let alpha = asymptotic_decay(&resolved, PRE_ASYMPTOTIC_TOLERANCE);
     let variances: Vec<LogPoint> = fitted
         .iter()
-        .filter(|s| s.var_y > 0.0)
+        // A variance that underflowed (zero or subnormal) gives no point.
+        .filter(|s| s.var_y >= f64::MIN_POSITIVE)
         .map(|s| LogPoint {
             level: s.level,
             y: s.var_y.log2(),
@@ -259,7 +261,7 @@ pub fn fit_rates(levels: &[LevelStats], from_level: u32) -> Rates {
         let points: Vec<(f64, f64)> = fitted
             .iter()
             .map(|s| (f64::from(s.level), value(s)))
-            .filter(|(_, v)| *v > 0.0)
+            .filter(|(_, v)| *v >= f64::MIN_POSITIVE)
             .map(|(l, v)| (l, v.log2()))
             .collect();
         let (x, y): (Vec<f64>, Vec<f64>) = points.into_iter().unzip();
@@ -285,6 +287,13 @@ pub fn fit_rates(levels: &[LevelStats], from_level: u32) -> Rates {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn means_that_underflow_are_unresolved() {
+        assert!(resolved_mean(1, 1e-3, 1e-5).is_some());
+        assert!(resolved_mean(1, -3.5e-317, 0.0).is_none());
+        assert!(resolved_mean(1, 0.0, 0.0).is_none());
+    }
 
     #[test]
     fn an_exact_line_has_its_slope_and_a_tight_interval() {

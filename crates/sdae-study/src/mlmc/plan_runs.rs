@@ -38,11 +38,13 @@ pub enum PlanRun {
     Whole(Box<PlanReport>),
 }
 
-/// Runs `plan` on `scene`: all of it, or shard (i, n) of it.
+/// Runs `plan` on `scene`: all of it, or shard (i, n) of it. The plan is checked first
+/// ([`MlmcSettings::validate_plan`]).
 pub fn run_scene_plan(
     scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>, plan: Plan,
     shard: Option<(u64, u64)>,
 ) -> Result<PlanRun, MlmcError> {
+    settings.validate_plan(&plan)?;
     struct Task<'a, 'b> {
         control: &'a RunControl<'b>,
         identity: Identity,

@@ -31,10 +31,20 @@ struct Panel {
     lines: Vec<(String, Vec<(f64, f64)>)>,
 }
 
-/// A padded range of the finite values.
+/// The largest magnitude a panel draws: its values are logarithms (base 2 or 10) of
+/// positive finite floats, all within +-1100; anything beyond is not one and is left out, so
+/// that an axis is always a finite, bounded range.
+const MAX_DRAWN: f64 = 1e4;
+
+/// Whether a panel can draw the point `(x, y)`.
+fn drawable((x, y): (f64, f64)) -> bool {
+    x.is_finite() && y.is_finite() && x.abs() <= MAX_DRAWN && y.abs() <= MAX_DRAWN
+}
+
+/// A padded range of the values that can be drawn (finite, within [`MAX_DRAWN`]).
 fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
-        .filter(|v| v.is_finite())
+        .filter(|v| v.is_finite() && v.abs() <= MAX_DRAWN)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
         });
@@ -49,7 +59,13 @@ fn draw_panel(
     area: &DrawingArea<SVGBackend<'_>, Shift>, panel: &Panel, path: &Path,
 ) -> Result<(), StudyError> {
     let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    let points = || panel.lines.iter().flat_map(|(_, p)| p.iter());
+    let points = || {
+        panel
+            .lines
+            .iter()
+            .flat_map(|(_, p)| p.iter())
+            .filter(|p| drawable(**p))
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 18))
         .margin(10)
@@ -68,11 +84,7 @@ fn draw_panel(
         .map_err(|e| err(&e))?;
     for (k, (label, line)) in panel.lines.iter().enumerate() {
         let colour = COLOURS[k % COLOURS.len()];
-        let finite: Vec<(f64, f64)> = line
-            .iter()
-            .copied()
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
-            .collect();
+        let finite: Vec<(f64, f64)> = line.iter().copied().filter(|p| drawable(*p)).collect();
         chart
             .draw_series(LineSeries::new(finite.clone(), colour.stroke_width(2)))
             .map_err(|e| err(&e))?
@@ -190,4 +202,19 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
         ],
     };
     draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_are_finite_and_bounded_whatever_the_values() {
+        let r = range([1e308, f64::INFINITY, f64::NAN, 3.0, 1.0].into_iter());
+        assert!(r.start < 1.0 && r.end > 3.0 && r.end < 10.0, "{r:?}");
+        assert_eq!(range([f64::INFINITY, 1e300].into_iter()), 0.0..1.0);
+        // The logarithms of any positive finite float are drawn.
+        assert!(drawable((0.0, f64::MAX.log2())) && drawable((0.0, 5e-324f64.log2())));
+        assert!(!drawable((0.0, f64::NEG_INFINITY)));
+    }
 }

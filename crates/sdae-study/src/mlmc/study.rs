@@ -8,14 +8,15 @@
 use serde::{Deserialize, Serialize};
 
 use super::algorithm::{
-    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, optimal_samples, run_plan,
-    standard_monte_carlo,
+    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, check_counts, optimal_counts,
+    optimal_samples, run_plan, standard_monte_carlo,
 };
 use super::coupled::CoupledSampler;
 use super::fit::{Rates, fit_rates};
 use super::sampler::{LevelSampler, RunControl};
-use super::settings::{MlmcError, MlmcSpec, check_eps};
+use super::settings::{MlmcError, MlmcSpec, check_eps, samples_exceed_memory};
 use super::sums::{LevelStats, level_stats};
+use crate::convergence::{MAX_THREADS, MIN_STEP};
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::scene::{Prepared, Scene};
 use crate::stats::Interval;
@@ -44,14 +45,33 @@ pub struct MlmcSettings {
 /// The largest step exponent a level may have (2^24 steps per path).
 pub const MAX_STEP_EXPONENT: u32 = 24;
 
+/// Refuses a final time whose smallest step T / 2^`finest` is below [`MIN_STEP`].
+fn check_step(t_end: f64, finest: u32) -> Result<(), MlmcError> {
+    let h = t_end / 2f64.powi(finest as i32);
+    if h >= MIN_STEP {
+        return Ok(());
+    }
+    Err(MlmcError::Setting {
+        key: "T",
+        value: format!("{t_end:e}"),
+        rule: format!(
+            "gives the step h = T / 2^{finest} = {h:e} on the finest level: every step must be at \
+             least {MIN_STEP:e} (2^-511), else the squared differences of the levels underflow"
+        ),
+    })
+}
+
 impl MlmcSettings {
-    /// The scene's settings (its `[mlmc]` table, or the defaults), seed 2026 and every core.
+    /// The scene's settings (its `[mlmc]` table, or the defaults), seed 2026 and every core (at
+    /// most [`MAX_THREADS`]).
     pub fn for_scene(scene: &Scene) -> Self {
         Self {
             spec: scene.mlmc.clone().unwrap_or_default(),
             t_end: scene.t_end,
             seed: 2026,
-            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            threads: std::thread::available_parallelism()
+                .map_or(1, |n| n.get())
+                .min(MAX_THREADS),
             initial_samples: 1024,
             standard_run: true,
         }
@@ -68,73 +88,155 @@ impl MlmcSettings {
         self
     }
 
-    /// Checks every setting before anything runs.
+    /// Checks every setting before anything runs, naming a bad one by its scene-file key
+    /// (`mlmc.coarsest`, `T`, `threads`): the accuracies (finite, at least
+    /// [`MIN_EPS`](super::settings::MIN_EPS)), the levels (their step exponents summed in
+    /// checked arithmetic, at most [`MAX_STEP_EXPONENT`]), the smallest step T / 2^(k0 + L_max)
+    /// at least [`MIN_STEP`], the threads (at most [`MAX_THREADS`]), and the convergence
+    /// test's samples within the memory available ([`samples_exceed_memory`]).
     pub fn validate(&self) -> Result<(), MlmcError> {
         let s = &self.spec;
+        let setting = |key: &'static str, value: String, rule: String| {
+            Err(MlmcError::Setting { key, value, rule })
+        };
         if s.eps.is_empty() {
-            return Err(MlmcError::Setting {
-                key: "eps",
-                value: "[]".into(),
-                rule: "at least one accuracy".into(),
-            });
+            return setting("mlmc.eps", "[]".into(), "at least one accuracy".into());
         }
         for &eps in &s.eps {
             check_eps(eps)?;
         }
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
-            return Err(MlmcError::Setting {
-                key: "T",
-                value: self.t_end.to_string(),
-                rule: "the final time must be finite and > 0".into(),
-            });
+            return setting(
+                "T",
+                self.t_end.to_string(),
+                "the final time must be finite and > 0".into(),
+            );
         }
         if s.coarsest == 0 {
-            return Err(MlmcError::Setting {
-                key: "coarsest",
-                value: "0".into(),
-                rule: "level 0 must have at least 2 steps (coarsest >= 1): one step of the \
-                       half-explicit schemes moves the position by h v_0 alone, so P_0 of a \
-                       position observable has no variance and N_l ~ sqrt(V_l) gives level 0 \
-                       no samples"
+            return setting(
+                "mlmc.coarsest",
+                "0".into(),
+                "level 0 must have at least 2 steps (coarsest >= 1): one step of the \
+                 half-explicit schemes moves the position by h v_0 alone, so P_0 of a \
+                 position observable has no variance and N_l ~ sqrt(V_l) gives level 0 \
+                 no samples"
                     .into(),
-            });
+            );
         }
-        if s.coarsest + s.max_level > MAX_STEP_EXPONENT {
-            return Err(MlmcError::Levels {
-                reason: format!(
-                    "the finest level L_max = {} on 2^{} steps at level 0 has 2^{} steps, above \
-                     2^{MAX_STEP_EXPONENT}",
+        let finest = s
+            .coarsest
+            .checked_add(s.max_level)
+            .filter(|&k| k <= MAX_STEP_EXPONENT);
+        let Some(finest) = finest else {
+            return setting(
+                "mlmc.max_level",
+                s.max_level.to_string(),
+                format!(
+                    "the levels 0..={} on 2^{} steps at level 0 reach 2^{} steps per path at \
+                     the finest, above 2^{MAX_STEP_EXPONENT}",
                     s.max_level,
                     s.coarsest,
-                    s.coarsest + s.max_level
+                    u64::from(s.coarsest) + u64::from(s.max_level)
                 ),
-            });
-        }
+            );
+        };
+        check_step(self.t_end, finest)?;
         if s.test_levels < 2 || s.test_levels > s.max_level {
-            return Err(MlmcError::Levels {
-                reason: format!(
-                    "the convergence test's levels 0..={} must number at least 3 and stay within \
-                     L_max = {}",
+            return setting(
+                "mlmc.test_levels",
+                s.test_levels.to_string(),
+                format!(
+                    "the convergence test's levels 0..={} must number at least 3 and stay \
+                     within L_max = {}",
                     s.test_levels, s.max_level
                 ),
-            });
+            );
         }
         if s.test_samples < 2 || self.initial_samples < 2 {
-            return Err(MlmcError::Setting {
-                key: "samples",
-                value: s.test_samples.min(self.initial_samples).to_string(),
-                rule: "at least 2 samples per level".into(),
-            });
+            return setting(
+                "mlmc.test_samples",
+                s.test_samples.min(self.initial_samples).to_string(),
+                "at least 2 samples per level".into(),
+            );
+        }
+        let test = vec![s.test_samples as f64; s.test_levels as usize + 1];
+        if let Some(rule) = samples_exceed_memory(&test, "the convergence test's levels") {
+            return setting("mlmc.test_samples", s.test_samples.to_string(), rule);
+        }
+        if self.threads == 0 || self.threads > MAX_THREADS {
+            return setting(
+                "threads",
+                self.threads.to_string(),
+                format!("must be in 1..={MAX_THREADS}"),
+            );
         }
         if SchemeKind::from_name(&s.scheme).is_none() {
-            return Err(MlmcError::Setting {
-                key: "scheme",
-                value: s.scheme.clone(),
-                rule: format!(
+            return setting(
+                "mlmc.scheme",
+                s.scheme.clone(),
+                format!(
                     "one of {}",
                     SchemeKind::ALL.map(SchemeKind::name).join(", ")
                 ),
-            });
+            );
+        }
+        Ok(())
+    }
+
+    /// Checks a plan against these settings before it runs, naming what is wrong by the plan's
+    /// key: its eps as [`check_eps`] does, at least one level, at most
+    /// [`MAX_STEP_EXPONENT`] - k0 levels above level 0 (so at most 2^24 steps per path), the
+    /// smallest step T / 2^(k0 + L) at least [`MIN_STEP`], at least 2 samples per level, and
+    /// all its samples within the memory available ([`samples_exceed_memory`]).
+    pub fn validate_plan(&self, plan: &Plan) -> Result<(), MlmcError> {
+        let setting = |key: &'static str, value: String, rule: String| {
+            Err(MlmcError::Setting { key, value, rule })
+        };
+        check_eps(plan.eps).map_err(|e| match e {
+            MlmcError::Eps { value } => MlmcError::Setting {
+                key: "plan.eps",
+                value: value.to_string(),
+                rule: "the accuracy must be finite and > 0".into(),
+            },
+            MlmcError::Setting { value, rule, .. } => MlmcError::Setting {
+                key: "plan.eps",
+                value,
+                rule,
+            },
+            other => other,
+        })?;
+        let Some(top) = plan.samples.len().checked_sub(1) else {
+            return setting("plan.samples", "[]".into(), "names no level".into());
+        };
+        let k0 = self.spec.coarsest;
+        let finest = u32::try_from(top)
+            .ok()
+            .and_then(|l| k0.checked_add(l))
+            .filter(|&k| k <= MAX_STEP_EXPONENT);
+        let Some(finest) = finest else {
+            return setting(
+                "plan.samples",
+                format!("{} levels", plan.samples.len()),
+                format!(
+                    "levels 0..={top} on 2^{k0} steps at level 0 reach 2^{} steps per path, \
+                     above 2^{MAX_STEP_EXPONENT}: at most {} levels",
+                    top as u64 + u64::from(k0),
+                    MAX_STEP_EXPONENT.saturating_sub(k0) + 1
+                ),
+            );
+        };
+        check_step(self.t_end, finest)?;
+        if let Some((l, n)) = plan.samples.iter().enumerate().find(|(_, n)| **n < 2) {
+            return setting(
+                "plan.samples",
+                format!("{n} at level {l}"),
+                "at least 2 samples per level".into(),
+            );
+        }
+        let samples: Vec<f64> = plan.samples.iter().map(|&n| n as f64).collect();
+        if let Some(rule) = samples_exceed_memory(&samples, "the plan's levels") {
+            let total: u128 = plan.samples.iter().map(|&n| u128::from(n)).sum();
+            return setting("plan.samples", format!("{total} in all"), rule);
         }
         Ok(())
     }
@@ -377,6 +479,7 @@ pub fn run_study<L: LevelSampler>(
     )?;
     let test = level_stats(&test_sums, sampler);
     let rates = fit_rates(&test, 1);
+    check_accuracies(sampler, &test, &spec.eps)?;
     let mut complexity = Vec::with_capacity(spec.eps.len());
     for &eps in &spec.eps {
         let run = adaptive(
@@ -419,6 +522,26 @@ pub fn run_study<L: LevelSampler>(
         complexity,
         standard,
     })
+}
+
+/// Refuses, before the adaptive runs, an accuracy whose samples cannot fit in memory: the
+/// optimal N_l of the levels 0..=2 every adaptive run starts with, from the convergence test's
+/// variances (a lower bound of what the run takes: more levels only raise the counts).
+fn check_accuracies<L: LevelSampler>(
+    sampler: &L, test: &[LevelStats], eps: &[f64],
+) -> Result<(), MlmcError> {
+    let first = &test[..test.len().min(3)];
+    let variances: Vec<f64> = first.iter().map(|s| s.var_y).collect();
+    if !variances.iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    let costs: Vec<f64> = (0..first.len())
+        .map(|l| sampler.pair_steps(l as u32) as f64)
+        .collect();
+    for &eps in eps {
+        check_counts(&optimal_counts(&variances, &costs, eps), eps)?;
+    }
+    Ok(())
 }
 
 /// The direct standard Monte Carlo run at the largest eps of `complexity`, its work capped by
@@ -548,4 +671,86 @@ pub fn run_mlmc(
             control,
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings() -> MlmcSettings {
+        MlmcSettings::for_scene(&Scene::built_in("pendulum").unwrap())
+    }
+
+    fn key_of(e: MlmcError) -> &'static str {
+        match e {
+            MlmcError::Setting { key, .. } => key,
+            other => panic!("not a setting: {other}"),
+        }
+    }
+
+    #[test]
+    fn settings_are_bounded_in_checked_arithmetic() {
+        let mut s = settings();
+        assert_eq!(s.validate(), Ok(()));
+        s.spec.coarsest = u32::MAX;
+        s.spec.max_level = 2;
+        let err = s.validate().unwrap_err();
+        assert!(err.to_string().contains("2^4294967297 steps"), "{err}");
+        assert_eq!(key_of(err), "mlmc.max_level");
+        let mut s = settings();
+        s.spec.test_samples = 1_000_000_000_000;
+        let err = s.validate().unwrap_err();
+        assert!(err.to_string().contains("available"), "{err}");
+        assert_eq!(key_of(err), "mlmc.test_samples");
+        let mut s = settings();
+        s.threads = MAX_THREADS + 1;
+        assert_eq!(key_of(s.validate().unwrap_err()), "threads");
+        let mut s = settings();
+        s.t_end = 5e-324;
+        let err = s.validate().unwrap_err();
+        assert!(err.to_string().contains("2^-511"), "{err}");
+        assert_eq!(key_of(err), "T");
+        s.t_end = MIN_STEP * 2f64.powi(14);
+        assert_eq!(s.validate(), Ok(()));
+        s.t_end /= 2.0;
+        assert_eq!(key_of(s.validate().unwrap_err()), "T");
+    }
+
+    #[test]
+    fn plans_are_checked_before_they_run() {
+        let s = settings();
+        let plan = |eps: f64, samples: Vec<u64>| Plan { eps, samples };
+        assert_eq!(s.validate_plan(&plan(1e-2, vec![4096, 1024, 256])), Ok(()));
+        let refused = |p: Plan, words: &[&str]| {
+            let err = s.validate_plan(&p).unwrap_err();
+            let message = err.to_string();
+            for w in words {
+                assert!(message.contains(w), "'{w}' not in {message}");
+            }
+        };
+        refused(plan(1e-2, vec![]), &["plan.samples = []", "names no level"]);
+        refused(
+            plan(-1.0, vec![64; 3]),
+            &["plan.eps = -1", "finite and > 0"],
+        );
+        refused(plan(f64::NAN, vec![64; 3]), &["plan.eps = NaN"]);
+        refused(plan(1e-300, vec![64; 3]), &["plan.eps = 1e-300", "2^-511"]);
+        refused(
+            plan(1e-2, vec![64; 40]),
+            &[
+                "plan.samples = 40 levels",
+                "at most 23 levels",
+                "2^41 steps",
+            ],
+        );
+        refused(plan(1e-2, vec![64, 1, 64]), &["1 at level 1", "at least 2"]);
+        refused(
+            plan(1e-2, vec![1_000_000_000_000_000_000, 64]),
+            &["plan.samples", "in all", "available"],
+        );
+        refused(
+            plan(1e-2, vec![u64::MAX; 23]),
+            &["plan.samples", "available"],
+        );
+    }
 }

@@ -1,7 +1,8 @@
 //! Weak orders fitted over the asymptotic levels only.
 //!
 //! The levels considered are those whose error is resolved (|e| above the half-width of its
-//! interval, which includes the reference's bias bound). From them, coarse to fine, the
+//! interval, which includes the reference's bias bound, and a normal float: an error that
+//! underflowed to zero or a subnormal is unresolved). From them, coarse to fine, the
 //! coarsest is left out as pre-asymptotic while
 //!
 //! - it lies before a change of sign of the error (a zero crossing of e(h) is no sign of

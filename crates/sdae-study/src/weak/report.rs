@@ -13,7 +13,7 @@ use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakSchem
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::{decades, left_out, readable};
-use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
+use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, drawable, log_range};
 use crate::stats::Interval;
 
 /// "order [low, high]", then the levels left out of the fit and why (unresolved,
@@ -228,7 +228,7 @@ pub fn markdown(report: &WeakReport) -> String {
     let r = &report.reference;
     let grid: Vec<String> = report.grid.iter().map(|t| readable(*t)).collect();
     let mut s = format!(
-        "# Weak-error study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference {} with {} steps{} on the same Brownian paths, T = {}, seed {}. Weak errors E[f(X_N)] - E[f(X_T)] with 95% intervals: at T against the exact value where the scene gives one, otherwise against the reference from the per-path differences f(X_N) - f(X_ref), the interval widened by the bound on the reference's own bias; the largest error over the grid always against the reference, over the grid of the coarsest level, t = {}. A level is resolved when |error| is above the half-width of its interval. Orders are fitted over the resolved levels after the last change of sign of the error, less the coarse levels whose local slope departs from the finer levels' (pre-asymptotic, named); where the local slope still changes between the finest levels, the order's interval holds that bend. Intervals are 95% bootstrap intervals over whole paths. Levels where paths failed or gave values that are not finite are lost (named, left out). Each scheme is followed by its Richardson-Romberg extrapolation 2 E[f(X_(h/2))] - E[f(X_h)] (labelled with the finer N; its run time is both levels').\n\n",
+        "# Weak-error study: {}\n\n{}\n\n{} paths, N = 2^{}..2^{}, reference {} with {} steps{} on the same Brownian paths, T = {}, seed {}. Weak errors E[f(X_N)] - E[f(X_T)] with 95% intervals: at T against the exact value where the scene gives one, otherwise against the reference from the per-path differences f(X_N) - f(X_ref), the interval widened by the bound on the reference's own bias; the largest error over the grid always against the reference, over the grid of the coarsest level, t = {}. A level is resolved when |error| is above the half-width of its interval and a normal float (an error that underflowed to zero or a subnormal, the paths agreeing to the last bit, measures the arithmetic: unresolved). Orders are fitted over the resolved levels after the last change of sign of the error, less the coarse levels whose local slope departs from the finer levels' (pre-asymptotic, named); where the local slope still changes between the finest levels, the order's interval holds that bend. Intervals are 95% bootstrap intervals over whole paths. Levels where paths failed or gave values that are not finite are lost (named, left out). Each scheme is followed by its Richardson-Romberg extrapolation 2 E[f(X_(h/2))] - E[f(X_h)] (labelled with the finer N; its run time is both levels').\n\n",
         report.scene,
         report.scene_definition.description,
         report.paths,
@@ -416,37 +416,45 @@ fn observable_panel(
         .draw()?;
     for (k, row) in o.schemes.iter().enumerate() {
         let colour = COLOURS[(k / 2) % COLOURS.len()];
-        draw_row(&mut chart, row, axis, colour, y_range.start)?;
+        draw_row(&mut chart, row, axis, colour, y_range.clone())?;
     }
     draw_legend(&mut chart, 9, SeriesLabelPosition::LowerRight)
 }
 
-/// A row's |error| against `axis` and its error bars, kept above `floor`: in `colour`, thinner
-/// and lighter if extrapolated.
+/// A row's |error| against `axis` and its error bars, kept within the axis `range` (levels
+/// whose x cannot be drawn left out): in `colour`, thinner and lighter if extrapolated.
 fn draw_row(
-    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor, floor: f64,
+    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor,
+    range: std::ops::Range<f64>,
 ) -> DrawResult<()> {
+    let (floor, ceiling) = (range.start, range.end);
+    let within = |v: f64| {
+        if v.is_nan() {
+            floor
+        } else {
+            v.clamp(floor, ceiling)
+        }
+    };
+    let levels = || row.levels.iter().filter(|l| drawable(axis.of(l)));
     let style = if row.extrapolated {
         colour.mix(0.6).stroke_width(1)
     } else {
         colour.stroke_width(2)
     };
-    let points: Vec<(f64, f64)> = row
-        .levels
-        .iter()
-        .map(|l| (axis.of(l), l.error.estimate.abs().max(floor)))
+    let points: Vec<(f64, f64)> = levels()
+        .map(|l| (axis.of(l), within(l.error.estimate.abs())))
         .collect();
     chart
         .draw_series(LineSeries::new(points, style))?
         .label(&row.name)
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-    chart.draw_series(row.levels.iter().map(|l| {
-        let low = (l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low)).max(floor);
+    chart.draw_series(levels().map(|l| {
+        let low = within(l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low));
         ErrorBar::new_vertical(
             axis.of(l),
             low,
-            l.error.estimate.abs().max(floor),
-            upper_bound(&l.error),
+            within(l.error.estimate.abs()),
+            within(upper_bound(&l.error)),
             style,
             4,
         )

@@ -130,7 +130,7 @@ pub struct CheckpointArgs {
     #[arg(long)]
     pub fresh: bool,
     /// Save what is finished every SECONDS while the study runs (0: after every block of
-    /// paths or samples).
+    /// paths or samples; at most a year, 31536000).
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds)]
     pub checkpoint_every: f64,
 }
@@ -240,9 +240,19 @@ pub fn typed(flag: &str) -> bool {
     })
 }
 
+/// The longest checkpoint interval, in seconds: a year. Longer than any batch job runs (an
+/// interval longer than the run saves only when it is stopped), and far below the
+/// 1.8e19 seconds a [`std::time::Duration`] holds.
+pub const MAX_CHECKPOINT_SECONDS: f64 = 365.0 * 24.0 * 3600.0;
+
+/// A checkpoint interval: finite, >= 0 and at most [`MAX_CHECKPOINT_SECONDS`].
 fn seconds(value: &str) -> Result<f64, String> {
     match value.parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        Ok(s) if s.is_finite() && (0.0..=MAX_CHECKPOINT_SECONDS).contains(&s) => Ok(s),
+        Ok(s) if s.is_finite() && s > MAX_CHECKPOINT_SECONDS => Err(format!(
+            "must be at most {MAX_CHECKPOINT_SECONDS} seconds (a year); {s:e} is {:.1e} years",
+            s / MAX_CHECKPOINT_SECONDS
+        )),
         Ok(_) => Err("must be finite and >= 0".into()),
         Err(e) => Err(e.to_string()),
     }
@@ -271,8 +281,37 @@ impl EnsembleArgs {
 
 impl SceneArgs {
     /// The scenes named (built-in ones first, then files), or the built-in scenes that
-    /// `default` selects when none is named.
+    /// `default` selects when none is named; every one read and its system built
+    /// ([`Scene::check_system`]) before any study runs, so that a bad value in the last scene
+    /// stops the command before the first one runs.
     pub fn load(&self, default: fn(&Scene) -> bool) -> Result<Vec<Scene>, sdae_study::StudyError> {
+        let scenes = self.read(default)?;
+        for (k, scene) in scenes.iter().enumerate() {
+            scene
+                .check_system()
+                .map_err(|e| match (e, self.file_of(k)) {
+                    (sdae_study::StudyError::Invalid { scene, message }, Some(file)) => {
+                        sdae_study::StudyError::Invalid {
+                            scene,
+                            message: format!("{message} (scene file {})", file.display()),
+                        }
+                    }
+                    (e, _) => e,
+                })?;
+        }
+        Ok(scenes)
+    }
+
+    /// The scene file the `k`-th scene [`SceneArgs::load`] returns was read from, `None` for a
+    /// built-in scene.
+    pub fn file_of(&self, k: usize) -> Option<&std::path::Path> {
+        k.checked_sub(self.scene.len())
+            .and_then(|i| self.scene_file.get(i))
+            .map(PathBuf::as_path)
+    }
+
+    /// The scenes, read and checked as files, their systems not built yet.
+    fn read(&self, default: fn(&Scene) -> bool) -> Result<Vec<Scene>, sdae_study::StudyError> {
         let mut scenes = Vec::new();
         for name in &self.scene {
             scenes.push(Scene::built_in(name)?);
@@ -344,6 +383,19 @@ mod tests {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         assert_eq!(started_threads(1024, 1 << 20), 1024.min(4 * cores));
     }
+
+    #[test]
+    fn checkpoint_intervals_are_bounded_by_a_year() {
+        assert_eq!(seconds("0"), Ok(0.0));
+        assert_eq!(seconds("31536000"), Ok(MAX_CHECKPOINT_SECONDS));
+        let refused = seconds("2e19").unwrap_err();
+        assert!(refused.contains("at most 31536000 seconds"), "{refused}");
+        assert!(seconds("31536001").is_err());
+        assert!(seconds("inf").is_err());
+        assert!(seconds("-1").is_err());
+        // Every accepted value converts to a Duration without panicking.
+        let _ = std::time::Duration::from_secs_f64(MAX_CHECKPOINT_SECONDS);
+    }
 }
 
 /// Options of `mlmc`.
@@ -387,8 +439,9 @@ pub struct MlmcArgs {
     /// Seed of the sample streams.
     #[arg(long, value_name = "S", default_value_t = 2026)]
     pub seed: u64,
-    /// Worker threads (default: the available cores); the numbers do not depend on it.
-    #[arg(long, value_name = "K")]
+    /// Worker threads, 1 to 1024 (default: the available cores); the numbers do not depend
+    /// on it.
+    #[arg(long, value_name = "K", value_parser = thread_count)]
     pub threads: Option<usize>,
     /// A run of seconds: two test levels fewer, 1024 test samples, the two largest eps.
     #[arg(long)]

@@ -105,6 +105,12 @@ fn flag(key: &str) -> Option<&'static str> {
         "p" => &["--p"],
         "threads" => &["--threads"],
         "schemes" => &["--schemes"],
+        "mlmc.eps" => &["--eps"],
+        "mlmc.coarsest" => &["--coarsest"],
+        "mlmc.max_level" => &["--max-level"],
+        "mlmc.test_levels" => &["--test-levels"],
+        "mlmc.test_samples" => &["--test-samples"],
+        "mlmc.scheme" => &["--scheme"],
         _ => &[],
     };
     flags.iter().copied().find(|flag| args::typed(flag))

@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::StudyError;
 use sdae_study::checkpoint::RunLock;
-use sdae_study::files::{read_json, write_atomically, write_json};
+use sdae_study::files::{check_writable, read_json, write_atomically, write_json};
 use sdae_study::mlmc::algorithm::Plan;
 use sdae_study::mlmc::checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
@@ -17,7 +17,7 @@ use sdae_study::mlmc::{MlmcError, RunControl};
 use sdae_study::scene::Scene;
 
 use crate::args::{MlmcArgs, MlmcMergeArgs};
-use crate::runs::{Resumable, Resumption, prepare};
+use crate::runs::{Resumable, Resumption, prepare, refused};
 use crate::{Failure, stopping};
 
 impl From<MlmcError> for Failure {
@@ -25,6 +25,11 @@ impl From<MlmcError> for Failure {
         match e {
             MlmcError::Interrupted => Failure::Unsaved("interrupted: nothing was saved".into()),
             MlmcError::Study(e) => Failure::from_study(e),
+            // Named by the flag the user typed, else by its scene-file key, as the other
+            // studies' settings are.
+            MlmcError::Setting { key, value, rule } => {
+                Failure::from_study(StudyError::Setting { key, value, rule })
+            }
             e if e.is_input() => Failure::Usage(e.to_string()),
             e => Failure::Failed(e.to_string()),
         }
@@ -235,10 +240,29 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         )));
     };
     let settings = args.settings(scene);
-    settings
-        .validate_for(scene)
-        .map_err(|e| Failure::from(e).within(&format!("scene {}", scene.name)))?;
-    let plan: Option<Plan> = args.plan.as_deref().map(read_json).transpose()?;
+    settings.validate_for(scene).map_err(|e| {
+        let e = match (e, args.scenes.file_of(0)) {
+            // A value from the scene file (not typed) is named with the file, as the scene
+            // file's own checks name it.
+            (MlmcError::Setting { key, value, rule }, Some(file)) if crate::flag(key).is_none() => {
+                MlmcError::Setting {
+                    key,
+                    value,
+                    rule: format!("{rule} (scene file {})", file.display()),
+                }
+            }
+            (e, _) => e,
+        };
+        Failure::from(e).within(&format!("scene {}", scene.name))
+    })?;
+    let plan = args
+        .plan
+        .as_deref()
+        .map(|f| read_plan(f, &settings))
+        .transpose()?;
+    if let Some(file) = &args.write_plan {
+        check_plan_file(file)?;
+    }
     let shard = args
         .shard
         .map(|s| s.resolve(|name| std::env::var(name).ok()))
@@ -308,6 +332,36 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The plan in `file`, checked against `settings` before anything runs: a file that cannot be
+/// read or is not a plan, and a plan the run cannot hold or finish, are refused naming the file
+/// (exit code 2).
+fn read_plan(file: &Path, settings: &MlmcSettings) -> Result<Plan, Failure> {
+    let plan: Plan = read_json(file).map_err(refused)?;
+    settings
+        .validate_plan(&plan)
+        .map_err(|e| Failure::from(e).within(&format!("plan {}", file.display())))?;
+    Ok(plan)
+}
+
+/// Refuses a `--write-plan` file that cannot be written, before the study runs: its folder must
+/// be (or be made) a writable folder, and the file itself not a folder.
+fn check_plan_file(file: &Path) -> Result<(), Failure> {
+    let refuse = |why: String| {
+        Failure::Usage(format!(
+            "--write-plan {}: {why}; nothing was run",
+            file.display()
+        ))
+    };
+    if file.is_dir() {
+        return Err(refuse("is a folder".into()));
+    }
+    let dir = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    check_writable(dir).map_err(|e| refuse(e.to_string()))
+}
+
 /// Writes a shard's file.
 fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
     let file = dir.join(format!(
@@ -375,7 +429,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     let shards: Vec<MlmcShard> = shard_files(&args.dirs)?
         .iter()
-        .map(|f| read_json(f))
+        .map(|f| read_json(f).map_err(refused))
         .collect::<Result<_, _>>()?;
     let (identity, plan, sums) = merge(&shards)?;
     let scene = match &args.scene_file {

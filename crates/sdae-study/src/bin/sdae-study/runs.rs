@@ -19,6 +19,7 @@ use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{BUILT_IN, Scene};
+use sdae_study::scene_load::key_in_table;
 use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
 use sdae_study::{equipartition, trace, weak};
 
@@ -60,7 +61,9 @@ impl Resumption {
         Resumption {
             resume: args.resume,
             fresh: args.fresh,
-            every: Duration::from_secs_f64(args.checkpoint_every),
+            // The parser bounds the interval by a year; a value it let through that a Duration
+            // cannot hold means "never periodically".
+            every: Duration::try_from_secs_f64(args.checkpoint_every).unwrap_or(Duration::MAX),
         }
     }
 }
@@ -362,12 +365,31 @@ const REPORT_FILES: [&str; 5] = [
 ];
 
 /// Validates each scene's settings before anything runs, so that a bad value stops the
-/// command at once.
-fn checked(scenes: &[Scene], settings: &[ConvergenceSettings]) -> Result<(), Failure> {
-    for (scene, s) in scenes.iter().zip(settings) {
+/// command at once. A setting the user did not type is named by its key in the scene table
+/// `table` the study reads (`weak.paths` for the weak study), with the scene file it came from
+/// (`file(k)` for the k-th scene), as a scene file's own values are.
+fn checked<'p>(
+    scenes: &[Scene], settings: &[ConvergenceSettings], table: &str,
+    file: impl Fn(usize) -> Option<&'p Path>,
+) -> Result<(), Failure> {
+    for (k, (scene, s)) in scenes.iter().zip(settings).enumerate() {
         // Whatever the library calls it, a setting it refuses is a usage error.
+        let named = |e: StudyError| match e {
+            StudyError::Setting { key, value, rule } if crate::flag(key).is_none() => {
+                let rule = match file(k) {
+                    Some(f) => format!("{rule} (scene file {})", f.display()),
+                    None => rule,
+                };
+                StudyError::Setting {
+                    key: key_in_table(table, key),
+                    value,
+                    rule,
+                }
+            }
+            e => e,
+        };
         s.validate_for(scene)
-            .map_err(|e| refused(e).within(&format!("scene {}", scene.name)))?;
+            .map_err(|e| refused(named(e)).within(&format!("scene {}", scene.name)))?;
     }
     Ok(())
 }
@@ -380,6 +402,7 @@ pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Fail
     let study = SceneStudy {
         prefix: "",
         outputs: &REPORT_FILES,
+        table: "study",
     };
     run_scenes(
         e,
@@ -408,6 +431,8 @@ struct SceneStudy<'a> {
     prefix: &'a str,
     /// The files its report puts in a scene's folder.
     outputs: &'a [&'a str],
+    /// The scene table its settings come from (`study`, `weak`).
+    table: &'a str,
 }
 
 /// Runs `study` on each scene with its settings (checked first), or shard `shard` of it: a
@@ -420,7 +445,7 @@ fn run_scenes(
     mut report: impl FnMut(ConvergenceRun, &Path) -> Result<Vec<String>, StudyError>,
 ) -> Result<(), Failure> {
     distinct(scenes)?;
-    checked(scenes, settings)?;
+    checked(scenes, settings, study.table, |k| e.scenes.file_of(k))?;
     let shard = shard
         .map(|s| s.resolve(|name| std::env::var(name).ok()))
         .transpose()
@@ -597,7 +622,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
                 })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    checked(&scenes, &settings)?;
+    checked(&scenes, &settings, "stability", |k| args.scenes.file_of(k))?;
     let dir = args.out.out.join("stability");
     let how = Resumption::of(&args.checkpoint);
     let mut jobs = scenes
@@ -637,7 +662,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
     let scenes = args.scenes.load(|s| s.equipartition.is_some())?;
     distinct(&scenes)?;
     let mut all = Vec::new();
-    for scene in &scenes {
+    for (k, scene) in scenes.iter().enumerate() {
         let variants = equipartition::variants(scene, args.quick).ok_or_else(|| {
             Failure::Usage(format!("scene {} has no [equipartition] table", scene.name))
         })?;
@@ -646,7 +671,8 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
             .map(|v| args.apply(v.settings.clone()))
             .collect();
         let variant_scenes: Vec<_> = variants.iter().map(|v| v.scene.clone()).collect();
-        checked(&variant_scenes, &settings)?;
+        let file = args.scenes.file_of(k);
+        checked(&variant_scenes, &settings, "equipartition", |_| file)?;
         all.push((scene, variants, settings));
     }
     let dir = args.out.out.join("equipartition");
@@ -716,6 +742,7 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let study = SceneStudy {
         prefix: "weak-",
         outputs: &WEAK_FILES,
+        table: "weak",
     };
     run_scenes(
         e,

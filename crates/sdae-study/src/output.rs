@@ -400,11 +400,12 @@ pub fn write_summary(
     }
     let unresolved: usize = report.schemes.iter().map(|s| s.unresolved.len()).sum();
     if unresolved > 0 {
-        writeln!(
-            out,
+        // On standard error, as every note; a closed stream ends the note only.
+        let _ = writeln!(
+            std::io::stderr(),
             "note: {unresolved} error(s) underflowed to zero or a subnormal float and are not \
              fitted (unresolved: see report.md)"
-        )?;
+        );
     }
     if any_indicative(report) {
         writeln!(

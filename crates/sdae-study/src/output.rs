@@ -402,7 +402,7 @@ pub fn write_summary(
     if unresolved > 0 {
         // On standard error, as every note; a closed stream ends the note only.
         let _ = writeln!(
-            std::io::stderr(),
+            &mut std::io::stderr(),
             "note: {unresolved} error(s) underflowed to zero or a subnormal float and are not \
              fitted (unresolved: see report.md)"
         );

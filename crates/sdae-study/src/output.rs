@@ -3,6 +3,7 @@
 //! plots) and the SVG plots.
 
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::Path;
 
 use crate::convergence::{ConvergenceReport, Errors, LevelReport};

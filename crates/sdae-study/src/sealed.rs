@@ -64,7 +64,7 @@ pub fn write_sealed<T: Serialize + ?Sized>(
         hashing.write_all(b",\n")?;
         let sum = hashing.hasher.finalize();
         out.write_all(CHECK_LINE)?;
-        write!(out, "{sum:08x}\"}}\n")
+        writeln!(out, "{sum:08x}\"}}")
     })
 }
 

@@ -4,31 +4,42 @@
 //! them. Each path's numbers come from its own stream, so the resumed run ends with exactly the
 //! records, and the report, of an uninterrupted one (timings aside).
 //!
-//! A checkpoint holds what the report reads and nothing more: a line naming the format, a JSON
-//! line with the scene, the settings, the shard and the number of records, then the records in
-//! a compact binary form (f64 as their IEEE bits, so a record reads back bit for bit; counts as
-//! LEB128 varints): about 80 bytes per scheme and level of a path, a seventh of the same
-//! records in JSON. Whatever is read back is checked as strictly as shards are merged.
+//! A checkpoint holds what the report reads and nothing more: a line naming the format, then
+//! checksummed segments ([`segments`]): a JSON header with the scene, the settings and the
+//! shard, then batches of records in a compact binary form (f64 as their IEEE bits, so a record
+//! reads back bit for bit; counts as LEB128 varints): about 80 bytes per scheme and level of a
+//! path, a seventh of the same records in JSON. Each save appends the paths finished since the
+//! last one ([`saves`]), so saving after every block costs time linear in the run. A changed
+//! bit is refused ([`StudyError::Checksum`]); a last segment cut short by a kill during a save
+//! is dropped (its paths run again). What is read back is checked as strictly as shards are
+//! merged ([`check_records`]).
 //!
 //! A [`RunLock`] keeps two runs from writing one checkpoint at the same time.
 
-use std::io::{BufWriter, Write};
+pub(crate) mod saves;
+pub(crate) mod segments;
+
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, PoisonError};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use sdae_model::FailureKind;
 use serde::{Deserialize, Serialize};
 
-use crate::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
+use self::saves::Saves;
+use self::segments::{Appender, batches};
+use crate::convergence::{ConvergenceRun, ConvergenceSettings, check_records, run_convergence};
 use crate::error::StudyError;
-use crate::files::{process_alive, write_with};
+use crate::files::process_alive;
 use crate::lockstep::{PathRecord, TrackOutcome};
 use crate::parallel::Control;
 use crate::scene::Scene;
 
 /// The first line of a checkpoint file: its format and version.
-const MAGIC: &[u8] = b"sdae-study checkpoint 2\n";
+const MAGIC: &[u8] = b"sdae-study checkpoint 3\n";
+
+/// The first lines of the formats before checksums, refused by name.
+const OLDER: [&[u8]; 2] = [b"sdae-study checkpoint 2\n", b"sdae-study checkpoint 1\n"];
 
 /// How often a run saves its finished paths unless told otherwise.
 pub const DEFAULT_INTERVAL: Duration = Duration::from_secs(60);
@@ -52,8 +63,29 @@ pub enum Resumed {
 /// The paths an interrupted run saved, read back by [`Checkpoint::load`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SavedPaths {
-    /// One record per finished path (checked: in range, in the shard, each once).
+    /// One record per finished path (checked: in range, in the shard, each once, each track
+    /// with distances or a failure as the settings say).
     pub records: Vec<PathRecord>,
+    /// Bytes of a last segment cut short (a process killed while saving), dropped: the paths
+    /// it held run again. 0 when the file ends whole.
+    pub torn: usize,
+}
+
+impl SavedPaths {
+    /// A note on a torn last segment, if the file had one (for the resuming message).
+    pub fn torn_note(&self) -> Option<String> {
+        torn_note(self.torn)
+    }
+}
+
+/// A note on `torn` bytes of a last segment dropped, if any.
+pub(crate) fn torn_note(torn: usize) -> Option<String> {
+    (torn > 0).then(|| {
+        format!(
+            "the last {torn} bytes of the checkpoint are a save cut short (the process was \
+             killed while saving): dropped, what they held runs again"
+        )
+    })
 }
 
 /// What a checkpoint says about the run that wrote it.
@@ -62,7 +94,6 @@ struct HeaderOut<'a> {
     scene: &'a Scene,
     settings: &'a ConvergenceSettings,
     shard: (usize, usize),
-    records: usize,
 }
 
 /// [`HeaderOut`] read back.
@@ -71,7 +102,6 @@ struct Header {
     scene: Scene,
     settings: ConvergenceSettings,
     shard: (usize, usize),
-    records: usize,
 }
 
 /// The checkpoint file of one run (one scene, one shard of one study).
@@ -85,6 +115,25 @@ pub struct Checkpoint {
 fn selected(shard: (usize, usize), paths: usize) -> usize {
     let (index, count) = shard;
     (index..paths).step_by(count.max(1)).count()
+}
+
+/// Every record in the segments' `payloads`, read with `read`; a malformed one is named by its
+/// segment and place.
+pub(crate) fn read_payloads<T>(
+    payloads: &[&[u8]], what: &str, mut read: impl FnMut(&mut Reader<'_>) -> Result<T, String>,
+) -> Result<Vec<T>, String> {
+    let mut records = Vec::new();
+    for (k, payload) in payloads.iter().enumerate() {
+        let mut reader = Reader::new(payload);
+        let mut n = 0;
+        while reader.left() > 0 {
+            let record =
+                read(&mut reader).map_err(|m| format!("segment {}, {what} {n}: {m}", k + 1))?;
+            records.push(record);
+            n += 1;
+        }
+    }
+    Ok(records)
 }
 
 impl Checkpoint {
@@ -107,42 +156,43 @@ impl Checkpoint {
         &self.path
     }
 
+    /// The header, the records and the bytes of a torn last segment of the checkpoint file
+    /// holding `bytes`: checksums verified, records read, nothing checked against a run.
+    fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<PathRecord>, usize), StudyError> {
+        let unreadable = |m| not_whole(&self.path, m);
+        let segments = segments::read(&self.path, bytes, MAGIC, &OLDER)?;
+        let header: Header = serde_json::from_slice(segments.header)
+            .map_err(|e| unreadable(format!("header: {e}")))?;
+        let records =
+            read_payloads(&segments.records, "record", |r| r.record()).map_err(unreadable)?;
+        Ok((header, records, segments.torn))
+    }
+
     /// The number of paths the checkpoint file holds and of the paths of its shard, if it
-    /// exists and its header can be read (for messages; [`Checkpoint::load`] checks it).
+    /// exists and can be read (for messages; [`Checkpoint::load`] checks it).
     pub fn holds(&self) -> Option<(usize, usize)> {
         let bytes = std::fs::read(&self.path).ok()?;
-        let (header, _): (Header, _) = parse_header(&bytes, MAGIC).ok()?;
-        Some((
-            header.records,
-            selected(header.shard, header.settings.paths),
-        ))
+        let (header, records, _) = self.parse(&bytes).ok()?;
+        Some((records.len(), selected(header.shard, header.settings.paths)))
     }
 
     /// The paths saved by an interrupted run of the same scene, settings (the thread count
-    /// aside) and shard; `None` when there is no checkpoint file. A file that is not a
-    /// checkpoint, is cut short, or holds a path twice, out of range or of another shard is a
-    /// [`StudyError::Read`] or [`StudyError::Resume`].
+    /// aside) and shard; `None` when there is no checkpoint file. A file that fails a checksum
+    /// is a [`StudyError::Checksum`]; one that is not a checkpoint a [`StudyError::Read`]; one
+    /// of another run, or holding a path twice, out of range, of another shard or otherwise
+    /// not a record of the run ([`check_records`]), a [`StudyError::Resume`].
     pub fn load(
         &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
     ) -> Result<Option<SavedPaths>, StudyError> {
         let Some(bytes) = read_bytes(&self.path)? else {
             return Ok(None);
         };
-        let unreadable = |m| not_whole(&self.path, m);
-        let (header, body): (Header, _) = parse_header(&bytes, MAGIC).map_err(unreadable)?;
-        let mut reader = Reader::new(body);
-        let records = (0..header.records)
-            .map(|k| {
-                reader
-                    .record()
-                    .map_err(|m| unreadable(format!("record {k} of {}: {m}", header.records)))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        reader.end().map_err(unreadable)?;
-        let differs = |what: &str| StudyError::Resume {
+        let (header, records, torn) = self.parse(&bytes)?;
+        let refuse = |reason: String| StudyError::Resume {
             path: self.path.clone(),
-            reason: format!("it was saved by a run with another {what}"),
+            reason,
         };
+        let differs = |what: &str| refuse(format!("it was saved by a run with another {what}"));
         if header.scene != *scene {
             return Err(differs("scene"));
         }
@@ -152,50 +202,47 @@ impl Checkpoint {
         if header.shard != shard {
             return Err(differs("shard"));
         }
-        let mut seen = vec![false; settings.paths];
-        let (index, count) = shard;
-        for r in &records {
-            let fresh = seen.get_mut(r.index).filter(|s| !**s);
-            match fresh {
-                Some(s) if r.index % count.max(1) == index => *s = true,
-                _ => {
-                    return Err(StudyError::Resume {
-                        path: self.path.clone(),
-                        reason: format!(
-                            "path {} appears twice, is out of range (< {}) or not of shard \
-                             {index}/{count}",
-                            r.index, settings.paths
-                        ),
-                    });
-                }
-            }
-        }
-        Ok(Some(SavedPaths { records }))
+        check_records(&records, settings, shard, None).map_err(refuse)?;
+        Ok(Some(SavedPaths { records, torn }))
+    }
+
+    /// The header segment of a run's checkpoint.
+    fn header(
+        &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
+    ) -> Result<Vec<u8>, StudyError> {
+        let header = HeaderOut {
+            scene,
+            settings,
+            shard,
+        };
+        serde_json::to_vec(&header).map_err(|e| StudyError::write(&self.path, e))
     }
 
     /// Runs shard `shard` of the study of `scene` with `settings`, steered by `control`, but
     /// the paths in `saved` (from [`Checkpoint::load`]; they replace `control.done`). While it
-    /// runs, the finished paths (with those of `saved`) are saved in the checkpoint each time
-    /// the interval has passed; when `control.stop` was raised before every path finished, they
-    /// are saved once more and [`Resumed::Interrupted`] comes back. A finished run is not saved
-    /// (its report comes first); the checkpoint stays until [`Checkpoint::remove`].
+    /// runs, the paths finished since the last save are appended to the checkpoint each time
+    /// the interval has passed (the first save writes the file afresh with the saved paths);
+    /// when `control.stop` was raised before every path finished, they are appended once more
+    /// and [`Resumed::Interrupted`] comes back. A finished run is not saved (its report comes
+    /// first); the checkpoint stays until [`Checkpoint::remove`].
     pub fn run(
         &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
         saved: Option<SavedPaths>, control: Control<'_>,
     ) -> Result<Resumed, StudyError> {
         let saved = saved.map_or_else(Vec::new, |s| s.records);
         let done: Vec<usize> = saved.iter().map(|r| r.index).collect();
-        let so_far = Mutex::new((saved.clone(), Instant::now()));
-        let periodically = |block: &[PathRecord]| {
-            let mut so_far = so_far.lock().unwrap_or_else(PoisonError::into_inner);
-            so_far.0.extend_from_slice(block);
-            if so_far.1.elapsed() >= self.every {
-                // A failed periodic save is not fatal: the run goes on, and the final save
-                // (or the report) says whether the results could be written.
-                let _ = self.write(scene, settings, shard, &so_far.0);
-                so_far.1 = Instant::now();
-            }
-        };
+        let header = self
+            .header(scene, settings, shard)
+            .map_err(|e| e.to_string());
+        let saves = Saves::new(
+            self.path.clone(),
+            MAGIC,
+            header,
+            write_record::<Vec<u8>>,
+            self.every,
+            saved.clone(),
+        );
+        let periodically = |block: &[PathRecord]| saves.finished(block.iter().cloned());
         let control = Control {
             done: &done,
             finished: Some(&periodically),
@@ -210,7 +257,12 @@ impl Checkpoint {
         })?;
         let selected = selected(shard, settings.paths);
         if run.records.len() < selected {
-            if !run.records.is_empty() {
+            if saves.added() == run.records.len() {
+                if !run.records.is_empty() {
+                    saves.save()?;
+                }
+            } else {
+                // Records that did not pass through the periodic saves: write them all.
                 self.save(&run)?;
             }
             return Ok(Resumed::Interrupted {
@@ -221,25 +273,13 @@ impl Checkpoint {
         Ok(Resumed::Finished(Box::new(run)))
     }
 
-    /// Saves the records of `run` in the checkpoint (atomically: the previous checkpoint or
-    /// this one, never a torn file).
+    /// Saves the records of `run` in the checkpoint, rewriting it (atomically: the previous
+    /// checkpoint or this one, never a torn file).
     pub fn save(&self, run: &ConvergenceRun) -> Result<(), StudyError> {
-        self.write(&run.scene, &run.settings, run.shard, &run.records)
-    }
-
-    fn write(
-        &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
-        records: &[PathRecord],
-    ) -> Result<(), StudyError> {
-        let header = HeaderOut {
-            scene,
-            settings,
-            shard,
-            records: records.len(),
-        };
-        write_checkpoint(&self.path, MAGIC, &header, |out| {
-            records.iter().try_for_each(|r| write_record(out, r))
-        })
+        let header = self.header(&run.scene, &run.settings, run.shard)?;
+        let body = batches(&run.records, write_record::<Vec<u8>>)
+            .map_err(|e| StudyError::write(&self.path, e))?;
+        Appender::create(&self.path, MAGIC, &header, &body).map(|_| ())
     }
 
     /// Removes the checkpoint file (once the results it holds are in a report).
@@ -251,20 +291,6 @@ impl Checkpoint {
     pub fn lock(&self) -> Result<RunLock, StudyError> {
         RunLock::beside(&self.path)
     }
-}
-
-/// Writes a checkpoint file atomically: the `magic` line, the JSON `header` on one line, then
-/// what `records` writes.
-pub(crate) fn write_checkpoint<H: Serialize>(
-    path: &Path, magic: &[u8], header: &H,
-    records: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::io::Result<()>,
-) -> Result<(), StudyError> {
-    write_with(path, |out| {
-        out.write_all(magic)?;
-        serde_json::to_writer(&mut *out, header)?;
-        out.write_all(b"\n")?;
-        records(out)
-    })
 }
 
 /// Removes a checkpoint file; one that is not there is no error.
@@ -290,21 +316,6 @@ pub(crate) fn not_whole(path: &Path, message: String) -> StudyError {
         path: path.to_path_buf(),
         message: format!("not a whole checkpoint: {message}"),
     }
-}
-
-/// The `magic` line and the JSON header, and the bytes after them.
-pub(crate) fn parse_header<'a, H: serde::de::DeserializeOwned>(
-    bytes: &'a [u8], magic: &[u8],
-) -> Result<(H, &'a [u8]), String> {
-    let rest = bytes
-        .strip_prefix(magic)
-        .ok_or("it does not begin with the checkpoint line")?;
-    let end = rest
-        .iter()
-        .position(|&b| b == b'\n')
-        .ok_or("the header line is cut short")?;
-    let header = serde_json::from_slice(&rest[..end]).map_err(|e| format!("header: {e}"))?;
-    Ok((header, &rest[end + 1..]))
 }
 
 /// The code of an optional failure kind: 0 for none, else 1 + its place in
@@ -337,7 +348,8 @@ fn write_values(out: &mut impl Write, values: &[f64]) -> std::io::Result<()> {
     values.iter().try_for_each(|&x| write_f64(out, x))
 }
 
-fn write_record<W: Write>(out: &mut BufWriter<W>, r: &PathRecord) -> std::io::Result<()> {
+/// One path's record, as [`Reader`] reads it back.
+fn write_record<W: Write>(out: &mut W, r: &PathRecord) -> std::io::Result<()> {
     write_varint(out, r.index as u64)?;
     out.write_all(&[failure_code(r.reference_failure)])?;
     write_f64(out, r.reference_seconds)?;
@@ -393,14 +405,6 @@ impl<'a> Reader<'a> {
     /// Bytes not read yet.
     pub(crate) fn left(&self) -> usize {
         self.bytes.len() - self.at
-    }
-
-    /// Fails if bytes are left after the last record.
-    pub(crate) fn end(&self) -> Result<(), String> {
-        match self.left() {
-            0 => Ok(()),
-            extra => Err(format!("{extra} bytes after the last record")),
-        }
     }
 
     fn take(&mut self, n: usize) -> Result<&[u8], String> {
@@ -689,9 +693,8 @@ mod tests {
             reference_observed: vec![0.25, -0.0, f64::MIN_POSITIVE],
             reference_coarse_observed: vec![0.5, f64::MAX, -3.0],
         };
-        let mut out = BufWriter::new(Vec::new());
-        write_record(&mut out, &record).unwrap();
-        let bytes = out.into_inner().unwrap();
+        let mut bytes = Vec::new();
+        write_record(&mut bytes, &record).unwrap();
         let read = Reader::new(&bytes).record().unwrap();
         // NaN != NaN: compare the bits through the debug text.
         assert_eq!(format!("{read:?}"), format!("{record:?}"));

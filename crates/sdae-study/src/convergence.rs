@@ -990,57 +990,114 @@ impl ConvergenceRun {
         Ok(self)
     }
 
-    /// Checks the records as [`build_report`] needs them: each path index below the number of
-    /// paths, of this run's shard and present once, and each record whose reference finished
-    /// with one track per scheme and level (a record whose reference failed has none). The
-    /// error says which record is wrong and how.
+    /// Checks the records as [`build_report`] needs them (see [`check_records`]), with one
+    /// track per scheme and level of this run. The error says which record is wrong and how.
     pub fn check_records(&self) -> Result<(), String> {
-        let (index, count) = self.shard;
         let tracks = self.schemes.len() * self.settings.levels().len();
-        let mut seen = vec![false; self.settings.paths];
-        for r in &self.records {
-            let Some(s) = seen.get_mut(r.index) else {
-                return Err(format!(
-                    "path {} is out of range (the study has {} paths)",
-                    r.index, self.settings.paths
-                ));
-            };
-            if *s {
-                return Err(format!("path {} appears twice", r.index));
-            }
-            *s = true;
-            if count > 1 && r.index % count != index {
-                return Err(format!("path {} is not of shard {index}/{count}", r.index));
-            }
-            let expected = if r.reference_failure.is_some() {
-                0
-            } else {
-                tracks
-            };
-            let paired = if self.settings.paired_reference && r.reference_failure.is_none() {
-                r.reference_observed.len()
-            } else {
-                0
-            };
-            if r.reference_coarse_observed.len() != paired {
-                return Err(format!(
-                    "path {} has {} observed values of the paired reference where {paired} are \
-                     expected",
-                    r.index,
-                    r.reference_coarse_observed.len()
-                ));
-            }
-            if r.tracks.len() != expected {
-                return Err(format!(
-                    "path {} has {} scheme-level results where {expected} are expected                      ({} schemes x {} levels)",
-                    r.index,
-                    r.tracks.len(),
+        check_records(&self.records, &self.settings, self.shard, Some(tracks)).map_err(|m| {
+            if m.contains("scheme-level results where") {
+                format!(
+                    "{m} ({} schemes x {} levels)",
                     self.schemes.len(),
                     self.settings.levels().len()
-                ));
+                )
+            } else {
+                m
             }
+        })
+    }
+}
+
+/// The one check of saved records, for resuming a checkpoint and for merging shards: each path
+/// index below the number of paths, of shard `shard` = (index, count) and present once; each
+/// record whose reference failed without tracks, else with `tracks` tracks (when known) and,
+/// with a paired reference, as many observed values of its coarse reference as of its fine
+/// one; each track with distances exactly when it finished against a reference (a failure and
+/// no distances otherwise). The error says which record is wrong and how.
+pub fn check_records(
+    records: &[PathRecord], settings: &ConvergenceSettings, shard: (usize, usize),
+    tracks: Option<usize>,
+) -> Result<(), String> {
+    let (index, count) = shard;
+    let mut seen = vec![false; settings.paths];
+    for r in records {
+        let Some(s) = seen.get_mut(r.index) else {
+            return Err(format!(
+                "path {} is out of range (the study has {} paths)",
+                r.index, settings.paths
+            ));
+        };
+        if *s {
+            return Err(format!("path {} appears twice", r.index));
         }
-        Ok(())
+        *s = true;
+        if r.index % count.max(1) != index {
+            return Err(format!("path {} is not of shard {index}/{count}", r.index));
+        }
+        check_record(r, settings, tracks)?;
+    }
+    Ok(())
+}
+
+/// The checks of [`check_records`] on one record.
+fn check_record(
+    r: &PathRecord, settings: &ConvergenceSettings, tracks: Option<usize>,
+) -> Result<(), String> {
+    let failed = r.reference_failure.is_some();
+    let paired = if settings.paired_reference && !failed {
+        r.reference_observed.len()
+    } else {
+        0
+    };
+    if r.reference_coarse_observed.len() != paired {
+        return Err(format!(
+            "path {} has {} observed values of the paired reference where {paired} are expected",
+            r.index,
+            r.reference_coarse_observed.len()
+        ));
+    }
+    let expected = if failed { Some(0) } else { tracks };
+    if let Some(expected) = expected.filter(|&e| e != r.tracks.len()) {
+        return Err(format!(
+            "path {} has {} scheme-level results where {expected} are expected",
+            r.index,
+            r.tracks.len()
+        ));
+    }
+    let reference = settings.reference.is_some();
+    for (k, t) in r.tracks.iter().enumerate() {
+        let problem = match (t.distances.is_some(), t.failure.is_some()) {
+            (true, true) => Some("has distances and a failure"),
+            (true, false) if !reference => Some("has distances but the study has no reference"),
+            (false, false) if reference => Some("has neither distances nor a failure"),
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            return Err(format!(
+                "path {}: scheme-level result {k} {problem}",
+                r.index
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The format of a shard's file (see [`ConvergenceRun::write_shard`]).
+const SHARD_FORMAT: &str = "sdae-study shard 2";
+
+impl ConvergenceRun {
+    /// Writes this run as a shard's file `path`: a sealed JSON file ([`crate::sealed`]), the
+    /// run under `content` with a checksum of the file on its last line (atomically).
+    pub fn write_shard(&self, path: &std::path::Path) -> Result<(), StudyError> {
+        crate::sealed::write_sealed(path, SHARD_FORMAT, self)
+    }
+
+    /// Reads a shard's file written by [`ConvergenceRun::write_shard`]: a file that fails its
+    /// checksum (or has none: written by an older version) is a [`StudyError::Checksum`], one
+    /// that is no shard a [`StudyError::Read`]. Its records are checked when merged
+    /// ([`merge_runs`]).
+    pub fn read_shard(path: &std::path::Path) -> Result<ConvergenceRun, StudyError> {
+        crate::sealed::read_sealed(path, SHARD_FORMAT)
     }
 }
 

@@ -82,6 +82,15 @@ pub enum StudyError {
         /// The system's or the JSON reader's message.
         message: String,
     },
+    /// A checkpoint or shard file fails its checksum, or has none (written by an older
+    /// version): changed after it was written, it is not read.
+    #[error("refusing {}: {reason}", path.display())]
+    Checksum {
+        /// The file.
+        path: PathBuf,
+        /// Which part fails its checksum, and where.
+        reason: String,
+    },
     /// The paths saved by an interrupted run belong to another study than the one resumed.
     #[error("cannot resume from {}: {reason}", path.display())]
     Resume {

@@ -111,8 +111,9 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Study
 
 /// The fields of a report that differ between runs of one study: timings, what is computed
 /// from them (an MLMC report's costs in seconds, speed-up, the slope of its seconds per sample
-/// and its standard run's predicted seconds), and the thread count.
-pub const RUN_DEPENDENT: [&str; 12] = [
+/// and its standard run's predicted seconds), the thread count, and a shard file's checksum
+/// (which covers its timings).
+pub const RUN_DEPENDENT: [&str; 13] = [
     "seconds_per_path",
     "steps_per_second",
     "threads",
@@ -125,6 +126,7 @@ pub const RUN_DEPENDENT: [&str; 12] = [
     "gamma_seconds",
     "predicted_seconds",
     "cap_seconds",
+    "crc32",
 ];
 
 /// A report (or shard) in JSON without its [`RUN_DEPENDENT`] fields: what is equal for every

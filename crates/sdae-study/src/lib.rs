@@ -22,6 +22,7 @@
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
 //!   paired bootstrap over paths), SVG plots and the report files.
+//! - [`sealed`]: JSON files (shards) carrying a checksum of their content.
 //! - [`memory`]: the memory a study may take (settings that need more are refused).
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
@@ -46,6 +47,7 @@ pub mod plots;
 pub mod real;
 pub mod scene;
 pub mod scene_load;
+pub mod sealed;
 pub mod stability;
 pub mod stats;
 pub mod trace;

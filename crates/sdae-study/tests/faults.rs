@@ -1,7 +1,8 @@
 //! Nothing lost, whatever happens to a run: killed (SIGKILL) at random moments and resumed, it
 //! ends with the report of an uninterrupted run; two stop signals save what the first promised;
 //! bad output folders, locked folders, forgotten checkpoints, malformed checkpoints and shards,
-//! and two scenes of one name are refused before anything runs (exit code 2).
+//! a flipped bit in any checkpoint or shard, and two scenes of one name are refused before
+//! anything runs (exit code 2); a save cut short is dropped and its paths run again.
 
 mod common;
 
@@ -13,9 +14,13 @@ use std::time::{Duration, Instant};
 
 use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use sdae_study::StudyError;
 use sdae_study::checkpoint::{Checkpoint, Resumed};
+use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings};
 use sdae_study::parallel::Control;
+use sdae_study::scene::Scene;
 
 fn folder(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("sdae-faults-{name}-{}", std::process::id()));
@@ -265,15 +270,40 @@ fn malformed_checkpoints_are_refused_with_a_typed_error() {
         assert!(matches!(err, StudyError::Resume { .. }), "{err}");
         assert!(err.to_string().contains(&format!("path {index}")), "{err}");
     }
-    // A file cut short, or not a checkpoint at all.
+    // A track with neither distances nor a failure: refused on load, as merge refuses it.
+    let mut lost = run.clone();
+    lost.records.truncate(3);
+    lost.records[2].tracks[0].distances = None;
+    lost.records[2].tracks[0].failure = None;
+    checkpoint.save(&lost).unwrap();
+    let err = resume(&checkpoint).unwrap_err();
+    assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+    assert!(
+        err.to_string()
+            .contains("path 2: scheme-level result 0 has neither"),
+        "{err}"
+    );
+    // A file cut short in its header, or not a checkpoint at all: refused.
     let mut partial = run.clone();
     partial.records.truncate(4);
     checkpoint.save(&partial).unwrap();
     let bytes = std::fs::read(checkpoint.path()).unwrap();
-    for cut in [bytes.len() - 1, bytes.len() - 200, 10] {
+    for cut in [10, 40] {
         std::fs::write(checkpoint.path(), &bytes[..cut]).unwrap();
         let err = resume(&checkpoint).unwrap_err();
-        assert!(matches!(err, StudyError::Read { .. }), "{err}");
+        assert!(matches!(err, StudyError::Checksum { .. }), "{err}");
+    }
+    // Cut short in its last segment (a save killed midway): the segment is dropped, its paths
+    // run again, and the run ends whole.
+    for cut in [bytes.len() - 1, bytes.len() - 200] {
+        std::fs::write(checkpoint.path(), &bytes[..cut]).unwrap();
+        let saved = checkpoint.load(&scene, &settings, (0, 1)).unwrap().unwrap();
+        assert!(saved.records.is_empty() && saved.torn > 0, "{}", saved.torn);
+        assert!(saved.torn_note().unwrap().contains("dropped"));
+        let Ok(Resumed::Finished(whole)) = resume(&checkpoint) else {
+            panic!("a torn checkpoint did not resume");
+        };
+        assert_eq!(whole.records.len(), 8);
     }
     // A good one resumes to the whole run.
     std::fs::write(checkpoint.path(), &bytes).unwrap();
@@ -292,10 +322,20 @@ fn malformed_checkpoints_are_refused_with_a_typed_error() {
     let out = dir.join("out");
     let file = out.join("pendulum").join("checkpoint-0-of-1.bin");
     std::fs::create_dir_all(file.parent().unwrap()).unwrap();
-    std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+    let mut flipped = bytes.clone();
+    flipped[bytes.len() / 2] ^= 4;
+    std::fs::write(&file, &flipped).unwrap();
     refused(
         &mut quick(&out, &["--resume"]),
-        &["checkpoint-0-of-1.bin", "not a whole checkpoint"],
+        &["checkpoint-0-of-1.bin", "checksum"],
+    );
+    // A checkpoint of the format before checksums is refused by name.
+    let mut old = b"sdae-study checkpoint 2\n".to_vec();
+    old.extend_from_slice(&bytes[24..]);
+    std::fs::write(&file, &old).unwrap();
+    refused(
+        &mut quick(&out, &["--resume"]),
+        &["checkpoint-0-of-1.bin", "older version"],
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -328,15 +368,43 @@ fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
         &mut merge(&[&dir.join("s0"), &dir.join("s1"), &twice]),
         &["appears twice"],
     );
-    // A record with a track less: refused, not a panic.
-    let text = std::fs::read_to_string(&shard0).unwrap();
-    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let tracks = json["records"][0]["tracks"].as_array_mut().unwrap();
-    tracks.pop();
-    std::fs::write(&shard0, serde_json::to_string(&json).unwrap()).unwrap();
+    // A record with a track less (the file sealed again, with a checksum that fits): refused,
+    // not a panic.
+    let good = ConvergenceRun::read_shard(&shard0).unwrap();
+    let mut short = good.clone();
+    short.records[0].tracks.pop();
+    short.write_shard(&shard0).unwrap();
     refused(
         &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
         &["shard 0/2", "scheme-level results"],
+    );
+    // A track with no distances and no failure: refused as a resumed checkpoint would be.
+    let mut lost = good.clone();
+    lost.records[1].tracks[2].distances = None;
+    lost.records[1].tracks[2].failure = None;
+    lost.write_shard(&shard0).unwrap();
+    refused(
+        &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
+        &["shard 0/2", "neither distances nor a failure"],
+    );
+    good.write_shard(&shard0).unwrap();
+    // Every sampled bit flipped, in the format line, the records, the checksum line: refused,
+    // naming the file and its checksum.
+    let bytes = std::fs::read(&shard0).unwrap();
+    for bit in sampled_bits(bytes.len()) {
+        let mut flipped = bytes.clone();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        std::fs::write(&shard0, &flipped).unwrap();
+        refused(
+            &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
+            &["shard-0-of-2.json", "checksum"],
+        );
+    }
+    // A shard of the format before checksums (bare JSON) is refused by name.
+    std::fs::write(&shard0, serde_json::to_string(&good).unwrap()).unwrap();
+    refused(
+        &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
+        &["shard-0-of-2.json", "older version"],
     );
     // Not a shard at all.
     std::fs::write(&shard0, "{").unwrap();
@@ -396,5 +464,120 @@ fn a_stability_study_stopped_in_its_second_scene_resumes_to_the_same_report() {
         numbers(&dir.join("whole/stability/report.json")),
         numbers(&out.join("stability/report.json"))
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bits to flip in a file of `len` bytes: in each of its first and last 64 bytes (the format
+/// line, the header's frame, the checksums at the end) and 60 spread over the rest.
+fn sampled_bits(len: usize) -> Vec<usize> {
+    let ends = (0..64.min(len)).chain(len.saturating_sub(64)..len);
+    let spread = (0..60).map(|k| k * len / 60);
+    let mut bytes: Vec<usize> = ends.chain(spread).collect();
+    bytes.sort_unstable();
+    bytes.dedup();
+    bytes.into_iter().map(|b| b * 8 + b % 8).collect()
+}
+
+/// Runs `settings` on `scene` with a checkpoint at `file` saved after every block, stopped
+/// once half the paths finished: the checkpoint holds a header and a segment per block saved.
+fn interrupted(file: &Path, scene: &Scene, settings: &ConvergenceSettings) -> Checkpoint {
+    let stop = AtomicBool::new(false);
+    let half = settings.paths / 2;
+    let progress = |done: usize| {
+        if done >= half {
+            stop.store(true, Ordering::SeqCst);
+        }
+    };
+    let control = Control {
+        progress: Some(&progress),
+        stop: Some(&stop),
+        ..Control::default()
+    };
+    let checkpoint = Checkpoint::new(file).every(Duration::ZERO);
+    let ended = checkpoint.run(scene, settings, (0, 1), None, control);
+    assert!(
+        matches!(ended, Ok(Resumed::Interrupted { saved, .. }) if saved >= half),
+        "{ended:?}"
+    );
+    checkpoint
+}
+
+/// Flips the sampled bits of the checkpoint `file` one at a time; each time `command` must be
+/// refused (exit code 2) naming the file and the checksum.
+fn every_flip_refused(file: &Path, command: impl Fn() -> Command) {
+    let bytes = std::fs::read(file).unwrap();
+    let name = file.file_name().unwrap().to_str().unwrap();
+    for bit in sampled_bits(bytes.len()) {
+        let mut flipped = bytes.clone();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        std::fs::write(file, &flipped).unwrap();
+        refused(&mut command(), &[name, "checksum"]);
+    }
+    std::fs::write(file, &bytes).unwrap();
+}
+
+#[test]
+fn a_flipped_bit_in_a_convergence_or_weak_checkpoint_is_refused_naming_the_checksum() {
+    let dir = folder("flips");
+    let out = dir.join("out");
+    let scene = Scene::built_in("pendulum").unwrap();
+    let (_, mut settings) = common::small(64);
+    settings.threads = 1;
+    let file = out.join("pendulum").join("checkpoint-0-of-1.bin");
+    interrupted(&file, &scene, &settings);
+    every_flip_refused(&file, || quick(&out, &["--resume"]));
+    let mut weak = sdae_study::weak::weak_settings(&scene, true).unwrap();
+    weak.paths = 64;
+    weak.threads = 1;
+    std::fs::remove_file(&file).unwrap();
+    let file = out.join("pendulum").join("weak-checkpoint-0-of-1.bin");
+    interrupted(&file, &scene, &weak);
+    every_flip_refused(&file, || {
+        let mut command = binary();
+        command
+            .args([
+                "weak",
+                "--quick",
+                "--paths",
+                "8",
+                "--threads",
+                "1",
+                "--resume",
+            ])
+            .arg("--out")
+            .arg(&out);
+        command
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_save_cut_short_is_dropped_and_the_resumed_run_equals_the_uninterrupted_one() {
+    let dir = folder("torn");
+    let (scene, mut settings) = common::small(64);
+    settings.threads = 1;
+    let whole = common::run(&scene, &settings, 0, 1);
+    let checkpoint = interrupted(&dir.join("checkpoint.bin"), &scene, &settings);
+    let bytes = std::fs::read(checkpoint.path()).unwrap();
+    let saved = checkpoint.load(&scene, &settings, (0, 1)).unwrap().unwrap();
+    assert_eq!(saved.torn, 0);
+    let before = saved.records.len();
+    for cut in [1, 5, 300] {
+        std::fs::write(checkpoint.path(), &bytes[..bytes.len() - cut]).unwrap();
+        let torn = checkpoint.load(&scene, &settings, (0, 1)).unwrap().unwrap();
+        assert!(torn.torn > 0 && torn.records.len() < before, "cut {cut}");
+        let Ok(Resumed::Finished(resumed)) =
+            checkpoint.run(&scene, &settings, (0, 1), Some(torn), Control::default())
+        else {
+            panic!("a checkpoint cut by {cut} bytes did not resume");
+        };
+        let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
+        let numbers = |json: String| sdae_study::files::numbers_of(&json).unwrap();
+        assert_eq!(
+            numbers(report(*resumed)),
+            numbers(report(whole.clone())),
+            "cut {cut}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

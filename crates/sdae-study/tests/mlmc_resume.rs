@@ -1,7 +1,9 @@
 //! Nothing lost when an MLMC run is stopped: stopped by SIGTERM it saves the blocks of samples
 //! it finished (exit code 130) and `--resume` ends with exactly the numbers of an uninterrupted
 //! run; a checkpoint of another run is refused (exit code 2, naming what differs), and one
-//! found without `--resume` is refused unless `--fresh` discards it.
+//! found without `--resume` is refused unless `--fresh` discards it. A flipped bit in a
+//! checkpoint or a shard is refused naming the checksum; a save cut short is dropped and its
+//! blocks run again; `mlmc-merge` refuses a block that is not whole, as resuming does.
 
 mod process;
 
@@ -147,7 +149,9 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
     let scene = out.join("mlmc/pendulum");
     let checkpoint = scene.join("mlmc-checkpoint.bin");
     std::fs::create_dir_all(scene.join("report.json")).unwrap();
-    let failed = mlmc(&out, eps, &[]).output().unwrap();
+    let failed = mlmc(&out, eps, &["--checkpoint-every", "0"])
+        .output()
+        .unwrap();
     let text = stderr(&failed);
     assert_eq!(failed.status.code(), Some(1), "{text}");
     assert!(text.contains("without running again"), "{text}");
@@ -173,13 +177,27 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
         ],
     );
     assert!(checkpoint.exists());
-    // A corrupt checkpoint is refused too.
+    // A flipped bit anywhere (its format line, header, segments, checksums) is refused.
     let bytes = std::fs::read(&checkpoint).unwrap();
+    for bit in sampled_bits(bytes.len()) {
+        let mut flipped = bytes.clone();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        std::fs::write(&checkpoint, &flipped).unwrap();
+        refused(
+            &mut mlmc(&out, eps, &["--resume"]),
+            &["mlmc-checkpoint.bin", "checksum"],
+        );
+    }
+    // A save cut short (a kill while appending): dropped, its blocks run again, and the report
+    // is the uninterrupted run's.
     std::fs::write(&checkpoint, &bytes[..bytes.len() - 5]).unwrap();
-    refused(
-        &mut mlmc(&out, eps, &["--resume"]),
-        &["mlmc-checkpoint.bin", "not a whole checkpoint"],
-    );
+    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
+    let text = stderr(&resumed);
+    assert_eq!(resumed.status.code(), Some(0), "{text}");
+    assert!(text.contains("dropped"), "{text}");
+    let report = |d: &Path| numbers(&d.join("mlmc/pendulum/report.json"));
+    assert_eq!(report(&dir.join("whole")), report(&out));
+    std::fs::remove_file(scene.join("report.json")).unwrap();
     std::fs::write(&checkpoint, &bytes).unwrap();
     // --resume writes the report from the saved blocks: the uninterrupted run's numbers.
     let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
@@ -202,5 +220,67 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
     let nothing = mlmc(&out, eps, &["--resume"]).output().unwrap();
     assert_eq!(nothing.status.code(), Some(0), "{}", stderr(&nothing));
     assert!(stderr(&nothing).contains("nothing to resume"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bits to flip in a file of `len` bytes: in each of its first and last 64 bytes and 60 spread
+/// over the rest.
+fn sampled_bits(len: usize) -> Vec<usize> {
+    let ends = (0..64.min(len)).chain(len.saturating_sub(64)..len);
+    let spread = (0..60).map(|k| k * len / 60);
+    let mut bytes: Vec<usize> = ends.chain(spread).collect();
+    bytes.sort_unstable();
+    bytes.dedup();
+    bytes.into_iter().map(|b| b * 8 + b % 8).collect()
+}
+
+#[test]
+fn mlmc_shards_with_a_flipped_bit_or_a_block_not_whole_are_refused_by_merge() {
+    use sdae_study::mlmc::shard::MlmcShard;
+
+    let dir = scratch("mlmc-shard-faults");
+    std::fs::create_dir_all(&dir).unwrap();
+    let plan = dir.join("plan.json");
+    std::fs::write(&plan, r#"{"eps": 0.02, "samples": [256, 64, 64]}"#).unwrap();
+    let shards = dir.join("shards");
+    for shard in ["0/2", "1/2"] {
+        let ran = binary()
+            .args(["mlmc", "--plan"])
+            .arg(&plan)
+            .args(["--shard", shard, "--threads", "1", "--out"])
+            .arg(&shards)
+            .output()
+            .unwrap();
+        assert_eq!(ran.status.code(), Some(0), "{}", stderr(&ran));
+    }
+    let merge = || {
+        let mut command = binary();
+        command
+            .arg("mlmc-merge")
+            .arg(shards.join("mlmc/pendulum"))
+            .arg("--out")
+            .arg(dir.join("merged"));
+        command
+    };
+    let merged = merge().output().unwrap();
+    assert_eq!(merged.status.code(), Some(0), "{}", stderr(&merged));
+    let file = shards.join("mlmc/pendulum/mlmc-shard-0-of-2.json");
+    let bytes = std::fs::read(&file).unwrap();
+    for bit in sampled_bits(bytes.len()) {
+        let mut flipped = bytes.clone();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        std::fs::write(&file, &flipped).unwrap();
+        refused(&mut merge(), &["mlmc-shard-0-of-2.json", "checksum"]);
+    }
+    // A block of 31 samples, sealed again with a checksum that fits: refused as a checkpoint's
+    // would be.
+    std::fs::write(&file, &bytes).unwrap();
+    let mut short = MlmcShard::read(&file).unwrap();
+    short.levels[1][0].sums.samples -= 1;
+    short.write(&file).unwrap();
+    refused(&mut merge(), &["level 1", "not a block of 32"]);
+    // A shard of the format before checksums (bare JSON) is refused by name.
+    std::fs::write(&file, serde_json::to_string(&short).unwrap()).unwrap();
+    refused(&mut merge(), &["mlmc-shard-0-of-2.json", "older version"]);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -12,16 +12,19 @@
 //! Monte Carlo run and a plan's run all take their blocks from the same saved set.
 //!
 //! The file has the layout of the convergence study's checkpoints
-//! ([`crate::checkpoint`]): a line naming the format, a JSON line with the scene, the settings,
-//! the plan and shard (for a `--plan` run) and the number of blocks, then one record per block
-//! (level, index and counts as LEB128 varints, a byte for pairs or single paths, the sums as
-//! IEEE bits): about 70 bytes a block of 32 samples. What is read back is checked strictly.
+//! ([`crate::checkpoint`]): a line naming the format, then checksummed segments: a JSON header
+//! with the scene, the settings and the plan and shard (for a `--plan` run), then batches of
+//! block records (level, index and counts as LEB128 varints, a byte for pairs or single paths,
+//! the sums as IEEE bits): about 70 bytes a block of 32 samples. Each save appends the blocks
+//! finished since the last one; a changed bit is refused, a save cut short by a kill is
+//! dropped (its blocks run again). What is read back is checked strictly, by the checks
+//! `mlmc-merge` applies to shards ([`LevelSums::check_block`]).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
@@ -29,19 +32,25 @@ use super::algorithm::Plan;
 use super::sampler::{BLOCK, BlockKey, BlockStore};
 use super::study::MlmcSettings;
 use super::sums::LevelSums;
+use crate::checkpoint::saves::Saves;
+use crate::checkpoint::segments;
+#[cfg(test)]
+use crate::checkpoint::segments::{Appender, batches};
 use crate::checkpoint::{
-    DEFAULT_INTERVAL, Reader, RunLock, not_whole, parse_header, read_bytes, remove_checkpoint,
-    write_checkpoint, write_f64, write_varint,
+    DEFAULT_INTERVAL, Reader, RunLock, not_whole, read_bytes, read_payloads, remove_checkpoint,
+    torn_note, write_f64, write_varint,
 };
 use crate::error::StudyError;
 use crate::scene::Scene;
 
 /// The first line of an MLMC checkpoint file: its format and version.
-const MAGIC: &[u8] = b"sdae-study mlmc checkpoint 1\n";
+const MAGIC: &[u8] = b"sdae-study mlmc checkpoint 2\n";
 
-/// Bytes of a block's record at the least: level, index and four counts of one byte each, the
-/// pairs byte and seven numbers.
-const MIN_RECORD: usize = 7 + 7 * 8;
+/// The first line of the format before checksums, refused by name.
+const OLDER: [&[u8]; 1] = [b"sdae-study mlmc checkpoint 1\n"];
+
+/// A saved block: its key and its sums.
+type Block = (BlockKey, LevelSums);
 
 /// Which MLMC run a checkpoint belongs to: the study of a scene with its settings, or a run of
 /// a plan (all of it, or one shard).
@@ -61,7 +70,6 @@ pub struct MlmcRun {
 #[derive(Serialize, Deserialize)]
 struct Header {
     run: MlmcRun,
-    blocks: usize,
 }
 
 /// The blocks an interrupted run saved, read back by [`MlmcCheckpoint::load`].
@@ -70,6 +78,16 @@ pub struct SavedBlocks {
     /// The sums of each block (checked: each once, within the run's levels and blocks, of
     /// [`BLOCK`] samples).
     pub blocks: BTreeMap<BlockKey, LevelSums>,
+    /// Bytes of a last segment cut short (a process killed while saving), dropped: the blocks
+    /// it held run again. 0 when the file ends whole.
+    pub torn: usize,
+}
+
+impl SavedBlocks {
+    /// A note on a torn last segment, if the file had one (for the resuming message).
+    pub fn torn_note(&self) -> Option<String> {
+        torn_note(self.torn)
+    }
 }
 
 /// The checkpoint file of one MLMC run.
@@ -99,39 +117,35 @@ impl MlmcCheckpoint {
         &self.path
     }
 
-    /// The number of blocks the checkpoint file holds, if it exists and its header can be read
-    /// (for messages; [`MlmcCheckpoint::load`] checks it).
+    /// The header, the blocks and the bytes of a torn last segment of the checkpoint file
+    /// holding `bytes`: checksums verified, blocks read, nothing checked against a run.
+    fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<Block>, usize), StudyError> {
+        let unreadable = |m| not_whole(&self.path, m);
+        let segments = segments::read(&self.path, bytes, MAGIC, &OLDER)?;
+        let header: Header = serde_json::from_slice(segments.header)
+            .map_err(|e| unreadable(format!("header: {e}")))?;
+        let blocks = read_payloads(&segments.records, "block", read_block).map_err(unreadable)?;
+        Ok((header, blocks, segments.torn))
+    }
+
+    /// The number of blocks the checkpoint file holds, if it exists and can be read (for
+    /// messages; [`MlmcCheckpoint::load`] checks it).
     pub fn holds(&self) -> Option<usize> {
         let bytes = std::fs::read(&self.path).ok()?;
-        let (header, _): (Header, _) = parse_header(&bytes, MAGIC).ok()?;
-        Some(header.blocks)
+        self.parse(&bytes).ok().map(|(_, blocks, _)| blocks.len())
     }
 
     /// The blocks saved by an interrupted run of `run` (the thread count aside); `None` when
-    /// there is no checkpoint file. A file that is not an MLMC checkpoint or is cut short is a
-    /// [`StudyError::Read`]; one of another run (scene, seed, observable, scheme, ... or plan),
-    /// or holding a block twice or out of the run's range, a [`StudyError::Resume`] naming
-    /// what differs.
+    /// there is no checkpoint file. A file that fails a checksum is a
+    /// [`StudyError::Checksum`]; one that is not an MLMC checkpoint a [`StudyError::Read`];
+    /// one of another run (scene, seed, observable, scheme, ... or plan), or holding a block
+    /// twice, out of the run's range or not of [`BLOCK`] samples, a [`StudyError::Resume`]
+    /// naming what differs.
     pub fn load(&self, run: &MlmcRun) -> Result<Option<SavedBlocks>, StudyError> {
         let Some(bytes) = read_bytes(&self.path)? else {
             return Ok(None);
         };
-        let unreadable = |m| not_whole(&self.path, m);
-        let (header, body): (Header, _) = parse_header(&bytes, MAGIC).map_err(unreadable)?;
-        if header.blocks > body.len() / MIN_RECORD {
-            return Err(unreadable(format!(
-                "{} blocks do not fit in the file",
-                header.blocks
-            )));
-        }
-        let mut reader = Reader::new(body);
-        let records = (0..header.blocks)
-            .map(|k| {
-                read_block(&mut reader)
-                    .map_err(|m| unreadable(format!("block {k} of {}: {m}", header.blocks)))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        reader.end().map_err(unreadable)?;
+        let (header, records, torn) = self.parse(&bytes)?;
         let refuse = |reason: String| StudyError::Resume {
             path: self.path.clone(),
             reason,
@@ -151,36 +165,38 @@ impl MlmcCheckpoint {
                 )));
             }
         }
-        Ok(Some(SavedBlocks { blocks }))
+        Ok(Some(SavedBlocks { blocks, torn }))
     }
 
     /// The store of a run of `run` resuming from `saved` (from [`MlmcCheckpoint::load`]): set
     /// it as the run's [`RunControl::store`](super::RunControl).
     pub fn journal<'a>(&'a self, run: &'a MlmcRun, saved: Option<SavedBlocks>) -> Journal<'a> {
         let saved = saved.unwrap_or_default().blocks;
+        let header = serde_json::to_vec(&Header { run: run.clone() }).map_err(|e| e.to_string());
+        let resumed: Vec<Block> = saved.iter().map(|(k, s)| (*k, *s)).collect();
+        let saves = Saves::new(
+            self.path.clone(),
+            MAGIC,
+            header,
+            write_record,
+            self.every,
+            resumed,
+        );
         Journal {
-            checkpoint: self,
-            run,
-            state: Mutex::new(State {
-                blocks: saved.clone(),
-                last: Instant::now(),
-            }),
+            keys: Mutex::new(saved.keys().copied().collect()),
             saved,
+            saves,
+            _run: std::marker::PhantomData,
         }
     }
 
-    fn write(
-        &self, run: &MlmcRun, blocks: &BTreeMap<BlockKey, LevelSums>,
-    ) -> Result<(), StudyError> {
-        let header = Header {
-            run: run.clone(),
-            blocks: blocks.len(),
-        };
-        write_checkpoint(&self.path, MAGIC, &header, |out| {
-            blocks
-                .iter()
-                .try_for_each(|(key, sums)| write_block(out, *key, sums))
-        })
+    /// Writes `blocks` as the whole checkpoint of `run` (atomically).
+    #[cfg(test)]
+    fn write(&self, run: &MlmcRun, blocks: &[Block]) -> Result<(), StudyError> {
+        let header = serde_json::to_vec(&Header { run: run.clone() })
+            .map_err(|e| StudyError::write(&self.path, e))?;
+        let body = batches(blocks, write_record).map_err(|e| StudyError::write(&self.path, e))?;
+        Appender::create(&self.path, MAGIC, &header, &body).map(|_| ())
     }
 
     /// Removes the checkpoint file (once the results it holds are in a report).
@@ -227,15 +243,8 @@ fn difference(saved: &MlmcRun, run: &MlmcRun) -> Option<&'static str> {
 fn out_of_range(run: &MlmcRun, key: BlockKey, sums: &LevelSums) -> Option<String> {
     let BlockKey { level, block, .. } = key;
     let name = format!("block {block} of level {level}");
-    if sums.attempted() != BLOCK
-        || sums.failed_fine > sums.failed
-        || sums.failed_coarse > sums.failed
-    {
-        return Some(format!(
-            "{name} counts {} samples with a value and {} failed ({} fine, {} coarse), not a \
-             block of {BLOCK}",
-            sums.samples, sums.failed, sums.failed_fine, sums.failed_coarse
-        ));
+    if let Err(reason) = sums.check_block() {
+        return Some(format!("{name} {reason}"));
     }
     match &run.plan {
         None if level > run.settings.spec.max_level => Some(format!(
@@ -255,6 +264,11 @@ fn out_of_range(run: &MlmcRun, key: BlockKey, sums: &LevelSums) -> Option<String
             }
         }
     }
+}
+
+/// A block's record, as [`read_block`] reads it back.
+fn write_record(out: &mut Vec<u8>, (key, sums): &Block) -> std::io::Result<()> {
+    write_block(out, *key, sums)
 }
 
 fn write_block(out: &mut impl Write, key: BlockKey, s: &LevelSums) -> std::io::Result<()> {
@@ -309,19 +323,15 @@ fn read_block(reader: &mut Reader<'_>) -> Result<(BlockKey, LevelSums), String> 
     Ok((key, sums))
 }
 
-/// The blocks a run has so far and when they were last saved.
-struct State {
-    blocks: BTreeMap<BlockKey, LevelSums>,
-    last: Instant,
-}
-
 /// The [`BlockStore`] of a run with a checkpoint: hands out the saved blocks, collects the
-/// blocks run, and saves them all in the checkpoint each time the interval has passed.
+/// blocks run, and appends those finished since the last save to the checkpoint each time the
+/// interval has passed.
 pub struct Journal<'a> {
-    checkpoint: &'a MlmcCheckpoint,
-    run: &'a MlmcRun,
     saved: BTreeMap<BlockKey, LevelSums>,
-    state: Mutex<State>,
+    /// The blocks saved or run so far (a block run twice is saved once).
+    keys: Mutex<BTreeSet<BlockKey>>,
+    saves: Saves<Block>,
+    _run: std::marker::PhantomData<&'a MlmcRun>,
 }
 
 impl Journal<'_> {
@@ -332,19 +342,13 @@ impl Journal<'_> {
 
     /// The blocks saved or run so far.
     pub fn blocks(&self) -> usize {
-        self.lock().blocks.len()
+        self.saves.added()
     }
 
-    /// Saves every block so far in the checkpoint (atomically: the previous checkpoint or this
-    /// one, never a torn file).
+    /// Saves the blocks finished since the last save in the checkpoint (appended; the first
+    /// save of a run writes the file afresh).
     pub fn save(&self) -> Result<(), StudyError> {
-        let mut state = self.lock();
-        state.last = Instant::now();
-        self.checkpoint.write(self.run, &state.blocks)
-    }
-
-    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
-        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+        self.saves.save().map(|_| ())
     }
 }
 
@@ -354,13 +358,9 @@ impl BlockStore for Journal<'_> {
     }
 
     fn finished(&self, key: BlockKey, sums: &LevelSums) {
-        let mut state = self.lock();
-        state.blocks.entry(key).or_insert(*sums);
-        if state.last.elapsed() >= self.checkpoint.every {
-            // A failed periodic save is not fatal: the run goes on, and the final save (or the
-            // report) says whether the results could be written.
-            let _ = self.checkpoint.write(self.run, &state.blocks);
-            state.last = Instant::now();
+        let mut keys = self.keys.lock().unwrap_or_else(PoisonError::into_inner);
+        if keys.insert(key) {
+            self.saves.finished([(key, *sums)]);
         }
     }
 }
@@ -391,12 +391,102 @@ mod tests {
         };
         let mut bytes = Vec::new();
         write_block(&mut bytes, key, &sums).unwrap();
-        assert!(bytes.len() >= MIN_RECORD);
+        assert!(bytes.len() >= 7 + 7 * 8);
         let read = read_block(&mut Reader::new(&bytes)).unwrap();
         assert_eq!(read.0, key);
         assert!(read.1.same_samples(&sums) && read.1.seconds == sums.seconds);
         for cut in [0, 3, bytes.len() - 1] {
             assert!(read_block(&mut Reader::new(&bytes[..cut])).is_err());
         }
+    }
+
+    fn block(level: u32, block: u64) -> Block {
+        let key = BlockKey {
+            level,
+            block,
+            coupled: true,
+        };
+        let sums = LevelSums {
+            samples: BLOCK - 1,
+            failed_fine: 1,
+            failed: 1,
+            y1: 0.5 * block as f64,
+            y2: 0.25,
+            p1: -1.0,
+            p2: 1.0,
+            seconds: 1e-3,
+            ..LevelSums::default()
+        };
+        (key, sums)
+    }
+
+    fn run() -> MlmcRun {
+        let scene = Scene::built_in("pendulum").unwrap();
+        MlmcRun {
+            settings: MlmcSettings::for_scene(&scene),
+            scene,
+            plan: None,
+            shard: None,
+        }
+    }
+
+    #[test]
+    fn a_journal_appends_each_block_once_and_a_torn_tail_is_dropped() {
+        let dir = std::env::temp_dir().join(format!("sdae-mlmc-ckpt-{}", std::process::id()));
+        let checkpoint = MlmcCheckpoint::new(dir.join("c.bin")).every(Duration::ZERO);
+        let run = run();
+        let journal = checkpoint.journal(&run, None);
+        let mut sizes = Vec::new();
+        for b in 0..20 {
+            let (key, sums) = block(0, b);
+            journal.finished(key, &sums);
+            journal.finished(key, &sums);
+            sizes.push(std::fs::metadata(checkpoint.path()).unwrap().len());
+        }
+        // After the first save, each save appends one block's segment: linear in the run.
+        let steps: Vec<u64> = sizes.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(steps.iter().all(|&s| s == steps[0] && s < 100), "{steps:?}");
+        journal.save().unwrap();
+        let saved = checkpoint.load(&run).unwrap().unwrap();
+        assert_eq!((saved.blocks.len(), saved.torn), (20, 0));
+        // A save cut short: the last block is dropped, the others resume.
+        let bytes = std::fs::read(checkpoint.path()).unwrap();
+        std::fs::write(checkpoint.path(), &bytes[..bytes.len() - 9]).unwrap();
+        let saved = checkpoint.load(&run).unwrap().unwrap();
+        assert_eq!(saved.blocks.len(), 19);
+        assert!(saved.torn > 0 && saved.torn_note().is_some());
+        // A resumed journal writes the file afresh at its first save: the torn tail is gone.
+        let journal = checkpoint.journal(&run, Some(saved));
+        let (key, sums) = block(0, 19);
+        journal.finished(key, &sums);
+        let saved = checkpoint.load(&run).unwrap().unwrap();
+        assert_eq!((saved.blocks.len(), saved.torn), (20, 0));
+        // Any flipped bit is refused, naming the checksum.
+        let bytes = std::fs::read(checkpoint.path()).unwrap();
+        for bit in (0..bytes.len() * 8).step_by(7) {
+            let mut flipped = bytes.clone();
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            std::fs::write(checkpoint.path(), &flipped).unwrap();
+            let err = checkpoint.load(&run).unwrap_err();
+            assert!(
+                matches!(err, StudyError::Checksum { .. }),
+                "bit {bit}: {err}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_block_that_is_not_whole_is_refused_on_load() {
+        let dir = std::env::temp_dir().join(format!("sdae-mlmc-short-{}", std::process::id()));
+        let checkpoint = MlmcCheckpoint::new(dir.join("c.bin"));
+        let run = run();
+        let mut short = block(1, 3);
+        short.1.samples -= 1;
+        checkpoint.write(&run, &[block(1, 2), short]).unwrap();
+        let err = checkpoint.load(&run).unwrap_err();
+        assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+        assert!(err.to_string().contains("not a block of 32"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

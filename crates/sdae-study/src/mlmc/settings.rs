@@ -56,6 +56,7 @@ impl MlmcError {
                     | StudyError::Unknown(_)
                     | StudyError::SchemeNotApplicable { .. }
                     | StudyError::Read { .. }
+                    | StudyError::Checksum { .. }
                     | StudyError::UnknownObservable { .. }
                     | StudyError::ObservableNeedsOutput { .. }
             ),

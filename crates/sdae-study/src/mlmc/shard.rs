@@ -2,10 +2,15 @@
 //!
 //! A plan's level l holds the blocks 0..ceil(N_l / BLOCK); shard i of n runs the blocks b with
 //! b mod n = i and saves each block's sums. Merging sorts every level's blocks, checks that
-//! each is there exactly once, and folds them in block order: the order an unsharded run of
+//! each is there exactly once and is a whole block ([`LevelSums::check_block`], the check a
+//! checkpoint's blocks pass too), and folds them in block order: the order an unsharded run of
 //! the plan folds them in, so the merged sums are the same bits.
+//!
+//! A shard's file is a sealed JSON file ([`crate::sealed`]): the shard under `content`, with
+//! a checksum of the file on its last line, verified before it is merged.
 
 use std::fmt::Write as _;
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -14,6 +19,11 @@ use super::sampler::{BLOCK, LevelSampler, RunControl, shard_blocks};
 use super::settings::MlmcError;
 use super::study::MlmcSettings;
 use super::sums::{LevelStats, LevelSums, level_stats};
+use crate::error::StudyError;
+use crate::sealed::{read_sealed, write_sealed};
+
+/// The format of a shard's file.
+const FORMAT: &str = "sdae-study mlmc shard 2";
 
 /// What makes samples the same samples: the scene and everything that shapes a sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -70,6 +80,20 @@ pub struct MlmcShard {
     pub shard: (u64, u64),
     /// Per level, the blocks this shard ran.
     pub levels: Vec<Vec<BlockSums>>,
+}
+
+impl MlmcShard {
+    /// Writes the shard's file `path` (atomically, with its checksum).
+    pub fn write(&self, path: &Path) -> Result<(), StudyError> {
+        write_sealed(path, FORMAT, self)
+    }
+
+    /// Reads the shard's file `path`: a file that fails its checksum (or has none: written by
+    /// an older version) is a [`StudyError::Checksum`], one that is no shard a
+    /// [`StudyError::Read`].
+    pub fn read(path: &Path) -> Result<MlmcShard, StudyError> {
+        read_sealed(path, FORMAT)
+    }
 }
 
 /// Runs shard `shard` = (i, n) of `plan`, whose samples are `identity`'s.
@@ -163,6 +187,9 @@ pub fn merge(shards: &[MlmcShard]) -> Result<(Identity, Plan, Vec<LevelSums>), M
         }
         let mut sums = LevelSums::default();
         for b in blocks {
+            b.sums
+                .check_block()
+                .map_err(|reason| fail(format!("level {l}: block {} {reason}", b.block)))?;
             sums.merge(&b.sums);
         }
         merged.push(sums);

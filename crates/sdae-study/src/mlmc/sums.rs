@@ -113,6 +113,36 @@ impl LevelSums {
         self.seconds += other.seconds;
     }
 
+    /// Checks the sums of one block as a run makes them, for resuming a checkpoint and for
+    /// merging shards: [`BLOCK`](super::sampler::BLOCK) samples attempted, no more failures on
+    /// either path than failed samples, sums of squares and the run time not negative. The
+    /// error says what is wrong ("counts ...", to follow the block's name).
+    pub fn check_block(&self) -> Result<(), String> {
+        use super::sampler::BLOCK;
+        let counts = self.samples.checked_add(self.failed) == Some(BLOCK)
+            && self.failed_fine <= self.failed
+            && self.failed_coarse <= self.failed;
+        if !counts {
+            return Err(format!(
+                "counts {} samples with a value and {} failed ({} fine, {} coarse), not a block \
+                 of {BLOCK}",
+                self.samples, self.failed, self.failed_fine, self.failed_coarse
+            ));
+        }
+        let negative = [
+            ("sum Y^2", self.y2),
+            ("sum Y^4", self.y4),
+            ("sum P^2", self.p2),
+        ]
+        .into_iter()
+        .chain([("seconds", self.seconds)])
+        .find(|(_, x)| *x < 0.0);
+        match negative {
+            Some((name, x)) => Err(format!("has {name} = {x:e}, below 0")),
+            None => Ok(()),
+        }
+    }
+
     /// Samples attempted (with a value or failed).
     pub fn attempted(&self) -> u64 {
         self.samples + self.failed

@@ -63,7 +63,8 @@ impl Failure {
             | StudyError::UnknownObservable { .. }
             | StudyError::ObservableNeedsOutput { .. }
             | StudyError::SchemeNotApplicable { .. }
-            | StudyError::Resume { .. } => Failure::Usage(e.to_string()),
+            | StudyError::Resume { .. }
+            | StudyError::Checksum { .. } => Failure::Usage(e.to_string()),
             other => Failure::Failed(other.to_string()),
         }
     }

@@ -119,7 +119,10 @@ impl Resumable for Saved<'_> {
         self.checkpoint.load(self.run)
     }
     fn describe(&self, saved: &SavedBlocks) -> String {
-        format!("{} blocks of samples", saved.blocks.len())
+        let torn = saved
+            .torn_note()
+            .map_or(String::new(), |n| format!(" ({n})"));
+        format!("{} blocks of samples{torn}", saved.blocks.len())
     }
     fn remove(&self) -> Result<(), StudyError> {
         self.checkpoint.remove()
@@ -368,7 +371,7 @@ fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
         "mlmc-shard-{}-of-{}.json",
         shard.shard.0, shard.shard.1
     ));
-    write_json(&file, shard)?;
+    shard.write(&file)?;
     say!(
         "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
         file.display()
@@ -429,7 +432,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     let shards: Vec<MlmcShard> = shard_files(&args.dirs)?
         .iter()
-        .map(|f| read_json(f).map_err(refused))
+        .map(|f| MlmcShard::read(f).map_err(refused))
         .collect::<Result<_, _>>()?;
     let (identity, plan, sums) = merge(&shards)?;
     let scene = match &args.scene_file {

@@ -12,9 +12,7 @@ use sdae_study::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_runs,
 };
-use sdae_study::files::{
-    check_writable, first_difference, numbers_of, read_json, remove_stale_temporaries, write_json,
-};
+use sdae_study::files::{check_writable, first_difference, numbers_of, remove_stale_temporaries};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
@@ -154,7 +152,10 @@ impl Resumable for Job<'_> {
         self.checkpoint.load(self.scene, self.settings, self.shard)
     }
     fn describe(&self, saved: &SavedPaths) -> String {
-        format!("{} of {} paths", saved.records.len(), self.selected())
+        let torn = saved
+            .torn_note()
+            .map_or(String::new(), |n| format!(" ({n})"));
+        format!("{} of {} paths{torn}", saved.records.len(), self.selected())
     }
     fn remove(&self) -> Result<(), StudyError> {
         self.checkpoint.remove()
@@ -476,7 +477,7 @@ fn run_scenes(
             deliver(
                 std::slice::from_ref(&ready),
                 std::slice::from_ref(&run),
-                write_json(&file, &run),
+                run.write_shard(&file),
             )?;
             say!(
                 "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
@@ -552,7 +553,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut by_study: BTreeMap<(String, bool), Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
-        let shard: ConvergenceRun = read_json(&file).map_err(refused)?;
+        let shard = ConvergenceRun::read_shard(&file).map_err(refused)?;
         // An absurd setting in a shard file (say its paths) is refused before merging.
         shard
             .settings

@@ -733,14 +733,17 @@ fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
     ]);
     assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     let file = shards.join("pendulum").join("shard-0-of-1.json");
-    let shard: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let shard = sdae_study::convergence::ConvergenceRun::read_shard(&file).unwrap();
     for value in [1e308, 1e-310] {
+        // Edited through the library, which seals the file again with its checksum.
         let mut edited = shard.clone();
-        edited["records"][0]["tracks"][4]["distances"][0] = serde_json::json!(value);
+        let distances = edited.records[0].tracks[4].distances.as_mut().unwrap();
+        distances[0] = value;
         let input = dir.join(format!("in-{value:e}"));
         std::fs::create_dir_all(&input).unwrap();
-        std::fs::write(input.join("shard-0-of-1.json"), edited.to_string()).unwrap();
+        edited
+            .write_shard(&input.join("shard-0-of-1.json"))
+            .unwrap();
         let out = dir.join(format!("out-{value:e}"));
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sdae-study"))
             .args(["merge", path(&input), "--out", path(&out)])

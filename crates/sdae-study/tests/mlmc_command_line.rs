@@ -307,6 +307,6 @@ fn plans_and_plan_files_are_checked_before_anything_runs() {
     .unwrap();
     usage_error(
         &["mlmc-merge", shards.to_str().unwrap(), "--out", out],
-        &["cannot read", "mlmc-shard-0-of-1.json"],
+        &["refusing", "mlmc-shard-0-of-1.json", "checksum"],
     );
 }

@@ -6,12 +6,14 @@
 
 mod common;
 
+mod bits;
 mod process;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use bits::sampled_bits;
 use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -465,17 +467,6 @@ fn a_stability_study_stopped_in_its_second_scene_resumes_to_the_same_report() {
         numbers(&out.join("stability/report.json"))
     );
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// Bits to flip in a file of `len` bytes: in each of its first and last 64 bytes (the format
-/// line, the header's frame, the checksums at the end) and 60 spread over the rest.
-fn sampled_bits(len: usize) -> Vec<usize> {
-    let ends = (0..64.min(len)).chain(len.saturating_sub(64)..len);
-    let spread = (0..60).map(|k| k * len / 60);
-    let mut bytes: Vec<usize> = ends.chain(spread).collect();
-    bytes.sort_unstable();
-    bytes.dedup();
-    bytes.into_iter().map(|b| b * 8 + b % 8).collect()
 }
 
 /// Runs `settings` on `scene` with a checkpoint at `file` saved after every block, stopped

@@ -5,11 +5,13 @@
 //! checkpoint or a shard is refused naming the checksum; a save cut short is dropped and its
 //! blocks run again; `mlmc-merge` refuses a block that is not whole, as resuming does.
 
+mod bits;
 mod process;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use bits::sampled_bits;
 use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
 /// A quick MLMC study of the pendulum at `eps` (on one thread unless `extra` says otherwise),
@@ -221,17 +223,6 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
     assert_eq!(nothing.status.code(), Some(0), "{}", stderr(&nothing));
     assert!(stderr(&nothing).contains("nothing to resume"));
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// Bits to flip in a file of `len` bytes: in each of its first and last 64 bytes and 60 spread
-/// over the rest.
-fn sampled_bits(len: usize) -> Vec<usize> {
-    let ends = (0..64.min(len)).chain(len.saturating_sub(64)..len);
-    let spread = (0..60).map(|k| k * len / 60);
-    let mut bytes: Vec<usize> = ends.chain(spread).collect();
-    bytes.sort_unstable();
-    bytes.dedup();
-    bytes.into_iter().map(|b| b * 8 + b % 8).collect()
 }
 
 #[test]

@@ -47,8 +47,8 @@ pub const DEFAULT_INTERVAL: Duration = Duration::from_secs(60);
 /// How a resumable run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Resumed {
-    /// Every selected path finished: the whole run (with the saved paths it resumed from). The
-    /// checkpoint is not rewritten: write the report, then [`Checkpoint::remove`] it.
+    /// Every selected path finished: the whole run (with the saved paths it resumed from),
+    /// every path of it in the checkpoint: write the report, then [`Checkpoint::remove`] it.
     Finished(Box<ConvergenceRun>),
     /// The stop flag was raised: `saved` of the shard's `selected` paths are in the checkpoint
     /// (none written when `saved` is 0).
@@ -222,9 +222,10 @@ impl Checkpoint {
     /// the paths in `saved` (from [`Checkpoint::load`]; they replace `control.done`). While it
     /// runs, the paths finished since the last save are appended to the checkpoint each time
     /// the interval has passed (the first save writes the file afresh with the saved paths);
-    /// when `control.stop` was raised before every path finished, they are appended once more
-    /// and [`Resumed::Interrupted`] comes back. A finished run is not saved (its report comes
-    /// first); the checkpoint stays until [`Checkpoint::remove`].
+    /// when the run ends they are appended once more: [`Resumed::Interrupted`] when
+    /// `control.stop` was raised before every path finished, else [`Resumed::Finished`] with
+    /// every path in the checkpoint, which stays until [`Checkpoint::remove`] (after the
+    /// report is written).
     pub fn run(
         &self, scene: &Scene, settings: &ConvergenceSettings, shard: (usize, usize),
         saved: Option<SavedPaths>, control: Control<'_>,
@@ -255,16 +256,18 @@ impl Checkpoint {
             path: self.path.clone(),
             reason,
         })?;
+        // Whole or not, the run's paths are saved: a report that follows may be stopped or
+        // fail to be written, and --resume writes it from them without running again.
+        if saves.added() == run.records.len() {
+            if !run.records.is_empty() {
+                saves.save()?;
+            }
+        } else {
+            // Records that did not pass through the periodic saves: write them all.
+            self.save(&run)?;
+        }
         let selected = selected(shard, settings.paths);
         if run.records.len() < selected {
-            if saves.added() == run.records.len() {
-                if !run.records.is_empty() {
-                    saves.save()?;
-                }
-            } else {
-                // Records that did not pass through the periodic saves: write them all.
-                self.save(&run)?;
-            }
             return Ok(Resumed::Interrupted {
                 saved: run.records.len(),
                 selected,

@@ -86,9 +86,9 @@ fn a_checkpoint_of_another_study_is_refused() {
     let Ok(Resumed::Finished(run)) = done else {
         panic!("the run did not finish: {done:?}");
     };
-    // A finished run is not saved by itself (its report comes first).
-    assert!(!checkpoint.path().exists());
-    checkpoint.save(&run).unwrap();
+    // A finished run is saved whole before its report is written.
+    let saved = checkpoint.load(&scene, &settings, (0, 1)).unwrap();
+    assert_eq!(saved.map(|s| s.records), Some(run.records));
     let mut other = settings.clone();
     other.seed += 1;
     let err = checkpoint.load(&scene, &other, (0, 1)).unwrap_err();

@@ -264,7 +264,7 @@ impl Ready<'_> {
         let file = job.checkpoint.path().display();
         match resumed {
             Ok(Resumed::Finished(run)) => {
-                self.keep(&run)?;
+                self.keep(&run);
                 Ok(*run)
             }
             Ok(Resumed::Interrupted { saved: 0, selected }) => Err(Failure::Unsaved(format!(
@@ -287,35 +287,24 @@ impl Ready<'_> {
 }
 
 impl Ready<'_> {
-    /// Saves the finished `run` in the job's checkpoint before its report is computed, so that
-    /// a stop signal from now on ends the process at once, losing nothing: the same command
-    /// with --resume writes the report without running again.
-    fn keep(&self, run: &ConvergenceRun) -> Result<(), Failure> {
-        let file = self.job.checkpoint.path();
-        self.job.checkpoint.save(run).map_err(|e| {
-            Failure::Failed(format!(
-                "{}: every path finished, but they could not be saved in {}: {e}",
-                self.job.scene.name,
-                file.display()
-            ))
-        })?;
+    /// The finished `run` is in the job's checkpoint ([`Checkpoint::run`] saved it): a stop
+    /// signal from now on, while the report is computed and written, ends the process at once,
+    /// losing nothing: the same command with --resume writes the report without running again.
+    fn keep(&self, run: &ConvergenceRun) {
+        let file = self.job.checkpoint.path().display();
         stopping::all_saved(format!(
-            "{}: stopped after every path finished; all {} paths are saved in {}: run the same \
-             command with --resume to write the results without running again",
+            "{}: stopped after every path finished; all {} paths are saved in {file}: run the \
+             same command with --resume to write the results without running again",
             self.job.scene.name,
             run.records.len(),
-            file.display()
         ));
-        Ok(())
     }
 }
 
-/// After the finished `runs` of `jobs` were written (`written`, the report first): removes
-/// their checkpoints; if they could not be written, saves the runs' paths in the checkpoints
-/// instead, so that --resume writes the results without running again.
-fn deliver(
-    jobs: &[Ready<'_>], runs: &[ConvergenceRun], written: Result<(), StudyError>,
-) -> Result<(), Failure> {
+/// After the finished runs of `jobs` were written (`written`, the report first): removes
+/// their checkpoints; if they could not be written, the checkpoints (which hold every path of
+/// a finished run) stay, so that --resume writes the results without running again.
+fn deliver(jobs: &[Ready<'_>], written: Result<(), StudyError>) -> Result<(), Failure> {
     let Err(e) = written else {
         // The results are written: a signal from now on need not end the process (and the
         // checkpoint it would name is going).
@@ -325,22 +314,15 @@ fn deliver(
             .try_for_each(|r| r.job.checkpoint.remove())
             .map_err(Failure::from);
     };
-    let kept: Result<Vec<String>, StudyError> = jobs
+    let files: Vec<String> = jobs
         .iter()
-        .zip(runs)
-        .map(|(r, run)| {
-            r.job.checkpoint.save(run)?;
-            Ok(r.job.checkpoint.path().display().to_string())
-        })
+        .map(|r| r.job.checkpoint.path().display().to_string())
         .collect();
-    Err(Failure::Failed(match kept {
-        Ok(files) => format!(
-            "{e}; the finished paths are saved in {}: --resume writes the results without \
-             running again",
-            files.join(", ")
-        ),
-        Err(saving) => format!("{e}; nor could the finished paths be saved: {saving}"),
-    }))
+    Err(Failure::Failed(format!(
+        "{e}; the finished paths are saved in {}: --resume writes the results without running \
+         again",
+        files.join(", ")
+    )))
 }
 
 /// Refuses two scenes of one name in one command: their results would overwrite each other.
@@ -474,11 +456,7 @@ fn run_scenes(
         let dir = e.out.out.join(&ready.job.scene.name);
         if shard.is_some() {
             let file = dir.join(&shard_file);
-            deliver(
-                std::slice::from_ref(&ready),
-                std::slice::from_ref(&run),
-                run.write_shard(&file),
-            )?;
+            deliver(std::slice::from_ref(&ready), run.write_shard(&file))?;
             say!(
                 "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
                 file.display(),
@@ -486,8 +464,8 @@ fn run_scenes(
             );
             continue;
         }
-        let written = report(run.clone(), &dir).map(|lines| uncompared.extend(lines));
-        deliver(std::slice::from_ref(&ready), &[run], written)?;
+        let written = report(run, &dir).map(|lines| uncompared.extend(lines));
+        deliver(std::slice::from_ref(&ready), written)?;
     }
     nothing_uncompared(uncompared)
 }
@@ -647,7 +625,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
             report: build_report(run.clone()),
         });
     }
-    deliver(&jobs, &runs, stability::write_report(&report, &dir))?;
+    deliver(&jobs, stability::write_report(&report, &dir))?;
     let table = stability::markdown(&report);
     let head: Vec<&str> = table.lines().take(4 + report.scenes.len()).collect();
     say!("{}", head.join("\n"));
@@ -700,7 +678,7 @@ pub fn equipartition(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failu
             ))
         })?);
     }
-    deliver(&jobs, &runs, equipartition::write_report(&results, &dir))?;
+    deliver(&jobs, equipartition::write_report(&results, &dir))?;
     for scene in &results {
         let biased = scene.rows.iter().filter(|r| r.biased == Some(true)).count();
         let (failed, paths) = scene.failed_paths();

@@ -4,7 +4,7 @@
 //! when it was done, 131 when nothing had finished), and the same command with `--resume`
 //! ends with exactly the numbers of an uninterrupted run. Runs save after every block
 //! (`--checkpoint-every 0`), so a SIGKILL that comes first, even in the middle of a save,
-//! loses at most the blocks in progress.
+//! loses at most the blocks in progress: what was saved before the signal stays saved.
 
 mod process;
 
@@ -13,6 +13,8 @@ use std::process::{Child, Command, Output};
 use std::time::{Duration, Instant};
 
 use process::{binary, leftovers, numbers, signal, stderr};
+use sdae_study::checkpoint::Checkpoint;
+use sdae_study::mlmc::checkpoint::MlmcCheckpoint;
 
 /// A study run by the tests: its command line (without `--out`) and its report file.
 struct Study {
@@ -20,24 +22,29 @@ struct Study {
     args: &'static [&'static str],
     /// The report's path under the output folder.
     report: &'static str,
+    /// The checkpoint's path under the output folder.
+    checkpoint: &'static str,
 }
 
 const CONVERGENCE: Study = Study {
     name: "convergence",
     args: &["--paths", "400", "--levels", "3..6", "--ref-level", "10"],
     report: "pendulum/report.json",
+    checkpoint: "pendulum/checkpoint-0-of-1.bin",
 };
 
 const WEAK: Study = Study {
     name: "weak",
     args: &["weak", "--quick", "--paths", "600"],
     report: "pendulum/weak.json",
+    checkpoint: "pendulum/weak-checkpoint-0-of-1.bin",
 };
 
 const MLMC: Study = Study {
     name: "mlmc",
     args: &["mlmc", "--quick"],
     report: "mlmc/pendulum/report.json",
+    checkpoint: "mlmc/pendulum/mlmc-checkpoint.bin",
 };
 
 impl Study {
@@ -55,6 +62,16 @@ impl Study {
             .arg(out)
             .args(extra);
         command
+    }
+
+    /// The paths (blocks of samples for MLMC) the checkpoint in `out` holds now.
+    fn saved(&self, out: &Path) -> usize {
+        let file = out.join(self.checkpoint);
+        if self.name == "mlmc" {
+            MlmcCheckpoint::new(file).holds().unwrap_or(0)
+        } else {
+            Checkpoint::new(file).holds().map_or(0, |(paths, _)| paths)
+        }
     }
 
     /// The folder of the report (where the checkpoint and lock files are).
@@ -123,6 +140,7 @@ fn stopped_anywhere(study: &Study, tries: usize, seed: u64) {
         // Not before the process could set up its handler (a few milliseconds).
         let moment = length.mul_f64(1.1 * random.next());
         std::thread::sleep(moment.max(Duration::from_millis(100)));
+        let before = study.saved(&out);
         signal(&child, "TERM");
         let must_end = k % 4 == 3;
         let grace = if must_end {
@@ -145,6 +163,15 @@ fn stopped_anywhere(study: &Study, tries: usize, seed: u64) {
             assert!(
                 text.contains("saved in") && text.contains("--resume"),
                 "{what}"
+            );
+        }
+        // What was saved before the signal is still there, whatever came after it (a SIGKILL
+        // in the middle of a save loses at most that save), unless the report is written.
+        if !out.join(study.report).exists() {
+            let after = study.saved(&out);
+            assert!(
+                after >= before,
+                "{what}\nsaved {before} before, {after} after"
             );
         }
         *outcomes.entry(code).or_insert(0usize) += 1;

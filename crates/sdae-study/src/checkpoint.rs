@@ -5,11 +5,11 @@
 //! records, and the report, of an uninterrupted one (timings aside).
 //!
 //! A checkpoint holds what the report reads and nothing more: a line naming the format, then
-//! checksummed segments ([`segments`]): a JSON header with the scene, the settings and the
+//! checksummed segments (module `segments`): a JSON header with the scene, the settings and the
 //! shard, then batches of records in a compact binary form (f64 as their IEEE bits, so a record
 //! reads back bit for bit; counts as LEB128 varints): about 80 bytes per scheme and level of a
 //! path, a seventh of the same records in JSON. Each save appends the paths finished since the
-//! last one ([`saves`]), so saving after every block costs time linear in the run. A changed
+//! last one (module `saves`), so saving after every block costs time linear in the run. A changed
 //! bit is refused ([`StudyError::Checksum`]); a last segment cut short by a kill during a save
 //! is dropped (its paths run again). What is read back is checked as strictly as shards are
 //! merged ([`check_records`]).

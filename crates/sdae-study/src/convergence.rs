@@ -11,14 +11,15 @@ use sdae_model::FailureKind;
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::lockstep::{BLOCK_PATHS, Limits, Observing, PathPlan, PathRecord, TrackOutcome};
-use crate::memory;
 use crate::observable::Observable;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
 use crate::stats::{
-    INDICATIVE_BELOW, Interval, OrderFit, PathErrors, effective_paths, fit_order_and_errors,
-    lp_error, mean_interval,
+    INDICATIVE_BELOW, OrderFit, PathErrors, effective_paths, fit_order_and_errors, lp_error,
+    mean_interval,
 };
+use sdae_stats::Interval;
+use sdae_stats::memory;
 
 /// The most worker threads a study starts.
 pub const MAX_THREADS: usize = 1024;
@@ -29,9 +30,7 @@ pub const MAX_THREADS: usize = 1024;
 /// not of the scheme.
 pub const MIN_STEP: f64 = 1.4916681462400413e-154;
 
-/// A coarse level is pre-asymptotic when its local slope departs from the finer levels' beyond
-/// the Monte Carlo error and by more than this.
-pub const PRE_ASYMPTOTIC_TOLERANCE: f64 = 0.05;
+use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
 
 /// The finest grid observables are kept on: 2^8 points per path and track.
 const MAX_OBSERVED_LEVEL: u32 = 8;
@@ -64,7 +63,7 @@ pub struct ConvergenceSettings {
     /// Bounds beyond which a path counts as failed.
     pub limits: Limits,
     /// Average the kinetic energy over the grid points with t >= this time.
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub kinetic_after: Option<f64>,
     /// Observables evaluated on every path at the coarsest level's grid points (by name: the
     /// scene's built-in ones, or the user's closures given to [`run_observed_on`]); none by
@@ -293,7 +292,7 @@ pub struct ConvergenceRun {
     /// The schemes left out.
     pub skipped: Vec<Skipped>,
     /// The equipartition value of the kinetic energy, for Langevin scenes.
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub kinetic_target: Option<f64>,
     /// This run is shard `shard.0` of `shard.1` (paths i with i % shard.1 == shard.0).
     pub shard: (usize, usize),
@@ -472,7 +471,7 @@ pub struct LevelReport {
     /// N.
     pub n_steps: usize,
     /// h = T / N.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub h: f64,
     /// L^p norms over the compared paths of sup_k |r_k - r_ref(t_k)|, sup_k |v_k - v_ref(t_k)|,
     /// sup_k |mu_k - mu_ref(t_k)| (k over this level's grid), with 95% confidence intervals
@@ -487,26 +486,26 @@ pub struct LevelReport {
     /// are left out of the errors here too.
     pub failed_elsewhere: usize,
     /// Share of the counted paths that finished (0 when no path could be counted).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub finished_fraction: f64,
     /// Mean over the finished paths of the time-averaged kinetic energy v^T M v / 2, with a 95%
     /// confidence interval (when the scene asks for it).
     pub kinetic_energy: Option<Interval>,
     /// Mean wall-clock seconds of stepping per path.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_path: f64,
     /// Steps per second of stepping.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub steps_per_second: f64,
     /// Paths that failed (not counted in the errors).
     pub failures: usize,
     /// Failures by kind.
     pub failures_by_kind: BTreeMap<FailureKind, usize>,
     /// Share of steps with a truncated drift.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub truncated_fraction: f64,
     /// Mean Newton iterations per step.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub newton_iterations_per_step: f64,
     /// Steps that needed the homotopy fallback.
     pub homotopy_steps: usize,
@@ -518,13 +517,13 @@ pub struct LevelReport {
     pub stable_but_biased: bool,
     /// Mean over paths of the clock lag sum_k (1 - eta_k) h: the time the truncated drift
     /// did not integrate (0 without truncation).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub clock_lag: f64,
     /// Largest |g(r_k)| on the grid.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub max_position_residual: f64,
     /// Largest |Dg(r_k) v_k| on the grid.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub max_velocity_residual: f64,
 }
 
@@ -564,7 +563,7 @@ pub struct Unresolved {
     /// The level's index (into the scheme's levels).
     pub level: usize,
     /// Its L^p error: 0 or subnormal.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub error: f64,
 }
 
@@ -586,7 +585,7 @@ pub struct ReferenceReport {
     /// Failures by kind.
     pub failures_by_kind: BTreeMap<FailureKind, usize>,
     /// Mean wall-clock seconds per path.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_path: f64,
 }
 
@@ -641,7 +640,7 @@ pub struct ConvergenceReport {
     /// Schemes left out, with the reason.
     pub skipped: Vec<Skipped>,
     /// The equipartition value (n - m) kT / 2 of the kinetic energy, for Langevin scenes.
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub kinetic_target: Option<f64>,
     /// The scene as run.
     pub scene_definition: Scene,

@@ -30,7 +30,7 @@ use crate::integrator::{SchemeKind, StudyScheme};
 use crate::parallel::Control;
 use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
 use crate::scene::{Prepared, Scene};
-use crate::stats::Interval;
+use sdae_stats::Interval;
 
 /// One configuration of the comparison: a scheme, and C_eta for the half-explicit runs.
 #[derive(Debug, Clone, PartialEq)]

@@ -13,8 +13,8 @@
 //! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
 //!   scenes over a range of step sizes.
 //! - [`equipartition`]: the kinetic temperature of Langevin scenes against h and C_eta.
-//! - [`mlmc`]: multilevel Monte Carlo (Giles) for E[f(X_T)], with antithetic fine paths for
-//!   multiplicative noise.
+//! - [`mlmc`]: multilevel Monte Carlo (Giles, the [`sdae_mlmc`] crate) for E[f(X_T)] of a
+//!   scene's observable, with antithetic fine paths for multiplicative noise.
 //! - [`weak`]: weak errors E[f(X_N)] - E[f(X_T)] of observables, weak orders and
 //!   Richardson-Romberg extrapolation, against exact values or the reference on the same paths.
 //! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
@@ -23,7 +23,6 @@
 //! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
 //!   paired bootstrap over paths), SVG plots and the report files.
 //! - [`sealed`]: JSON files (shards) carrying a checksum of their content.
-//! - [`memory`]: the memory a study may take (settings that need more are refused).
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
@@ -38,13 +37,11 @@ pub mod files;
 pub mod gibbs;
 pub mod integrator;
 pub mod lockstep;
-pub mod memory;
 pub mod mlmc;
 pub mod observable;
 pub mod output;
 pub mod parallel;
 pub mod plots;
-pub mod real;
 pub mod scene;
 pub mod scene_load;
 pub mod sealed;

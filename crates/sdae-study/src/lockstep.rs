@@ -37,11 +37,11 @@ const CHUNK_BUDGET: usize = 1 << 23;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Limits {
     /// |r_i| or |v_i| above this is a blow-up.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub blow_up: f64,
     /// |g(r)| or |Dg(r) v| above this is a failure (`None`: not checked, as for the
     /// convergence of unprojected schemes, which drift off the manifold by O(h)).
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub drift_tolerance: Option<f64>,
 }
 
@@ -111,12 +111,12 @@ impl Observing {
 pub struct TrackOutcome {
     /// sup over the level's grid of |r - r_ref|, |v - v_ref|, |mu - mu_ref| (0 for mu when it is
     /// not accumulated); `None` if the path failed or there is no reference.
-    #[serde(with = "crate::real::option_triple", default)]
+    #[serde(with = "sdae_stats::json_f64::option_triple", default)]
     pub distances: Option<[f64; 3]>,
     /// Why the path stopped early.
     pub failure: Option<FailureKind>,
     /// Wall-clock seconds spent stepping.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds: f64,
     /// Steps done.
     pub steps: usize,
@@ -130,21 +130,21 @@ pub struct TrackOutcome {
     #[serde(default)]
     pub rounding_certified_steps: usize,
     /// The clock lag sum_k (1 - eta_k) h of the truncated drift.
-    #[serde(default, with = "crate::real")]
+    #[serde(default, with = "sdae_stats::json_f64")]
     pub clock_lag: f64,
     /// Largest |g(r_k)| on the grid.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub max_position_residual: f64,
     /// Largest |Dg(r_k) v_k| on the grid.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub max_velocity_residual: f64,
     /// Time average of v^T M v / 2 after the plan's `kinetic_after` (over the scheme's own
     /// clock for a time-changed scheme).
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub kinetic_energy: Option<f64>,
     /// Time average of the plan's [`PathPlan::time_averaged`] observable, over the points and
     /// weights of `kinetic_energy`.
-    #[serde(with = "crate::real::option", default)]
+    #[serde(with = "sdae_stats::json_f64::option", default)]
     pub time_average: Option<f64>,
     /// The plan's observables at the grid points of its [`Observing`] (grid-point-major:
     /// `observed[k * observables + o]` is observable o at t_(k+1)), up to where the path
@@ -152,7 +152,7 @@ pub struct TrackOutcome {
     #[serde(
         default,
         skip_serializing_if = "Vec::is_empty",
-        with = "crate::real::vec"
+        with = "sdae_stats::json_f64::vec"
     )]
     pub observed: Vec<f64>,
 }
@@ -165,7 +165,7 @@ pub struct PathRecord {
     /// Why the reference failed, if it did (the path is then left out of the errors).
     pub reference_failure: Option<FailureKind>,
     /// Wall-clock seconds of the reference.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub reference_seconds: f64,
     /// Outcomes, scheme-major: `tracks[s * levels + j]` is scheme s at level j.
     pub tracks: Vec<TrackOutcome>,
@@ -173,7 +173,7 @@ pub struct PathRecord {
     #[serde(
         default,
         skip_serializing_if = "Vec::is_empty",
-        with = "crate::real::vec"
+        with = "sdae_stats::json_f64::vec"
     )]
     pub reference_observed: Vec<f64>,
     /// The same on the reference at half its steps ([`PathPlan::paired_reference`]; empty
@@ -181,7 +181,7 @@ pub struct PathRecord {
     #[serde(
         default,
         skip_serializing_if = "Vec::is_empty",
-        with = "crate::real::vec"
+        with = "sdae_stats::json_f64::vec"
     )]
     pub reference_coarse_observed: Vec<f64>,
 }

@@ -10,7 +10,8 @@ use plotters::prelude::*;
 
 use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
 use crate::error::StudyError;
-use crate::stats::{Interval, OrderFit};
+use crate::stats::OrderFit;
+use sdae_stats::Interval;
 
 /// One colour per line (in report order).
 pub const COLOURS: [RGBColor; 10] = [

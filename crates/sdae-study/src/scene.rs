@@ -112,7 +112,7 @@ pub struct SchemeSpec {
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
-        with = "crate::real::option"
+        with = "sdae_stats::json_f64::option"
     )]
     pub c_kappa: Option<f64>,
     /// C_eta of `half-explicit-local` (beyond the seed): the largest turn of a constraint's
@@ -201,11 +201,11 @@ pub struct StabilitySpec {
     pub reference: Option<u32>,
     /// |g(r)| or |Dg(r) v| above this counts as constraint drift (default 1e-2).
     #[serde(default = "default_drift_tolerance")]
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub drift_tolerance: f64,
     /// |r_i| or |v_i| above this counts as a blow-up (default 1e8).
     #[serde(default = "default_blow_up")]
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub blow_up: f64,
 }
 

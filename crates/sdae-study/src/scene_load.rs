@@ -10,7 +10,9 @@ use crate::catalog::BUILT_IN;
 use crate::convergence::ConvergenceSettings;
 use crate::equipartition;
 use crate::error::StudyError;
-use crate::mlmc::{MlmcError, MlmcSettings};
+use crate::mlmc::MlmcSettings;
+use crate::mlmc::settings::study_error;
+
 use crate::scene::{InitialSpec, Output, Scene, SchemeSpec, StudyDefaults, SystemSpec, WeakSpec};
 use crate::stability::stability_settings;
 use crate::weak::weak_table_settings;
@@ -242,9 +244,9 @@ impl Scene {
         if self.mlmc.is_some() {
             let settings = MlmcSettings::for_scene(self);
             for settings in [settings.clone(), settings.quick()] {
-                settings.validate().map_err(|e| match e {
-                    MlmcError::Study(e) => e,
-                    e => self.invalid(e.to_string()),
+                settings.validate().map_err(|e| match study_error(&e) {
+                    Some(e) => e.clone(),
+                    None => self.invalid(e.to_string()),
                 })?;
             }
         }

@@ -41,8 +41,9 @@ use crate::lockstep::PathRecord;
 use crate::observable::Observable;
 use crate::parallel::{Control, Skipped};
 use crate::scene::{Prepared, Scene, SceneRunner};
-use crate::stats::{Interval, mean_interval};
+use crate::stats::mean_interval;
 use bootstrap::Resample;
+use sdae_stats::Interval;
 
 /// The weak study's settings of a scene with a `[weak]` table: the convergence settings with
 /// the table's observables, its paths (default 10000), levels (default 2..7) and reference
@@ -180,7 +181,7 @@ pub fn circle_cos_turn(omega0: f64, gamma: f64, sigma_over_rho: f64, t_end: f64)
 #[serde(rename_all = "kebab-case")]
 pub enum Basis {
     /// The exact E[f(X_T)] the scene gives.
-    Exact(#[serde(with = "crate::real")] f64),
+    Exact(#[serde(with = "sdae_stats::json_f64")] f64),
     /// The reference on the same paths, Richardson-extrapolated from its two finest levels
     /// ([`ReferenceBias`]), per-path differences.
     Reference,
@@ -202,10 +203,10 @@ pub struct ReferenceBias {
     /// E[f_R - f_(R-1)] at T, with its 95% t interval.
     pub difference: Interval,
     /// The bound B at T.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub bound: f64,
     /// The largest bound over the grid points (that of the largest error over the grid).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub grid_bound: f64,
 }
 
@@ -217,7 +218,7 @@ pub struct WeakLevel {
     /// N (the finer level's for an extrapolated row).
     pub n_steps: usize,
     /// h = T / N.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub h: f64,
     /// E[f(X_N)] (for an extrapolated row 2 E[f(X_N)] - E[f(X_(N/2))]) with its 95% t interval.
     pub value: Interval,
@@ -230,7 +231,7 @@ pub struct WeakLevel {
     /// bootstrap interval widened by the reference's largest bias bound over the grid.
     pub sup_error: Option<Interval>,
     /// Mean wall-clock seconds of stepping per path (both levels' for an extrapolated row).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_path: f64,
 }
 

@@ -3,8 +3,9 @@
 //! (1.1 points at 95% and R = 400); each test states its band in these units.
 
 use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_stats::Interval;
 use sdae_study::stats::{
-    INDICATIVE_BELOW, Interval, PathErrors, effective_paths, fit_order, lp_error, mean_interval,
+    INDICATIVE_BELOW, PathErrors, effective_paths, fit_order, lp_error, mean_interval,
 };
 
 /// `n` standard normals of replication `r` of experiment `seed`.

@@ -3,11 +3,11 @@
 //! target, while at a coarse step the same check detects the heating of the explicit rotation
 //! (design notes, Section 6), so the check has power.
 
+use sdae_stats::Interval;
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
-use sdae_study::stats::Interval;
 
 fn kinetic_energy(level: u32) -> (Interval, f64) {
     let mut scene = Scene::built_in("thermal-pendulum").unwrap();

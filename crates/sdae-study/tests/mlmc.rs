@@ -5,14 +5,15 @@
 
 use std::ops::Range;
 
+use sdae_mlmc::algorithm::{AdaptiveSettings, Plan, adaptive, run_plan};
+use sdae_mlmc::fit::fit_rates;
+use sdae_mlmc::sums::{LevelStats, level_stats};
+use sdae_mlmc::{LevelSampler, LevelSums, MlmcError, RunControl, Sample};
 use sdae_model::{PathStreams, StandardNormals};
 use sdae_study::StudyError;
-use sdae_study::mlmc::algorithm::{AdaptiveSettings, Plan, adaptive, run_plan};
-use sdae_study::mlmc::fit::fit_rates;
+use sdae_study::mlmc::MlmcSpec;
 use sdae_study::mlmc::shard::{Identity, merge, run_shard};
 use sdae_study::mlmc::study::{MlmcSettings, SamplerTask, run_study, with_sampler};
-use sdae_study::mlmc::sums::{LevelStats, level_stats};
-use sdae_study::mlmc::{LevelSampler, LevelSums, MlmcError, MlmcSpec, RunControl, Sample};
 use sdae_study::scene::Scene;
 use sdae_study::weak::circle_cos_turn;
 
@@ -88,7 +89,7 @@ impl LevelSampler for Linear {
 }
 
 /// The convergence test's rates on levels 0..=8 with 20 000 samples each, fitted from l = 2.
-fn rates_of(model: &Linear) -> sdae_study::mlmc::Rates {
+fn rates_of(model: &Linear) -> sdae_mlmc::Rates {
     let control = RunControl::new(2).unwrap();
     let sums = run_plan(model, &control, &[20_000; 9]).unwrap();
     let stats = level_stats(&sums, model);
@@ -133,9 +134,7 @@ impl Linear {
         let slope = |levels: &[u32], y: &dyn Fn(u32) -> f64| {
             let x: Vec<f64> = levels.iter().map(|&l| f64::from(l)).collect();
             let y: Vec<f64> = levels.iter().map(|&l| y(l)).collect();
-            -sdae_study::mlmc::fit::fit_slope(&x, &y, None)
-                .unwrap()
-                .estimate
+            -sdae_mlmc::fit::fit_slope(&x, &y, None).unwrap().estimate
         };
         let mean = |l: u32| {
             let (ef, ec, ..) = self.moments(l);
@@ -298,7 +297,7 @@ struct Adaptive<'a, 'b> {
 }
 
 impl SamplerTask for Adaptive<'_, '_> {
-    type Output = sdae_study::mlmc::MlmcEstimate;
+    type Output = sdae_mlmc::MlmcEstimate;
     fn run<L: LevelSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError> {
         adaptive(sampler, self.control, &self.settings)
     }
@@ -306,7 +305,7 @@ impl SamplerTask for Adaptive<'_, '_> {
 
 fn circle_run(
     scene: &Scene, seed: u64, eps: f64, control: &RunControl<'_>,
-) -> sdae_study::mlmc::MlmcEstimate {
+) -> sdae_mlmc::MlmcEstimate {
     let settings = circle_settings(scene, seed, control.threads());
     let task = Adaptive {
         control,
@@ -440,8 +439,8 @@ fn bad_settings_are_named_errors() {
     let err = sdae_study::mlmc::run_mlmc(&scene, &settings, &control).unwrap_err();
     assert!(
         matches!(
-            &err,
-            MlmcError::Study(StudyError::UnknownObservable { nearest: Some(n), .. }) if n == "energy"
+            sdae_study::mlmc::study_error(&err),
+            Some(StudyError::UnknownObservable { nearest: Some(n), .. }) if n == "energy"
         ),
         "{err}"
     );

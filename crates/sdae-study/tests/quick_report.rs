@@ -2,11 +2,11 @@
 //! digits (what 200 paths resolve), orders to 2 decimals, timings left out: a change here is a
 //! change in the schemes' numbers, while a last-bit change of the step size leaves it alone.
 
+use sdae_stats::Interval;
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};
 use sdae_study::output::describe_fit;
 use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
-use sdae_study::stats::Interval;
 
 fn interval(i: Option<Interval>) -> String {
     i.map_or("-".into(), |i| {

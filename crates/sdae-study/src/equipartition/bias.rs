@@ -15,7 +15,8 @@ use serde::Serialize;
 use crate::bootstrap::{BOOTSTRAP_RESAMPLES, PathTable, paired_bootstrap, quantile};
 use crate::convergence::ConvergenceRun;
 use crate::lockstep::TrackOutcome;
-use crate::stats::{Interval, mean_interval};
+use crate::stats::mean_interval;
+use sdae_stats::Interval;
 
 /// The biases whose cheapest run time the report gives.
 pub const BIAS_TARGETS: [f64; 2] = [1e-2, 1e-3];

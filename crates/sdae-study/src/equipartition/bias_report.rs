@@ -11,7 +11,7 @@ use super::EquipartitionScene;
 use super::bias::{BiasStudy, ReferenceKind};
 use crate::error::StudyError;
 use crate::plots::{COLOURS, DrawResult, draw_legend, log_range};
-use crate::stats::Interval;
+use sdae_stats::Interval;
 
 /// An interval as "estimate [low, high]" in scientific notation, or "-".
 fn cell(x: Option<Interval>) -> String {

@@ -28,10 +28,7 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::algorithm::Plan;
-use super::sampler::{BLOCK, BlockKey, BlockStore};
 use super::study::MlmcSettings;
-use super::sums::LevelSums;
 use crate::checkpoint::saves::Saves;
 use crate::checkpoint::segments;
 #[cfg(test)]
@@ -42,6 +39,9 @@ use crate::checkpoint::{
 };
 use crate::error::StudyError;
 use crate::scene::Scene;
+use sdae_mlmc::algorithm::Plan;
+use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
+use sdae_mlmc::sums::LevelSums;
 
 /// The first line of an MLMC checkpoint file: its format and version.
 const MAGIC: &[u8] = b"sdae-study mlmc checkpoint 2\n";

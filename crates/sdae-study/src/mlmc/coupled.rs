@@ -11,11 +11,11 @@ use std::ops::Range;
 
 use sdae_model::{EnsembleIncrements, PathEnsemble};
 
-use super::sampler::{BLOCK, LevelSampler};
-use super::settings::MlmcError;
-use super::sums::Sample;
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
+use sdae_mlmc::MlmcError;
+use sdae_mlmc::sampler::{BLOCK, LevelSampler};
+use sdae_mlmc::sums::Sample;
 
 /// Fine steps drawn at once.
 const CHUNK: usize = 256;

@@ -4,13 +4,13 @@
 //! These take a scene, not a sampler, so that the samplers of the built-in systems are
 //! compiled here once and not again in every program that calls them.
 
-use super::algorithm::{Plan, run_plan};
-use super::sampler::{LevelSampler, RunControl};
-use super::settings::MlmcError;
 use super::shard::{Identity, MlmcShard, PlanReport, plan_report, run_shard};
 use super::study::{MlmcReport, MlmcSettings, SamplerTask, plan_from_test, with_sampler};
-use super::sums::LevelSums;
 use crate::scene::Scene;
+use sdae_mlmc::MlmcError;
+use sdae_mlmc::algorithm::{Plan, run_plan};
+use sdae_mlmc::sampler::{LevelSampler, RunControl};
+use sdae_mlmc::sums::LevelSums;
 
 /// The plan that reaches `eps` by the convergence test of `report`.
 pub fn plan_for_eps(

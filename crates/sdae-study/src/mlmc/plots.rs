@@ -124,7 +124,7 @@ fn draw(path: &Path, title: &str, panels: &[Panel]) -> Result<(), StudyError> {
 /// Writes `levels.svg` (log2 variance and log2 |mean| per level), `samples.svg` (N_l per
 /// level, one line per eps) and `cost.svg` (eps^2 x cost against eps) into `dir`.
 pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
-    let per_level = |pick: fn(&super::sums::LevelStats) -> f64, from: u32| {
+    let per_level = |pick: fn(&sdae_mlmc::LevelStats) -> f64, from: u32| {
         report
             .test
             .iter()

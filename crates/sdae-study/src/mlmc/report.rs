@@ -5,12 +5,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::fit::Rates;
 use super::study::{MlmcReport, StandardRun};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::readable;
-use crate::stats::Interval;
+use sdae_mlmc::fit::Rates;
+use sdae_stats::Interval;
 
 /// "estimate [low, high]", or "-".
 pub fn describe(i: Option<&Interval>) -> String {
@@ -165,7 +165,7 @@ pub fn rates_lines(r: &Rates) -> Vec<String> {
                 "Pre-asymptotic levels left out of {rate}: {} (their local slope departs from the \
                  finer levels' beyond the Monte Carlo error and by more than {}).",
                 listed(levels),
-                crate::convergence::PRE_ASYMPTOTIC_TOLERANCE
+                sdae_stats::PRE_ASYMPTOTIC_TOLERANCE
             ));
         }
     }
@@ -326,4 +326,42 @@ pub fn write_report(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
     write_atomically(&dir.join("report.csv"), &csv(report))?;
     write_atomically(&dir.join("report.md"), &markdown(report))?;
     super::plots::write_plots(report, dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use sdae_mlmc::fit::LeftOut;
+    use sdae_stats::Interval;
+
+    use super::*;
+
+    #[test]
+    fn the_rates_name_the_levels_left_out_and_why() {
+        let rate = |x: f64| Interval {
+            estimate: x,
+            ci_low: x - 0.1,
+            ci_high: x + 0.1,
+        };
+        let rates = Rates {
+            alpha: Some(rate(1.0)),
+            beta: Some(rate(2.0)),
+            gamma: Some(rate(1.0)),
+            gamma_seconds: None,
+            from_level: 1,
+            unresolved: vec![],
+            alpha_pre_asymptotic: vec![],
+            beta_pre_asymptotic: vec![1, 2],
+            left_out: vec![LeftOut {
+                level: 3,
+                reason: "3 fine paths failed".into(),
+            }],
+        };
+        let lines = rates_lines(&rates).join("\n");
+        assert!(lines.contains("left out of beta: 1, 2"), "{lines}");
+        assert!(!lines.contains("left out of alpha"), "{lines}");
+        assert!(
+            lines.contains("Level 3 left out of every rate: 3 fine paths failed."),
+            "{lines}"
+        );
+    }
 }

@@ -14,13 +14,13 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::algorithm::{MlmcEstimate, Plan, estimate_of_plan};
-use super::sampler::{BLOCK, LevelSampler, RunControl, shard_blocks};
-use super::settings::MlmcError;
 use super::study::MlmcSettings;
-use super::sums::{LevelStats, LevelSums, level_stats};
 use crate::error::StudyError;
 use crate::sealed::{read_sealed, write_sealed};
+use sdae_mlmc::MlmcError;
+use sdae_mlmc::algorithm::{MlmcEstimate, Plan, estimate_of_plan};
+use sdae_mlmc::sampler::{BLOCK, LevelSampler, RunControl, shard_blocks};
+use sdae_mlmc::sums::{LevelStats, LevelSums, level_stats};
 
 /// The format of a shard's file.
 const FORMAT: &str = "sdae-study mlmc shard 2";

@@ -7,19 +7,21 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::algorithm::{
-    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, check_counts, optimal_counts,
-    optimal_samples, run_plan, standard_monte_carlo,
-};
 use super::coupled::CoupledSampler;
-use super::fit::{Rates, fit_rates};
-use super::sampler::{LevelSampler, RunControl};
-use super::settings::{MlmcError, MlmcSpec, check_eps, samples_exceed_memory};
-use super::sums::{LevelStats, level_stats};
+use super::settings::MlmcSpec;
 use crate::convergence::{MAX_THREADS, MIN_STEP};
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::scene::{Prepared, Scene};
-use crate::stats::Interval;
+use sdae_mlmc::MlmcError;
+use sdae_mlmc::algorithm::{
+    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, check_counts, optimal_counts,
+    optimal_samples, run_plan, standard_monte_carlo,
+};
+use sdae_mlmc::error::{check_eps, samples_exceed_memory};
+use sdae_mlmc::fit::{Rates, fit_rates};
+use sdae_mlmc::sampler::{LevelSampler, RunControl};
+use sdae_mlmc::sums::{LevelStats, level_stats};
+use sdae_stats::Interval;
 
 /// Kurtosis above which `mlmc_test` warns that a few rare paths dominate the level.
 pub const KURTOSIS_WARNING: f64 = 100.0;
@@ -90,7 +92,7 @@ impl MlmcSettings {
 
     /// Checks every setting before anything runs, naming a bad one by its scene-file key
     /// (`mlmc.coarsest`, `T`, `threads`): the accuracies (finite, at least
-    /// [`MIN_EPS`](super::settings::MIN_EPS)), the levels (their step exponents summed in
+    /// [`MIN_EPS`](sdae_mlmc::error::MIN_EPS)), the levels (their step exponents summed in
     /// checked arithmetic, at most [`MAX_STEP_EXPONENT`]), the smallest step T / 2^(k0 + L_max)
     /// at least [`MIN_STEP`], the threads (at most [`MAX_THREADS`]), and the convergence
     /// test's samples within the memory available ([`samples_exceed_memory`]).
@@ -575,7 +577,7 @@ fn standard_run<L: LevelSampler>(
         level,
         samples: sums.attempted(),
         failed: sums.failed,
-        estimate: super::algorithm::estimate_of(&[sums]),
+        estimate: sdae_mlmc::algorithm::estimate_of(&[sums]),
         target_work,
         cap_work,
         predicted_seconds: target_work * per_step,

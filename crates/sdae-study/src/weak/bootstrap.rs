@@ -9,7 +9,7 @@ use sdae_manifold::vector::dot;
 use sdae_model::path_rng;
 
 use crate::bootstrap::{BOOTSTRAP_RESAMPLES, index, quantile};
-use crate::stats::Interval;
+use sdae_stats::Interval;
 
 /// Seed of the resampling stream.
 const SEED: u64 = 0x5eed_3eac;

@@ -10,7 +10,7 @@
 //!   there is no order), or
 //! - its local slope log(|e_a| / |e_b|) / log(h_a / h_b) to the next level differs from the
 //!   least-squares slope of the finer levels by more than the strong study's tolerance
-//!   ([`crate::convergence::PRE_ASYMPTOTIC_TOLERANCE`], 0.05) and
+//!   ([`sdae_stats::PRE_ASYMPTOTIC_TOLERANCE`], 0.05) and
 //!   beyond the Monte Carlo error (the 95% bootstrap interval of the difference excludes 0),
 //!   as long as three levels remain,
 //!
@@ -43,8 +43,8 @@
 
 use serde::Serialize;
 
-use crate::convergence::PRE_ASYMPTOTIC_TOLERANCE;
-use crate::stats::Interval;
+use sdae_stats::Interval;
+use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
 
 /// The slope between two neighbouring fitted levels, with its 95% bootstrap interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -14,7 +14,7 @@ use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::{decades, left_out, readable};
 use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, drawable, log_range};
-use crate::stats::Interval;
+use sdae_stats::Interval;
 
 /// "order [low, high]", then the levels left out of the fit and why (unresolved,
 /// pre-asymptotic), and the bend of a slope still moving at the finest levels; or "-".

@@ -4,16 +4,17 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use sdae_mlmc::{MlmcError, Plan, RunControl};
 use sdae_study::StudyError;
 use sdae_study::checkpoint::RunLock;
 use sdae_study::files::{check_writable, read_json, write_atomically, write_json};
-use sdae_study::mlmc::algorithm::Plan;
 use sdae_study::mlmc::checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
 use sdae_study::mlmc::study::{MlmcSettings, run_mlmc};
-use sdae_study::mlmc::{MlmcError, RunControl};
+use sdae_study::mlmc::{caused_by_input, study_error};
+
 use sdae_study::scene::Scene;
 
 use crate::args::{MlmcArgs, MlmcMergeArgs};
@@ -22,15 +23,17 @@ use crate::{Failure, stopping};
 
 impl From<MlmcError> for Failure {
     fn from(e: MlmcError) -> Failure {
+        if let Some(study) = study_error(&e) {
+            return Failure::from_study(study.clone());
+        }
         match e {
             MlmcError::Interrupted => Failure::Unsaved("interrupted: nothing was saved".into()),
-            MlmcError::Study(e) => Failure::from_study(e),
             // Named by the flag the user typed, else by its scene-file key, as the other
             // studies' settings are.
             MlmcError::Setting { key, value, rule } => {
                 Failure::from_study(StudyError::Setting { key, value, rule })
             }
-            e if e.is_input() => Failure::Usage(e.to_string()),
+            e if caused_by_input(&e) => Failure::Usage(e.to_string()),
             e => Failure::Failed(e.to_string()),
         }
     }

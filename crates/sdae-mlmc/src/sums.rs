@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::sampler::LevelSampler;
+use crate::sampler::LevelSampler;
 
 /// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
 /// for a single path), or which path of the pair failed.
@@ -41,25 +41,25 @@ pub struct LevelSums {
     /// Samples lost to a failure on either path (each counted once).
     pub failed: u64,
     /// sum Y.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub y1: f64,
     /// sum Y^2.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub y2: f64,
     /// sum Y^3.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub y3: f64,
     /// sum Y^4.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub y4: f64,
     /// sum P_l.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub p1: f64,
     /// sum P_l^2.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub p2: f64,
     /// Wall-clock seconds spent on these samples (all threads together).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds: f64,
 }
 
@@ -118,7 +118,7 @@ impl LevelSums {
     /// either path than failed samples, sums of squares and the run time not negative. The
     /// error says what is wrong ("counts ...", to follow the block's name).
     pub fn check_block(&self) -> Result<(), String> {
-        use super::sampler::BLOCK;
+        use crate::sampler::BLOCK;
         let counts = self.samples.checked_add(self.failed) == Some(BLOCK)
             && self.failed_fine <= self.failed
             && self.failed_coarse <= self.failed;
@@ -214,30 +214,30 @@ pub struct LevelStats {
     /// Samples whose coarse path failed.
     pub failed_coarse: u64,
     /// mean of P_l - P_{l-1}.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub mean_y: f64,
     /// Variance of P_l - P_{l-1}.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub var_y: f64,
     /// Standard error of the mean of P_l - P_{l-1}, sqrt(V / N).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub se_y: f64,
     /// mean of P_l.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub mean_p: f64,
     /// Variance of P_l.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub var_p: f64,
     /// Kurtosis of P_l - P_{l-1} (above 100: the variance estimate is unreliable).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub kurtosis: f64,
     /// Consistency check |m_Y(l) - m_P(l) + m_P(l-1)| / (3 (s_Y(l) + s_P(l) + s_P(l-1)) /
     /// sqrt(N)) (above 1: the coarse path of a pair does not have level l-1's law); 0 on
     /// level 0.
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub consistency: f64,
     /// Measured seconds per sample (both paths of the pair).
-    #[serde(with = "crate::real")]
+    #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_sample: f64,
 }
 

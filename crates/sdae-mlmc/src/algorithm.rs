@@ -11,12 +11,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::fit::{LogPoint, asymptotic_decay, fit_slope, resolved_mean};
-use super::sampler::{BLOCK, LevelSampler, RunControl};
-use super::settings::{MlmcError, check_eps, samples_exceed_memory};
-use super::sums::LevelSums;
-use crate::convergence::PRE_ASYMPTOTIC_TOLERANCE;
-use crate::stats::{Interval, t975};
+use crate::error::{MlmcError, check_eps, samples_exceed_memory};
+use crate::fit::{LogPoint, asymptotic_decay, fit_slope, resolved_mean};
+use crate::sampler::{BLOCK, LevelSampler, RunControl};
+use crate::sums::LevelSums;
+use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
+use sdae_stats::{Interval, t975};
 
 /// Settings of the adaptive algorithm.
 #[derive(Debug, Clone, Copy, PartialEq)]

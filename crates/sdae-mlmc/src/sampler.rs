@@ -13,9 +13,8 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::settings::MlmcError;
-use super::sums::{LevelSums, Sample};
-use crate::error::StudyError;
+use crate::error::MlmcError;
+use crate::sums::{LevelSums, Sample};
 
 /// Samples per block (a multiple of the widest SIMD width).
 pub const BLOCK: u64 = 32;
@@ -82,7 +81,7 @@ impl<'a> RunControl<'a> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
             .build()
-            .map_err(|e| StudyError::Threads {
+            .map_err(|e| MlmcError::Threads {
                 threads,
                 message: e.to_string(),
             })?;

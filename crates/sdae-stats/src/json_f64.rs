@@ -2,7 +2,7 @@
 //!
 //! JSON has no NaN or infinity; serde_json writes them as `null` and cannot read `null` back
 //! into an `f64`, so a shard holding an infinite residual could not be merged. Fields that may
-//! hold such values are written through this module (`#[serde(with = "crate::real")]`):
+//! hold such values are written through this module (`#[serde(with = "sdae_stats::json_f64")]`):
 //! finite numbers as JSON numbers, NaN as the string `"NaN"`, infinities as `"inf"` and
 //! `"-inf"`. Reading accepts numbers and these strings (and, from TOML, its own `nan` and
 //! `inf`). Other tools read the strings as they are; Python's `float("inf")` takes them too.

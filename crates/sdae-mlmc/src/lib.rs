@@ -1,0 +1,38 @@
+//! Multilevel Monte Carlo (Giles 2008; Acta Numerica 2015) for E[f(X_T)] of any model that
+//! samples pairs of paths on two step sizes driven by one Brownian path.
+//!
+//! E\[P_L\] = E\[P_0\] + sum_{l=1}^{L} E\[P_l - P_{l-1}\], with P_l = f(X_T) on the grid of
+//! h_l = h_0 2^-l. Each correction is sampled on pairs driven by one Brownian path: the fine
+//! path on h_l and the coarse path on h_{l-1}, whose increment over a step is the sum of the
+//! two fine increments it spans. The model is a [`LevelSampler`]; this crate knows nothing of
+//! its equations.
+//!
+//! - [`sums`]: what a level's samples add up to (additive: shards and blocks merge exactly).
+//! - [`sampler`]: the [`LevelSampler`] interface and the deterministic parallel driver (sample
+//!   i of level l draws from its own stream (seed, l, i); blocks are folded in index order, so
+//!   the sums do not depend on the thread count or the sharding), with a [`BlockStore`] that
+//!   keeps finished blocks (a checkpoint: a resumed run folds exactly the uninterrupted sums).
+//! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
+//!   one level.
+//! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
+//! - [`error`]: why a run refused to start or stopped, and the bounds it is checked against.
+//!
+//! The README's example (E[X_1] of geometric Brownian motion in 28 lines) runs as a test.
+
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
+pub mod algorithm;
+pub mod error;
+pub mod fit;
+pub mod sampler;
+pub mod sums;
+
+pub use algorithm::{
+    AdaptiveSettings, MlmcEstimate, Plan, adaptive, run_plan, standard_monte_carlo,
+};
+pub use error::MlmcError;
+pub use fit::{Rates, fit_rates};
+pub use sampler::{BLOCK, BlockKey, BlockStore, LevelSampler, RunControl};
+pub use sums::{LevelStats, LevelSums, Sample};

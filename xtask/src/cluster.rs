@@ -258,7 +258,7 @@ fn build_study(target: &Path) -> Result<PathBuf, TaskError> {
     eprintln!("building sdae-study (release)");
     let built = Command::new(cargo)
         .current_dir(workspace_root()?)
-        .args(["build", "--release", "--quiet", "-p", "sdae-study"])
+        .args(["build", "--release", "--quiet", "-p", "sdae-cli"])
         .env("CARGO_TARGET_DIR", target)
         .status()
         .map_err(|e| failed(format!("cannot start cargo: {e}")))?;

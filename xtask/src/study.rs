@@ -12,7 +12,7 @@ use crate::{TaskError, target_dir, workspace_root};
 /// The study's default output folder (its `--out` overrides it).
 const OUT: &str = "SDAE_STUDY_OUT";
 
-/// Runs `cargo run --release -p sdae-study -- <args>` from the workspace root.
+/// Runs `cargo run --release -p sdae-cli -- <args>` from the workspace root.
 pub fn run(args: &[String]) -> Result<(), TaskError> {
     let root = workspace_root()?;
     let target = target_dir()?;
@@ -20,7 +20,7 @@ pub fn run(args: &[String]) -> Result<(), TaskError> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(&root)
-        .args(["run", "--release", "--quiet", "-p", "sdae-study", "--"])
+        .args(["run", "--release", "--quiet", "-p", "sdae-cli", "--"])
         .args(args)
         .env("CARGO_TARGET_DIR", &target)
         .env(OUT, out)

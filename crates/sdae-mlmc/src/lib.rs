@@ -17,7 +17,7 @@
 //! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
 //! - [`error`]: why a run refused to start or stopped, and the bounds it is checked against.
 //!
-//! The README's example (E[X_1] of geometric Brownian motion in 28 lines) runs as a test.
+//! The README's example (E\[X_1\] of geometric Brownian motion in 28 lines) runs as a test.
 
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

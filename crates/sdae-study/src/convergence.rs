@@ -1081,25 +1081,6 @@ fn check_record(
     Ok(())
 }
 
-/// The format of a shard's file (see [`ConvergenceRun::write_shard`]).
-const SHARD_FORMAT: &str = "sdae-study shard 2";
-
-impl ConvergenceRun {
-    /// Writes this run as a shard's file `path`: a sealed JSON file ([`crate::sealed`]), the
-    /// run under `content` with a checksum of the file on its last line (atomically).
-    pub fn write_shard(&self, path: &std::path::Path) -> Result<(), StudyError> {
-        crate::sealed::write_sealed(path, SHARD_FORMAT, self)
-    }
-
-    /// Reads a shard's file written by [`ConvergenceRun::write_shard`]: a file that fails its
-    /// checksum (or has none: written by an older version) is a [`StudyError::Checksum`], one
-    /// that is no shard a [`StudyError::Read`]. Its records are checked when merged
-    /// ([`merge_runs`]).
-    pub fn read_shard(path: &std::path::Path) -> Result<ConvergenceRun, StudyError> {
-        crate::sealed::read_sealed(path, SHARD_FORMAT)
-    }
-}
-
 /// Merges shards into exactly the report an unsharded run gives (timings aside): same scene
 /// and settings (the thread count may differ), every path index present exactly once.
 pub fn merge_shards(shards: Vec<ConvergenceRun>) -> Result<ConvergenceReport, StudyError> {

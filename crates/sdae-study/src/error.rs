@@ -99,8 +99,7 @@ pub enum StudyError {
         /// What differs.
         reason: String,
     },
-    /// Another run holds the lock of the results (see
-    /// [`RunLock`](crate::checkpoint::RunLock)).
+    /// Another run holds the lock of the results (the `sdae-study` command's run lock).
     #[error(
         "{} is held by process {pid} on host {host}: another run writes these results (wait \
          for it or use another --out; if that process is gone, remove the lock file)",

@@ -22,14 +22,12 @@
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
 //!   paired bootstrap over paths), SVG plots and the report files.
-//! - [`sealed`]: JSON files (shards) carrying a checksum of their content.
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
 
 pub mod bootstrap;
 mod catalog;
-pub mod checkpoint;
 pub mod convergence;
 pub mod equipartition;
 mod error;
@@ -44,7 +42,6 @@ pub mod parallel;
 pub mod plots;
 pub mod scene;
 pub mod scene_load;
-pub mod sealed;
 pub mod stability;
 pub mod stats;
 pub mod trace;

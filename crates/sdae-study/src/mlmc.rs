@@ -8,12 +8,10 @@
 //!   SIMD-lane ensembles.
 //! - [`settings`]: the `[mlmc]` table of a scene and which MLMC errors the input caused.
 //! - [`study`], [`report`], [`plots`]: the whole study of a scene and its files.
-//! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums.
+//! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums (the
+//!   command saves and reads the shards' files).
 //! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
-//! - [`checkpoint`]: the blocks a run finished, saved so that a stopped run resumes to exactly
-//!   the numbers of an uninterrupted one.
 
-pub mod checkpoint;
 pub mod coupled;
 pub mod plan_runs;
 pub mod plots;

@@ -5,25 +5,16 @@
 //! each is there exactly once and is a whole block ([`LevelSums::check_block`], the check a
 //! checkpoint's blocks pass too), and folds them in block order: the order an unsharded run of
 //! the plan folds them in, so the merged sums are the same bits.
-//!
-//! A shard's file is a sealed JSON file ([`crate::sealed`]): the shard under `content`, with
-//! a checksum of the file on its last line, verified before it is merged.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use super::study::MlmcSettings;
-use crate::error::StudyError;
-use crate::sealed::{read_sealed, write_sealed};
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::{MlmcEstimate, Plan, estimate_of_plan};
 use sdae_mlmc::sampler::{BLOCK, LevelSampler, RunControl, shard_blocks};
 use sdae_mlmc::sums::{LevelStats, LevelSums, level_stats};
-
-/// The format of a shard's file.
-const FORMAT: &str = "sdae-study mlmc shard 2";
 
 /// What makes samples the same samples: the scene and everything that shapes a sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -80,20 +71,6 @@ pub struct MlmcShard {
     pub shard: (u64, u64),
     /// Per level, the blocks this shard ran.
     pub levels: Vec<Vec<BlockSums>>,
-}
-
-impl MlmcShard {
-    /// Writes the shard's file `path` (atomically, with its checksum).
-    pub fn write(&self, path: &Path) -> Result<(), StudyError> {
-        write_sealed(path, FORMAT, self)
-    }
-
-    /// Reads the shard's file `path`: a file that fails its checksum (or has none: written by
-    /// an older version) is a [`StudyError::Checksum`], one that is no shard a
-    /// [`StudyError::Read`].
-    pub fn read(path: &Path) -> Result<MlmcShard, StudyError> {
-        read_sealed(path, FORMAT)
-    }
 }
 
 /// Runs shard `shard` = (i, n) of `plan`, whose samples are `identity`'s.

@@ -28,12 +28,14 @@ use serde::{Deserialize, Serialize};
 
 use self::saves::Saves;
 use self::segments::{Appender, batches};
-use crate::convergence::{ConvergenceRun, ConvergenceSettings, check_records, run_convergence};
-use crate::error::StudyError;
-use crate::files::process_alive;
-use crate::lockstep::{PathRecord, TrackOutcome};
-use crate::parallel::Control;
-use crate::scene::Scene;
+use sdae_study::StudyError;
+use sdae_study::convergence::{
+    ConvergenceRun, ConvergenceSettings, check_records, run_convergence,
+};
+use sdae_study::files::process_alive;
+use sdae_study::lockstep::{PathRecord, TrackOutcome};
+use sdae_study::parallel::Control;
+use sdae_study::scene::Scene;
 
 /// The first line of a checkpoint file: its format and version.
 const MAGIC: &[u8] = b"sdae-study checkpoint 3\n";

@@ -4,11 +4,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use sdae_cli::checkpoint::RunLock;
+use sdae_cli::mlmc_checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_mlmc::{MlmcError, Plan, RunControl};
 use sdae_study::StudyError;
-use sdae_study::checkpoint::RunLock;
 use sdae_study::files::{check_writable, read_json, write_atomically, write_json};
-use sdae_study::mlmc::checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
@@ -374,7 +374,7 @@ fn write_shard(shard: &MlmcShard, dir: &Path) -> Result<(), StudyError> {
         "mlmc-shard-{}-of-{}.json",
         shard.shard.0, shard.shard.1
     ));
-    shard.write(&file)?;
+    sdae_cli::shards::write_mlmc(shard, &file)?;
     say!(
         "wrote {}; merge all shards with `cargo xtask study mlmc-merge DIR...`",
         file.display()
@@ -435,7 +435,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     let shards: Vec<MlmcShard> = shard_files(&args.dirs)?
         .iter()
-        .map(|f| MlmcShard::read(f).map_err(refused))
+        .map(|f| sdae_cli::shards::read_mlmc(f).map_err(refused))
         .collect::<Result<_, _>>()?;
     let (identity, plan, sums) = merge(&shards)?;
     let scene = match &args.scene_file {

@@ -18,8 +18,8 @@ use std::fs::{File, OpenOptions};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use crate::error::StudyError;
-use crate::files::write_with;
+use sdae_study::StudyError;
+use sdae_study::files::write_with;
 
 /// Bytes of a segment besides its payload: the length, its checksum, the payload's checksum.
 pub(crate) const FRAME: usize = 12;

@@ -28,7 +28,6 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::study::MlmcSettings;
 use crate::checkpoint::saves::Saves;
 use crate::checkpoint::segments;
 #[cfg(test)]
@@ -37,11 +36,12 @@ use crate::checkpoint::{
     DEFAULT_INTERVAL, Reader, RunLock, not_whole, read_bytes, read_payloads, remove_checkpoint,
     torn_note, write_f64, write_varint,
 };
-use crate::error::StudyError;
-use crate::scene::Scene;
 use sdae_mlmc::algorithm::Plan;
 use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
 use sdae_mlmc::sums::LevelSums;
+use sdae_study::StudyError;
+use sdae_study::mlmc::MlmcSettings;
+use sdae_study::scene::Scene;
 
 /// The first line of an MLMC checkpoint file: its format and version.
 const MAGIC: &[u8] = b"sdae-study mlmc checkpoint 2\n";
@@ -169,7 +169,7 @@ impl MlmcCheckpoint {
     }
 
     /// The store of a run of `run` resuming from `saved` (from [`MlmcCheckpoint::load`]): set
-    /// it as the run's [`RunControl::store`](super::RunControl).
+    /// it as the run's [`RunControl::store`](sdae_mlmc::RunControl).
     pub fn journal<'a>(&'a self, run: &'a MlmcRun, saved: Option<SavedBlocks>) -> Journal<'a> {
         let saved = saved.unwrap_or_default().blocks;
         let header = serde_json::to_vec(&Header { run: run.clone() }).map_err(|e| e.to_string());

@@ -194,7 +194,7 @@ fn counts_levels_and_threads_are_bounded_before_anything_runs() {
         ),
     ] {
         let file = dir.join("scene.toml");
-        let scene = include_str!("../scenes/pendulum.toml")
+        let scene = include_str!("../../sdae-study/scenes/pendulum.toml")
             .replace("name = \"pendulum\"", "name = \"test\"");
         std::fs::write(&file, format!("{scene}\n[mlmc]\n{table}\n")).unwrap();
         let mut all = words.to_vec();

@@ -18,9 +18,9 @@ use process::{binary, leftovers, numbers, signal, stderr, wait_for};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use sdae_cli::checkpoint::{Checkpoint, Resumed};
 use sdae_study::StudyError;
-use sdae_study::checkpoint::{Checkpoint, Resumed};
-use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings};
+use sdae_study::convergence::ConvergenceSettings;
 use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
 
@@ -372,10 +372,10 @@ fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
     );
     // A record with a track less (the file sealed again, with a checksum that fits): refused,
     // not a panic.
-    let good = ConvergenceRun::read_shard(&shard0).unwrap();
+    let good = sdae_cli::shards::read_convergence(&shard0).unwrap();
     let mut short = good.clone();
     short.records[0].tracks.pop();
-    short.write_shard(&shard0).unwrap();
+    sdae_cli::shards::write_convergence(&short, &shard0).unwrap();
     refused(
         &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
         &["shard 0/2", "scheme-level results"],
@@ -384,12 +384,12 @@ fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
     let mut lost = good.clone();
     lost.records[1].tracks[2].distances = None;
     lost.records[1].tracks[2].failure = None;
-    lost.write_shard(&shard0).unwrap();
+    sdae_cli::shards::write_convergence(&lost, &shard0).unwrap();
     refused(
         &mut merge(&[&dir.join("s0"), &dir.join("s1")]),
         &["shard 0/2", "neither distances nor a failure"],
     );
-    good.write_shard(&shard0).unwrap();
+    sdae_cli::shards::write_convergence(&good, &shard0).unwrap();
     // Every sampled bit flipped, in the format line, the records, the checksum line: refused,
     // naming the file and its checksum.
     let bytes = std::fs::read(&shard0).unwrap();
@@ -418,7 +418,7 @@ fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
 fn two_scenes_of_one_name_are_refused() {
     let dir = folder("names");
     let file = dir.join("pendulum.toml");
-    std::fs::write(&file, include_str!("../scenes/pendulum.toml")).unwrap();
+    std::fs::write(&file, include_str!("../../sdae-study/scenes/pendulum.toml")).unwrap();
     refused(
         quick(&dir, &["--scene", "pendulum", "--scene-file"]).arg(&file),
         &["two scenes are named pendulum"],

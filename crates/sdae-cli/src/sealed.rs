@@ -21,8 +21,8 @@ use std::path::Path;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use crate::error::StudyError;
-use crate::files::write_with;
+use sdae_study::StudyError;
+use sdae_study::files::write_with;
 
 /// What every sealed file's last line begins with.
 const CHECK_LINE: &[u8] = b"\"crc32\": \"";

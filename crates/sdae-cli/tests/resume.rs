@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use sdae_cli::checkpoint::{Checkpoint, Resumed};
 use sdae_study::StudyError;
-use sdae_study::checkpoint::{Checkpoint, Resumed};
 use sdae_study::convergence::build_report;
 use sdae_study::parallel::Control;
 

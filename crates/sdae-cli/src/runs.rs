@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use sdae_cli::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::StudyError;
-use sdae_study::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_runs,
 };
@@ -456,7 +456,10 @@ fn run_scenes(
         let dir = e.out.out.join(&ready.job.scene.name);
         if shard.is_some() {
             let file = dir.join(&shard_file);
-            deliver(std::slice::from_ref(&ready), run.write_shard(&file))?;
+            deliver(
+                std::slice::from_ref(&ready),
+                sdae_cli::shards::write_convergence(&run, &file),
+            )?;
             say!(
                 "wrote {} ({} paths); merge all shards with `cargo xtask study merge DIR...`",
                 file.display(),
@@ -531,7 +534,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut by_study: BTreeMap<(String, bool), Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
-        let shard = ConvergenceRun::read_shard(&file).map_err(refused)?;
+        let shard = sdae_cli::shards::read_convergence(&file).map_err(refused)?;
         // An absurd setting in a shard file (say its paths) is refused before merging.
         shard
             .settings

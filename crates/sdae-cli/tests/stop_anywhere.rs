@@ -13,8 +13,8 @@ use std::process::{Child, Command, Output};
 use std::time::{Duration, Instant};
 
 use process::{binary, leftovers, numbers, signal, stderr};
-use sdae_study::checkpoint::Checkpoint;
-use sdae_study::mlmc::checkpoint::MlmcCheckpoint;
+use sdae_cli::checkpoint::Checkpoint;
+use sdae_cli::mlmc_checkpoint::MlmcCheckpoint;
 
 /// A study run by the tests: its command line (without `--out`) and its report file.
 struct Study {

@@ -9,7 +9,8 @@ use cli::{study, text, usage_error};
 
 /// The built-in pendulum scene under another name (so that its results get their own folder).
 fn scene() -> String {
-    include_str!("../scenes/pendulum.toml").replace("name = \"pendulum\"", "name = \"test\"")
+    include_str!("../../sdae-study/scenes/pendulum.toml")
+        .replace("name = \"pendulum\"", "name = \"test\"")
 }
 
 /// Runs the study, requires exit code 1 (it ran, nothing to compare) and returns stderr.
@@ -170,7 +171,7 @@ fn scene_file(dir: &Path, text: &str) -> PathBuf {
 /// The thermal pendulum as a small, fast equipartition scene: 2 paths, N = 4 and 8 over T = 1.
 fn small_thermal() -> String {
     edited(
-        include_str!("../scenes/thermal-pendulum.toml"),
+        include_str!("../../sdae-study/scenes/thermal-pendulum.toml"),
         "T = 64.0\npaths = 400\nlevels = [6, 13]\nburn_in = 16.0\nc_eta = [0.25, 1.0, 4.0, 16.0]",
         "T = 1.0\npaths = 2\nlevels = [2, 3]\nburn_in = 0.5\nc_eta = [1.0]",
     )
@@ -193,7 +194,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../scenes/pendulum.toml"),
+            include_str!("../../sdae-study/scenes/pendulum.toml"),
             "paths = 10000",
             &format!("paths = {huge}"),
         ),
@@ -206,13 +207,13 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     assert!(!text(&study(&args).stderr).contains("--paths"));
     for (built_in, from, to, key) in [
         (
-            include_str!("../scenes/chain-molecule.toml"),
+            include_str!("../../sdae-study/scenes/chain-molecule.toml"),
             "atoms = 8",
             "atoms = 1000000000000",
             "system.chain-molecule.atoms = 1000000000000",
         ),
         (
-            include_str!("../scenes/fiber.toml"),
+            include_str!("../../sdae-study/scenes/fiber.toml"),
             "beads = 20",
             "beads = 1000000000000",
             "system.fiber.beads = 1000000000000",
@@ -228,7 +229,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../scenes/fiber.toml"),
+            include_str!("../../sdae-study/scenes/fiber.toml"),
             "beads = 20",
             "beads = 1000000",
         ),
@@ -273,10 +274,10 @@ fn an_absurd_paths_count_in_a_shard_file_is_refused_by_merge() {
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     let shard = dir.join("test").join("shard-0-of-2.json");
     // Sealed again, with a checksum that fits: the setting itself is refused.
-    let mut run = sdae_study::convergence::ConvergenceRun::read_shard(&shard).unwrap();
+    let mut run = sdae_cli::shards::read_convergence(&shard).unwrap();
     assert_eq!(run.settings.paths, 4);
     run.settings.paths = 1_000_000_000_000;
-    run.write_shard(&shard).unwrap();
+    sdae_cli::shards::write_convergence(&run, &shard).unwrap();
     usage_error(
         &["merge", path(&dir), "--out", path(&dir.join("merged"))],
         &[
@@ -333,9 +334,9 @@ type WrongLength = (&'static str, &'static str, &'static str, String, String);
 
 /// Fixed-length arrays of the built-in scenes, one entry too many or too few.
 fn wrong_lengths() -> [WrongLength; 9] {
-    let pendulum = include_str!("../scenes/pendulum.toml");
-    let triatomic = include_str!("../scenes/triatomic.toml");
-    let fiber = include_str!("../scenes/fiber.toml");
+    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
+    let triatomic = include_str!("../../sdae-study/scenes/triatomic.toml");
+    let fiber = include_str!("../../sdae-study/scenes/fiber.toml");
     let length = |given: usize, expected: usize| {
         format!("invalid length {given}, expected an array of length {expected}")
     };
@@ -441,7 +442,7 @@ fn equipartition_exits_1_when_a_setting_lost_every_path_and_counts_the_failures(
 #[test]
 fn trace_levels_are_bounded() {
     let dir = folder("trace");
-    let pendulum = include_str!("../scenes/pendulum.toml");
+    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
     let file = scene_file(
         &dir,
         &edited(
@@ -486,7 +487,7 @@ fn step_sizes_that_underflow_are_refused_before_running() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../scenes/pendulum.toml"),
+            include_str!("../../sdae-study/scenes/pendulum.toml"),
             "T = 1.0",
             "T = 1e-310",
         ),
@@ -500,7 +501,7 @@ fn step_sizes_that_underflow_are_refused_before_running() {
 #[test]
 fn scene_file_values_are_named_by_their_key_and_file_not_by_a_flag() {
     let dir = folder("provenance");
-    let pendulum = include_str!("../scenes/pendulum.toml");
+    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
     let file = scene_file(&dir, &edited(pendulum, "paths = 10000", "paths = 0"));
     let args = ["--scene-file", path(&file), "--out", path(&dir)];
     usage_error(&args, &["study.paths = 0: must be >= 2", path(&file)]);
@@ -620,7 +621,7 @@ fn checkpoint_intervals_beyond_a_year_are_refused_by_every_subcommand() {
 #[test]
 fn weak_table_settings_are_named_by_their_key_and_file() {
     let dir = folder("weak-keys");
-    let pendulum = include_str!("../scenes/pendulum.toml");
+    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
     // The [study] table's paths are 10000: the [weak] table's 0 is the one named.
     for (from, to, words) in [
         ("paths = 40000", "paths = 0", "weak.paths = 0: must be >= 2"),
@@ -667,7 +668,7 @@ fn a_bad_system_in_a_later_scene_stops_the_command_before_the_first_scene_runs()
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../scenes/pendulum.toml"),
+            include_str!("../../sdae-study/scenes/pendulum.toml"),
             "gravity = 1.0",
             "gravity = nan",
         ),
@@ -733,7 +734,7 @@ fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
     ]);
     assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     let file = shards.join("pendulum").join("shard-0-of-1.json");
-    let shard = sdae_study::convergence::ConvergenceRun::read_shard(&file).unwrap();
+    let shard = sdae_cli::shards::read_convergence(&file).unwrap();
     for value in [1e308, 1e-310] {
         // Edited through the library, which seals the file again with its checksum.
         let mut edited = shard.clone();
@@ -741,9 +742,7 @@ fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
         distances[0] = value;
         let input = dir.join(format!("in-{value:e}"));
         std::fs::create_dir_all(&input).unwrap();
-        edited
-            .write_shard(&input.join("shard-0-of-1.json"))
-            .unwrap();
+        sdae_cli::shards::write_convergence(&edited, &input.join("shard-0-of-1.json")).unwrap();
         let out = dir.join(format!("out-{value:e}"));
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sdae-study"))
             .args(["merge", path(&input), "--out", path(&out)])
@@ -821,7 +820,7 @@ fn weak_errors_that_underflow_give_no_order() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../scenes/pendulum.toml"),
+            include_str!("../../sdae-study/scenes/pendulum.toml"),
             "T = 1.0",
             "T = 1e-140",
         ),

@@ -9,7 +9,7 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use super::segments::{Appender, batches};
-use crate::error::StudyError;
+use sdae_study::StudyError;
 
 /// How a record is put into a segment's payload.
 pub(crate) type WriteRecord<R> = fn(&mut Vec<u8>, &R) -> std::io::Result<()>;

@@ -227,8 +227,6 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
 
 #[test]
 fn mlmc_shards_with_a_flipped_bit_or_a_block_not_whole_are_refused_by_merge() {
-    use sdae_study::mlmc::shard::MlmcShard;
-
     let dir = scratch("mlmc-shard-faults");
     std::fs::create_dir_all(&dir).unwrap();
     let plan = dir.join("plan.json");
@@ -266,9 +264,9 @@ fn mlmc_shards_with_a_flipped_bit_or_a_block_not_whole_are_refused_by_merge() {
     // A block of 31 samples, sealed again with a checksum that fits: refused as a checkpoint's
     // would be.
     std::fs::write(&file, &bytes).unwrap();
-    let mut short = MlmcShard::read(&file).unwrap();
+    let mut short = sdae_cli::shards::read_mlmc(&file).unwrap();
     short.levels[1][0].sums.samples -= 1;
-    short.write(&file).unwrap();
+    sdae_cli::shards::write_mlmc(&short, &file).unwrap();
     refused(&mut merge(), &["level 1", "not a block of 32"]);
     // A shard of the format before checksums (bare JSON) is refused by name.
     std::fs::write(&file, serde_json::to_string(&short).unwrap()).unwrap();

@@ -28,11 +28,11 @@ use serde::{Deserialize, Serialize};
 
 use self::saves::Saves;
 use self::segments::{Appender, batches};
+use crate::folders::process_alive;
 use sdae_study::StudyError;
 use sdae_study::convergence::{
     ConvergenceRun, ConvergenceSettings, check_records, run_convergence,
 };
-use sdae_study::files::process_alive;
 use sdae_study::lockstep::{PathRecord, TrackOutcome};
 use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;

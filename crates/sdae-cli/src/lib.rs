@@ -6,11 +6,16 @@
 //!   and the lock that keeps two runs out of one folder;
 //! - [`mlmc_checkpoint`]: the same for the blocks of an MLMC run;
 //! - [`shards`] and [`sealed`]: shard files, JSON with a checksum of their content, that
-//!   `merge` and `mlmc-merge` read.
+//!   `merge` and `mlmc-merge` read;
+//! - [`folders`]: output folders checked before a run and cleared of what killed processes
+//!   left;
+//! - [`compare`]: the numbers of two reports, without what differs between runs.
 //!
 //! The command's arguments, output folders, signals and progress are in its binary.
 
 pub mod checkpoint;
+pub mod compare;
+pub mod folders;
 pub mod mlmc_checkpoint;
 pub mod sealed;
 pub mod shards;

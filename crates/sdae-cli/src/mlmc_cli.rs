@@ -5,10 +5,11 @@ use std::sync::atomic::AtomicBool;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sdae_cli::checkpoint::RunLock;
+use sdae_cli::folders::check_writable;
 use sdae_cli::mlmc_checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_mlmc::{MlmcError, Plan, RunControl};
 use sdae_study::StudyError;
-use sdae_study::files::{check_writable, read_json, write_atomically, write_json};
+use sdae_study::files::{read_json, write_atomically, write_json};
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};

@@ -8,11 +8,12 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sdae_cli::checkpoint::{Checkpoint, Resumed, RunLock, SavedPaths};
+use sdae_cli::compare::{first_difference, numbers_of};
+use sdae_cli::folders::{check_writable, remove_stale_temporaries};
 use sdae_study::StudyError;
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceRun, ConvergenceSettings, build_report, merge_runs,
 };
-use sdae_study::files::{check_writable, first_difference, numbers_of, remove_stale_temporaries};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;

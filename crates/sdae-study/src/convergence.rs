@@ -14,12 +14,12 @@ use crate::lockstep::{BLOCK_PATHS, Limits, Observing, PathPlan, PathRecord, Trac
 use crate::observable::Observable;
 use crate::parallel::{Control, PathSelection, Skipped, applicable, run_paths};
 use crate::scene::{Output, Prepared, Scene, SceneRunner};
-use crate::stats::{
+use sdae_stats::Interval;
+use sdae_stats::memory;
+use sdae_stats::{
     INDICATIVE_BELOW, OrderFit, PathErrors, effective_paths, fit_order_and_errors, lp_error,
     mean_interval,
 };
-use sdae_stats::Interval;
-use sdae_stats::memory;
 
 /// The most worker threads a study starts.
 pub const MAX_THREADS: usize = 1024;

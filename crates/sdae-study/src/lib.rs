@@ -20,13 +20,12 @@
 //! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
 //!   whose expectations the weak study and MLMC measure.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
-//! - [`stats`], [`bootstrap`], [`plots`], [`output`]: statistics (intervals, orders, the
-//!   paired bootstrap over paths), SVG plots and the report files.
+//! - [`plots`], [`output`]: SVG plots and the report files (the statistics, intervals, orders
+//!   and the paired bootstrap over paths, are [`sdae_stats`]).
 //!
 //! Path i draws from its own stream derived from (seed, i), so the numbers do not depend on the
 //! thread count or the sharding.
 
-pub mod bootstrap;
 mod catalog;
 pub mod convergence;
 pub mod equipartition;
@@ -43,7 +42,6 @@ pub mod plots;
 pub mod scene;
 pub mod scene_load;
 pub mod stability;
-pub mod stats;
 pub mod trace;
 pub mod weak;
 

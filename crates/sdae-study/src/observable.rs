@@ -23,7 +23,7 @@ use sdae_manifold::Mass;
 use sdae_model::System;
 
 use crate::error::StudyError;
-use crate::scene::{Output, Prepared, Scene, SystemSpec};
+use crate::scene::{Output, Prepared, Scene, SceneSystem, SystemSpec, SystemVisitor};
 
 /// The function of an observable: f(r, v).
 type Function = dyn Fn(&[f64], &[f64]) -> f64 + Send + Sync;
@@ -111,13 +111,14 @@ pub const FIBER: [&str; 6] = [
 /// The built-in observables of a system kind (none for a system built in code: its observables
 /// are the user's closures).
 pub fn names_for(system: &SystemSpec) -> &'static [&'static str] {
-    match system {
-        SystemSpec::Pendulum(_) => &PENDULUM,
-        SystemSpec::ChainMolecule(_) => &MOLECULE,
-        SystemSpec::Triatomic(_) => &TRIATOMIC,
-        SystemSpec::Fiber(_) => &FIBER,
-        SystemSpec::Custom(_) => &[],
+    struct Names;
+    impl SystemVisitor for Names {
+        type Output = &'static [&'static str];
+        fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
+            kind.observables()
+        }
     }
+    system.visit(Names).unwrap_or(&[])
 }
 
 /// The outputs a built-in observable reads: the position, the velocity or both.

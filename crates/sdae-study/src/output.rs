@@ -10,8 +10,8 @@ use crate::convergence::{ConvergenceReport, Errors, LevelReport};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::parallel::Skipped;
-use crate::stats::{INDICATIVE_BELOW, OrderFit};
 use sdae_stats::Interval;
+use sdae_stats::{INDICATIVE_BELOW, OrderFit};
 
 fn fmt_interval(i: Option<Interval>) -> [String; 3] {
     match i {
@@ -475,8 +475,8 @@ pub fn write_report(report: &ConvergenceReport, dir: &Path) -> Result<(), StudyE
 #[cfg(test)]
 mod tests {
     use super::{decades, describe_fit, readable};
-    use crate::stats::OrderFit;
     use sdae_stats::Interval;
+    use sdae_stats::OrderFit;
 
     #[test]
     fn decades_run_from_the_largest_value_down_to_the_smallest() {

@@ -10,8 +10,8 @@ use plotters::prelude::*;
 
 use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
 use crate::error::StudyError;
-use crate::stats::OrderFit;
 use sdae_stats::Interval;
+use sdae_stats::OrderFit;
 
 /// One colour per line (in report order).
 pub const COLOURS: [RGBColor; 10] = [

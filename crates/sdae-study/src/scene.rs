@@ -25,14 +25,10 @@
 //! # Ok::<(), sdae_study::StudyError>(())
 //! ```
 
-use sdae_manifold::{BeadChain, TheoryBound, check_state};
-use sdae_model::{INITIAL_STATE_TOLERANCE, System, project_state};
+use sdae_manifold::{BeadChain, check_state};
+use sdae_model::{INITIAL_STATE_TOLERANCE, project_state};
 use sdae_reference::CurvedSystem;
-use sdae_scheme::StepperConfig;
-use sdae_systems::{
-    ChainMoleculeParams, Fiber, FiberParams, PendulumParams, RigidTriatomicParams, chain_molecule,
-    pendulum, rigid_triatomic,
-};
+use sdae_systems::{ChainMoleculeParams, FiberParams, PendulumParams, RigidTriatomicParams};
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
@@ -41,6 +37,10 @@ use crate::error::StudyError;
 use crate::integrator::SchemeConstants;
 
 pub use crate::catalog::BUILT_IN;
+
+mod systems;
+
+pub use systems::{Built, SceneSystem, SystemVisitor};
 
 /// What a study of the scene computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,7 +56,8 @@ pub enum Output {
     KineticEnergy,
 }
 
-/// The system of a scene, by kind: a table `[system.<kind>]` with the kind's parameters.
+/// The system of a scene, by kind: a table `[system.<kind>]` with the kind's parameters (the
+/// kinds' registry is [`SystemSpec::visit`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SystemSpec {
@@ -357,13 +358,14 @@ impl Scene {
 
     /// The number of coordinates of the scene's system (`None` for a system built in code).
     pub fn coordinates(&self) -> Option<usize> {
-        match &self.system {
-            SystemSpec::Pendulum(p) => Some(p.dim),
-            SystemSpec::ChainMolecule(p) => Some(p.atoms.saturating_mul(3)),
-            SystemSpec::Triatomic(_) => Some(9),
-            SystemSpec::Fiber(p) => Some(p.beads.saturating_mul(3)),
-            SystemSpec::Custom(_) => None,
+        struct Coordinates;
+        impl SystemVisitor for Coordinates {
+            type Output = usize;
+            fn visit<K: SceneSystem>(self, kind: &K) -> usize {
+                kind.coordinates()
+            }
         }
+        self.system.visit(Coordinates).ok()
     }
 
     /// The system, initial state (checked to lie on the tangent bundle) and constants of a
@@ -405,57 +407,37 @@ impl Scene {
         }
     }
 
-    /// Builds the system, the initial state and the scheme constants, and hands them to
-    /// `runner`.
+    /// Builds the system (through the registry, [`SystemSpec::visit`]), the initial state and
+    /// the scheme constants, and hands them to `runner`.
     pub fn run<R: SceneRunner>(&self, runner: R) -> Result<R::Output, StudyError> {
-        match &self.system {
-            SystemSpec::Custom(name) => Err(self.invalid(format!(
-                "system '{name}' is built in code: run it with Scene::prepare_custom and the studies' *_on functions"
-            ))),
-            SystemSpec::ChainMolecule(params) => {
-                let system =
-                    chain_molecule(params).map_err(|e| self.invalid(format!("system: {e}")))?;
-                let rest = self.shaped(system.constraint(), system.initial_state().0)?;
-                let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, theory)?;
-                prepared.kinetic_target = Some(prepared.system.equipartition_energy());
-                Ok(runner.run(self, prepared))
-            }
-            SystemSpec::Triatomic(params) => {
-                let system =
-                    rigid_triatomic(params).map_err(|e| self.invalid(format!("system: {e}")))?;
-                let rest = system.initial_state().0;
-                let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, theory)?;
-                prepared.kinetic_target = Some(prepared.system.equipartition_energy());
-                Ok(runner.run(self, prepared))
-            }
-            SystemSpec::Fiber(params) => {
-                let system =
-                    Fiber::new(params).map_err(|e| self.invalid(format!("system: {e}")))?;
-                let rest = self.shaped(system.constraint(), system.hanging().0)?;
-                let theory = theory_constants(&system);
-                let prepared = self.prepare(system, rest, theory)?;
-                Ok(runner.run(self, prepared))
-            }
-            SystemSpec::Pendulum(spec) => {
-                let system =
-                    pendulum(*spec).map_err(|e| self.invalid(format!("system: {e}")))?;
-                let mut rest = vec![0.0; spec.dim];
-                rest[spec.dim - 1] = -spec.length;
-                let theory = theory_constants(&system);
-                let mut prepared = self.prepare(system, rest, theory)?;
-                // Langevin: kT = sigma^2 / (2 gamma), d - 1 degrees of freedom.
-                prepared.kinetic_target = (spec.friction > 0.0).then(|| {
-                    (spec.dim - 1) as f64 * spec.noise * spec.noise / (4.0 * spec.friction)
-                });
-                Ok(runner.run(self, prepared))
+        struct Run<'a, R> {
+            scene: &'a Scene,
+            runner: R,
+        }
+        impl<R: SceneRunner> SystemVisitor for Run<'_, R> {
+            type Output = Result<R::Output, StudyError>;
+            fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
+                let built = kind.build(self.scene)?;
+                let mut prepared = self.scene.prepare(built.system, built.rest, built.theory)?;
+                prepared.kinetic_target = built.kinetic_target;
+                Ok(self.runner.run(self.scene, prepared))
             }
         }
+        let run = Run {
+            scene: self,
+            runner,
+        };
+        self.system.visit(run).unwrap_or_else(|name| {
+            Err(self.invalid(format!(
+                "system '{name}' is built in code: run it with Scene::prepare_custom and the studies' *_on functions"
+            )))
+        })
     }
 
     /// The positions of the initial shape, if one is named, else `default`.
-    fn shaped(&self, chain: &BeadChain, default: Vec<f64>) -> Result<Vec<f64>, StudyError> {
+    pub(crate) fn shaped(
+        &self, chain: &BeadChain, default: Vec<f64>,
+    ) -> Result<Vec<f64>, StudyError> {
         match self.initial.shape {
             None => Ok(default),
             Some(Shape::Straight) => chain
@@ -516,15 +498,4 @@ impl Scene {
             kinetic_target: None,
         })
     }
-}
-
-/// The theory's (C_eta, C_kappa) (Thm 3.4) where the constraint bounds C_g.
-fn theory_constants<S>(system: &S) -> Option<(f64, f64)>
-where
-    S: System,
-    S::Constraint: TheoryBound,
-{
-    StepperConfig::for_system(system)
-        .ok()
-        .and_then(|c| c.c_eta.map(|c_eta| (c_eta, c.c_kappa)))
 }

@@ -13,7 +13,10 @@ use crate::error::StudyError;
 use crate::mlmc::MlmcSettings;
 use crate::mlmc::settings::study_error;
 
-use crate::scene::{InitialSpec, Output, Scene, SchemeSpec, StudyDefaults, SystemSpec, WeakSpec};
+use crate::scene::{
+    InitialSpec, Output, Scene, SceneSystem, SchemeSpec, StudyDefaults, SystemSpec, SystemVisitor,
+    WeakSpec,
+};
 use crate::stability::stability_settings;
 use crate::weak::weak_table_settings;
 
@@ -114,20 +117,19 @@ impl Scene {
         if self.initial.shape.is_some() && self.initial.position.is_some() {
             return Err(self.invalid("initial: give either shape or position, not both"));
         }
-        let chain_like = matches!(
-            self.system,
-            SystemSpec::ChainMolecule(_) | SystemSpec::Fiber(_)
-        );
-        if self.initial.shape.is_some() && !chain_like {
+        struct Chain;
+        impl SystemVisitor for Chain {
+            type Output = Option<(&'static str, usize)>;
+            fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
+                kind.chain()
+            }
+        }
+        let chain = self.system.visit(Chain).ok().flatten();
+        if self.initial.shape.is_some() && chain.is_none() {
             return Err(self
                 .invalid("initial.shape applies to chains of beads (chain-molecule, fiber) only"));
         }
-        let particles = match &self.system {
-            SystemSpec::ChainMolecule(p) => Some(("chain-molecule.atoms", p.atoms)),
-            SystemSpec::Fiber(p) => Some(("fiber.beads", p.beads)),
-            _ => None,
-        };
-        if let Some((key, count)) = particles
+        if let Some((key, count)) = chain
             && count > MAX_PARTICLES
         {
             return Err(self.invalid(format!(

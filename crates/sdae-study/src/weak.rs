@@ -23,7 +23,6 @@
 //!   whole paths ([`bootstrap::path_bootstrap`]); the unresolved levels are named.
 
 pub mod bootstrap;
-pub mod order;
 pub mod report;
 
 use std::collections::BTreeMap;
@@ -41,9 +40,9 @@ use crate::lockstep::PathRecord;
 use crate::observable::Observable;
 use crate::parallel::{Control, Skipped};
 use crate::scene::{Prepared, Scene, SceneRunner};
-use crate::stats::mean_interval;
 use bootstrap::Resample;
 use sdae_stats::Interval;
+use sdae_stats::mean_interval;
 
 /// The weak study's settings of a scene with a `[weak]` table: the convergence settings with
 /// the table's observables, its paths (default 10000), levels (default 2..7) and reference
@@ -210,7 +209,7 @@ pub struct ReferenceBias {
     pub grid_bound: f64,
 }
 
-pub use order::{WeakOrder, WeakSlope};
+use sdae_stats::weak_order::{self, WeakOrder};
 
 /// One scheme (or its extrapolation) at one step size.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -494,8 +493,8 @@ fn analyse(data: &LevelPaths) -> Option<Analysis> {
         .map(|g| sup_over_grid(g, &data.grid_bound))
         .collect();
     let has_grid = data.grid.len() == levels && levels > 0;
-    let last_fit = order::OrderCandidates::new(&data.h, |j| resolved(&errors[j]));
-    let sup_fit = order::OrderCandidates::new(&data.h, |j| {
+    let last_fit = weak_order::OrderCandidates::new(&data.h, |j| resolved(&errors[j]));
+    let sup_fit = weak_order::OrderCandidates::new(&data.h, |j| {
         has_grid && sup.get(j).copied().flatten().is_some_and(|s| s.1)
     });
     let sups_of = |sample: &Resample<'_>| -> Vec<f64> {

@@ -12,11 +12,11 @@
 
 use serde::Serialize;
 
-use crate::bootstrap::{BOOTSTRAP_RESAMPLES, PathTable, paired_bootstrap, quantile};
 use crate::convergence::ConvergenceRun;
 use crate::lockstep::TrackOutcome;
-use crate::stats::mean_interval;
 use sdae_stats::Interval;
+use sdae_stats::bootstrap::{BOOTSTRAP_RESAMPLES, PathTable, paired_bootstrap, quantile};
+use sdae_stats::mean_interval;
 
 /// The biases whose cheapest run time the report gives.
 pub const BIAS_TARGETS: [f64; 2] = [1e-2, 1e-3];

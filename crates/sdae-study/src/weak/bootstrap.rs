@@ -8,8 +8,8 @@ use rand::RngExt;
 use sdae_manifold::vector::dot;
 use sdae_model::path_rng;
 
-use crate::bootstrap::{BOOTSTRAP_RESAMPLES, index, quantile};
 use sdae_stats::Interval;
+use sdae_stats::bootstrap::{BOOTSTRAP_RESAMPLES, index, quantile};
 
 /// Seed of the resampling stream.
 const SEED: u64 = 0x5eed_3eac;

@@ -5,8 +5,8 @@
 //! checkpoint or a shard is refused naming the checksum; a save cut short is dropped and its
 //! blocks run again; `mlmc-merge` refuses a block that is not whole, as resuming does.
 
-mod bits;
-mod process;
+use crate::bits;
+use crate::process;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! numbers, named errors for bad observables, a user's closure as a built-in one, and the weak
 //! errors of every scheme on the rotor against the closed form of E[cos(angle turned)].
 
-mod weak_run;
+use crate::weak_run;
 
 use sdae_study::StudyError;
 use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings, build_report, run_convergence};

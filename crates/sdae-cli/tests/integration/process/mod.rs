@@ -26,7 +26,7 @@ pub fn stderr(out: &Output) -> String {
 /// A report's numbers: its JSON without timings and the thread count.
 pub fn numbers(file: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{file:?}: {e}"));
-    sdae_study::files::numbers_of(&text).unwrap()
+    sdae_cli::compare::numbers_of(&text).unwrap()
 }
 
 /// Sends the signal `name` (TERM, INT, KILL, ...) to the child.

@@ -1,7 +1,7 @@
 //! Sharded runs merged give exactly the unsharded report (timings aside), the thread count does
 //! not change the numbers, and incomplete or inconsistent shard sets are refused.
 
-mod common;
+use crate::common;
 
 use sdae_study::convergence::{ConvergenceReport, ConvergenceRun, build_report, merge_shards};
 
@@ -100,8 +100,8 @@ fn shards_holding_non_finite_numbers_are_written_read_and_merged() {
 
 #[test]
 fn merged_weak_shards_reproduce_the_unsharded_weak_report() {
+    use sdae_cli::compare::numbers_of;
     use sdae_study::convergence::merge_runs;
-    use sdae_study::files::numbers_of;
     use sdae_study::scene::Scene;
     use sdae_study::weak::{build_weak_report, weak_settings};
 

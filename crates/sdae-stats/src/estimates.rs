@@ -1,17 +1,7 @@
-//! Statistics of a study, with intervals that hold their 95% where the sample allows it:
-//!
-//! - [`t975`]: the Student t quantile for every degree of freedom;
-//! - [`mean_interval`]: the mean of independent samples with its t interval;
-//! - [`lp_error`]: the L^p norm over paths of per-path errors, with a studentized bootstrap
-//!   interval on the log scale (per-path errors are skewed: the CLT interval of the mean of
-//!   d^p under-covers badly at small samples), scaled by the largest error so that no p
-//!   underflows;
-//! - [`fit_order`]: the observed order of convergence from the per-path errors of all levels
-//!   of one set of paths, its interval from the Monte Carlo error (symmetric percentile-t of the paired
-//!   bootstrap of whole paths, [`crate::bootstrap`]), and the local slopes with theirs, so that
-//!   curvature is flagged as pre-asymptotic rather than hidden in an interval.
+//! The estimates a study reports (means, L^p errors, orders of convergence), each with its
+//! 95% interval.
 
-use sdae_stats::{Interval, t975};
+use crate::{Interval, t975};
 use serde::Serialize;
 
 use crate::bootstrap::{BOOTSTRAP_RESAMPLES, PathTable, paired_bootstrap, quantile};

@@ -4,10 +4,10 @@
 //! a flipped bit in any checkpoint or shard, and two scenes of one name are refused before
 //! anything runs (exit code 2); a save cut short is dropped and its paths run again.
 
-mod common;
+use crate::common;
 
-mod bits;
-mod process;
+use crate::bits;
+use crate::process;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -315,7 +315,7 @@ fn malformed_checkpoints_are_refused_with_a_typed_error() {
     // The saved records read back bit for bit; the report's numbers are the whole run's.
     assert_eq!(resumed.records[..4], run.records[..4]);
     let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
-    let numbers_of = |json: String| sdae_study::files::numbers_of(&json).unwrap();
+    let numbers_of = |json: String| sdae_cli::compare::numbers_of(&json).unwrap();
     assert_eq!(
         numbers_of(report(*resumed)),
         numbers_of(report(run.clone()))
@@ -418,7 +418,11 @@ fn malformed_and_repeated_shards_are_refused_by_merge_with_exit_2() {
 fn two_scenes_of_one_name_are_refused() {
     let dir = folder("names");
     let file = dir.join("pendulum.toml");
-    std::fs::write(&file, include_str!("../../sdae-study/scenes/pendulum.toml")).unwrap();
+    std::fs::write(
+        &file,
+        include_str!("../../../sdae-study/scenes/pendulum.toml"),
+    )
+    .unwrap();
     refused(
         quick(&dir, &["--scene", "pendulum", "--scene-file"]).arg(&file),
         &["two scenes are named pendulum"],
@@ -563,7 +567,7 @@ fn a_save_cut_short_is_dropped_and_the_resumed_run_equals_the_uninterrupted_one(
             panic!("a checkpoint cut by {cut} bytes did not resume");
         };
         let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
-        let numbers = |json: String| sdae_study::files::numbers_of(&json).unwrap();
+        let numbers = |json: String| sdae_cli::compare::numbers_of(&json).unwrap();
         assert_eq!(
             numbers(report(*resumed)),
             numbers(report(whole.clone())),

@@ -52,7 +52,7 @@ impl PathTable {
 }
 
 /// A uniform index in 0..n from 64 random bits (multiply-shift).
-pub(crate) fn index(bits: u64, n: usize) -> usize {
+pub fn index(bits: u64, n: usize) -> usize {
     ((u128::from(bits) * n as u128) >> 64) as usize
 }
 

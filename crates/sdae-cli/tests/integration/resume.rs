@@ -2,7 +2,7 @@
 //! it ends with exactly the report of an uninterrupted run (timings aside), through the library
 //! and through the binary stopped by SIGTERM.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,7 +15,7 @@ use sdae_study::parallel::Control;
 
 /// A report's JSON without what differs from run to run (timings, thread count).
 fn numbers(json: &str) -> serde_json::Value {
-    sdae_study::files::numbers_of(json).unwrap()
+    sdae_cli::compare::numbers_of(json).unwrap()
 }
 
 fn folder(name: &str) -> PathBuf {

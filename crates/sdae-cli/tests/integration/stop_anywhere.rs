@@ -6,7 +6,7 @@
 //! (`--checkpoint-every 0`), so a SIGKILL that comes first, even in the middle of a save,
 //! loses at most the blocks in progress: what was saved before the signal stays saved.
 
-mod process;
+use crate::process;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};

@@ -4,7 +4,7 @@
 
 use sdae_model::{GaussianIncrements, IncrementSource};
 use sdae_stats::Interval;
-use sdae_study::stats::{
+use sdae_stats::{
     INDICATIVE_BELOW, PathErrors, effective_paths, fit_order, lp_error, mean_interval,
 };
 

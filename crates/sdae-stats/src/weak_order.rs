@@ -10,11 +10,11 @@
 //!   there is no order), or
 //! - its local slope log(|e_a| / |e_b|) / log(h_a / h_b) to the next level differs from the
 //!   least-squares slope of the finer levels by more than the strong study's tolerance
-//!   ([`sdae_stats::PRE_ASYMPTOTIC_TOLERANCE`], 0.05) and
+//!   ([`crate::PRE_ASYMPTOTIC_TOLERANCE`], 0.05) and
 //!   beyond the Monte Carlo error (the 95% bootstrap interval of the difference excludes 0),
 //!   as long as three levels remain,
 //!
-//! which is the strong study's rule ([`crate::stats::fit_order`]) for signed errors. The
+//! which is the strong study's rule ([`crate::fit_order`]) for signed errors. The
 //! order is the least-squares slope of log |e| against log h over the remaining levels.
 //!
 //! The order's interval is the bootstrap interval of the slope, widened by the model error
@@ -39,12 +39,11 @@
 //!
 //! So the verdict covers the model error too, instead of a tight interval around a slope that
 //! is still moving. All intervals come from one bootstrap over whole paths
-//! ([`super::bootstrap::path_bootstrap`]), so the correlation between levels is kept.
+//! (the study's path bootstrap), so the correlation between levels is kept.
 
 use serde::Serialize;
 
-use sdae_stats::Interval;
-use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
+use crate::{Interval, PRE_ASYMPTOTIC_TOLERANCE};
 
 /// The slope between two neighbouring fitted levels, with its 95% bootstrap interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -7,9 +7,9 @@
 //!
 //! The runs use the seeds and path counts of the study's defaults; the intervals they check are
 //! the study's own 95% intervals (Monte Carlo error from a bootstrap over whole paths, plus the
-//! model error the levels show, `sdae_study::weak::order`).
+//! model error the levels show, `sdae_stats::weak_order`).
 
-mod weak_run;
+use crate::weak_run;
 
 use sdae_study::convergence::ConvergenceSettings;
 use sdae_study::integrator::SchemeKind;

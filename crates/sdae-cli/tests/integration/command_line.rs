@@ -1,7 +1,7 @@
 //! The study binary on good and bad command lines: exit codes (0 ran, 1 ran but nothing to
 //! compare, 2 usage), and messages that name the option and the nearest valid name.
 
-mod cli;
+use crate::cli;
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +9,7 @@ use cli::{study, text, usage_error};
 
 /// The built-in pendulum scene under another name (so that its results get their own folder).
 fn scene() -> String {
-    include_str!("../../sdae-study/scenes/pendulum.toml")
+    include_str!("../../../sdae-study/scenes/pendulum.toml")
         .replace("name = \"pendulum\"", "name = \"test\"")
 }
 
@@ -171,7 +171,7 @@ fn scene_file(dir: &Path, text: &str) -> PathBuf {
 /// The thermal pendulum as a small, fast equipartition scene: 2 paths, N = 4 and 8 over T = 1.
 fn small_thermal() -> String {
     edited(
-        include_str!("../../sdae-study/scenes/thermal-pendulum.toml"),
+        include_str!("../../../sdae-study/scenes/thermal-pendulum.toml"),
         "T = 64.0\npaths = 400\nlevels = [6, 13]\nburn_in = 16.0\nc_eta = [0.25, 1.0, 4.0, 16.0]",
         "T = 1.0\npaths = 2\nlevels = [2, 3]\nburn_in = 0.5\nc_eta = [1.0]",
     )
@@ -194,7 +194,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../../sdae-study/scenes/pendulum.toml"),
+            include_str!("../../../sdae-study/scenes/pendulum.toml"),
             "paths = 10000",
             &format!("paths = {huge}"),
         ),
@@ -207,13 +207,13 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     assert!(!text(&study(&args).stderr).contains("--paths"));
     for (built_in, from, to, key) in [
         (
-            include_str!("../../sdae-study/scenes/chain-molecule.toml"),
+            include_str!("../../../sdae-study/scenes/chain-molecule.toml"),
             "atoms = 8",
             "atoms = 1000000000000",
             "system.chain-molecule.atoms = 1000000000000",
         ),
         (
-            include_str!("../../sdae-study/scenes/fiber.toml"),
+            include_str!("../../../sdae-study/scenes/fiber.toml"),
             "beads = 20",
             "beads = 1000000000000",
             "system.fiber.beads = 1000000000000",
@@ -229,7 +229,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../../sdae-study/scenes/fiber.toml"),
+            include_str!("../../../sdae-study/scenes/fiber.toml"),
             "beads = 20",
             "beads = 1000000",
         ),
@@ -334,9 +334,9 @@ type WrongLength = (&'static str, &'static str, &'static str, String, String);
 
 /// Fixed-length arrays of the built-in scenes, one entry too many or too few.
 fn wrong_lengths() -> [WrongLength; 9] {
-    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
-    let triatomic = include_str!("../../sdae-study/scenes/triatomic.toml");
-    let fiber = include_str!("../../sdae-study/scenes/fiber.toml");
+    let pendulum = include_str!("../../../sdae-study/scenes/pendulum.toml");
+    let triatomic = include_str!("../../../sdae-study/scenes/triatomic.toml");
+    let fiber = include_str!("../../../sdae-study/scenes/fiber.toml");
     let length = |given: usize, expected: usize| {
         format!("invalid length {given}, expected an array of length {expected}")
     };
@@ -442,7 +442,7 @@ fn equipartition_exits_1_when_a_setting_lost_every_path_and_counts_the_failures(
 #[test]
 fn trace_levels_are_bounded() {
     let dir = folder("trace");
-    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
+    let pendulum = include_str!("../../../sdae-study/scenes/pendulum.toml");
     let file = scene_file(
         &dir,
         &edited(
@@ -487,7 +487,7 @@ fn step_sizes_that_underflow_are_refused_before_running() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../../sdae-study/scenes/pendulum.toml"),
+            include_str!("../../../sdae-study/scenes/pendulum.toml"),
             "T = 1.0",
             "T = 1e-310",
         ),
@@ -501,7 +501,7 @@ fn step_sizes_that_underflow_are_refused_before_running() {
 #[test]
 fn scene_file_values_are_named_by_their_key_and_file_not_by_a_flag() {
     let dir = folder("provenance");
-    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
+    let pendulum = include_str!("../../../sdae-study/scenes/pendulum.toml");
     let file = scene_file(&dir, &edited(pendulum, "paths = 10000", "paths = 0"));
     let args = ["--scene-file", path(&file), "--out", path(&dir)];
     usage_error(&args, &["study.paths = 0: must be >= 2", path(&file)]);
@@ -621,7 +621,7 @@ fn checkpoint_intervals_beyond_a_year_are_refused_by_every_subcommand() {
 #[test]
 fn weak_table_settings_are_named_by_their_key_and_file() {
     let dir = folder("weak-keys");
-    let pendulum = include_str!("../../sdae-study/scenes/pendulum.toml");
+    let pendulum = include_str!("../../../sdae-study/scenes/pendulum.toml");
     // The [study] table's paths are 10000: the [weak] table's 0 is the one named.
     for (from, to, words) in [
         ("paths = 40000", "paths = 0", "weak.paths = 0: must be >= 2"),
@@ -668,7 +668,7 @@ fn a_bad_system_in_a_later_scene_stops_the_command_before_the_first_scene_runs()
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../../sdae-study/scenes/pendulum.toml"),
+            include_str!("../../../sdae-study/scenes/pendulum.toml"),
             "gravity = 1.0",
             "gravity = nan",
         ),
@@ -820,7 +820,7 @@ fn weak_errors_that_underflow_give_no_order() {
     let file = scene_file(
         &dir,
         &edited(
-            include_str!("../../sdae-study/scenes/pendulum.toml"),
+            include_str!("../../../sdae-study/scenes/pendulum.toml"),
             "T = 1.0",
             "T = 1e-140",
         ),

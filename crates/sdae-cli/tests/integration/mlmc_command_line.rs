@@ -2,7 +2,7 @@
 //! input is a named error with exit code 2, and a plan run merged from shards gives exactly
 //! the unsharded estimate.
 
-mod cli;
+use crate::cli;
 
 use std::path::Path;
 
@@ -194,7 +194,7 @@ fn counts_levels_and_threads_are_bounded_before_anything_runs() {
         ),
     ] {
         let file = dir.join("scene.toml");
-        let scene = include_str!("../../sdae-study/scenes/pendulum.toml")
+        let scene = include_str!("../../../sdae-study/scenes/pendulum.toml")
             .replace("name = \"pendulum\"", "name = \"test\"");
         std::fs::write(&file, format!("{scene}\n[mlmc]\n{table}\n")).unwrap();
         let mut all = words.to_vec();

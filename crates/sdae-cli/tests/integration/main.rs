@@ -1,0 +1,16 @@
+//! The sdae-study command: its arguments and errors, reports that are the same whatever the threads,
+//! shards or interruptions, checkpoints and shards that survive faults, and stops at any moment.
+//!
+//! One test binary for the crate: each file below is a module of it.
+
+mod bits;
+mod cli;
+mod command_line;
+mod common;
+mod faults;
+mod mlmc_command_line;
+mod mlmc_resume;
+mod process;
+mod resume;
+mod sharding;
+mod stop_anywhere;

@@ -1,0 +1,7 @@
+//! Multilevel Monte Carlo against closed forms: the rates of Euler-Maruyama on scalar linear SDEs and
+//! the adaptive estimate of geometric Brownian motion.
+//!
+//! One test binary for the crate: each file below is a module of it.
+
+mod linear;
+mod rates;

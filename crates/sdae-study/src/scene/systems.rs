@@ -1,0 +1,179 @@
+//! The registry of the systems a scene file can name. Each `[system.<kind>]` table's
+//! parameters build their system, its rest position, the theory's constants and the
+//! equipartition value here ([`SceneSystem`]), and [`SystemSpec::visit`] is the one place
+//! that lists the kinds: adding a system is a variant of [`SystemSpec`], its arm in `visit`
+//! and its [`SceneSystem`] implementation.
+
+use sdae_manifold::TheoryBound;
+use sdae_model::System;
+use sdae_reference::CurvedSystem;
+use sdae_scheme::StepperConfig;
+use sdae_systems::{
+    ChainMolecule, ChainMoleculeParams, Fiber, FiberParams, Pendulum, PendulumParams,
+    RigidTriatomic, RigidTriatomicParams, chain_molecule, pendulum, rigid_triatomic,
+};
+
+use super::{Scene, SystemSpec};
+use crate::error::StudyError;
+use crate::observable::{FIBER, MOLECULE, PENDULUM, TRIATOMIC};
+
+/// A system built from a scene's `[system.<kind>]` table, before the initial state is taken.
+#[derive(Debug, Clone)]
+pub struct Built<S> {
+    /// The system.
+    pub system: S,
+    /// Its rest position (the initial position where the scene names none).
+    pub rest: Vec<f64>,
+    /// The theory's (C_eta, C_kappa) (Thm 3.4) where the constraint bounds C_g.
+    pub theory: Option<(f64, f64)>,
+    /// The equipartition value (n - m) kT / 2 of E[v^T M v / 2] for Langevin systems.
+    pub kinetic_target: Option<f64>,
+}
+
+/// The parameters of a built-in system kind, as a scene file gives them.
+pub trait SceneSystem {
+    /// The system they build.
+    type System: CurvedSystem + Clone + Send + Sync + 'static;
+    /// The number of coordinates of the system they build (saturating).
+    fn coordinates(&self) -> usize;
+    /// The names of the system's built-in observables ([`crate::observable`]).
+    fn observables(&self) -> &'static [&'static str];
+    /// For a chain of beads (to which a named initial shape applies), the scene key of its
+    /// number of beads and that number.
+    fn chain(&self) -> Option<(&'static str, usize)> {
+        None
+    }
+    /// Builds the system (a parameter it refuses is an error of `scene`), with its rest
+    /// position in the scene's initial shape.
+    fn build(&self, scene: &Scene) -> Result<Built<Self::System>, StudyError>;
+}
+
+/// Work with the parameters of whichever built-in system a scene names.
+pub trait SystemVisitor {
+    /// What the work returns.
+    type Output;
+    /// Does the work with the parameters `kind`.
+    fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output;
+}
+
+impl SystemSpec {
+    /// Hands the parameters of the built-in system to `visitor`, or returns the name of a
+    /// system built in code. The one list of the kinds.
+    pub fn visit<V: SystemVisitor>(&self, visitor: V) -> Result<V::Output, &str> {
+        match self {
+            SystemSpec::Pendulum(p) => Ok(visitor.visit(p)),
+            SystemSpec::ChainMolecule(p) => Ok(visitor.visit(p)),
+            SystemSpec::Triatomic(p) => Ok(visitor.visit(p)),
+            SystemSpec::Fiber(p) => Ok(visitor.visit(p)),
+            SystemSpec::Custom(name) => Err(name),
+        }
+    }
+}
+
+/// The theory's (C_eta, C_kappa) (Thm 3.4) where the constraint bounds C_g.
+fn theory_constants<S>(system: &S) -> Option<(f64, f64)>
+where
+    S: System,
+    S::Constraint: TheoryBound,
+{
+    StepperConfig::for_system(system)
+        .ok()
+        .and_then(|c| c.c_eta.map(|c_eta| (c_eta, c.c_kappa)))
+}
+
+/// A system's refusal of its parameters, as an error of `scene`.
+fn refused(scene: &Scene, e: impl std::fmt::Display) -> StudyError {
+    scene.invalid(format!("system: {e}"))
+}
+
+/// The stochastic pendulum (seed 5.1): rest at the bottom, r = (0, ..., 0, -length).
+impl SceneSystem for PendulumParams {
+    type System = Pendulum;
+    fn coordinates(&self) -> usize {
+        self.dim
+    }
+    fn observables(&self) -> &'static [&'static str] {
+        &PENDULUM
+    }
+    fn build(&self, scene: &Scene) -> Result<Built<Pendulum>, StudyError> {
+        let system = pendulum(*self).map_err(|e| refused(scene, e))?;
+        let mut rest = vec![0.0; self.dim];
+        rest[self.dim - 1] = -self.length;
+        Ok(Built {
+            theory: theory_constants(&system),
+            system,
+            rest,
+            // Langevin: kT = sigma^2 / (2 gamma), d - 1 degrees of freedom.
+            kinetic_target: (self.friction > 0.0)
+                .then(|| (self.dim - 1) as f64 * self.noise * self.noise / (4.0 * self.friction)),
+        })
+    }
+}
+
+/// A chain molecule with rigid bonds under Langevin dynamics (seed 5.2).
+impl SceneSystem for ChainMoleculeParams {
+    type System = ChainMolecule;
+    fn coordinates(&self) -> usize {
+        self.atoms.saturating_mul(3)
+    }
+    fn observables(&self) -> &'static [&'static str] {
+        &MOLECULE
+    }
+    fn chain(&self) -> Option<(&'static str, usize)> {
+        Some(("chain-molecule.atoms", self.atoms))
+    }
+    fn build(&self, scene: &Scene) -> Result<Built<ChainMolecule>, StudyError> {
+        let system = chain_molecule(self).map_err(|e| refused(scene, e))?;
+        let rest = scene.shaped(system.constraint(), system.initial_state().0)?;
+        Ok(Built {
+            theory: theory_constants(&system),
+            kinetic_target: Some(system.equipartition_energy()),
+            system,
+            rest,
+        })
+    }
+}
+
+/// A rigid triatomic molecule in a harmonic trap under Langevin dynamics (seed 5.2).
+impl SceneSystem for RigidTriatomicParams {
+    type System = RigidTriatomic;
+    fn coordinates(&self) -> usize {
+        9
+    }
+    fn observables(&self) -> &'static [&'static str] {
+        &TRIATOMIC
+    }
+    fn build(&self, scene: &Scene) -> Result<Built<RigidTriatomic>, StudyError> {
+        let system = rigid_triatomic(self).map_err(|e| refused(scene, e))?;
+        Ok(Built {
+            theory: theory_constants(&system),
+            kinetic_target: Some(system.equipartition_energy()),
+            rest: system.initial_state().0,
+            system,
+        })
+    }
+}
+
+/// An inextensible fiber in turbulent air (seed 5.3), hanging at rest.
+impl SceneSystem for FiberParams {
+    type System = Fiber;
+    fn coordinates(&self) -> usize {
+        self.beads.saturating_mul(3)
+    }
+    fn observables(&self) -> &'static [&'static str] {
+        &FIBER
+    }
+    fn chain(&self) -> Option<(&'static str, usize)> {
+        Some(("fiber.beads", self.beads))
+    }
+    fn build(&self, scene: &Scene) -> Result<Built<Fiber>, StudyError> {
+        let system = Fiber::new(self).map_err(|e| refused(scene, e))?;
+        let rest = scene.shaped(system.constraint(), system.hanging().0)?;
+        Ok(Built {
+            theory: theory_constants(&system),
+            kinetic_target: None,
+            system,
+            rest,
+        })
+    }
+}

@@ -1,0 +1,21 @@
+//! The studies against exact laws, closed forms and independent solvers: convergence, stability,
+//! equipartition, weak errors and MLMC, the scenes, and the reports (snapshots).
+//!
+//! One test binary for the crate: each file below is a module of it.
+
+mod equipartition;
+mod invariant_bias;
+/// The scalar linear SDEs of sdae-mlmc's suite (which uses the rest of the module).
+#[allow(dead_code)]
+#[path = "../../../sdae-mlmc/tests/integration/linear.rs"]
+mod linear;
+mod lockstep;
+mod mlmc;
+mod quick_report;
+mod scenes;
+mod stability_report;
+mod truncated_levels;
+mod weak;
+mod weak_order_coverage;
+mod weak_run;
+mod weak_verdicts;

@@ -91,9 +91,9 @@ pub fn level_means(levels: &[LevelSums]) -> Vec<(f64, f64)> {
 /// finest mean is a sample with standard error se_L, of the order of its value when the run
 /// stops, so a low draw stops the run a level early. On the unit circle with friction at
 /// eps = 1e-3 that estimate averaged 5.1e-4 against an actual bias of 6.2e-4 (root mean square
-/// error 0.95 eps over 100 seeds); on the circle of radius 1.5 of tests/mlmc.rs at eps = 1e-2
-/// it stops at L = 3.8 on average with a mean error of -1.14 eps (root mean square error 1.44
-/// eps). Here each mean is raised by its standard error and alpha is taken at the low end of
+/// error 0.95 eps over 100 seeds); on the circle of radius 1.5 of the study crate's MLMC
+/// tests at eps = 1e-2 it stops at L = 3.8 on average with a mean error of -1.14 eps (root
+/// mean square error 1.44 eps). Here each mean is raised by its standard error and alpha is taken at the low end of
 /// what the asymptotic levels allow, so the estimate bounds the bias under the model
 /// E[P_l - P_{l-1}] ~ 2^(-alpha l) for most draws: root mean square errors of 0.81 eps and 0.68
 /// eps on those two circles, 0.67 eps on the pendulum at eps = 3e-3. The price is levels (7.0

@@ -273,7 +273,7 @@ impl LogErrors {
     /// normal quantile misses at heavy tails. The symmetric form's coverage error is of a
     /// higher order in 1/n than the equal-tailed [f - q_97.5 se, f - q_2.5 se] (Hall 1988),
     /// and on slopes of heavy-tailed errors it covers by several points more (measured in
-    /// tests/coverage.rs: 94.8% against 91.4% at 200 paths with a log-normal path factor,
+    /// tests/integration/coverage.rs: 94.8% against 91.4% at 200 paths with a log-normal path factor,
     /// 94.4% against 86.8% with a heavier one). A functional without Monte Carlo
     /// error (se = 0) keeps a zero-width interval; `None` when fewer than half of the
     /// resamples are usable (a degenerate sample). The same resamples give each level's L^p
@@ -439,7 +439,7 @@ pub fn effective_paths(errors: &[f64], p: f64) -> f64 {
 
 /// Below this many effective paths an order's interval is indicative: its coverage falls
 /// short of 95% by more than a few points on heavy-tailed errors (docs/studies.md,
-/// tests/coverage.rs).
+/// tests/integration/coverage.rs).
 pub const INDICATIVE_BELOW: usize = 20;
 
 /// The standard normal's 90% quantile.

@@ -3,6 +3,9 @@
 //! evaluations of the inherent SDE; and an ensemble's step in SIMD lanes (sphere, bead chain,
 //! rigid bonds) once its first step has made the lanes' buffers.
 
+// The helpers of the `integration` suite; this binary uses only `chain_system`.
+#[allow(dead_code)]
+#[path = "integration/common/mod.rs"]
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};

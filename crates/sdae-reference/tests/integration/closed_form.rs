@@ -2,7 +2,7 @@
 //! against closed forms for the planar unit pendulum (seed Section 5.1), and the hidden
 //! constraint d/dt Dg(r) v = 0 for a bead chain with a diagonal mass (m > 1).
 
-mod common;
+use crate::common;
 
 use sdae_ift::SolverSettings;
 use sdae_manifold::{BeadChain, Constraint, Curvature, DiagonalMass};

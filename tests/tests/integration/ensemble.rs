@@ -4,9 +4,7 @@
 //! with the scalar stepper's numbers; the generic per-path loop gives the same numbers; a
 //! block read gives each path's state; bad input is a typed error.
 
-mod common;
-
-use common::{lane_configs, noisy_pendulum};
+use crate::common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{IdentityMass, ManifoldError, Sphere};
 use sdae_model::{
     AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble, PathLoop,

@@ -4,9 +4,7 @@
 //! with its certificate, kappa and lambda, the failures, and the steps the lane form leaves to
 //! the general path (a root outside the theory's ball, a quadratic without a real root).
 
-mod common;
-
-use common::{lane_configs, noisy_pendulum};
+use crate::common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{DiagonalMass, IdentityMass, Sphere};
 use sdae_model::{
     AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, StepResult,

@@ -1,8 +1,6 @@
 //! The scheme keeps g(r_k) = 0 and Dg(r_k) v_k = 0 to roundoff over long runs.
 
-mod common;
-
-use common::{chain_system, max_abs};
+use crate::common::{chain_system, max_abs};
 use sdae_manifold::Constraint;
 use sdae_model::{GaussianIncrements, Observer, TimeGrid, run_path};
 use sdae_scheme::{Stepper, StepperConfig};

@@ -1,5 +1,4 @@
 //! Builders shared by the integration tests.
-#![allow(dead_code)]
 
 use sdae_manifold::{BeadChain, IdentityMass, TheoryBound};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, System};

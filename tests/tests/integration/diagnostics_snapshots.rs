@@ -3,7 +3,7 @@
 //! enough that a last-bit change of the step size leaves them alone (checked), so they are kept
 //! exact.
 
-mod common;
+use crate::common;
 
 use sdae_model::{
     GaussianIncrements, NoObserver, PathDiagnostics, Scheme, System, TimeGrid, run_path,

@@ -3,7 +3,7 @@
 //! C_eta = 0.5, a value that needs no scaling with the number of beads; on a unit sphere it is
 //! the seed's functional, step for step.
 
-mod common;
+use crate::common;
 
 use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
 use sdae_scheme::{Stepper, StepperConfig};

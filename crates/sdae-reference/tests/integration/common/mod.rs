@@ -1,5 +1,4 @@
 //! Helpers shared by the integration tests of the reference solvers.
-#![allow(dead_code)]
 
 use sdae_model::{GaussianIncrements, IncrementSource};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};

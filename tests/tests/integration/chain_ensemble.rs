@@ -4,9 +4,7 @@
 //! of a path that stops), at W = 1, 4 and 8, with the drift and noise of a system without lane
 //! forms evaluated path by path and those of one with lane forms in lanes.
 
-mod common;
-
-use common::lane_configs;
+use crate::common::lane_configs;
 use sdae_manifold::{
     BeadChain, Constraint, DiagonalMass, IdentityMass, Mass, RigidBonds, TheoryBound,
 };

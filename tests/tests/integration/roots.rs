@@ -1,8 +1,6 @@
 //! Solvability of the kappa system: no root without truncation (seed Fig. 1b), the homotopy
 //! fallback, and rejection of roots the theorem does not certify.
 
-mod common;
-
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use sdae_ift::{IftError, Method, SolverSettings};

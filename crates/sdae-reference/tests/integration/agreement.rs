@@ -3,9 +3,7 @@
 //! better than either is accurate at 2^5 steps, and each solver's error against the other's
 //! fine reference decreases with an observed order > 0.5.
 
-mod common;
-
-use common::{brownian_path, observed_order, planar, show, state_distance};
+use crate::common::{brownian_path, observed_order, planar, show, state_distance};
 use sdae_model::{
     Coarsened, NoObserver, Observer, RecordedIncrements, Recorder, Scheme, TimeGrid, run_path,
 };

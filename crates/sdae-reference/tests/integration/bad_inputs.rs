@@ -1,8 +1,6 @@
 //! Every user-caused failure gives its typed error, never a panic or a silent NaN.
 
-mod common;
-
-use common::planar;
+use crate::common::planar;
 use sdae_ift::{IftError, SolverSettings};
 use sdae_manifold::{DenseMass, ManifoldError, Sphere};
 use sdae_model::{

@@ -2,9 +2,7 @@
 //! (trapezoidal drift), order 1 with additive noise (B independent of v: the Milstein
 //! correction vanishes, and nothing beyond order 1 is possible with increments alone).
 
-mod common;
-
-use common::{brownian_path, observed_order, planar, show, state_distance};
+use crate::common::{brownian_path, observed_order, planar, show, state_distance};
 use sdae_model::{
     Coarsened, GaussianIncrements, NoObserver, RecordedIncrements, Scheme, System, TimeGrid,
     run_path,

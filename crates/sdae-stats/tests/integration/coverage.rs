@@ -350,7 +350,7 @@ fn order_intervals_cover_or_say_they_are_indicative() {
 }
 
 /// The thorough variant: 1000 replications of every case (about 30 s in the test profile):
-/// `cargo test -p sdae-study --test coverage -- --ignored --nocapture`.
+/// `cargo test -p sdae-stats --test integration -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn order_intervals_cover_or_say_they_are_indicative_thoroughly() {

@@ -5,10 +5,8 @@
 mod common;
 
 use common::{brownian_path, observed_order, planar, show, state_distance};
-use sdae_model::{
-    Coarsened, GaussianIncrements, NoObserver, RecordedIncrements, Scheme, System, TimeGrid,
-    run_path,
-};
+use sdae_model::{NoObserver, Scheme, System, TimeGrid, run_path};
+use sdae_noise::{Coarsened, GaussianIncrements, RecordedIncrements};
 use sdae_reference::{EulerMaruyama, StochasticHeun};
 use sdae_systems::Pendulum;
 

@@ -5,7 +5,7 @@
 
 use std::ops::Range;
 
-use sdae_model::{PathStreams, StandardNormals};
+use sdae_noise::{PathStreams, StandardNormals};
 use sdae_study::StudyError;
 use sdae_study::mlmc::algorithm::{AdaptiveSettings, Plan, adaptive, run_plan};
 use sdae_study::mlmc::fit::fit_rates;

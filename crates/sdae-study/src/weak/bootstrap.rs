@@ -6,7 +6,7 @@
 
 use rand::RngExt;
 use sdae_manifold::vector::dot;
-use sdae_model::path_rng;
+use sdae_noise::path_rng;
 
 use crate::bootstrap::{BOOTSTRAP_RESAMPLES, index, quantile};
 use crate::stats::Interval;

@@ -12,10 +12,8 @@ use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};
 use std::cell::Cell;
 
 use sdae_manifold::{BeadChain, IdentityMass};
-use sdae_model::{
-    AdditiveNoise, EnsembleIncrements, GaussianIncrements, IncrementSource, MechanicalSystem,
-    PathEnsemble, Scheme, System, ZeroDrift,
-};
+use sdae_model::{AdditiveNoise, MechanicalSystem, PathEnsemble, Scheme, System, ZeroDrift};
+use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, InherentSde, ProjectedEulerMaruyama, StochasticHeun,
     TruncatedEulerMaruyama,

@@ -8,11 +8,11 @@
 
 use sdae_manifold::vector::max_abs;
 use sdae_manifold::{Constraint, check_state};
+use sdae_noise::IncrementSource;
 
 use crate::diagnostics::{PathDiagnostics, PathFailure};
 use crate::error::{ModelError, StepError, StepFailure, check_dim};
 use crate::grid::TimeGrid;
-use crate::increments::IncrementSource;
 use crate::observer::Observer;
 use crate::scheme::{Scheme, StepOutcome, StepResult};
 use crate::system::System;

@@ -1,12 +1,12 @@
 //! Many independent paths of one scheme stepped together: [`PathEnsemble`], [`PathLoop`].
 
+use sdae_lanes::lane_stride;
 use sdae_manifold::{Constraint, check_state};
+use sdae_noise::EnsembleIncrements;
 
 use crate::diagnostics::PathDiagnostics;
 use crate::driver::{INITIAL_STATE_TOLERANCE, PathState};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
-use crate::lanes::lane_stride;
-use crate::normals::EnsembleIncrements;
 use crate::scheme::Scheme;
 use crate::system::System;
 
@@ -24,10 +24,12 @@ use crate::system::System;
 /// threads. An implementation that steps W paths in SIMD lanes is `sdae_scheme::Ensemble`.
 ///
 /// ```
+/// use sdae_lanes::lane_stride;
 /// use sdae_model::{
-///     GaussianIncrements, IncrementSource, MechanicalSystem, NoNoise, PathEnsemble, PathLoop,
-///     Scheme, StepFailure, StepOutcome, StepResult, ZeroDrift, lane_stride,
+///     MechanicalSystem, NoNoise, PathEnsemble, PathLoop, Scheme, StepFailure, StepOutcome,
+///     StepResult, ZeroDrift,
 /// };
+/// use sdae_noise::{GaussianIncrements, IncrementSource};
 /// use sdae_manifold::{IdentityMass, Sphere};
 ///
 /// // A scheme that only moves along a circle's tangent (enough to show the bookkeeping).

@@ -4,6 +4,7 @@
 
 use sdae_ift::IftError;
 use sdae_manifold::{LinearError, ManifoldError};
+use sdae_noise::NoiseError;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -52,6 +53,34 @@ pub enum ModelError {
         /// The size of one entry.
         entry_bytes: usize,
     },
+}
+
+/// The increments' bad settings and sizes ([`NoiseError`], e.g. of
+/// [`EnsembleIncrements::fill`](sdae_noise::EnsembleIncrements::fill)) are the model's, with
+/// the same fields and messages.
+impl From<NoiseError> for ModelError {
+    fn from(error: NoiseError) -> Self {
+        match error {
+            NoiseError::InvalidSetting {
+                name,
+                value,
+                reason,
+            } => ModelError::InvalidSetting {
+                name,
+                value,
+                reason,
+            },
+            NoiseError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => ModelError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            },
+        }
+    }
 }
 
 /// A vector of `rows * cols` copies of `value`, or [`ModelError::Allocation`] if that length

@@ -5,10 +5,10 @@
 //! its steps went through the lanes or through the scalar step.
 
 use pulp::Simd;
+use sdae_lanes::{LaneMask, Lanes};
 
 use crate::diagnostics::{ITERATION_BINS, PathDiagnostics};
 use crate::error::{ModelError, try_filled};
-use crate::lanes::{LaneMask, Lanes};
 use crate::scheme::StepOutcome;
 
 /// What [`PathDiagnostics::record`] reads of the [`StepOutcome`]s of W lanes' steps, per lane.
@@ -236,9 +236,9 @@ fn raise<Sd: Simd>(column: &mut [f64], done: LaneMask<Sd>, x: Lanes<Sd>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lanes::LaneWidth;
     use pulp::WithSimd;
     use sdae_ift::{Certificate, Method};
+    use sdae_lanes::LaneWidth;
 
     /// The outcome of step k of lane `lane`: truncated or not, 0 to 20 iterations, a NaN
     /// contraction now and then (no probes), a finite or infinite radius.

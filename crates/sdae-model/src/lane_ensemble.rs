@@ -3,14 +3,13 @@
 use std::mem::take;
 
 use pulp::Simd;
+use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes};
 use sdae_manifold::Constraint;
 
 use crate::diagnostics::PathDiagnostics;
 use crate::ensemble::{PathEnsemble, check_initial_state, check_path, for_each_row};
 use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
-use crate::lanes::LANE_BLOCK;
-use crate::lanes::{LaneMask, LaneWidth, Lanes};
 use crate::scheme::Scheme;
 use crate::system::System;
 
@@ -37,7 +36,7 @@ impl<T: LaneScheme + ?Sized> LaneScheme for Box<T> {
 /// LANE_BLOCK`: a block's n rows
 /// of LANE_BLOCK lanes are contiguous, so that a group of W = LANE_BLOCK lanes is stepped where
 /// it lies), with each path's mu (seed eq. 1.4, constraint j of path p at `j * stride + p`,
-/// stride = [`lane_stride`](crate::lane_stride)`(P)`), [`PathDiagnostics`] and, once a step has failed, its
+/// stride = [`lane_stride`](sdae_lanes::lane_stride)`(P)`), [`PathDiagnostics`] and, once a step has failed, its
 /// [`StepFailure`].
 #[derive(Debug, Clone)]
 pub struct LanePaths {
@@ -136,7 +135,7 @@ impl LanePaths {
         self.paths
     }
 
-    /// The stride of the layout, [`lane_stride`](crate::lane_stride)`(P)`.
+    /// The stride of the layout, [`lane_stride`](sdae_lanes::lane_stride)`(P)`.
     pub fn stride(&self) -> usize {
         self.stride
     }
@@ -457,7 +456,7 @@ pub struct GroupState<'a, Sd: Simd> {
 }
 
 /// One ensemble step's size h and the Brownian increments dw of every path (coordinate j of
-/// path p at `j * stride + p`, [`lane_stride`](crate::lane_stride)).
+/// path p at `j * stride + p`, [`lane_stride`](sdae_lanes::lane_stride)).
 #[derive(Debug, Clone, Copy)]
 pub struct StepInput<'a> {
     /// The step size h.
@@ -520,9 +519,9 @@ impl std::fmt::Debug for LaneStore {
 /// numbers do not depend on W, on the other paths or on how paths are grouped.
 ///
 /// ```
+/// use sdae_lanes::LaneWidth;
 /// use sdae_manifold::{IdentityMass, Sphere};
 /// use sdae_model::engine::LanePaths;
-/// use sdae_model::lanes::LaneWidth;
 /// use sdae_model::{
 ///     LaneEnsemble, LaneScheme, MechanicalSystem, NoNoise, PathEnsemble, Scheme, StepFailure,
 ///     StepOutcome, StepResult, ZeroDrift,
@@ -734,15 +733,15 @@ fn load_into<Sd: Simd>(rows: &mut [Lanes<Sd>], from: &[f64], stride: usize, offs
 
 /// A lane's values as plain f64 (the first W entries).
 #[inline(always)]
-fn lane_values<Sd: Simd>(x: Lanes<Sd>) -> [f64; crate::LANE_BLOCK] {
-    let mut values = [0.0; crate::LANE_BLOCK];
+fn lane_values<Sd: Simd>(x: Lanes<Sd>) -> [f64; LANE_BLOCK] {
+    let mut values = [0.0; LANE_BLOCK];
     x.store(&mut values);
     values
 }
 
 /// The lanes of a mask as booleans (the first W entries).
 #[inline(always)]
-fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; crate::LANE_BLOCK] {
+fn mask_values<Sd: Simd>(mask: LaneMask<Sd>) -> [bool; LANE_BLOCK] {
     let one = Lanes::splat(mask.simd(), 1.0);
     lane_values(Lanes::select(mask, one, one.splat_like(0.0))).map(|x| x == 1.0)
 }

@@ -6,10 +6,11 @@
 //! ```
 //!
 //! - the system: [`System`], built from parts ([`Drift`], [`Noise`]) with [`MechanicalSystem`];
-//! - Brownian increments: [`IncrementSource`], each path's own streams ([`PathStreams`], whose
-//!   main stream is [`path_rng`]) and standard normals from them ([`StandardNormals`], a
-//!   ziggurat of 2048 layers), [`GaussianIncrements`], [`EnsembleIncrements`] (W paths at
-//!   once, the same numbers), [`Coarsened`] and [`RecordedIncrements`];
+//! - the Brownian increments dw that drive it come from [`sdae_noise`]: a path's from any
+//!   [`IncrementSource`](sdae_noise::IncrementSource) (its own streams,
+//!   [`GaussianIncrements::for_path`](sdae_noise::GaussianIncrements::for_path)), an
+//!   ensemble's from [`EnsembleIncrements`](sdae_noise::EnsembleIncrements) (W paths at once,
+//!   the same numbers); a [`NoiseError`](sdae_noise::NoiseError) converts into [`ModelError`];
 //! - the one step trait [`Scheme`] with its [`StepOutcome`] and [`StepFailure`] (classified by
 //!   [`FailureKind`]);
 //! - the one path driver [`run_path`] on a [`TimeGrid`] (and [`advance`], a stretch of a path
@@ -17,7 +18,8 @@
 //!   [`PathDiagnostics`];
 //! - many paths of one scheme at once: [`PathEnsemble`], with [`LaneEnsemble`] (structure of
 //!   arrays, W paths per step in SIMD lanes where the scheme has a lane form, [`LaneScheme`],
-//!   with the building blocks of a lane form in [`engine`]) and [`PathLoop`] for any scheme;
+//!   with the building blocks of a lane form in [`engine`]; the lanes themselves are those of
+//!   [`sdae_lanes`]) and [`PathLoop`] for any scheme;
 //! - the tangent bundle: [`project_state`], [`TangentProjector`] and the [`KappaProblem`] of
 //!   seed eq. 3.1.
 //!
@@ -28,9 +30,10 @@
 //! use sdae_ift::SolverSettings;
 //! use sdae_manifold::{IdentityMass, ScalarGram, Sphere};
 //! use sdae_model::{
-//!     GaussianIncrements, MechanicalSystem, NoNoise, NoObserver, Scheme, StepFailure,
-//!     StepOutcome, StepResult, System, TangentProjector, TimeGrid, ZeroDrift, run_path,
+//!     MechanicalSystem, NoNoise, NoObserver, Scheme, StepFailure, StepOutcome, StepResult, System,
+//!     TangentProjector, TimeGrid, ZeroDrift, run_path,
 //! };
+//! use sdae_noise::GaussianIncrements;
 //!
 //! type Circle = MechanicalSystem<Sphere, IdentityMass, ZeroDrift, NoNoise>;
 //!
@@ -80,34 +83,24 @@ mod driver;
 mod ensemble;
 mod error;
 mod grid;
-mod increments;
 mod lane_diagnostics;
 mod lane_ensemble;
 mod newton_lanes;
 mod newton_root;
-/// W paths at once in SIMD lanes ([`sdae_lanes`], re-exported).
-pub use sdae_lanes as lanes;
-mod normals;
 mod observer;
-mod path_streams;
 mod scheme;
 mod sphere_lanes;
 mod sphere_root;
 mod system;
 mod tangent;
-mod ziggurat;
 
 pub use diagnostics::{ITERATION_BINS, PathDiagnostics, PathFailure, TRUNCATION_DOMINATED};
 pub use driver::{INITIAL_STATE_TOLERANCE, PathState, Steps, advance, run_path};
 pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};
 pub use error::{FailureKind, ModelError, StepError, StepFailure, check_dim, check_step_size};
 pub use grid::TimeGrid;
-pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 pub use lane_ensemble::{LaneEnsemble, LaneScheme};
-pub use lanes::{LANE_BLOCK, lane_stride};
-pub use normals::EnsembleIncrements;
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
-pub use path_streams::{PathStreams, StandardNormals, path_rng};
 pub use scheme::{Scheme, StepOutcome, StepResult};
 pub use system::{
     AdditiveNoise, ClosureNoise, Drift, LangevinForm, MechanicalSystem, NoNoise, Noise, System,

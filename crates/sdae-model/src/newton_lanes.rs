@@ -8,10 +8,10 @@
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
+use sdae_lanes::LaneWidth;
 use sdae_manifold::lane_form::ConstraintLanes;
 
 use crate::lane_ensemble::{LanePaths, LaneRows, LaneStore, StepInput, WideKernel};
-use crate::lanes::LaneWidth;
 use crate::newton_root::build_lane_form;
 use crate::scheme::Scheme;
 use crate::system::System;

@@ -17,6 +17,7 @@ use std::marker::PhantomData;
 
 use pulp::Simd;
 use sdae_ift::{ProbeMap, SolverSettings, power_iteration};
+use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::Constraint;
 use sdae_manifold::lane_form::{
     ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
@@ -24,7 +25,6 @@ use sdae_manifold::lane_form::{
 };
 use sdae_manifold::vector::sum_squares;
 
-use crate::lanes::{LaneMask, Lanes};
 use crate::system::System;
 
 /// The lane form C that the system's constraint offers for its mass

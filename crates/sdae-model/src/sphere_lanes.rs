@@ -8,11 +8,11 @@
 use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
+use sdae_lanes::LaneWidth;
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 
 use crate::lane_ensemble::{LaneKernel, LanePaths, StepInput};
-use crate::lanes::LaneWidth;
 use crate::scheme::Scheme;
 use crate::system::System;
 

@@ -11,9 +11,8 @@
 
 use pulp::Simd;
 use sdae_ift::{SolverSettings, quadratic_root};
+use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::Sphere;
-
-use crate::lanes::{LaneMask, Lanes};
 
 /// The constants of the root: the sphere's, the diagonal of M^-1, the solver's settings and
 /// the radius of the ball the root must lie in (C_kappa, or infinite).

@@ -1,10 +1,10 @@
 //! The system of seed eq. 1.1: M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu, g(r) = 0.
 
 use pulp::Simd;
+use sdae_lanes::{Lanes, per_lane};
 use sdae_manifold::{Constraint, Mass};
 
 use crate::error::{ModelError, check_dim, check_step_size};
-use crate::lanes::{Lanes, per_lane};
 
 /// Everything the stepper needs to know about a constrained stochastic mechanical system.
 pub trait System {
@@ -26,7 +26,7 @@ pub trait System {
     /// `out[i]`. The default evaluates [`System::drift`] lane by lane ([`per_lane`]: the
     /// same numbers, slower than a lane form); it returns `false` (no lane form: an ensemble
     /// then steps its paths one at a time) beyond
-    /// [`PER_LANE_MAX_DIM`](crate::lanes::PER_LANE_MAX_DIM) coordinates.
+    /// [`PER_LANE_MAX_DIM`](sdae_lanes::PER_LANE_MAX_DIM) coordinates.
     #[inline(always)]
     fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
         per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))

@@ -10,7 +10,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sdae_model::{EnsembleIncrements, LaneEnsemble, LaneScheme, PathEnsemble, PathLoop};
+use sdae_model::{LaneEnsemble, LaneScheme, PathEnsemble, PathLoop};
+use sdae_noise::EnsembleIncrements;
 use sdae_reference::{
     EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };

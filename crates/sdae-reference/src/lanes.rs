@@ -15,12 +15,12 @@
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
+use sdae_lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_manifold::{Mass, Sphere};
 use sdae_model::engine::{
     LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
 };
-use sdae_model::lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_model::{LaneScheme, Scheme, System};
 
 use crate::euler::EulerMaruyama;

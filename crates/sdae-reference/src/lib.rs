@@ -15,7 +15,8 @@
 //!   numbers as each path alone (any other system steps path by path).
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_model::{NoObserver, TimeGrid, run_path};
+//! use sdae_noise::GaussianIncrements;
 //! use sdae_reference::TruncatedEulerMaruyama;
 //! use sdae_systems::{PendulumParams, pendulum};
 //! let mut solver = TruncatedEulerMaruyama::new(pendulum(PendulumParams::default())?)?;

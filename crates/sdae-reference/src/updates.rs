@@ -3,8 +3,8 @@
 //! (`euler.rs`, `heun.rs`, `truncated.rs`) and their lanes (`lanes.rs`) call them, so that a
 //! lane computes what the solver computes for its path.
 
+use sdae_lanes::Real;
 use sdae_manifold::vector::sum_squares;
-use sdae_model::lanes::Real;
 
 /// r' = r + dt v of an Euler-Maruyama step.
 #[inline(always)]

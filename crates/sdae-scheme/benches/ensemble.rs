@@ -14,7 +14,7 @@
 //!   the lanes gain.
 //! - `pendulum_ensemble/step_only_closure_drift`: `step_only` for the same pendulum with its
 //!   drift given as a function (a user's system without a lane form): the lanes evaluate it
-//!   path by path (`sdae_model::lanes::per_lane`) and do the rest of the step in lanes.
+//!   path by path (`sdae_lanes::per_lane`) and do the rest of the step in lanes.
 //!
 //! The states are put back to the initial state every [`RESET_EVERY`] steps, as in
 //! benches/step.rs. Throughput is reported per path-step (criterion's elements).
@@ -24,10 +24,11 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use sdae_lanes::LaneWidth;
 use sdae_manifold::{IdentityMass, Sphere};
 use sdae_model::{AdditiveNoise, MechanicalSystem, PathEnsemble, System};
-use sdae_model::{EnsembleIncrements, GaussianIncrements, IncrementSource};
-use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
 /// Paths of the ensemble: 16 KiB of state, in the first-level cache.
@@ -67,7 +68,7 @@ fn closure_pendulum() -> ClosurePendulum {
 struct Bench<S: System> {
     ensemble: Ensemble<S>,
     noise: EnsembleIncrements,
-    per_path: Vec<GaussianIncrements<sdae_model::PathStreams>>,
+    per_path: Vec<GaussianIncrements<sdae_noise::PathStreams>>,
     drawn: Vec<Vec<f64>>,
     steps: usize,
 }
@@ -128,7 +129,7 @@ impl<S: System<Constraint = Sphere>> Bench<S> {
 
 /// dw[j * stride + p] = increment j of path p, from path p's own stream, one path at a time.
 fn draw_per_path(
-    noise: &mut [GaussianIncrements<sdae_model::PathStreams>], stride: usize, dw: &mut [f64],
+    noise: &mut [GaussianIncrements<sdae_noise::PathStreams>], stride: usize, dw: &mut [f64],
 ) {
     let mut one = [0.0; 2];
     for (p, source) in noise.iter_mut().enumerate() {

@@ -8,7 +8,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sdae_manifold::{DenseMass, DiagonalMass, IdentityMass, Mass, Sphere};
-use sdae_model::{AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme};
+use sdae_model::{AdditiveNoise, MechanicalSystem, Scheme};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::PendulumDrift;
 

@@ -22,13 +22,11 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use sdae_lanes::Lanes;
 use sdae_manifold::{BeadChain, IdentityMass};
 use sdae_model::PathEnsemble;
-use sdae_model::lanes::Lanes;
-use sdae_model::{
-    AdditiveNoise, Drift, EnsembleIncrements, GaussianIncrements, IncrementSource,
-    MechanicalSystem, Scheme, System,
-};
+use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, Scheme, System};
+use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
@@ -95,7 +93,7 @@ struct Bench<S: System> {
     r: Vec<f64>,
     v: Vec<f64>,
     h: f64,
-    noise: GaussianIncrements<sdae_model::PathStreams>,
+    noise: GaussianIncrements<sdae_noise::PathStreams>,
     dw: Vec<f64>,
     steps: u64,
     last_iterations: usize,

@@ -19,17 +19,15 @@
 use std::time::Instant;
 
 use pulp::Simd;
+use sdae_lanes::{LaneWidth, Lanes, Real};
 use sdae_manifold::lane_form::{
     ConstraintLanes, Evaluation, FactorLanes, InverseMass, LaneFormVisitor, PointLanes,
     ReciprocalLanes, ScalarLanes, base_coords, max_abs_and_finite,
 };
 use sdae_manifold::{Constraint, DiagonalMass, Mass, ScalarGram, check_state};
-use sdae_model::lanes::{Lanes, Real};
-use sdae_model::{
-    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble,
-    PathState,
-};
-use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
+use sdae_noise::{GaussianIncrements, IncrementSource};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 
 /// The torus ((x^2 + y^2)^(1/2) - R)^2 + z^2 = a^2 in R^3.
 #[derive(Debug, Clone, Copy)]

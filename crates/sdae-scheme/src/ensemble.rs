@@ -5,10 +5,10 @@ pub(crate) mod sphere;
 
 use std::marker::PhantomData;
 
+use sdae_lanes::LaneWidth;
 use sdae_manifold::lane_form::{ConstraintLanes, LaneFormVisitor};
 use sdae_manifold::{Constraint, Sphere};
 use sdae_model::engine::{LanePaths, StepInput, step_newton_lanes};
-use sdae_model::lanes::LaneWidth;
 use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
 
 use crate::stepper::Stepper;
@@ -19,11 +19,11 @@ use crate::stepper::Stepper;
 ///
 /// An [`Ensemble`] is the [`LaneEnsemble`] of a [`Stepper`] (a
 /// [`PathEnsemble`](sdae_model::PathEnsemble)): it holds P paths in structure-of-arrays layout
-/// ([`LanePaths`]: block by block of [`LANE_BLOCK`](sdae_model::LANE_BLOCK) paths; the
+/// ([`LanePaths`]: block by block of [`LANE_BLOCK`](sdae_lanes::LANE_BLOCK) paths; the
 /// increments of a step with coordinate j of path p at `j * stride + p`, stride =
-/// [`lane_stride`](sdae_model::lane_stride)`(P)`) and advances W of them at once, W the width of the instruction set chosen at run time ([`LaneWidth`]): 1
+/// [`lane_stride`](sdae_lanes::lane_stride)`(P)`) and advances W of them at once, W the width of the instruction set chosen at run time ([`LaneWidth`]): 1
 /// (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal
-/// mass the step is the closed form of [`Stepper`] written once over [`Lanes`](sdae_model::lanes::Lanes) (which
+/// mass the step is the closed form of [`Stepper`] written once over [`Lanes`](sdae_lanes::Lanes) (which
 /// [`Stepper`]'s own step of one path runs at W = 1), with the
 /// system's drift and noise in lanes ([`System::drift_lanes`], [`System::add_noise_lanes`]: the
 /// built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
@@ -49,7 +49,8 @@ use crate::stepper::Stepper;
 /// depend on W, on the other paths or on how paths are split across ensembles or threads.
 ///
 /// ```
-/// use sdae_model::{EnsembleIncrements, PathEnsemble};
+/// use sdae_model::PathEnsemble;
+/// use sdae_noise::EnsembleIncrements;
 /// use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 /// use sdae_systems::{PendulumParams, pendulum};
 /// let system = pendulum(PendulumParams::default())?;
@@ -76,7 +77,8 @@ use crate::stepper::Stepper;
 ///
 /// ```
 /// use sdae_manifold::{Constraint, Mass};
-/// use sdae_model::{EnsembleIncrements, PathEnsemble, System};
+/// use sdae_model::{PathEnsemble, System};
+/// use sdae_noise::EnsembleIncrements;
 /// use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 /// use sdae_systems::{ChainMoleculeParams, chain_molecule};
 /// let molecule = chain_molecule(&ChainMoleculeParams::default())?;

@@ -4,8 +4,8 @@
 //! path i. The kappa root's tests and certificate are `sdae_ift::criteria`'s; a constraint's
 //! formulas are its own (`sdae_manifold`).
 
+use sdae_lanes::{PathMask, Real};
 use sdae_manifold::motion_measure;
-use sdae_model::lanes::{PathMask, Real};
 
 /// The truncation factor of eq. 3.2, eta = min(1, C_eta / (m h)), with m = max(|v|, |v|^2, |a|)
 /// from `speed` = |v| and `acceleration` = |a|, or the constraint's `local` measure of the

@@ -17,7 +17,8 @@
 //! - [`runaway_bound`] (the C_eta below which truncated steps keep a rotor's energy bounded).
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, Recorder, TimeGrid, run_path};
+//! use sdae_model::{Recorder, TimeGrid, run_path};
+//! use sdae_noise::GaussianIncrements;
 //! use sdae_scheme::{Stepper, StepperConfig};
 //! use sdae_systems::{PendulumParams, pendulum};
 //! let system = pendulum(PendulumParams::default())?;
@@ -45,5 +46,4 @@ pub use config::StepperConfig;
 pub use ensemble::Ensemble;
 pub use error::SchemeError;
 pub use runaway::runaway_bound;
-pub use sdae_model::lanes::LaneWidth;
 pub use stepper::Stepper;

@@ -43,10 +43,8 @@ use std::hint::black_box;
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 use sdae_manifold::TheoryBound;
-use sdae_model::{
-    EnsembleIncrements, GaussianIncrements, IncrementSource, LaneEnsemble, LaneScheme,
-    PathEnsemble, Scheme, System,
-};
+use sdae_model::{LaneEnsemble, LaneScheme, PathEnsemble, Scheme, System};
+use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_splitting::{Splitting, SplittingConfig};
 use sdae_systems::{

@@ -24,7 +24,8 @@
 //! - [`OuFactors`]: the O step's exact Ornstein-Uhlenbeck update.
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_model::{NoObserver, TimeGrid, run_path};
+//! use sdae_noise::GaussianIncrements;
 //! use sdae_splitting::{Splitting, SplittingConfig};
 //! use sdae_systems::{ChainMoleculeParams, chain_molecule};
 //! let molecule = chain_molecule(&ChainMoleculeParams::default())?;

@@ -15,6 +15,7 @@ use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
+use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes, per_path};
 use sdae_manifold::Constraint;
 use sdae_manifold::lane_form::{
     ConstraintLanes, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, max_abs,
@@ -24,8 +25,7 @@ use sdae_model::engine::{
     Drifted, GroupState, LanePaths, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot,
     StepInput, WideKernel, step_newton_lanes,
 };
-use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, per_path};
-use sdae_model::{LANE_BLOCK, Scheme, System};
+use sdae_model::{Scheme, System};
 
 use crate::config::{SplittingConfig, StepSizes};
 use crate::ou::OuFactors;

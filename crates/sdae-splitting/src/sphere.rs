@@ -7,13 +7,13 @@
 //! goes through the scalar step, which reports the failure as for one path.
 
 use pulp::Simd;
+use sdae_lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 use sdae_model::engine::{
     LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
 };
-use sdae_model::lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_model::{LaneScheme, StepOutcome, System};
 
 use crate::config::StepSizes;

@@ -6,7 +6,7 @@
 //! stream, so every interval built on them is a function of the data alone.
 
 use rand::RngExt;
-use sdae_model::path_rng;
+use sdae_noise::path_rng;
 
 /// Bootstrap resamples behind the study's intervals.
 pub const BOOTSTRAP_RESAMPLES: usize = 400;

@@ -17,12 +17,11 @@
 
 use std::time::Instant;
 
+use sdae_lanes::lane_stride;
 use sdae_manifold::vector::{dot, max_abs};
 use sdae_manifold::{Constraint, Mass};
-use sdae_model::{
-    EnsembleIncrements, FailureKind, ModelError, PathDiagnostics, PathEnsemble, System, TimeGrid,
-    lane_stride,
-};
+use sdae_model::{FailureKind, ModelError, PathDiagnostics, PathEnsemble, System, TimeGrid};
+use sdae_noise::EnsembleIncrements;
 
 use crate::integrator::BoxedEnsemble;
 use crate::observable::Observable;

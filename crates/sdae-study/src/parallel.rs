@@ -5,7 +5,7 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
-use sdae_model::lane_stride;
+use sdae_lanes::lane_stride;
 use sdae_reference::CurvedSystem;
 use serde::{Deserialize, Serialize};
 

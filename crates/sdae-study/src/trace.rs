@@ -7,7 +7,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use plotters::prelude::*;
-use sdae_model::{GaussianIncrements, Recorder, TimeGrid, run_path};
+use sdae_model::{Recorder, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_reference::CurvedSystem;
 use sdae_scheme::{Stepper, StepperConfig};
 

@@ -22,7 +22,8 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_model::{Scheme, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 

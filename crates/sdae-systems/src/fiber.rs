@@ -46,7 +46,8 @@
 //!   holds |w|, at large relative speeds). The defaults have 1.08 against 2.
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_model::{NoObserver, TimeGrid, run_path};
+//! use sdae_noise::GaussianIncrements;
 //! use sdae_scheme::{Stepper, StepperConfig};
 //! use sdae_systems::{Fiber, FiberParams};
 //! let fiber = Fiber::new(&FiberParams::default())?;
@@ -61,9 +62,9 @@
 //! ```
 
 use pulp::Simd;
+use sdae_lanes::{Lanes, Real};
 use sdae_manifold::{BeadChain, DiagonalMass};
 use sdae_model::System;
-use sdae_model::lanes::{Lanes, Real};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite_entries, non_negative, particle_count, positive};

@@ -20,7 +20,8 @@
 //!   ([`RigidTriatomicParams`]).
 //!
 //! ```
-//! use sdae_model::{GaussianIncrements, NoObserver, TimeGrid, run_path};
+//! use sdae_model::{NoObserver, TimeGrid, run_path};
+//! use sdae_noise::GaussianIncrements;
 //! use sdae_scheme::{Stepper, StepperConfig};
 //! use sdae_systems::{ChainMoleculeParams, chain_molecule};
 //! let molecule = chain_molecule(&ChainMoleculeParams::default())?;
@@ -35,8 +36,8 @@
 //! ```
 
 use pulp::Simd;
+use sdae_lanes::Lanes;
 use sdae_manifold::{BeadChain, Constraint, DiagonalMass, Mass, RigidBonds};
-use sdae_model::lanes::Lanes;
 use sdae_model::{AdditiveNoise, LangevinForm, Noise, System};
 use serde::{Deserialize, Serialize};
 
@@ -324,7 +325,8 @@ impl Default for RigidTriatomicParams {
 /// constants are available:
 ///
 /// ```
-/// use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+/// use sdae_model::{Scheme, System};
+/// use sdae_noise::{GaussianIncrements, IncrementSource};
 /// use sdae_scheme::{Stepper, StepperConfig};
 /// use sdae_systems::{RigidTriatomicParams, rigid_triatomic};
 /// let molecule = rigid_triatomic(&RigidTriatomicParams::default())?;

@@ -2,8 +2,8 @@
 //! dv = (-c_g e_d - gamma v) dt + sigma dw - r dmu / rho^2, |r| = rho, unit mass.
 
 use pulp::Simd;
+use sdae_lanes::Lanes;
 use sdae_manifold::{IdentityMass, Sphere};
-use sdae_model::lanes::Lanes;
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem};
 use serde::{Deserialize, Serialize};
 

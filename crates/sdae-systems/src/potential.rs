@@ -9,7 +9,7 @@
 //! computes for path i; the sines and arc tangents are taken lane by lane.
 
 use pulp::Simd;
-use sdae_model::lanes::{Lanes, PathMask, Real, per_lane};
+use sdae_lanes::{Lanes, PathMask, Real, per_lane};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite, finite_entries, non_negative};
@@ -24,7 +24,7 @@ pub trait Potential {
     /// force += -grad V(x) for W paths at once: coordinate i of every path in `x[i]` and
     /// `force[i]`. The default evaluates [`Potential::add_force`] lane by lane ([`per_lane`]);
     /// it returns `false` (no lane form: `force` is then to be recomputed path by path) beyond
-    /// [`PER_LANE_MAX_DIM`](sdae_model::lanes::PER_LANE_MAX_DIM) coordinates.
+    /// [`PER_LANE_MAX_DIM`](sdae_lanes::PER_LANE_MAX_DIM) coordinates.
     #[inline(always)]
     fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
         per_lane([x], force, |[x], force| self.add_force(x, force))

@@ -1,5 +1,5 @@
 //! Vectors of R^3 of one path or of W paths: coordinate k of atom (or bead) a in `x[3a + k]`,
-//! an `f64` for one path, a [`Lanes`](sdae_model::lanes::Lanes) for W paths (the layout of
+//! an `f64` for one path, a [`Lanes`](sdae_lanes::Lanes) for W paths (the layout of
 //! [`System::drift_lanes`](sdae_model::System::drift_lanes)).
 //!
 //! The systems write their forces once over [`Real`], so that lane i of the lane form performs
@@ -7,7 +7,7 @@
 //! loops are written out (no closures or array `map`): a closure does not inherit the
 //! instruction set of the lane code that calls it.
 
-use sdae_model::lanes::Real;
+use sdae_lanes::Real;
 
 /// A vector of R^3.
 pub(crate) type Vec3<T> = [T; 3];
@@ -53,8 +53,8 @@ pub(crate) fn add_to<T: Real>(force: &mut [T], a: usize, f: Vec3<T>, skip: T::Ma
 #[cfg(test)]
 pub(crate) mod check {
     use pulp::{Simd, WithSimd};
+    use sdae_lanes::{LaneWidth, Lanes};
     use sdae_model::System;
-    use sdae_model::lanes::{LaneWidth, Lanes};
 
     /// Paths' states (r, v, dw) and the system whose lane forms are checked on them.
     struct Compare<'a, Sys> {

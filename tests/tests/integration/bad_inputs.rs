@@ -2,9 +2,10 @@
 
 use sdae_manifold::{BeadChain, DenseMass, DiagonalMass, IdentityMass, ManifoldError, Sphere};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, MechanicalSystem, ModelError, NoObserver,
-    RecordedIncrements, Scheme, StepFailure, TimeGrid, ZeroDrift, run_path,
+    AdditiveNoise, MechanicalSystem, ModelError, NoObserver, Scheme, StepFailure, TimeGrid,
+    ZeroDrift, run_path,
 };
+use sdae_noise::{GaussianIncrements, RecordedIncrements};
 use sdae_scheme::{SchemeError, Stepper, StepperConfig};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 

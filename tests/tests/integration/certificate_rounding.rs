@@ -6,7 +6,8 @@
 //! the step.
 
 use sdae_manifold::Constraint;
-use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_model::{Scheme, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 

@@ -5,14 +5,15 @@
 //! forms evaluated path by path and those of one with lane forms in lanes.
 
 use crate::common::lane_configs;
+use sdae_lanes::{LaneWidth, Lanes};
 use sdae_manifold::{
     BeadChain, Constraint, DiagonalMass, IdentityMass, Mass, RigidBonds, TheoryBound,
 };
 use sdae_model::{
-    AdditiveNoise, Drift, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble,
-    PathState, Scheme, StepFailure, System, lanes::Lanes,
+    AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState, Scheme, StepFailure, System,
 };
-use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_noise::{GaussianIncrements, IncrementSource};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{
     ChainMoleculeParams, Fiber, FiberParams, RigidTriatomicParams, chain_molecule, rigid_triatomic,
 };

@@ -9,10 +9,8 @@ use rand_core::TryRng;
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rand_xoshiro::rand_core::SeedableRng;
 use sdae_manifold::{Constraint, Curvature, Mass, ScalarGram, Sphere};
-use sdae_model::{
-    GaussianIncrements, IncrementSource, MechanicalSystem, NoObserver, Recorder, Scheme, System,
-    TimeGrid, run_path,
-};
+use sdae_model::{MechanicalSystem, NoObserver, Recorder, Scheme, System, TimeGrid, run_path};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_reference::EulerMaruyama;
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};

@@ -2,7 +2,8 @@
 
 use crate::common::{chain_system, max_abs};
 use sdae_manifold::Constraint;
-use sdae_model::{GaussianIncrements, Observer, TimeGrid, run_path};
+use sdae_model::{Observer, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 

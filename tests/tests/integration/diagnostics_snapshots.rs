@@ -5,9 +5,8 @@
 
 use crate::common;
 
-use sdae_model::{
-    GaussianIncrements, NoObserver, PathDiagnostics, Scheme, System, TimeGrid, run_path,
-};
+use sdae_model::{NoObserver, PathDiagnostics, Scheme, System, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 

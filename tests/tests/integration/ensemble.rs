@@ -5,12 +5,13 @@
 //! block read gives each path's state; bad input is a typed error.
 
 use crate::common::{lane_configs, noisy_pendulum};
+use sdae_lanes::LaneWidth;
 use sdae_manifold::{IdentityMass, ManifoldError, Sphere};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, PathEnsemble, PathLoop,
-    PathState, Scheme, StepFailure, System,
+    AdditiveNoise, MechanicalSystem, PathEnsemble, PathLoop, PathState, Scheme, StepFailure, System,
 };
-use sdae_scheme::{Ensemble, LaneWidth, Stepper, StepperConfig};
+use sdae_noise::{GaussianIncrements, IncrementSource};
+use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 
 const PATHS: usize = 37;
 const STEPS: usize = 400;
@@ -402,7 +403,8 @@ fn out_of_range_paths_absurd_counts_and_nan_increments_are_named() {
 /// for other paths or another noise dimension before drawing anything.
 #[test]
 fn stepping_with_the_ensembles_own_draws_checks_them() {
-    use sdae_model::{EnsembleIncrements, ModelError};
+    use sdae_model::ModelError;
+    use sdae_noise::EnsembleIncrements;
     let system = noisy_pendulum(2);
     let stepper = Stepper::new(system.clone(), configs(&system)[0].1).unwrap();
     let (r0, v0) = ([1.5, 0.0], [0.0, 0.0]);
@@ -517,8 +519,8 @@ impl sdae_model::Noise for ThreeComponentNoise {
         out[1] += dw[1] - 0.5 * dw[2];
     }
     fn add_lanes<S: pulp::Simd>(
-        &self, _r: &[sdae_model::lanes::Lanes<S>], _v: &[sdae_model::lanes::Lanes<S>],
-        dw: &[sdae_model::lanes::Lanes<S>], out: &mut [sdae_model::lanes::Lanes<S>],
+        &self, _r: &[sdae_lanes::Lanes<S>], _v: &[sdae_lanes::Lanes<S>],
+        dw: &[sdae_lanes::Lanes<S>], out: &mut [sdae_lanes::Lanes<S>],
     ) -> bool {
         out[0] = out[0] + (dw[0] + dw[2] * 0.5);
         out[1] = out[1] + (dw[1] - dw[2] * 0.5);

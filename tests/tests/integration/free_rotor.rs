@@ -5,7 +5,8 @@
 //! 4.5 standard errors of the estimators. Schemes that keep the constraint must hold it to
 //! rounding; the unprojected inherent-SDE solvers drift off it by O(h), not more.
 
-use sdae_model::{GaussianIncrements, Observer, Scheme, TimeGrid, run_path};
+use sdae_model::{Observer, Scheme, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_reference::{
     EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };

@@ -1,6 +1,7 @@
 //! Piecewise constant and linear interpolation of a recorded path (seed Remark 4.2).
 
-use sdae_model::{GaussianIncrements, Interpolation, Recorder, TimeGrid, run_path};
+use sdae_model::{Interpolation, Recorder, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 

@@ -5,7 +5,8 @@
 
 use crate::common;
 
-use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_model::{Scheme, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 

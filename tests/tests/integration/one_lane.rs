@@ -6,10 +6,8 @@
 
 use crate::common::{lane_configs, noisy_pendulum};
 use sdae_manifold::{DiagonalMass, IdentityMass, Sphere};
-use sdae_model::{
-    AdditiveNoise, GaussianIncrements, IncrementSource, MechanicalSystem, Scheme, StepResult,
-    System,
-};
+use sdae_model::{AdditiveNoise, MechanicalSystem, Scheme, StepResult, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 
 const STEPS: usize = 3000;

@@ -2,7 +2,8 @@
 //! free rotor with friction, no noise. Below C_eta = 2 gamma L^2 / m its speed decays, above it
 //! the speed grows without bound, with no failure and no warning but the truncated share.
 
-use sdae_model::{IncrementSource, NoObserver, TimeGrid, run_path};
+use sdae_model::{NoObserver, TimeGrid, run_path};
+use sdae_noise::IncrementSource;
 use sdae_scheme::{Stepper, StepperConfig, runaway_bound};
 use sdae_systems::{PendulumParams, pendulum};
 

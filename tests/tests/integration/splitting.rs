@@ -4,14 +4,14 @@
 //! compute each path's own numbers, the projection's typed failure where the half-explicit
 //! step goes on, and the systems the schemes refuse.
 
+use sdae_lanes::LaneWidth;
 use sdae_manifold::Constraint;
 use sdae_manifold::{DenseMass, Sphere};
-use sdae_model::lanes::LaneWidth;
 use sdae_model::{
-    AdditiveNoise, ClosureNoise, EnsembleIncrements, FailureKind, GaussianIncrements, LaneEnsemble,
-    MechanicalSystem, NoObserver, Observer, PathEnsemble, Scheme, StepFailure, System, TimeGrid,
-    ZeroDrift, project_state, run_path,
+    AdditiveNoise, ClosureNoise, FailureKind, LaneEnsemble, MechanicalSystem, NoObserver, Observer,
+    PathEnsemble, Scheme, StepFailure, System, TimeGrid, ZeroDrift, project_state, run_path,
 };
+use sdae_noise::{EnsembleIncrements, GaussianIncrements};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_splitting::{Splitting, SplittingConfig, SplittingError};
 use sdae_systems::{

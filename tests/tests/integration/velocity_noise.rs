@@ -8,7 +8,8 @@
 //! must give the Ito moments, within 4.5 standard errors of the estimators.
 
 use sdae_manifold::{IdentityMass, Sphere};
-use sdae_model::{GaussianIncrements, MechanicalSystem, NoObserver, Scheme, TimeGrid, run_path};
+use sdae_model::{MechanicalSystem, NoObserver, Scheme, TimeGrid, run_path};
+use sdae_noise::GaussianIncrements;
 use sdae_reference::StochasticHeun;
 use sdae_scheme::{Stepper, StepperConfig};
 

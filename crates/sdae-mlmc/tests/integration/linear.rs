@@ -4,7 +4,7 @@
 use std::ops::Range;
 
 use sdae_mlmc::{LevelSampler, MlmcError, Sample};
-use sdae_model::{PathStreams, StandardNormals};
+use sdae_noise::{PathStreams, StandardNormals};
 
 /// dX = a X dt + b X^m dW (m = 1 multiplicative, m = 0 additive), X_0 = 1, by Euler-Maruyama
 /// on h_l = T 2^-(k0 + l) (k0 >= 1): E[X_T] = e^(a T) exactly for both.

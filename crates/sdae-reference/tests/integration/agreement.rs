@@ -4,9 +4,8 @@
 //! fine reference decreases with an observed order > 0.5.
 
 use crate::common::{brownian_path, observed_order, planar, show, state_distance};
-use sdae_model::{
-    Coarsened, NoObserver, Observer, RecordedIncrements, Recorder, Scheme, TimeGrid, run_path,
-};
+use sdae_model::{NoObserver, Observer, Recorder, Scheme, TimeGrid, run_path};
+use sdae_noise::{Coarsened, RecordedIncrements};
 use sdae_reference::{ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::Pendulum;

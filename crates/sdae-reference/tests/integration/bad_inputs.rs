@@ -4,9 +4,10 @@ use crate::common::planar;
 use sdae_ift::{IftError, SolverSettings};
 use sdae_manifold::{DenseMass, ManifoldError, Sphere};
 use sdae_model::{
-    AdditiveNoise, GaussianIncrements, MechanicalSystem, ModelError, NoObserver, PathDiagnostics,
-    PathFailure, RecordedIncrements, Scheme, StepFailure, TimeGrid, run_path,
+    AdditiveNoise, MechanicalSystem, ModelError, NoObserver, PathDiagnostics, PathFailure, Scheme,
+    StepFailure, TimeGrid, run_path,
 };
+use sdae_noise::{GaussianIncrements, RecordedIncrements};
 use sdae_reference::{
     EulerMaruyama, InherentSde, ProjectedEulerMaruyama, ReferenceError, StochasticHeun,
     TruncatedEulerMaruyama,

@@ -3,10 +3,8 @@
 //! correction vanishes, and nothing beyond order 1 is possible with increments alone).
 
 use crate::common::{brownian_path, observed_order, planar, show, state_distance};
-use sdae_model::{
-    Coarsened, GaussianIncrements, NoObserver, RecordedIncrements, Scheme, System, TimeGrid,
-    run_path,
-};
+use sdae_model::{NoObserver, Scheme, System, TimeGrid, run_path};
+use sdae_noise::{Coarsened, GaussianIncrements, RecordedIncrements};
 use sdae_reference::{EulerMaruyama, StochasticHeun};
 use sdae_systems::Pendulum;
 

@@ -19,13 +19,13 @@
 //! scalar functions path by path ([`per_path`]).
 
 use pulp::{Simd, WithSimd};
+use sdae_lanes::{LaneMask, Lanes, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, FactorLanes};
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,
     WideKernel,
 };
-use sdae_model::lanes::{LaneMask, Lanes, per_path};
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;

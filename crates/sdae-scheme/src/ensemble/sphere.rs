@@ -10,13 +10,13 @@
 
 use pulp::Simd;
 use sdae_ift::{Certificate, Method};
+use sdae_lanes::{LaneWidth, Lanes, dot};
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere, motion_measure};
 use sdae_model::engine::{
     LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
     step_sphere_groups,
 };
-use sdae_model::lanes::{LaneWidth, Lanes, dot};
 use sdae_model::{Scheme, StepOutcome, System};
 
 use super::newton::kappa_ratio;

@@ -2,7 +2,7 @@
 //! With R replications the binomial standard error of a coverage c is sqrt(c (1 - c) / R)
 //! (1.1 points at 95% and R = 400); each test states its band in these units.
 
-use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_stats::Interval;
 use sdae_stats::{
     INDICATIVE_BELOW, PathErrors, effective_paths, fit_order, lp_error, mean_interval,

@@ -9,7 +9,8 @@
 
 use std::ops::Range;
 
-use sdae_model::{EnsembleIncrements, PathEnsemble};
+use sdae_model::PathEnsemble;
+use sdae_noise::EnsembleIncrements;
 
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
@@ -190,7 +191,9 @@ where
         worker.increments.resize(chunk * width, 0.0);
         worker.sum.resize(width, 0.0);
         for _ in 0..steps / chunk {
-            noise.fill(h, &mut worker.increments).map_err(study)?;
+            noise
+                .fill(h, &mut worker.increments)
+                .map_err(|e| study(e.into()))?;
             let dw = &worker.increments;
             if !pair {
                 for k in 0..chunk {

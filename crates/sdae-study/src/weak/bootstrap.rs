@@ -6,7 +6,7 @@
 
 use rand::RngExt;
 use sdae_manifold::vector::dot;
-use sdae_model::path_rng;
+use sdae_noise::path_rng;
 
 use sdae_stats::Interval;
 use sdae_stats::bootstrap::{BOOTSTRAP_RESAMPLES, index, quantile};

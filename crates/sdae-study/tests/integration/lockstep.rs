@@ -5,10 +5,8 @@
 //! the same numbers whatever block of paths it runs in.
 
 use sdae_manifold::Mass;
-use sdae_model::{
-    Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements, Recorder, Scheme, System,
-    TimeGrid, run_path,
-};
+use sdae_model::{Recorder, Scheme, System, TimeGrid, run_path};
+use sdae_noise::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_study::integrator::{SchemeConstants, SchemeKind, build_ensemble};
 use sdae_study::lockstep::{BlockEnsembles, Limits, PathPlan, run_block};

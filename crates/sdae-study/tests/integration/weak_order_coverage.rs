@@ -12,7 +12,7 @@
 //! short) fails.
 
 use rand::RngExt;
-use sdae_model::path_rng;
+use sdae_noise::path_rng;
 use sdae_study::weak::weak_order;
 
 const A: f64 = 0.5;

@@ -1,7 +1,8 @@
 //! What the systems' ensemble benchmarks share: an ensemble stepped with fresh increments, and
 //! a system seen through its scalar functions only.
 
-use sdae_model::{EnsembleIncrements, PathEnsemble, System};
+use sdae_model::{PathEnsemble, System};
+use sdae_noise::EnsembleIncrements;
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 
 /// Steps between restarts of every path from the initial state.

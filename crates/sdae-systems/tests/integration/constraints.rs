@@ -3,7 +3,8 @@
 //! path.
 
 use sdae_manifold::{StateResiduals, state_residuals};
-use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_model::{Scheme, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_reference::{CurvedSystem, TruncatedEulerMaruyama};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{

@@ -9,7 +9,8 @@
 //! a wrong temperature.
 
 use sdae_manifold::Constraint;
-use sdae_model::{GaussianIncrements, IncrementSource, Scheme, System};
+use sdae_model::{Scheme, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::{
     AngleParams, ChainMoleculeParams, Langevin, Masses, Potential, RigidTriatomicParams,

@@ -1,6 +1,6 @@
 //! Helpers shared by the integration tests of the reference solvers.
 
-use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
 /// The planar unit pendulum with gravity c_g, unit noise, no friction.

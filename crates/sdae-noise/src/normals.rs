@@ -6,8 +6,9 @@ use pulp::{Simd, bytemuck};
 use rand::{SeedableRng, TryRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use crate::error::{ModelError, check_step_size};
-use crate::lanes::{LANE_BLOCK, LaneWidth, lane_stride};
+use sdae_lanes::{LANE_BLOCK, LaneWidth, lane_stride};
+
+use crate::error::{NoiseError, check_step_size};
 use crate::path_streams::PathStreams;
 use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 
@@ -25,7 +26,7 @@ use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 /// whatever W is.
 ///
 /// ```
-/// use sdae_model::{EnsembleIncrements, GaussianIncrements, IncrementSource};
+/// use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 /// let indices: Vec<u64> = (0..10).collect();
 /// let mut lanes = EnsembleIncrements::for_paths(7, &indices, 3);
 /// let stride = lanes.stride();
@@ -40,7 +41,7 @@ use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 ///         assert_eq!(dw[(k * 3 + j) * stride + 4], step[j]);
 ///     }
 /// }
-/// # Ok::<(), sdae_model::ModelError>(())
+/// # Ok::<(), sdae_noise::NoiseError>(())
 /// ```
 #[derive(Debug, Clone)]
 pub struct EnsembleIncrements {
@@ -121,13 +122,13 @@ impl EnsembleIncrements {
     /// holds. Returns that number of steps. The stride's padding lanes (p >= P) repeat path
     /// 0's numbers: an ensemble of P' paths needs increments drawn for exactly P' paths, since
     /// for P < P' <= stride its paths P.. would silently share path 0's noise
-    /// ([`PathEnsemble::step_drawing`](crate::PathEnsemble::step_drawing) checks this).
+    /// (`sdae_model::PathEnsemble::step_drawing` checks this).
     /// Fails if h is not finite and > 0, or if `dw`'s length is not a multiple of l * stride
     /// (nothing is drawn then).
-    pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, ModelError> {
+    pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, NoiseError> {
         check_step_size(h)?;
         let Some(row) = self.dim.checked_mul(self.stride()) else {
-            return Err(ModelError::InvalidSetting {
+            return Err(NoiseError::InvalidSetting {
                 name: "dim * stride",
                 value: self.dim as f64,
                 reason: "the increments of one step overflow the address space",
@@ -137,7 +138,7 @@ impl EnsembleIncrements {
             return Ok(0);
         }
         if !dw.len().is_multiple_of(row) {
-            return Err(ModelError::DimensionMismatch {
+            return Err(NoiseError::DimensionMismatch {
                 what: "increments buffer (a multiple of dim * stride)",
                 expected: dw.len().div_ceil(row) * row,
                 found: dw.len(),
@@ -685,19 +686,19 @@ mod tests {
         let mut short = vec![0.0; 2 * lanes.stride() + 1];
         assert!(matches!(
             lanes.fill(1.0, &mut short),
-            Err(ModelError::DimensionMismatch { found, .. }) if found == 2 * 8 + 1
+            Err(NoiseError::DimensionMismatch { found, .. }) if found == 2 * 8 + 1
         ));
         let mut dw = vec![0.0; 2 * lanes.stride()];
         for h in [0.0, -1.0, f64::NAN] {
             assert!(matches!(
                 lanes.fill(h, &mut dw),
-                Err(ModelError::InvalidSetting { name: "h", .. })
+                Err(NoiseError::InvalidSetting { name: "h", .. })
             ));
         }
         // A step too large for the address space.
         assert!(matches!(
             EnsembleIncrements::for_paths(1, &[0], usize::MAX / 4).fill(1.0, &mut dw),
-            Err(ModelError::InvalidSetting {
+            Err(NoiseError::InvalidSetting {
                 name: "dim * stride",
                 ..
             })

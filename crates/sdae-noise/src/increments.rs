@@ -117,7 +117,8 @@ impl IncrementSource for RecordedIncrements<'_> {
         (self.data.len() - self.position).checked_div(self.dim)
     }
     /// Copies the next stored increment; past the end of the buffer it yields NaN, which the
-    /// path driver prevents by checking [`IncrementSource::remaining`] up front.
+    /// path driver (`sdae_model::run_path`) prevents by checking
+    /// [`IncrementSource::remaining`] up front.
     fn next_increment(&mut self, _h: f64, out: &mut [f64]) {
         let end = self.position + self.dim;
         if end <= self.data.len() {

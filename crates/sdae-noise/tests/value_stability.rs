@@ -1,7 +1,7 @@
 //! Value stability: the first Brownian increments of a path's stream are pinned to the bit, so
 //! that an upgrade of the random-number crates cannot silently change every study's numbers.
 
-use sdae_model::{GaussianIncrements, IncrementSource};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 
 #[test]
 fn first_increments_of_a_path_are_pinned() {

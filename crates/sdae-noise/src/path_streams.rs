@@ -31,7 +31,7 @@ pub fn path_rng(seed: u64, index: u64) -> Xoshiro256PlusPlus {
 /// bits whatever W is.
 ///
 /// ```
-/// use sdae_model::{PathStreams, StandardNormals};
+/// use sdae_noise::{PathStreams, StandardNormals};
 /// let mut streams = PathStreams::for_path(7, 3);
 /// let z: Vec<f64> = (0..1000).map(|_| streams.next_normal()).collect();
 /// let mean = z.iter().sum::<f64>() / 1000.0;

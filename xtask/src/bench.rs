@@ -1,8 +1,6 @@
-//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble),
-//! `sdae-reference` (ensemble) and `sdae-systems` (fiber, molecule) and summarizes the step and
-//! ensemble
-//! figures in
-//! `target/bench/summary.json`.
+//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble,
+//! fiber, molecule) and `sdae-reference` (ensemble) and summarizes the step and ensemble
+//! figures in `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -22,17 +20,17 @@ const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
 const CHAIN_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const CHAIN_ENSEMBLE_PATHS: u64 = 8;
 
-/// Bead counts and paths of the `fiber_ensemble` groups (as in crates/sdae-systems/benches/fiber.rs).
+/// Bead counts and paths of the `fiber_ensemble` groups (as in crates/sdae-scheme/benches/fiber.rs).
 const FIBER_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const FIBER_ENSEMBLE_PATHS: u64 = 8;
 
-/// The molecules of crates/sdae-systems/benches/molecule.rs (groups `<molecule>_step`,
+/// The molecules of crates/sdae-scheme/benches/molecule.rs (groups `<molecule>_step`,
 /// `<molecule>_ensemble`, `<molecule>_ensemble_path_by_path`) and the paths of their ensembles.
 const MOLECULES: [&str; 2] = ["molecule", "triatomic"];
 const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarked packages: every bench target of each runs.
-const PACKAGES: [&str; 3] = ["sdae-scheme", "sdae-reference", "sdae-systems"];
+const PACKAGES: [&str; 2] = ["sdae-scheme", "sdae-reference"];
 
 /// Solvers of the `inherent_ensemble` group (as in crates/sdae-reference/benches/ensemble.rs),
 /// each with the same number of paths as `pendulum_ensemble`.

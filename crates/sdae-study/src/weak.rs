@@ -469,7 +469,7 @@ struct Analysis {
 
 /// The weak order of the final-time errors of per-path differences `diffs[j][i]` (path i at the
 /// level of step size `h[j]`, against an exact value): fitted over the resolved, asymptotic
-/// levels ([`order`]), with a 95% bootstrap interval over whole paths. `None` without 2 paths
+/// levels (the weak orders of `sdae_stats::weak_order`), with a 95% bootstrap interval over whole paths. `None` without 2 paths
 /// or 2 resolved levels.
 pub fn weak_order(h: &[f64], diffs: &[Vec<f64>]) -> Option<WeakOrder> {
     analyse(&LevelPaths::exact(h, diffs)).and_then(|a| a.order)

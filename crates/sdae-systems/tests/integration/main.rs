@@ -1,8 +1,6 @@
-//! Integration tests of the built-in systems, as one test binary: the tangent bundle under the
-//! half-explicit scheme and the reference solvers, equipartition of the Langevin systems, the
-//! fiber's mechanics without noise, and the parameter structs as they come from scene files.
+//! Integration tests of the built-in systems, as one test binary: the parameter structs as they
+//! come from scene files. (The systems under the schemes, the tangent bundle, equipartition and
+//! the fiber's mechanics, are checked in the workspace's `tests/` package, which depends on the
+//! schemes: this crate's tests depend on no scheme.)
 
-mod constraints;
-mod equipartition;
-mod fiber_dynamics;
 mod params;

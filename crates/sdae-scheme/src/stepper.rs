@@ -81,7 +81,7 @@ impl<S: System> Stepper<S> {
     /// and noise as traits. [`Scheme::step`](sdae_model::Scheme::step) takes it wherever the lane form (the code the
     /// [`Ensemble`](crate::Ensemble) runs W paths at a time, here at W = 1) does not apply or
     /// does not decide the step; where the lane form decides, both give the same numbers bit
-    /// for bit (tests/tests/one_lane.rs). For cross-checks.
+    /// for bit (tests/tests/integration/one_lane.rs). For cross-checks.
     pub fn step_general(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         check_step_input(&self.system, r, v, h, dw)?;
         self.general_step(r, v, h, dw)

@@ -249,7 +249,7 @@ pub fn collect(runs: &[ConvergenceRun]) -> Option<EquipartitionScene> {
     }
     let by_label = |run: &ConvergenceRun, name: &str| label(&run.scene, name);
     let configurational = spec.configurational.as_deref().and_then(|name| {
-        let exact = crate::gibbs::exact_average(&first.scene_definition.system, name);
+        let exact = first.scene_definition.system.exact_average(name);
         bias_study(runs, name, |t| t.time_average, exact, by_label)
     });
     let kinetic = bias_study(

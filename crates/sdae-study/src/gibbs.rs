@@ -16,45 +16,42 @@
 //!   directions' area measure, so cos theta has the density proportional to
 //!   sqrt(4 - x^2) exp(-V(arccos x) / kT) on [-1, 1]; its mean by quadrature.
 
-use sdae_systems::Masses;
+use sdae_systems::{ChainMoleculeParams, Masses, PendulumParams, RigidTriatomicParams};
 
-use crate::scene::SystemSpec;
-
-/// The closed form of the time average of the built-in observable `name` at equilibrium, where
-/// the scene's system has one; `None` otherwise (no closed form, or no temperature: no
-/// friction or no noise).
-pub fn exact_average(system: &SystemSpec, name: &str) -> Option<f64> {
-    match (system, name) {
-        (SystemSpec::Pendulum(p), "cos_angle") => {
-            if !(p.friction > 0.0 && p.noise > 0.0) {
-                return None;
-            }
-            let kt = p.noise * p.noise / (2.0 * p.friction);
-            let k = p.gravity * p.length / kt;
-            Some(match p.dim {
-                2 => bessel_i(1, k) / bessel_i(0, k),
-                _ if k == 0.0 => 0.0,
-                _ => 1.0 / k.tanh() - 1.0 / k,
-            })
-        }
-        (SystemSpec::Triatomic(p), "centroid_distance_squared") => (p.trap.stiffness > 0.0
-            && p.temperature > 0.0)
-            .then(|| p.temperature / p.trap.stiffness),
-        (SystemSpec::ChainMolecule(p), "cos_bond_angle") => {
-            let equal_masses = match &p.masses {
-                Masses::Uniform(_) => true,
-                Masses::PerParticle(m) => m.iter().all(|x| *x == m[0]),
-            };
-            (p.atoms == 3 && equal_masses && p.temperature > 0.0).then(|| {
-                let (k, theta0, kt) = (p.angle.stiffness, p.angle.equilibrium, p.temperature);
-                trimer_cos_angle(|x| {
-                    let theta = x.clamp(-1.0, 1.0).acos();
-                    0.5 * k * (theta - theta0) * (theta - theta0) / kt
-                })
-            })
-        }
-        _ => None,
+/// The Gibbs pendulum's E[cos phi] with k = c_g rho / kT, kT = sigma^2 / (2 gamma): planar
+/// I1(k) / I0(k), spherical coth(k) - 1 / k; None without friction or noise.
+pub(crate) fn pendulum_cos_angle(p: &PendulumParams) -> Option<f64> {
+    if !(p.friction > 0.0 && p.noise > 0.0) {
+        return None;
     }
+    let kt = p.noise * p.noise / (2.0 * p.friction);
+    let k = p.gravity * p.length / kt;
+    Some(match p.dim {
+        2 => bessel_i(1, k) / bessel_i(0, k),
+        _ if k == 0.0 => 0.0,
+        _ => 1.0 / k.tanh() - 1.0 / k,
+    })
+}
+
+/// The trapped rigid triatomic's E[|X - c|^2] = kT / k_t; None without a trap or temperature.
+pub(crate) fn triatomic_centroid_distance(p: &RigidTriatomicParams) -> Option<f64> {
+    (p.trap.stiffness > 0.0 && p.temperature > 0.0).then(|| p.temperature / p.trap.stiffness)
+}
+
+/// The rigid trimer's E[cos theta] under the bond-angle potential k / 2 (theta - theta0)^2,
+/// for three equal masses at a positive temperature; None for other chain molecules.
+pub(crate) fn trimer_cos_bond_angle(p: &ChainMoleculeParams) -> Option<f64> {
+    let equal_masses = match &p.masses {
+        Masses::Uniform(_) => true,
+        Masses::PerParticle(m) => m.iter().all(|x| *x == m[0]),
+    };
+    (p.atoms == 3 && equal_masses && p.temperature > 0.0).then(|| {
+        let (k, theta0, kt) = (p.angle.stiffness, p.angle.equilibrium, p.temperature);
+        trimer_cos_angle(|x| {
+            let theta = x.clamp(-1.0, 1.0).acos();
+            0.5 * k * (theta - theta0) * (theta - theta0) / kt
+        })
+    })
 }
 
 /// The modified Bessel function I_n(x) of the first kind for integer n >= 0 and x >= 0, by its
@@ -97,7 +94,7 @@ fn trimer_cos_angle(u: impl Fn(f64) -> f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sdae_systems::PendulumParams;
+    use crate::scene::SystemSpec;
 
     #[test]
     fn bessel_values_match_tables() {
@@ -117,14 +114,14 @@ mod tests {
             noise: 2.0,
             friction: 2.0,
         });
-        let exact = exact_average(&planar, "cos_angle").unwrap();
+        let exact = planar.exact_average("cos_angle").unwrap();
         assert!((exact - bessel_i(1, 4.0) / bessel_i(0, 4.0)).abs() < 1e-15);
         // Without friction there is no temperature.
         let cold = SystemSpec::Pendulum(PendulumParams {
             friction: 0.0,
             ..PendulumParams::default()
         });
-        assert_eq!(exact_average(&cold, "cos_angle"), None);
+        assert_eq!(cold.exact_average("cos_angle"), None);
     }
 
     /// Without a potential the trimer's cos theta has the density sqrt(4 - x^2) / norm, which

@@ -236,7 +236,7 @@ pub struct EquipartitionSpec {
     pub c_eta: Vec<f64>,
     /// A built-in observable of the scene's system whose time average (with the kinetic
     /// energy's burn-in) measures the schemes' invariant-measure bias: against its closed form
-    /// where the system has one ([`crate::gibbs::exact_average`]), else against the finest
+    /// where the system has one ([`SystemSpec::exact_average`]), else against the finest
     /// g-baoab estimate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub configurational: Option<String>,

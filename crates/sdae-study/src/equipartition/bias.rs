@@ -25,7 +25,7 @@ pub const BIAS_TARGETS: [f64; 2] = [1e-2, 1e-3];
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ReferenceKind {
-    /// A closed form ([`crate::gibbs::exact_average`], or the equipartition value).
+    /// A closed form ([`SystemSpec::exact_average`](crate::scene::SystemSpec::exact_average), or the equipartition value).
     ClosedForm,
     /// The estimate of g-baoab at its smallest step (no closed form is known).
     FinestGBaoab,

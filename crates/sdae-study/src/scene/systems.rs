@@ -1,8 +1,9 @@
 //! The registry of the systems a scene file can name. Each `[system.<kind>]` table's
 //! parameters build their system, its rest position, the theory's constants and the
-//! equipartition value here ([`SceneSystem`]), and [`SystemSpec::visit`] is the one place
-//! that lists the kinds: adding a system is a variant of [`SystemSpec`], its arm in `visit`
-//! and its [`SceneSystem`] implementation.
+//! equipartition value here ([`SceneSystem`]), and name its built-in observables, their
+//! functions and their closed-form averages at equilibrium; [`SystemSpec::visit`] is the one
+//! place that lists the kinds: adding a system is a variant of [`SystemSpec`], its arm in
+//! `visit` and its [`SceneSystem`] implementation.
 
 use sdae_manifold::TheoryBound;
 use sdae_model::System;
@@ -15,7 +16,10 @@ use sdae_systems::{
 
 use super::{Scene, SystemSpec};
 use crate::error::StudyError;
-use crate::observable::{FIBER, MOLECULE, PENDULUM, TRIATOMIC};
+use crate::gibbs;
+use crate::observable::kinds::{
+    self as observable, FIBER, Function, MOLECULE, PENDULUM, TRIATOMIC,
+};
 
 /// A system built from a scene's `[system.<kind>]` table, before the initial state is taken.
 #[derive(Debug, Clone)]
@@ -38,6 +42,15 @@ pub trait SceneSystem {
     fn coordinates(&self) -> usize;
     /// The names of the system's built-in observables ([`crate::observable`]).
     fn observables(&self) -> &'static [&'static str];
+    /// The function f(r, v) of the built-in observable `name`, given the path's initial
+    /// position `r0`; None for a name the system does not have and for the kinetic energy
+    /// v^T M v / 2, which every system computes from its mass matrix.
+    fn observable(&self, name: &str, r0: &[f64]) -> Option<Box<Function>>;
+    /// The closed form of the time average of the built-in observable `name` at equilibrium,
+    /// where the system has one ([`crate::gibbs`]).
+    fn exact_average(&self, _name: &str) -> Option<f64> {
+        None
+    }
     /// For a chain of beads (to which a named initial shape applies), the scene key of its
     /// number of beads and that number.
     fn chain(&self) -> Option<(&'static str, usize)> {
@@ -68,6 +81,20 @@ impl SystemSpec {
             SystemSpec::Custom(name) => Err(name),
         }
     }
+
+    /// The closed form of the time average of the built-in observable `name` at equilibrium,
+    /// where the system has one ([`SceneSystem::exact_average`]); None otherwise (no closed
+    /// form, no temperature, or a system built in code).
+    pub fn exact_average(&self, name: &str) -> Option<f64> {
+        struct Average<'a>(&'a str);
+        impl SystemVisitor for Average<'_> {
+            type Output = Option<f64>;
+            fn visit<K: SceneSystem>(self, kind: &K) -> Option<f64> {
+                kind.exact_average(self.0)
+            }
+        }
+        self.visit(Average(name)).ok().flatten()
+    }
 }
 
 /// The theory's (C_eta, C_kappa) (Thm 3.4) where the constraint bounds C_g.
@@ -95,6 +122,12 @@ impl SceneSystem for PendulumParams {
     fn observables(&self) -> &'static [&'static str] {
         &PENDULUM
     }
+    fn observable(&self, name: &str, r0: &[f64]) -> Option<Box<Function>> {
+        observable::pendulum(self, name, r0)
+    }
+    fn exact_average(&self, name: &str) -> Option<f64> {
+        (name == "cos_angle").then(|| gibbs::pendulum_cos_angle(self))?
+    }
     fn build(&self, scene: &Scene) -> Result<Built<Pendulum>, StudyError> {
         let system = pendulum(*self).map_err(|e| refused(scene, e))?;
         let mut rest = vec![0.0; self.dim];
@@ -118,6 +151,12 @@ impl SceneSystem for ChainMoleculeParams {
     }
     fn observables(&self) -> &'static [&'static str] {
         &MOLECULE
+    }
+    fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
+        observable::chain(name)
+    }
+    fn exact_average(&self, name: &str) -> Option<f64> {
+        (name == "cos_bond_angle").then(|| gibbs::trimer_cos_bond_angle(self))?
     }
     fn chain(&self) -> Option<(&'static str, usize)> {
         Some(("chain-molecule.atoms", self.atoms))
@@ -143,6 +182,12 @@ impl SceneSystem for RigidTriatomicParams {
     fn observables(&self) -> &'static [&'static str] {
         &TRIATOMIC
     }
+    fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
+        observable::triatomic(self, name)
+    }
+    fn exact_average(&self, name: &str) -> Option<f64> {
+        (name == "centroid_distance_squared").then(|| gibbs::triatomic_centroid_distance(self))?
+    }
     fn build(&self, scene: &Scene) -> Result<Built<RigidTriatomic>, StudyError> {
         let system = rigid_triatomic(self).map_err(|e| refused(scene, e))?;
         Ok(Built {
@@ -162,6 +207,9 @@ impl SceneSystem for FiberParams {
     }
     fn observables(&self) -> &'static [&'static str] {
         &FIBER
+    }
+    fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
+        observable::fiber(name)
     }
     fn chain(&self) -> Option<(&'static str, usize)> {
         Some(("fiber.beads", self.beads))

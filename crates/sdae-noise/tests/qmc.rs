@@ -67,7 +67,7 @@ fn scrambled_pairs_pass_a_chi_square_test() {
                 "r {randomization}, dims ({a}, {b}): {chi2} >= {bound}"
             );
             if b < 3 {
-                // The first dimensions form a (0, 12, 2)-net: every cell holds 64 points.
+                // The first pairs are nets fine enough that every cell holds exactly 64 points.
                 assert_eq!(chi2, 0.0, "dims ({a}, {b})");
             }
         }

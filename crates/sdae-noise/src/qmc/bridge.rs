@@ -85,7 +85,12 @@ impl BrownianBridge {
     /// `w[n]` = W(n), n = 0..=N, from the normals `z` in construction order (`w[0]` = 0).
     /// Panics unless z has length N and w length N + 1.
     pub fn fill_path(&self, z: &[f64], w: &mut [f64]) {
-        assert_eq!((z.len() + 1, w.len()), (self.steps() + 1, self.steps() + 1));
+        let steps = self.steps();
+        assert!(
+            z.len() == steps && w.len() == steps + 1,
+            "a bridge over {steps} steps takes {steps} normals and fills {} nodes",
+            steps + 1
+        );
         w[0] = 0.0;
         for (b, &zk) in self.nodes.iter().zip(z) {
             w[b.node] = b.left_weight * w[b.left] + b.right_weight * w[b.right] + b.sd * zk;

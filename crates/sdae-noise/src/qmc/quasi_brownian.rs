@@ -130,8 +130,10 @@ impl QuasiBrownian {
         for (c, z) in normals[..quasi].iter_mut().enumerate() {
             *z = inverse_normal_cdf(self.points.coordinate(point, c));
         }
-        self.padding_streams(index)
-            .fill_scaled(1.0, &mut normals[quasi..]);
+        if quasi < normals.len() {
+            self.padding_streams(index)
+                .fill_scaled(1.0, &mut normals[quasi..]);
+        }
         self.bridge_increments(&normals, out);
         Ok(())
     }

@@ -48,11 +48,13 @@ fn scrambling_columns(rng: &mut impl Rng) -> [u64; INDEX_BITS] {
 
 /// M v = XOR of the columns q of M for the digits q of v that are set (v has digits 1..32 only).
 fn times_matrix(columns: &[u64; INDEX_BITS], v: u64) -> u64 {
-    columns
-        .iter()
-        .enumerate()
-        .filter(|&(q, _)| (v >> (63 - q)) & 1 == 1)
-        .fold(0, |y, (_, column)| y ^ column)
+    let (mut y, mut digits) = (0, v);
+    while digits != 0 {
+        let q = digits.leading_zeros() as usize;
+        y ^= columns[q];
+        digits ^= 1 << (63 - q);
+    }
+    y
 }
 
 #[cfg(test)]

@@ -54,11 +54,14 @@ impl SobolPoints {
     /// x_(i,j), coordinate `dim` of point `index` as a 64-bit binary fraction (the formula of
     /// [`SobolPoints`]). Panics if `dim` >= [`SobolPoints::dims`].
     pub fn coordinate_bits(&self, index: u32, dim: usize) -> u64 {
-        let gray = index ^ (index >> 1);
         let v = &self.directions[dim];
-        (0..INDEX_BITS)
-            .filter(|&k| (gray >> k) & 1 == 1)
-            .fold(self.shifts[dim], |x, k| x ^ v[k])
+        let mut x = self.shifts[dim];
+        let mut gray = index ^ (index >> 1);
+        while gray != 0 {
+            x ^= v[gray.trailing_zeros() as usize];
+            gray &= gray - 1;
+        }
+        x
     }
 
     /// u_(i,j) = [`unit_interval`](x_(i,j)), coordinate `dim` of point `index` in (0, 1).

@@ -19,7 +19,8 @@ pub const MAX_SOBOL_DIMS: usize = 21_201;
 /// The number of bits of a point index, and of the direction numbers: points 0..2^32.
 pub(crate) const INDEX_BITS: usize = 32;
 
-/// The Joe and Kuo parameters of dimensions 2..=21 201, decompressed once.
+/// The Joe and Kuo parameters of dimensions 2..=21 201, decompressed once per process (a few
+/// tens of milliseconds, at the first Sobol' points made).
 fn parameters() -> &'static JoeKuoD6 {
     static PARAMETERS: OnceLock<JoeKuoD6> = OnceLock::new();
     PARAMETERS.get_or_init(JoeKuoD6::extended)

@@ -19,7 +19,12 @@
 //!   path);
 //! - the increments of P paths at once, [`EnsembleIncrements`]: the same numbers bit for bit,
 //!   drawn W paths at a time in the lanes of a SIMD register (the lanes and their layout are
-//!   those of [`sdae_lanes`]).
+//!   those of [`sdae_lanes`]);
+//! - randomized quasi-Monte Carlo paths: path i of
+//!   randomization r is point i of scrambled Sobol' points ([`SobolPoints`]) mapped to normals
+//!   by [`inverse_normal_cdf`] and ordered by a [`BrownianBridge`] per component, one path as an
+//!   [`IncrementSource`] ([`QuasiIncrements`]) or P at once in the ensembles' layout
+//!   ([`QuasiEnsembleIncrements`]), both from a [`QuasiBrownian`].
 //!
 //! The schemes and the path driver that consume these increments are in `sdae-model` and the
 //! crates above it; this crate depends on none of them.
@@ -55,9 +60,14 @@ mod error;
 mod increments;
 mod normals;
 mod path_streams;
+mod qmc;
 mod ziggurat;
 
 pub use error::NoiseError;
 pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 pub use normals::EnsembleIncrements;
 pub use path_streams::{PathStreams, StandardNormals, path_rng};
+pub use qmc::{
+    BrownianBridge, MAX_SOBOL_DIMS, QuasiBrownian, QuasiEnsembleIncrements, QuasiIncrements,
+    SobolPoints, inverse_normal_cdf, unit_interval,
+};

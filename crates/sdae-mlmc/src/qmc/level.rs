@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use sdae_stats::{Interval, mean_interval};
 
 use super::QuasiSampler;
-use crate::error::MlmcError;
+use crate::error::{MlmcError, samples_exceed_memory};
 use crate::sampler::RunControl;
 use crate::sums::LevelSums;
 
@@ -120,6 +120,16 @@ impl QuasiLevel {
         Ok(())
     }
 
+    /// mean_l with the 95% t interval mean_l +- t_{0.975, R-1} sqrt(V_l) (R - 1 degrees of
+    /// freedom: the R means are i.i.d.). `None` before [`QuasiLevel::update`] has succeeded
+    /// or with fewer than 2 randomizations.
+    pub fn interval(&self) -> Option<Interval> {
+        self.mean
+            .is_finite()
+            .then(|| mean_interval(&self.means))
+            .flatten()
+    }
+
     /// Measured seconds of all threads together.
     pub fn seconds(&self) -> f64 {
         self.randomizations.iter().map(|s| s.seconds).sum()
@@ -136,7 +146,7 @@ fn mean_and_variance(x: &[f64]) -> (f64, f64) {
 
 /// Checks the number of randomizations R (at least 2: the variance comes from the spread of
 /// their means) and a number of points n (a power of two: the first 2^m points of a Sobol'
-/// sequence form a net).
+/// sequence form a net), and that the R n points' sums fit in the memory available.
 /// `key` names the setting of the points in the error.
 pub fn check_design(randomizations: u32, points: u64, key: &'static str) -> Result<(), MlmcError> {
     if randomizations < 2 {
@@ -146,6 +156,14 @@ pub fn check_design(randomizations: u32, points: u64, key: &'static str) -> Resu
             rule: "at least 2 randomizations are needed: the variance of the estimate is the \
                    spread of their means"
                 .into(),
+        });
+    }
+    let what = format!("{randomizations} randomizations of {points} points");
+    if let Some(rule) = samples_exceed_memory(&[randomizations as f64 * points as f64], &what) {
+        return Err(MlmcError::Setting {
+            key: "mlqmc.randomizations",
+            value: randomizations.to_string(),
+            rule,
         });
     }
     if !points.is_power_of_two() {
@@ -191,7 +209,7 @@ pub fn standard_quasi_monte_carlo<Q: QuasiSampler>(
     let mut q = QuasiLevel::new(level, randomizations, sampler.path_steps(level));
     q.extend_to(sampler, control, points, false)?;
     Ok(QuasiEstimate {
-        estimate: mean_interval(&q.means).ok_or_else(|| MlmcError::Levels {
+        estimate: q.interval().ok_or_else(|| MlmcError::Levels {
             reason: format!("{randomizations} randomizations give no interval"),
         })?,
         level: q,
@@ -228,6 +246,9 @@ mod tests {
         assert!((q.variance_per_randomization - 7.0).abs() < 1e-12);
         assert!((q.variance - 7.0 / 3.0).abs() < 1e-12);
         assert_eq!((q.failed, q.work), (1, 3.0 * 2.0 * 6.0));
+        let i = q.interval().unwrap();
+        let half = sdae_stats::t975(2) * (7.0f64 / 3.0).sqrt();
+        assert!((i.ci_high - 3.0 - half).abs() < 1e-12 && (3.0 - i.ci_low - half).abs() < 1e-12);
         // A randomization without a value: a typed error naming it.
         q.randomizations[2] = LevelSums::of(&[failed, failed], 0.0);
         let err = q.update().unwrap_err();

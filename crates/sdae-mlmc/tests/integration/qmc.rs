@@ -326,6 +326,13 @@ fn bad_settings_and_failing_samplers_are_typed_errors() {
         other => panic!("{other}"),
     };
     assert_eq!(key(with(&|s| s.randomizations = 1)), "mlqmc.randomizations");
+    // More randomizations of more points than the memory holds: refused before anything runs.
+    let huge = with(&|s| {
+        s.randomizations = u32::MAX;
+        s.initial_points = 1 << 20;
+    });
+    assert!(huge.to_string().contains("available"), "{huge}");
+    assert_eq!(key(huge), "mlqmc.randomizations");
     assert_eq!(key(with(&|s| s.initial_points = 3)), "mlqmc.initial_points");
     assert_eq!(key(with(&|s| s.initial_points = 0)), "mlqmc.initial_points");
     assert!(matches!(
@@ -471,5 +478,6 @@ fn the_cost_exponent_is_recovered() {
         .map(|&eps| run(&Shifted::new(1.0, 9), &control, &QuasiSettings::new(eps)))
         .collect();
     let c = cost_exponent_of(&runs).unwrap();
-    assert!(c.estimate > 0.7 && c.estimate < 1.5, "{c:?}");
+    eprintln!("MLQMC cost exponent on the shifted rule: {c:?}");
+    assert!(c.estimate > 0.9 && c.estimate < 1.4, "{c:?}");
 }

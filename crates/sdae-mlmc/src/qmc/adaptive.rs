@@ -128,7 +128,8 @@ fn check_settings(settings: &QuasiSettings) -> Result<f64, MlmcError> {
 }
 
 /// 2 n points of a level that has n: refused when that overflows, exceeds the points the
-/// sampler's sequences offer, or the R (2 n) points' blocks would not fit in memory.
+/// sampler's sequences offer, or the sums of the R n new points' blocks would not fit in the
+/// memory available.
 pub fn doubled(
     n: u64, randomizations: u32, limit: u64, level: u32, eps: f64,
 ) -> Result<u64, MlmcError> {

@@ -444,6 +444,25 @@ fn standard_randomized_qmc_on_one_level() {
 }
 
 #[test]
+fn doubling_adds_the_next_points_of_the_same_sequences() {
+    let control = RunControl::new(2).unwrap();
+    let sampler = Shifted::new(1.0, 4);
+    let (mut doubled, mut direct) = (QuasiLevel::new(2, 4, 6), QuasiLevel::new(2, 4, 6));
+    let mut n = 1;
+    while n <= 128 {
+        doubled.extend_to(&sampler, &control, n, true).unwrap();
+        n *= 2;
+    }
+    direct.extend_to(&sampler, &control, 128, true).unwrap();
+    assert_eq!((doubled.points, doubled.work), (128, 4.0 * 128.0 * 6.0));
+    for (a, b) in doubled.randomizations.iter().zip(&direct.randomizations) {
+        assert_eq!(a.samples, 128);
+        // The same points; the sums differ only in the order of the additions.
+        assert!((a.y1 - b.y1).abs() <= 1e-14 * b.y1.abs() && (a.y2 - b.y2).abs() <= 1e-14 * b.y2);
+    }
+}
+
+#[test]
 fn serialized_runs_read_back() {
     let control = RunControl::new(1).unwrap();
     let r = run(&Shifted::new(1.0, 2), &control, &QuasiSettings::new(1e-2));

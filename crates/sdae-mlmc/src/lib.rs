@@ -15,6 +15,8 @@
 //! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
 //!   one level.
 //! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
+//! - [`qmc`]: multilevel randomized quasi-Monte Carlo (Giles and Waterhouse 2009) over a
+//!   [`QuasiSampler`], whose samples are points of randomized low-discrepancy sequences.
 //! - [`error`]: why a run refused to start or stopped, and the bounds it is checked against.
 //!
 //! The README's example (E\[X_1\] of geometric Brownian motion in 28 lines) runs as a test.
@@ -26,6 +28,7 @@ struct ReadmeExample;
 pub mod algorithm;
 pub mod error;
 pub mod fit;
+pub mod qmc;
 pub mod sampler;
 pub mod sums;
 
@@ -34,5 +37,9 @@ pub use algorithm::{
 };
 pub use error::MlmcError;
 pub use fit::{Rates, fit_rates};
+pub use qmc::{
+    MlqmcEstimate, QuasiEstimate, QuasiLevel, QuasiSampler, QuasiSettings, cost_exponent,
+    cost_exponent_of, mlqmc, standard_quasi_monte_carlo,
+};
 pub use sampler::{BLOCK, BlockKey, BlockStore, LevelSampler, RunControl};
 pub use sums::{LevelStats, LevelSums, Sample};

@@ -99,8 +99,14 @@ impl<'a> RunControl<'a> {
         self.threads
     }
 
-    fn stopped(&self) -> bool {
+    /// Whether the stop flag is set.
+    pub(crate) fn stopped(&self) -> bool {
         self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+
+    /// The thread pool, for the drivers of other samplers (the quasi-Monte Carlo one).
+    pub(crate) fn pool(&self) -> &rayon::ThreadPool {
+        &self.pool
     }
 
     /// The sums of each block `blocks` of level `level` (block b holds the samples

@@ -4,4 +4,5 @@
 //! One test binary for the crate: each file below is a module of it.
 
 mod linear;
+mod qmc;
 mod rates;

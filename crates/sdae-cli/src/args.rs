@@ -449,6 +449,22 @@ pub struct MlmcArgs {
     /// Leave out the direct standard Monte Carlo run at the largest eps.
     #[arg(long = "no-standard")]
     pub no_standard: bool,
+    /// Also run randomized quasi-Monte Carlo paths (scrambled Sobol' points, Brownian
+    /// bridge): multilevel QMC at every eps beside MLMC, and single-level QMC beside the
+    /// direct standard run (docs/expectations.md).
+    #[arg(long, conflicts_with = "plan")]
+    pub qmc: bool,
+    /// With --qmc: randomizations R per level (at least 2; their spread gives the interval).
+    #[arg(long, value_name = "R", default_value_t = 32, requires = "qmc")]
+    pub randomizations: u32,
+    /// With --qmc: points n_0 of each randomization when a level is first run (a power of two).
+    #[arg(
+        long = "initial-points",
+        value_name = "N",
+        default_value_t = 32,
+        requires = "qmc"
+    )]
+    pub initial_points: u64,
     /// After the study, write the plan (levels and N_l) for the smallest eps, from the
     /// convergence test, to this file (the pilot of a cluster run, docs/cluster.md).
     #[arg(long = "write-plan", value_name = "FILE")]

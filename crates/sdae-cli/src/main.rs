@@ -112,6 +112,8 @@ fn flag(key: &str) -> Option<&'static str> {
         "mlmc.test_levels" => &["--test-levels"],
         "mlmc.test_samples" => &["--test-samples"],
         "mlmc.scheme" => &["--scheme"],
+        "mlqmc.randomizations" => &["--randomizations"],
+        "mlqmc.initial_points" => &["--initial-points"],
         _ => &[],
     };
     flags.iter().copied().find(|flag| args::typed(flag))

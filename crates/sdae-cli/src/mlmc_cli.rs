@@ -10,6 +10,7 @@ use sdae_cli::mlmc_checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
 use sdae_mlmc::{MlmcError, Plan, RunControl};
 use sdae_study::StudyError;
 use sdae_study::files::{read_json, write_atomically, write_json};
+use sdae_study::mlmc::QmcSettings;
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
@@ -63,6 +64,10 @@ impl MlmcArgs {
         s.seed = self.seed;
         s.threads = self.threads.unwrap_or(s.threads);
         s.standard_run = !self.no_standard;
+        s.qmc = self.qmc.then_some(QmcSettings {
+            randomizations: self.randomizations,
+            initial_points: self.initial_points,
+        });
         if self.quick {
             s = s.quick();
         }

@@ -56,6 +56,7 @@
 //! assert_ne!(dw[0], path[0]);
 //! ```
 
+mod ensemble_noise;
 mod error;
 mod increments;
 mod normals;
@@ -63,6 +64,7 @@ mod path_streams;
 mod qmc;
 mod ziggurat;
 
+pub use ensemble_noise::EnsembleNoise;
 pub use error::NoiseError;
 pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 pub use normals::EnsembleIncrements;

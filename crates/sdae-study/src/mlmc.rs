@@ -6,8 +6,11 @@
 //!
 //! - [`coupled`]: the level sampler of a scene: any study scheme on both paths of a pair, in
 //!   SIMD-lane ensembles.
+//! - [`quasi`]: randomized quasi-Monte Carlo paths (`--qmc`): multilevel QMC beside MLMC at
+//!   every eps, the cost exponents, and single-level randomized QMC beside the direct standard
+//!   run.
 //! - [`settings`]: the `[mlmc]` table of a scene and which MLMC errors the input caused.
-//! - [`study`], [`report`], [`plots`]: the whole study of a scene and its files.
+//! - [`study`], [`report`] (with [`quasi_report`]), [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums (the
 //!   command saves and reads the shards' files).
 //! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
@@ -15,11 +18,16 @@
 pub mod coupled;
 pub mod plan_runs;
 pub mod plots;
+pub mod quasi;
+pub mod quasi_report;
 pub mod report;
 pub mod settings;
 pub mod shard;
 pub mod study;
 
 pub use coupled::CoupledSampler;
+pub use quasi::{QmcReport, QmcSettings};
 pub use settings::{MlmcSpec, caused_by_input, study_error};
-pub use study::{MlmcReport, MlmcSettings, SamplerTask, run_mlmc, run_study, with_sampler};
+pub use study::{
+    MlmcReport, MlmcSettings, SamplerTask, run_mlmc, run_study, run_study_quasi, with_sampler,
+};

@@ -10,11 +10,12 @@
 use std::ops::Range;
 
 use sdae_model::PathEnsemble;
-use sdae_noise::EnsembleIncrements;
+use sdae_noise::{EnsembleIncrements, EnsembleNoise, QuasiBrownian};
 
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
 use sdae_mlmc::MlmcError;
+use sdae_mlmc::qmc::QuasiSampler;
 use sdae_mlmc::sampler::{BLOCK, LevelSampler};
 use sdae_mlmc::sums::Sample;
 
@@ -46,6 +47,8 @@ pub struct Worker<S> {
     increments: Vec<f64>,
     sum: Vec<f64>,
     rows: Vec<f64>,
+    /// The scrambled points of the last (level, randomization) run on quasi-random paths.
+    quasi: Option<((u32, u32), QuasiBrownian)>,
 }
 
 impl<S> CoupledSampler<S> {
@@ -138,35 +141,16 @@ impl<S: sdae_model::System> Worker<S> {
     }
 }
 
-impl<S> LevelSampler for CoupledSampler<S>
+impl<S> CoupledSampler<S>
 where
     S: sdae_model::System + Send + Sync + 'static,
 {
-    type Worker = Worker<S>;
-
-    fn worker(&self) -> Result<Worker<S>, MlmcError> {
-        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
-        let build = || self.scheme.build_ensemble(BLOCK as usize, r0, v0);
-        Ok(Worker {
-            fine: build()?,
-            twin: build()?,
-            coarse: build()?,
-            increments: Vec::new(),
-            sum: Vec::new(),
-            rows: Vec::new(),
-        })
-    }
-
-    fn run_block(
-        &self, worker: &mut Worker<S>, level: u32, indices: Range<u64>, coupled: bool,
+    /// The samples of one block of level `level` whose fine increments come from `noise`
+    /// (one path per sample): the fine path takes them in order, the coarse path one step of
+    /// 2 h with the sum of each two, the antithetic twin the two in swapped order.
+    fn run_pairs(
+        &self, worker: &mut Worker<S>, level: u32, coupled: bool, noise: &mut dyn EnsembleNoise,
     ) -> Result<Vec<Sample>, MlmcError> {
-        if indices.end > SAMPLES_PER_LEVEL || indices.end - indices.start != BLOCK {
-            return Err(MlmcError::Setting {
-                key: "samples",
-                value: indices.end.to_string(),
-                rule: format!("blocks of {BLOCK} samples below 2^48 per level"),
-            });
-        }
         let study = |e: sdae_model::ModelError| MlmcError::from(crate::error::StudyError::from(e));
         let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
         let pair = coupled && level > 0;
@@ -178,13 +162,7 @@ where
         if twin {
             worker.twin.restart(r0, v0).map_err(study)?;
         }
-        let streams: Vec<u64> = indices
-            .clone()
-            .map(|i| u64::from(level) * SAMPLES_PER_LEVEL + i)
-            .collect();
-        let l = worker.fine.system().noise_dim();
-        let mut noise = EnsembleIncrements::for_paths(self.seed, &streams, l);
-        let width = l * worker.fine.stride();
+        let width = noise.dim() * worker.fine.stride();
         let steps = 1usize << (self.coarsest + level);
         let h = self.t_end / steps as f64;
         let chunk = CHUNK.min(steps);
@@ -224,12 +202,124 @@ where
         worker.samples(&self.observable, pair, twin)
     }
 
+    /// The samples `points` (at most [`BLOCK`], below 2^32) of randomization `randomization`
+    /// of level `level`: sample i's fine increments are point i of that randomization's
+    /// scrambled Sobol' points laid out by a Brownian bridge on the fine grid
+    /// ([`QuasiBrownian`], seeded by (seed, level 2^32 + randomization)), coupled as
+    /// [`LevelSampler::run_block`] couples them. A block of fewer points fills the ensembles'
+    /// further paths with its first point (run, not returned). The worker keeps the last
+    /// randomization's scrambled points.
+    fn run_quasi_block(
+        &self, worker: &mut Worker<S>, level: u32, randomization: u32, points: Range<u64>,
+        coupled: bool,
+    ) -> Result<Vec<Sample>, MlmcError> {
+        let count = points.end.saturating_sub(points.start);
+        if points.end > 1 << 32 || count == 0 || count > BLOCK {
+            return Err(MlmcError::Setting {
+                key: "points",
+                value: format!("{}..{}", points.start, points.end),
+                rule: format!("blocks of 1 to {BLOCK} points below 2^32 per randomization"),
+            });
+        }
+        let noise_error = |e: sdae_noise::NoiseError| {
+            MlmcError::from(crate::error::StudyError::from(
+                sdae_model::ModelError::from(e),
+            ))
+        };
+        let key = (level, randomization);
+        let mut indices: Vec<u64> = points.clone().collect();
+        indices.resize(BLOCK as usize, points.start);
+        let mut noise = match &worker.quasi {
+            Some((k, quasi)) if *k == key => quasi.ensemble(&indices),
+            _ => {
+                let steps = 1usize << (self.coarsest + level);
+                let l = worker.fine.system().noise_dim();
+                let stream = (u64::from(level) << 32) | u64::from(randomization);
+                let quasi = QuasiBrownian::new(self.seed, stream, l, steps).map_err(noise_error)?;
+                let noise = quasi.ensemble(&indices);
+                worker.quasi = Some((key, quasi));
+                noise
+            }
+        }
+        .map_err(noise_error)?;
+        let mut samples = self.run_pairs(worker, level, coupled, &mut noise)?;
+        samples.truncate(count as usize);
+        Ok(samples)
+    }
+}
+
+/// Multilevel randomized QMC: path i of randomization r of a level is point i of its scrambled
+/// Sobol' points ([`CoupledSampler::run_quasi_block`]).
+impl<S> QuasiSampler for CoupledSampler<S>
+where
+    S: sdae_model::System + Send + Sync + 'static,
+{
+    type Worker = Worker<S>;
+
+    fn worker(&self) -> Result<Worker<S>, MlmcError> {
+        LevelSampler::worker(self)
+    }
+
+    fn run_points(
+        &self, worker: &mut Worker<S>, level: u32, randomization: u32, points: Range<u64>,
+        coupled: bool,
+    ) -> Result<Vec<Sample>, MlmcError> {
+        self.run_quasi_block(worker, level, randomization, points, coupled)
+    }
+
+    fn path_steps(&self, level: u32) -> u64 {
+        LevelSampler::path_steps(self, level)
+    }
+
+    fn pair_steps(&self, level: u32) -> u64 {
+        LevelSampler::pair_steps(self, level)
+    }
+}
+
+impl<S> LevelSampler for CoupledSampler<S>
+where
+    S: sdae_model::System + Send + Sync + 'static,
+{
+    type Worker = Worker<S>;
+
+    fn worker(&self) -> Result<Worker<S>, MlmcError> {
+        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
+        let build = || self.scheme.build_ensemble(BLOCK as usize, r0, v0);
+        Ok(Worker {
+            fine: build()?,
+            twin: build()?,
+            coarse: build()?,
+            increments: Vec::new(),
+            sum: Vec::new(),
+            rows: Vec::new(),
+            quasi: None,
+        })
+    }
+
+    fn run_block(
+        &self, worker: &mut Worker<S>, level: u32, indices: Range<u64>, coupled: bool,
+    ) -> Result<Vec<Sample>, MlmcError> {
+        if indices.end > SAMPLES_PER_LEVEL || indices.end - indices.start != BLOCK {
+            return Err(MlmcError::Setting {
+                key: "samples",
+                value: indices.end.to_string(),
+                rule: format!("blocks of {BLOCK} samples below 2^48 per level"),
+            });
+        }
+        let streams: Vec<u64> = indices
+            .map(|i| u64::from(level) * SAMPLES_PER_LEVEL + i)
+            .collect();
+        let l = worker.fine.system().noise_dim();
+        let mut noise = EnsembleIncrements::for_paths(self.seed, &streams, l);
+        self.run_pairs(worker, level, coupled, &mut noise)
+    }
+
     fn path_steps(&self, level: u32) -> u64 {
         1 << (self.coarsest + level)
     }
 
     fn pair_steps(&self, level: u32) -> u64 {
-        let fine = self.path_steps(level);
+        let fine = LevelSampler::path_steps(self, level);
         match level {
             0 => fine,
             _ if self.antithetic => 2 * fine + fine / 2,

@@ -199,7 +199,16 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
         lines: vec![
             ("MLMC".into(), cost(|r| r.mlmc_work)),
             ("standard MC".into(), cost(|r| r.standard_work)),
-        ],
+        ]
+        .into_iter()
+        .chain(report.qmc.as_ref().map(|qmc| {
+            let line = qmc.runs.iter().map(|row| {
+                let eps = row.run.eps;
+                (eps.log10(), (eps * eps * row.run.work).log10())
+            });
+            ("MLQMC".to_string(), line.collect())
+        }))
+        .collect(),
     };
     draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])
 }

@@ -68,6 +68,9 @@ pub fn csv(report: &MlmcReport) -> String {
             r.seconds
         );
     }
+    if let Some(qmc) = &report.qmc {
+        s += &super::quasi_report::csv(qmc);
+    }
     s
 }
 
@@ -76,6 +79,9 @@ pub fn markdown(report: &MlmcReport) -> String {
     let mut s = heading(report);
     s += &test_section(report);
     s += &complexity_section(report);
+    if let Some(qmc) = &report.qmc {
+        s += &super::quasi_report::section(qmc);
+    }
     s += &warnings(report);
     s.push_str("\n![variance and mean per level](levels.svg)\n\n![N_l per eps](samples.svg)\n\n![eps^2 cost against eps](cost.svg)\n");
     s
@@ -312,6 +318,11 @@ pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std:
     }
     if let Some(d) = &report.standard {
         writeln!(out, "  {}", standard_line(d))?;
+    }
+    if let Some(qmc) = &report.qmc {
+        for line in super::quasi_report::summary_lines(qmc) {
+            writeln!(out, "  {line}")?;
+        }
     }
     for w in &report.warnings {
         writeln!(out, "  warning: {w}")?;

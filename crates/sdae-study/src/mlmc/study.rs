@@ -19,7 +19,10 @@ use sdae_mlmc::algorithm::{
 };
 use sdae_mlmc::error::{check_eps, samples_exceed_memory};
 use sdae_mlmc::fit::{Rates, fit_rates};
+use sdae_mlmc::qmc::QuasiSampler;
 use sdae_mlmc::sampler::{LevelSampler, RunControl};
+
+use super::quasi::{QmcReport, QmcSettings, run_qmc};
 use sdae_mlmc::sums::{LevelStats, level_stats};
 use sdae_stats::Interval;
 
@@ -42,6 +45,10 @@ pub struct MlmcSettings {
     /// Run standard Monte Carlo directly at the largest eps, or at the accuracy the MLMC
     /// part's work affords (for the measured speed-up).
     pub standard_run: bool,
+    /// Randomized quasi-Monte Carlo paths beside the MLMC runs (`--qmc`): multilevel QMC at
+    /// every eps and single-level QMC beside the direct standard run ([`super::quasi`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qmc: Option<QmcSettings>,
 }
 
 /// The largest step exponent a level may have (2^24 steps per path).
@@ -76,6 +83,7 @@ impl MlmcSettings {
                 .min(MAX_THREADS),
             initial_samples: 1024,
             standard_run: true,
+            qmc: None,
         }
     }
 
@@ -101,6 +109,9 @@ impl MlmcSettings {
         let setting = |key: &'static str, value: String, rule: String| {
             Err(MlmcError::Setting { key, value, rule })
         };
+        if let Some(qmc) = &self.qmc {
+            qmc.validate()?;
+        }
         if s.eps.is_empty() {
             return setting("mlmc.eps", "[]".into(), "at least one accuracy".into());
         }
@@ -336,6 +347,9 @@ pub struct MlmcReport {
     pub standard: Option<StandardRun>,
     /// Giles's warnings (kurtosis, consistency, weak convergence) and the failed paths.
     pub warnings: Vec<String>,
+    /// The randomized QMC part (`--qmc`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub qmc: Option<QmcReport>,
 }
 
 /// The sampler of a scene's system for `settings` (its scheme and observable checked).
@@ -523,7 +537,30 @@ pub fn run_study<L: LevelSampler>(
         rates,
         complexity,
         standard,
+        qmc: None,
     })
+}
+
+/// [`run_study`], and with `settings.qmc` its randomized QMC part ([`run_qmc`]): MLQMC at
+/// every eps, and single-level QMC beside the direct standard run within its cap.
+/// ([`run_study`] alone leaves `settings.qmc` aside: a [`LevelSampler`] has no quasi-random
+/// paths.)
+pub fn run_study_quasi<L: LevelSampler + QuasiSampler>(
+    scene: &str, sampler: &L, settings: &MlmcSettings, control: &RunControl<'_>,
+) -> Result<MlmcReport, MlmcError> {
+    let mut report = run_study(scene, sampler, settings, control)?;
+    if let Some(qmc) = &settings.qmc {
+        let beside = report.standard.as_ref().map(|run| (run, run.cap_work));
+        report.qmc = Some(run_qmc(
+            sampler,
+            settings,
+            qmc,
+            control,
+            &report.complexity,
+            beside,
+        )?);
+    }
+    Ok(report)
 }
 
 /// Refuses, before the adaptive runs, an accuracy whose samples cannot fit in memory: the
@@ -622,7 +659,7 @@ pub trait SamplerTask {
     /// What the work returns.
     type Output;
     /// Does the work.
-    fn run<L: LevelSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError>;
+    fn run<L: LevelSampler + QuasiSampler>(self, sampler: &L) -> Result<Self::Output, MlmcError>;
 }
 
 /// Hands a [`SamplerTask`] the sampler of a scene's system.
@@ -649,7 +686,7 @@ pub fn with_sampler<T: SamplerTask>(
     scene.run(WithSampler { settings, task })?
 }
 
-/// The whole study of a scene ([`run_study`] with its sampler).
+/// The whole study of a scene ([`run_study_quasi`] with its sampler).
 pub fn run_mlmc(
     scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>,
 ) -> Result<MlmcReport, MlmcError> {
@@ -660,8 +697,8 @@ pub fn run_mlmc(
     }
     impl SamplerTask for Study<'_, '_> {
         type Output = MlmcReport;
-        fn run<L: LevelSampler>(self, sampler: &L) -> Result<MlmcReport, MlmcError> {
-            run_study(self.name, sampler, self.settings, self.control)
+        fn run<L: LevelSampler + QuasiSampler>(self, sampler: &L) -> Result<MlmcReport, MlmcError> {
+            run_study_quasi(self.name, sampler, self.settings, self.control)
         }
     }
     with_sampler(

@@ -11,6 +11,7 @@ mod invariant_bias;
 mod linear;
 mod lockstep;
 mod mlmc;
+mod qmc;
 mod quick_report;
 mod scenes;
 mod stability_report;

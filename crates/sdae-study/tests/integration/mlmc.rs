@@ -21,7 +21,7 @@ use crate::linear::Linear;
 /// velocity, Gaussian, and E[cos_angle] = E[cos(phi_T - phi_0)] has the closed form
 /// [`circle_cos_turn`].
 #[derive(Clone, Copy, Debug)]
-struct Circle {
+pub(crate) struct Circle {
     radius: f64,
     friction: f64,
     noise: f64,
@@ -30,7 +30,7 @@ struct Circle {
 }
 
 /// The unit circle, unit friction, noise and speed, T = 1.
-const UNIT_CIRCLE: Circle = Circle {
+pub(crate) const UNIT_CIRCLE: Circle = Circle {
     radius: 1.0,
     friction: 1.0,
     noise: 1.0,
@@ -39,7 +39,7 @@ const UNIT_CIRCLE: Circle = Circle {
 };
 
 /// The scene of a circle and its exact E[cos_angle].
-fn circle(c: Circle) -> (Scene, f64) {
+pub(crate) fn circle(c: Circle) -> (Scene, f64) {
     let Circle {
         radius,
         friction,
@@ -60,7 +60,7 @@ fn circle(c: Circle) -> (Scene, f64) {
     )
 }
 
-fn circle_settings(scene: &Scene, seed: u64, threads: usize) -> MlmcSettings {
+pub(crate) fn circle_settings(scene: &Scene, seed: u64, threads: usize) -> MlmcSettings {
     let mut settings = MlmcSettings::for_scene(scene);
     settings.spec = MlmcSpec {
         coarsest: 2,

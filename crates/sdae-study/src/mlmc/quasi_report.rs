@@ -1,0 +1,153 @@
+//! The randomized QMC part of an MLMC report ([`QmcReport`]): its Markdown section, its
+//! terminal lines and its CSV table.
+
+use std::fmt::Write as _;
+
+use super::quasi::{QmcReport, QuasiStandardRun};
+use sdae_stats::Interval;
+
+/// "c [low, high]", or "- (fewer than three eps)".
+fn exponent(c: Option<&Interval>) -> String {
+    c.map_or("- (fewer than three eps)".into(), |c| {
+        format!("{:.2} [{:.2}, {:.2}]", c.estimate, c.ci_low, c.ci_high)
+    })
+}
+
+/// The n_l of a run's levels, space-separated.
+fn points(row: &super::quasi::QuasiRow) -> String {
+    let n: Vec<String> = row
+        .run
+        .levels
+        .iter()
+        .map(|q| q.points.to_string())
+        .collect();
+    n.join(" ")
+}
+
+/// The Markdown section: one row per eps, the cost exponents and the single-level run.
+pub fn section(qmc: &QmcReport) -> String {
+    let mut s = format!(
+        "\n## Multilevel quasi-Monte Carlo\n\nR = {} randomizations (scrambled Sobol' points, Brownian bridge), n_0 = {} points per level.\n\n| eps | estimate [95%, t over R] | sum V_l | bias est. (alpha) | L | n_l | MLQMC work (steps) | MLMC work (steps) | savings | run (s) | MLMC run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        qmc.settings.randomizations, qmc.settings.initial_points
+    );
+    for row in &qmc.runs {
+        let e = &row.run;
+        let _ = writeln!(
+            s,
+            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
+            e.eps,
+            e.estimate.estimate,
+            e.estimate.ci_low,
+            e.estimate.ci_high,
+            e.variance,
+            e.bias,
+            e.bias_alpha,
+            if e.converged { "" } else { " (not converged)" },
+            e.levels.len() - 1,
+            points(row),
+            e.work,
+            row.mlmc_work,
+            row.savings,
+            e.seconds,
+            row.mlmc_seconds
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nCost exponent c of work ~ eps^-c: MLQMC {}, MLMC {}. Per level, the variance of the \
+         mean over R randomizations is V_l; the algorithm doubles n_l on the level with the \
+         largest V_l / (C_l n_l) until sum V_l <= eps^2 / 2.",
+        exponent(qmc.cost_exponent.as_ref()),
+        exponent(qmc.mlmc_cost_exponent.as_ref())
+    );
+    if let Some(d) = &qmc.standard {
+        let _ = writeln!(s, "\n{}", standard_line(d));
+    }
+    s
+}
+
+/// What the direct single-level randomized QMC run did.
+pub fn standard_line(d: &QuasiStandardRun) -> String {
+    format!(
+        "Direct single-level randomized QMC on level {} ({} randomizations of {} points, {} \
+         failed): {:.6} [{:.6}, {:.6}] at eps = {:.2e} (asked {:.0e}) in {:.3e} steps, {:.3} s; \
+         standard Monte Carlo needs {:.3e} steps for that accuracy: {:.1}x.",
+        d.level.level,
+        d.level.randomizations.len(),
+        d.level.points,
+        d.level.failed,
+        d.estimate.estimate,
+        d.estimate.ci_low,
+        d.estimate.ci_high,
+        d.eps,
+        d.target_eps,
+        d.work,
+        d.seconds,
+        d.standard_work,
+        d.savings
+    )
+}
+
+/// The lines the terminal summary prints.
+pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
+    let mut out: Vec<String> = qmc
+        .runs
+        .iter()
+        .map(|row| {
+            let e = &row.run;
+            format!(
+                "MLQMC eps {:.0e}: {:.6} [{:.6}, {:.6}], L = {}, n_l = [{}] x R = {}, work {:.3e} \
+                 steps ({:.1}x less than MLMC), {:.3} s",
+                e.eps,
+                e.estimate.estimate,
+                e.estimate.ci_low,
+                e.estimate.ci_high,
+                e.levels.len() - 1,
+                points(row),
+                e.randomizations,
+                e.work,
+                row.savings,
+                e.seconds
+            )
+        })
+        .collect();
+    out.push(format!(
+        "cost exponent: MLQMC {}, MLMC {}",
+        exponent(qmc.cost_exponent.as_ref()),
+        exponent(qmc.mlmc_cost_exponent.as_ref())
+    ));
+    out.extend(qmc.standard.as_ref().map(standard_line));
+    out
+}
+
+/// The CSV table of the MLQMC runs, one row per eps (after a blank line).
+pub fn csv(qmc: &QmcReport) -> String {
+    let mut s = String::from(
+        "\nmlqmc_eps,estimate,ci_low,ci_high,variance,bias,bias_alpha,converged,levels,points,randomizations,failed,work,mlmc_work,savings,seconds\n",
+    );
+    for row in &qmc.runs {
+        let e = &row.run;
+        let failed: Vec<String> = e.levels.iter().map(|q| q.failed.to_string()).collect();
+        let _ = writeln!(
+            s,
+            "{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{:e},{:e},{:e},{:e}",
+            e.eps,
+            e.estimate.estimate,
+            e.estimate.ci_low,
+            e.estimate.ci_high,
+            e.variance,
+            e.bias,
+            e.bias_alpha,
+            e.converged,
+            e.levels.len(),
+            points(row),
+            e.randomizations,
+            failed.join(" "),
+            e.work,
+            row.mlmc_work,
+            row.savings,
+            e.seconds
+        );
+    }
+    s
+}

@@ -249,7 +249,7 @@ where
 }
 
 /// Multilevel randomized QMC: path i of randomization r of a level is point i of its scrambled
-/// Sobol' points ([`CoupledSampler::run_quasi_block`]).
+/// Sobol' points (`run_quasi_block`, below).
 impl<S> QuasiSampler for CoupledSampler<S>
 where
     S: sdae_model::System + Send + Sync + 'static,

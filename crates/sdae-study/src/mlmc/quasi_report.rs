@@ -6,11 +6,15 @@ use std::fmt::Write as _;
 use super::quasi::{QmcReport, QuasiStandardRun};
 use sdae_stats::Interval;
 
-/// "c [low, high]", or "- (fewer than three eps)".
+/// "c [low, high]", "c (no interval from two eps)", or "-" (fewer than two eps).
 fn exponent(c: Option<&Interval>) -> String {
-    c.map_or("- (fewer than three eps)".into(), |c| {
-        format!("{:.2} [{:.2}, {:.2}]", c.estimate, c.ci_low, c.ci_high)
-    })
+    match c {
+        Some(c) if c.ci_low.is_finite() && c.ci_high.is_finite() => {
+            format!("{:.2} [{:.2}, {:.2}]", c.estimate, c.ci_low, c.ci_high)
+        }
+        Some(c) => format!("{:.2} (no interval from two eps)", c.estimate),
+        None => "- (fewer than two eps)".into(),
+    }
 }
 
 /// The n_l of a run's levels, space-separated.

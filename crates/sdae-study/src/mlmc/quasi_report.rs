@@ -101,7 +101,7 @@ pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
             let e = &row.run;
             format!(
                 "MLQMC eps {:.0e}: {:.6} [{:.6}, {:.6}], L = {}, n_l = [{}] x R = {}, work {:.3e} \
-                 steps ({:.1}x less than MLMC), {:.3} s",
+                 steps (MLMC's over it: {:.1}x), {:.3} s",
                 e.eps,
                 e.estimate.estimate,
                 e.estimate.ci_low,

@@ -39,3 +39,20 @@ pub(crate) fn check_step_size(h: f64) -> Result<(), NoiseError> {
         })
     }
 }
+
+/// The whole steps a buffer of `len` increments holds in rows of `row` = l * stride entries:
+/// None when there is nothing to fill (no row, or an empty buffer), else the number of rows;
+/// fails with [`NoiseError::DimensionMismatch`] unless `len` is a multiple of `row`.
+pub(crate) fn whole_rows(len: usize, row: usize) -> Result<Option<usize>, NoiseError> {
+    if row == 0 || len == 0 {
+        return Ok(None);
+    }
+    if !len.is_multiple_of(row) {
+        return Err(NoiseError::DimensionMismatch {
+            what: "increments buffer (a multiple of dim * stride)",
+            expected: len.div_ceil(row) * row,
+            found: len,
+        });
+    }
+    Ok(Some(len / row))
+}

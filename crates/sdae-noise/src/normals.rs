@@ -8,7 +8,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 
 use sdae_lanes::{LANE_BLOCK, LaneWidth, lane_stride};
 
-use crate::error::{NoiseError, check_step_size};
+use crate::error::{NoiseError, check_step_size, whole_rows};
 use crate::path_streams::PathStreams;
 use crate::ziggurat::{LAYER_MASK, U_EXPONENT, X, finish_draw};
 
@@ -134,22 +134,15 @@ impl EnsembleIncrements {
                 reason: "the increments of one step overflow the address space",
             });
         };
-        if row == 0 || dw.is_empty() {
+        let Some(steps) = whole_rows(dw.len(), row)? else {
             return Ok(0);
-        }
-        if !dw.len().is_multiple_of(row) {
-            return Err(NoiseError::DimensionMismatch {
-                what: "increments buffer (a multiple of dim * stride)",
-                expected: dw.len().div_ceil(row) * row,
-                found: dw.len(),
-            });
-        }
+        };
         self.width.dispatch(FillAll {
             increments: self,
             scale: h.sqrt(),
             dw,
         });
-        Ok(dw.len() / row)
+        Ok(steps)
     }
 }
 

@@ -3,7 +3,7 @@
 
 use sdae_lanes::lane_stride;
 
-use crate::error::{NoiseError, check_step_size};
+use crate::error::{NoiseError, check_step_size, whole_rows};
 use crate::qmc::quasi_brownian::QuasiBrownian;
 
 /// The increments of P quasi-Monte Carlo Brownian paths, laid out as
@@ -96,17 +96,9 @@ impl QuasiEnsembleIncrements {
     /// m * stride, or if it holds more steps than are left.
     pub fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, NoiseError> {
         check_step_size(h)?;
-        let row = self.dim * self.stride;
-        if row == 0 || dw.is_empty() {
+        let Some(steps) = whole_rows(dw.len(), self.dim * self.stride)? else {
             return Ok(0);
-        }
-        if !dw.len().is_multiple_of(row) {
-            return Err(NoiseError::DimensionMismatch {
-                what: "increments buffer (a multiple of dim * stride)",
-                expected: dw.len().div_ceil(row) * row,
-                found: dw.len(),
-            });
-        }
+        };
         let left = self.unit.len() - self.position;
         if dw.len() > left {
             return Err(NoiseError::DimensionMismatch {
@@ -121,6 +113,6 @@ impl QuasiEnsembleIncrements {
             *o = scale * xi;
         }
         self.position = end;
-        Ok(dw.len() / row)
+        Ok(steps)
     }
 }

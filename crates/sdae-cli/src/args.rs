@@ -174,6 +174,16 @@ pub struct WeakArgs {
     /// array (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT).
     #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse)]
     pub shard: Option<ShardArg>,
+    /// Randomized quasi-Monte Carlo paths (scrambled Sobol' points, Brownian bridge): R
+    /// randomizations of n = paths / R points, path p being point p % n of randomization p / n;
+    /// each randomization's values are averaged into one sample and the intervals rest on the R
+    /// samples. --paths must then be R n with n a power of two; without --paths, the scene's
+    /// paths are rounded down to such a number.
+    #[arg(long)]
+    pub qmc: bool,
+    /// With --qmc: randomizations R (at least 2; their spread gives the intervals).
+    #[arg(long, value_name = "R", default_value_t = 16, requires = "qmc")]
+    pub randomizations: usize,
 }
 
 /// Options of `merge`.
@@ -328,6 +338,24 @@ impl SceneArgs {
             }
         }
         Ok(scenes)
+    }
+}
+
+impl WeakArgs {
+    /// The weak settings `s` of a scene with the command line's QMC design: with --qmc, R
+    /// randomizations and, unless --paths is given, the paths rounded down to R n with n the
+    /// largest power of two that fits (at least one point per randomization); then the
+    /// command line's paths, seed and threads ([`EnsembleArgs::apply`]).
+    pub fn apply(&self, mut s: ConvergenceSettings) -> ConvergenceSettings {
+        if self.qmc {
+            let r = self.randomizations;
+            s.randomizations = Some(r);
+            if self.ensemble.paths.is_none() && r > 0 {
+                let n = (s.paths / r).max(1);
+                s.paths = r * (1usize << n.ilog2());
+            }
+        }
+        self.ensemble.apply(s)
     }
 }
 

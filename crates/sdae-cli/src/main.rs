@@ -114,6 +114,7 @@ fn flag(key: &str) -> Option<&'static str> {
         "mlmc.scheme" => &["--scheme"],
         "mlqmc.randomizations" => &["--randomizations"],
         "mlqmc.initial_points" => &["--initial-points"],
+        "weak.randomizations" => &["--randomizations"],
         _ => &[],
     };
     flags.iter().copied().find(|flag| args::typed(flag))

@@ -718,7 +718,7 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
         .iter()
         .map(|scene| {
             weak::weak_settings(scene, e.quick)
-                .map(|s| e.apply(s))
+                .map(|s| args.apply(s))
                 .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
         })
         .collect::<Result<Vec<_>, _>>()?;

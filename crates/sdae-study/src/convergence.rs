@@ -79,6 +79,12 @@ pub struct ConvergenceSettings {
     /// reference and its bias bound, [`crate::weak`]); needs observables and a reference.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub paired_reference: bool,
+    /// Randomized quasi-Monte Carlo paths (the weak study's `--qmc`): R randomizations of
+    /// n = `paths` / R scrambled Sobol' points, path p being point p % n of randomization
+    /// p / n ([`QuasiPaths`](crate::lockstep::QuasiPaths)); `paths` must be R n with R >= 2 and
+    /// n a power of two. `None`: each path draws from its own pseudo-random streams.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub randomizations: Option<usize>,
 }
 
 /// A setting that does not hold: `key = value` breaks `rule`.
@@ -108,6 +114,7 @@ impl ConvergenceSettings {
             observables: Vec::new(),
             time_averaged: None,
             paired_reference: false,
+            randomizations: None,
         }
     }
 
@@ -149,6 +156,27 @@ impl ConvergenceSettings {
                 return bad("study.levels", format!("..{}", self.finest), rule);
             }
             _ => {}
+        }
+        self.validate_randomizations()
+    }
+
+    /// With randomized QMC paths: R >= 2 randomizations of n points, n a power of two, and
+    /// paths = R n.
+    fn validate_randomizations(&self) -> Result<(), StudyError> {
+        let Some(r) = self.randomizations else {
+            return Ok(());
+        };
+        if r < 2 {
+            let rule = "must be at least 2 (the spread of the randomizations gives the intervals)";
+            return setting_error("weak.randomizations", r.to_string(), rule.into());
+        }
+        let n = self.paths / r;
+        if !self.paths.is_multiple_of(r) || !n.is_power_of_two() || n > 1 << 32 {
+            let rule = format!(
+                "with randomized QMC paths must be R n, R = {r} randomizations of n points, n a \
+                 power of two (at most 2^32)"
+            );
+            return setting_error("study.paths", self.paths.to_string(), rule);
         }
         Ok(())
     }
@@ -425,6 +453,7 @@ where
             paths: st.paths,
             shard: (index, count.max(1)),
             threads: st.threads,
+            randomizations: st.randomizations,
         },
         control,
     )?;

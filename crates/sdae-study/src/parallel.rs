@@ -11,7 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
-use crate::lockstep::{BLOCK_PATHS, BlockEnsembles, PathPlan, PathRecord, run_block_until};
+use crate::lockstep::{
+    BLOCK_PATHS, BlockEnsembles, PathNoise, PathPlan, PathRecord, QuasiPaths, run_block_with,
+};
 use crate::scene::Prepared;
 
 /// A scheme left out, and why.
@@ -100,7 +102,15 @@ pub struct PathSelection {
     pub shard: (usize, usize),
     /// Worker threads.
     pub threads: usize,
+    /// Randomized quasi-Monte Carlo paths: R randomizations of `paths` / R scrambled Sobol'
+    /// points, path p being point p % n of randomization p / n ([`QuasiPaths`]); `None`: each
+    /// path its own pseudo-random streams.
+    pub randomizations: Option<usize>,
 }
+
+/// Floats a block's quasi-random increments may hold (256 MiB): they are computed up front
+/// over all the fine steps.
+const QUASI_BLOCK_BUDGET: usize = 1 << 25;
 
 /// What receives the records of a block of paths that finished.
 pub type FinishedBlock<'a> = dyn Fn(&[PathRecord]) + Sync + 'a;
@@ -153,6 +163,32 @@ where
     let finished = AtomicUsize::new(0);
     let (r0, v0) = (&prepared.position[..], &prepared.velocity[..]);
     let block = block_len(mine.len(), selection.threads);
+    let quasi = match selection.randomizations {
+        Some(r) => {
+            let floats = (prepared.system.noise_dim() * lane_stride(block))
+                .saturating_mul(1usize << plan.fine);
+            if floats > QUASI_BLOCK_BUDGET {
+                return Err(StudyError::Setting {
+                    key: "study.reference",
+                    value: plan.fine.to_string(),
+                    rule: format!(
+                        "randomized QMC paths hold a block's increments over all 2^{} fine \
+                         steps at once: {floats} floats, above {QUASI_BLOCK_BUDGET}",
+                        plan.fine
+                    ),
+                });
+            }
+            let points = selection.paths / r.max(1);
+            Some(QuasiPaths::new(selection.seed, r, points))
+        }
+        None => None,
+    };
+    let noise = match &quasi {
+        Some(quasi) => PathNoise::Quasi(quasi),
+        None => PathNoise::Pseudo {
+            seed: selection.seed,
+        },
+    };
     let reference = reference.cloned();
     let blocks = pool.install(|| {
         mine.par_chunks(block)
@@ -172,9 +208,8 @@ where
                         .as_mut()
                         .map_err(|e| e.clone())?;
                     let stopped = || control.stopped();
-                    let seed = selection.seed;
                     let Some(records) =
-                        run_block_until(plan, ensembles, (r0, v0), seed, indices, &stopped)?
+                        run_block_with(plan, ensembles, (r0, v0), noise, indices, &stopped)?
                     else {
                         return Ok(Vec::new());
                     };

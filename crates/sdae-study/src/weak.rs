@@ -21,8 +21,14 @@
 //! - orders: the least-squares slope of log |e_N| against log h over the levels whose error is
 //!   resolved (|e_N| above the half-width of its interval), with a bootstrap interval over
 //!   whole paths ([`bootstrap::path_bootstrap`]); the unresolved levels are named.
+//!
+//! With randomized quasi-Monte Carlo paths ([`ConvergenceSettings::randomizations`], `weak
+//! --qmc`), R randomizations of n scrambled Sobol' points drive the paths, and each
+//! randomization's per-path values are averaged into one sample before all of the above
+//! ([`quasi`]): the statistics then rest on the R samples as on R paths.
 
 pub mod bootstrap;
+pub mod quasi;
 pub mod report;
 
 use std::collections::BTreeMap;
@@ -36,11 +42,12 @@ use crate::convergence::{
 };
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
-use crate::lockstep::PathRecord;
+use crate::lockstep::{PathRecord, TrackOutcome};
 use crate::observable::Observable;
 use crate::parallel::{Control, Skipped};
 use crate::scene::{Prepared, Scene, SceneRunner};
 use bootstrap::Resample;
+use quasi::{QmcSamples, randomization_means};
 use sdae_stats::Interval;
 use sdae_stats::mean_interval;
 
@@ -324,6 +331,10 @@ pub struct WeakReport {
     pub reference: ReferenceReport,
     /// One study per observable.
     pub observables: Vec<ObservableReport>,
+    /// With randomized quasi-Monte Carlo paths: the design and the samples (one per
+    /// randomization) the statistics rest on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub qmc: Option<QmcSamples>,
     /// Schemes left out, with the reason.
     pub skipped: Vec<Skipped>,
     /// The scene as run.
@@ -631,8 +642,12 @@ impl PathBasis {
 struct WeakInputs<'a> {
     /// The run's settings.
     settings: &'a ConvergenceSettings,
-    /// The paths whose reference finished, by index.
+    /// The samples the statistics run on, by index: the paths whose reference finished, or
+    /// with randomized QMC paths one mean per randomization ([`quasi`]).
     good: &'a [&'a PathRecord],
+    /// The paths behind the samples (the samples themselves without QMC): the failures of a
+    /// level are counted in paths.
+    paths: &'a [&'a PathRecord],
     /// The schemes that ran, in the order of the records' tracks.
     schemes: &'a [String],
     /// Per observable, the exact value the scene gives.
@@ -641,7 +656,7 @@ struct WeakInputs<'a> {
     layout: Layout,
 }
 
-impl WeakInputs<'_> {
+impl<'a> WeakInputs<'a> {
     /// Observable `o`'s basis on every good path: the reference at each grid point,
     /// Richardson-extrapolated with the reference scheme's weak order p where the run paired
     /// it, f_R + (f_R - f_(R-1)) / (2^p - 1), and the bias bounds ([`ReferenceBias`]).
@@ -721,16 +736,18 @@ impl WeakInputs<'_> {
         let mut kept = Vec::new();
         let mut lost = Vec::new();
         for (j, &k) in levels.iter().enumerate() {
-            let tracks = || self.good.iter().map(|p| &p.tracks[s * count + j]);
-            let failures = count_kinds(tracks().filter_map(|t| t.failure));
-            let non_finite = tracks()
-                .filter(|t| t.failure.is_none())
-                .filter(|t| {
-                    t.observed.len() != wanted * self.layout.count
-                        || (0..wanted).any(|g| !t.observed[self.layout.at(g, o)].is_finite())
-                })
-                .count();
-            if failures.is_empty() && non_finite == 0 {
+            let tracks =
+                |of: &'a [&'a PathRecord]| of.iter().map(move |p| &p.tracks[s * count + j]);
+            let failures = count_kinds(tracks(self.paths).filter_map(|t| t.failure));
+            let bad = |t: &&TrackOutcome| {
+                t.failure.is_none()
+                    && (t.observed.len() != wanted * self.layout.count
+                        || (0..wanted).any(|g| !t.observed[self.layout.at(g, o)].is_finite()))
+            };
+            let non_finite = tracks(self.paths).filter(bad).count();
+            // A mean over a randomization that is not finite although its paths' values are.
+            let samples_bad = tracks(self.good).any(|t| t.failure.is_none() && bad(&t));
+            if failures.is_empty() && non_finite == 0 && !samples_bad {
                 kept.push(j);
             } else {
                 lost.push(LostLevel {
@@ -910,9 +927,23 @@ pub fn build_weak_report(run: ConvergenceRun) -> Result<WeakReport, StudyError> 
         count: settings.observables.len(),
         points: 1 << settings.coarsest,
     };
+    // With randomized QMC paths the statistics run on one mean per randomization.
+    let (means, behind, qmc) = match settings.randomizations {
+        Some(r) => {
+            let all: Vec<&PathRecord> = records.iter().collect();
+            let (means, behind, qmc) = randomization_means(&all, r, settings.paths / r.max(1));
+            (means, behind, Some(qmc))
+        }
+        None => (Vec::new(), good.clone(), None),
+    };
+    let samples: Vec<&PathRecord> = match qmc {
+        Some(_) => means.iter().collect(),
+        None => good.clone(),
+    };
     let observables = WeakInputs {
         settings: &settings,
-        good: &good,
+        good: &samples,
+        paths: &behind,
         schemes: &schemes,
         exact: exact_values(&scene, &settings),
         layout,
@@ -936,6 +967,7 @@ pub fn build_weak_report(run: ConvergenceRun) -> Result<WeakReport, StudyError> 
         settings,
         reference,
         observables,
+        qmc,
         skipped,
         scene_definition: scene,
     })

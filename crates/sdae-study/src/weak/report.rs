@@ -248,6 +248,10 @@ pub fn markdown(report: &WeakReport) -> String {
         report.seed,
         grid.join(", "),
     );
+    if let Some(qmc) = &report.qmc {
+        s += &qmc.describe();
+        s += "\n\n";
+    }
     for o in &report.observables {
         s += &observable_section(o);
     }
@@ -297,6 +301,13 @@ pub fn print_summary(report: &WeakReport) {
 
 /// The summary [`print_summary`] prints, written to `out`.
 pub fn write_summary(report: &WeakReport, out: &mut impl std::io::Write) -> std::io::Result<()> {
+    if let Some(qmc) = &report.qmc {
+        writeln!(
+            out,
+            "randomized QMC: {} randomizations of {} points; intervals rest on {} samples",
+            qmc.randomizations, qmc.points, qmc.samples
+        )?;
+    }
     for o in &report.observables {
         let against = match (o.basis, &o.reference_bias) {
             (Basis::Exact(_), _) => "the exact value".to_string(),

@@ -18,5 +18,6 @@ mod stability_report;
 mod truncated_levels;
 mod weak;
 mod weak_order_coverage;
+mod weak_qmc;
 mod weak_run;
 mod weak_verdicts;

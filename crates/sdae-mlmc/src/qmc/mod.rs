@@ -66,6 +66,12 @@ pub trait QuasiSampler: Sync {
     fn max_points(&self) -> u64 {
         1 << 32
     }
+    /// The coordinates of a point that one path of level l takes, and how many of them are
+    /// quasi-random (the rest are padded with pseudo-random numbers), where the sampler knows
+    /// them (default: None).
+    fn coordinates(&self, _level: u32) -> Option<(u64, u64)> {
+        None
+    }
 }
 
 /// The blocks of `points`: cut at the multiples of [`BLOCK`], in order.

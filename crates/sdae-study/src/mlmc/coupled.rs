@@ -10,7 +10,7 @@
 use std::ops::Range;
 
 use sdae_model::PathEnsemble;
-use sdae_noise::{EnsembleIncrements, EnsembleNoise, QuasiBrownian};
+use sdae_noise::{EnsembleIncrements, EnsembleNoise, MAX_SOBOL_DIMS, QuasiBrownian};
 
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
@@ -273,6 +273,19 @@ where
 
     fn pair_steps(&self, level: u32) -> u64 {
         LevelSampler::pair_steps(self, level)
+    }
+
+    /// l 2^(k0 + level) coordinates, at most [`MAX_SOBOL_DIMS`] of them quasi-random.
+    fn coordinates(&self, level: u32) -> Option<(u64, u64)> {
+        let (r0, v0) = (&self.start.0[..], &self.start.1[..]);
+        let l = self
+            .scheme
+            .build_ensemble(1, r0, v0)
+            .ok()?
+            .system()
+            .noise_dim() as u64;
+        let total = l.checked_mul(LevelSampler::path_steps(self, level))?;
+        Some((total, total.min(MAX_SOBOL_DIMS as u64)))
     }
 }
 

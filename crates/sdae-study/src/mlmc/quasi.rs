@@ -100,11 +100,25 @@ pub struct QuasiStandardRun {
     pub seconds: f64,
 }
 
+/// The coordinates of the points one path of a level takes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PathCoordinates {
+    /// Level l.
+    pub level: u32,
+    /// Coordinates per path: l 2^(k0 + l) (noise components times steps).
+    pub coordinates: u64,
+    /// How many of them are quasi-random (the Sobol' dimensions); the rest are pseudo-random
+    /// padding.
+    pub quasi: u64,
+}
+
 /// The randomized QMC part of an MLMC report.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct QmcReport {
     /// Its settings.
     pub settings: QmcSettings,
+    /// Per level run, the coordinates of a path and how many were quasi-random.
+    pub coordinates: Vec<PathCoordinates>,
     /// The MLQMC runs, one per eps of the complexity table.
     pub runs: Vec<QuasiRow>,
     /// The cost exponent c of MLQMC's work ~ eps^-c, with its interval (three eps or more).
@@ -150,8 +164,25 @@ pub fn run_qmc<Q: QuasiSampler>(
     let standard = standard
         .map(|(run, cap)| single_level(sampler, qmc, control, run, cap))
         .transpose()?;
+    let top = runs
+        .iter()
+        .map(|r| r.run.levels.len() as u32)
+        .chain(standard.as_ref().map(|s| s.level.level + 1))
+        .max()
+        .unwrap_or(0);
+    let coordinates = (0..top)
+        .filter_map(|level| {
+            let (coordinates, quasi) = sampler.coordinates(level)?;
+            Some(PathCoordinates {
+                level,
+                coordinates,
+                quasi,
+            })
+        })
+        .collect();
     Ok(QmcReport {
         settings: *qmc,
+        coordinates,
         cost_exponent: cost_exponent_of(&estimates),
         mlmc_cost_exponent: cost_exponent(&mlmc),
         runs,

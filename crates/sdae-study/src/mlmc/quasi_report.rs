@@ -64,10 +64,33 @@ pub fn section(qmc: &QmcReport) -> String {
         exponent(qmc.cost_exponent.as_ref()),
         exponent(qmc.mlmc_cost_exponent.as_ref())
     );
+    let _ = writeln!(s, "\n{}", coordinates_line(qmc));
     if let Some(d) = &qmc.standard {
         let _ = writeln!(s, "\n{}", standard_line(d));
     }
     s
+}
+
+/// How many coordinates of a path were quasi-random, level by level.
+pub fn coordinates_line(qmc: &QmcReport) -> String {
+    let padded: Vec<String> = qmc
+        .coordinates
+        .iter()
+        .filter(|c| c.quasi < c.coordinates)
+        .map(|c| format!("level {}: {} of {}", c.level, c.quasi, c.coordinates))
+        .collect();
+    match (qmc.coordinates.last(), padded.is_empty()) {
+        (None, _) => "Coordinates per path: not known for this sampler.".into(),
+        (Some(c), true) => format!(
+            "Every coordinate of every path is quasi-random (up to {} per path on level {}).",
+            c.coordinates, c.level
+        ),
+        (Some(_), false) => format!(
+            "Quasi-random coordinates per path where a path takes more than the Sobol' \
+             dimensions (the rest are pseudo-random padding): {}.",
+            padded.join(", ")
+        ),
+    }
 }
 
 /// What the direct single-level randomized QMC run did.
@@ -120,6 +143,7 @@ pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
         exponent(qmc.cost_exponent.as_ref()),
         exponent(qmc.mlmc_cost_exponent.as_ref())
     ));
+    out.push(coordinates_line(qmc));
     out.extend(qmc.standard.as_ref().map(standard_line));
     out
 }
@@ -154,4 +178,36 @@ pub fn csv(qmc: &QmcReport) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mlmc::quasi::{PathCoordinates, QmcSettings};
+
+    /// Levels whose paths take more coordinates than the Sobol' dimensions are named with how
+    /// many were quasi-random.
+    #[test]
+    fn padded_levels_are_named_with_their_quasi_random_count() {
+        let level = |level, coordinates: u64| PathCoordinates {
+            level,
+            coordinates,
+            quasi: coordinates.min(21_201),
+        };
+        let mut qmc = QmcReport {
+            settings: QmcSettings::default(),
+            coordinates: vec![level(0, 15_360), level(1, 30_720)],
+            runs: Vec::new(),
+            cost_exponent: None,
+            mlmc_cost_exponent: None,
+            standard: None,
+        };
+        let line = coordinates_line(&qmc);
+        assert!(line.contains("level 1: 21201 of 30720"), "{line}");
+        assert!(!line.contains("level 0"), "{line}");
+        qmc.coordinates.pop();
+        assert!(coordinates_line(&qmc).starts_with("Every coordinate"));
+        qmc.coordinates.clear();
+        assert!(coordinates_line(&qmc).contains("not known"));
+    }
 }

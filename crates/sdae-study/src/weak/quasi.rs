@@ -38,11 +38,13 @@ impl QmcSamples {
              Brownian bridge) of n = {} points each; the values of each randomization's n paths \
              are averaged into one sample before any statistic, so every interval, bias bound, \
              order fit and bootstrap rests on the {} samples of the randomizations (the paths \
-             column counts them), not on the {} paths.",
+             column counts them), not on the {} paths. A path's first {} coordinates (noise \
+             components times fine steps) are quasi-random, any further ones pseudo-random.",
             self.randomizations,
             self.points,
             self.samples,
             self.randomizations * self.points,
+            sdae_noise::MAX_SOBOL_DIMS,
         );
         if !self.left_out.is_empty() {
             let left: Vec<String> = self.left_out.iter().map(usize::to_string).collect();

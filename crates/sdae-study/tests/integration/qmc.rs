@@ -120,7 +120,21 @@ fn the_study_reports_its_quasi_monte_carlo_part() {
     let single = qmc.standard.as_ref().unwrap();
     assert!(single.savings > 1.0, "{single:?}");
     assert!(single.level.points.is_power_of_two());
+    // The circle's planar noise has 2 components: l 2^(k0 + level) coordinates, all quasi-random.
+    assert!(!qmc.coordinates.is_empty());
+    for c in &qmc.coordinates {
+        assert_eq!(
+            c.coordinates,
+            2 << (settings.spec.coarsest + c.level),
+            "{c:?}"
+        );
+        assert_eq!(c.quasi, c.coordinates);
+    }
     let markdown = sdae_study::mlmc::report::markdown(&report);
+    assert!(
+        markdown.contains("Every coordinate of every path is quasi-random"),
+        "{markdown}"
+    );
     assert!(
         markdown.contains("## Multilevel quasi-Monte Carlo"),
         "{markdown}"

@@ -310,3 +310,69 @@ fn plans_and_plan_files_are_checked_before_anything_runs() {
         &["refusing", "mlmc-shard-0-of-1.json", "checksum"],
     );
 }
+
+/// `--qmc` adds the randomized QMC part to every file of the report, `mlqmc.svg` beside the
+/// other plots; bad designs are named errors, and `--randomizations` needs `--qmc`.
+#[test]
+fn a_quasi_monte_carlo_run_writes_its_part_of_the_report() {
+    let dir = scratch("mlmc-qmc");
+    let out = dir.to_str().unwrap();
+    let ran = study(&[
+        "mlmc",
+        "--scene",
+        "rotor",
+        "--observable",
+        "cos_turn",
+        "--quick",
+        "--qmc",
+        "--randomizations",
+        "8",
+        "--out",
+        out,
+    ]);
+    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
+    assert!(
+        text(&ran.stdout).contains("MLQMC eps"),
+        "{}",
+        text(&ran.stdout)
+    );
+    let report = dir.join("mlmc/rotor");
+    assert!(report.join("mlqmc.svg").exists());
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(
+        md.contains("## Multilevel quasi-Monte Carlo") && md.contains("R = 8"),
+        "{md}"
+    );
+    let csv = std::fs::read_to_string(report.join("report.csv")).unwrap();
+    assert!(csv.contains("mlqmc_eps,"), "{csv}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report.join("report.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["qmc"]["settings"]["randomizations"], 8);
+    usage_error(
+        &[
+            "mlmc",
+            "--qmc",
+            "--randomizations",
+            "1",
+            "--quick",
+            "--out",
+            out,
+        ],
+        &["--randomizations 1", "at least 2"],
+    );
+    usage_error(
+        &[
+            "mlmc",
+            "--qmc",
+            "--initial-points",
+            "24",
+            "--quick",
+            "--out",
+            out,
+        ],
+        &["--initial-points 24", "power of two"],
+    );
+    let refused = study(&["mlmc", "--randomizations", "8", "--quick", "--out", out]);
+    assert_eq!(refused.status.code(), Some(2), "{}", text(&refused.stderr));
+}

@@ -1,6 +1,7 @@
 //! SVG plots of an MLMC report, as Giles's `mlmc_test` draws them: log2 of the variance and of
 //! the mean per level, N_l per level for each eps, and eps^2 x cost against eps (flat for
-//! MLMC at cost O(eps^-2)).
+//! MLMC at cost O(eps^-2)); with `--qmc` also MLQMC's n_l and variance per randomization per
+//! level.
 
 use std::path::Path;
 
@@ -122,7 +123,8 @@ fn draw(path: &Path, title: &str, panels: &[Panel]) -> Result<(), StudyError> {
 }
 
 /// Writes `levels.svg` (log2 variance and log2 |mean| per level), `samples.svg` (N_l per
-/// level, one line per eps) and `cost.svg` (eps^2 x cost against eps) into `dir`.
+/// level, one line per eps) and `cost.svg` (eps^2 x cost against eps) into `dir`, and with
+/// `--qmc` `mlqmc.svg` (n_l and the variance per randomization per level).
 pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
     let per_level = |pick: fn(&sdae_mlmc::LevelStats) -> f64, from: u32| {
         report
@@ -210,7 +212,40 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
         }))
         .collect(),
     };
-    draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])
+    draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])?;
+    match &report.qmc {
+        Some(qmc) => draw_quasi(qmc, dir, &stem),
+        None => Ok(()),
+    }
+}
+
+/// Writes `mlqmc.svg`: the points n_l per level and log2 of the variance per randomization
+/// R V_l per level, one line per eps of the MLQMC runs.
+fn draw_quasi(qmc: &super::quasi::QmcReport, dir: &Path, stem: &str) -> Result<(), StudyError> {
+    let per_level = |pick: fn(&sdae_mlmc::qmc::QuasiLevel) -> f64| {
+        qmc.runs
+            .iter()
+            .map(|row| {
+                let line = row.run.levels.iter().map(|q| (f64::from(q.level), pick(q)));
+                (format!("eps = {:.0e}", row.run.eps), line.collect())
+            })
+            .collect::<Vec<_>>()
+    };
+    let panels = [
+        Panel {
+            title: "points per randomization".into(),
+            axes: ("level l", "n_l"),
+            formats: (plain, power_of_ten),
+            lines: per_level(|q| (q.points as f64).log10()),
+        },
+        Panel {
+            title: "variance per randomization".into(),
+            axes: ("level l", "log2 R V_l"),
+            formats: (plain, plain),
+            lines: per_level(|q| q.variance_per_randomization.log2()),
+        },
+    ];
+    draw(&dir.join("mlqmc.svg"), &format!("{stem}: MLQMC"), &panels)
 }
 
 #[cfg(test)]

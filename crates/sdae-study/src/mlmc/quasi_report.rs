@@ -64,9 +64,34 @@ pub fn section(qmc: &QmcReport) -> String {
         exponent(qmc.cost_exponent.as_ref()),
         exponent(qmc.mlmc_cost_exponent.as_ref())
     );
+    s += &levels_table(qmc);
     let _ = writeln!(s, "\n{}", coordinates_line(qmc));
     if let Some(d) = &qmc.standard {
         let _ = writeln!(s, "\n{}", standard_line(d));
+    }
+    s
+}
+
+/// The levels of the run at the smallest eps: n_l, the mean of Y_l, V_l (the variance of its
+/// mean over the R randomizations) and R V_l (the variance per randomization).
+fn levels_table(qmc: &QmcReport) -> String {
+    let Some(row) = qmc
+        .runs
+        .iter()
+        .min_by(|a, b| a.run.eps.total_cmp(&b.run.eps))
+    else {
+        return String::new();
+    };
+    let mut s = format!(
+        "\nLevels of the run at eps = {:.0e}:\n\n| l | n_l | mean Y_l | V_l | R V_l (per randomization) | work (steps) | failed |\n|---|---|---|---|---|---|---|\n",
+        row.run.eps
+    );
+    for q in &row.run.levels {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4e} | {:.3e} | {:.3e} | {:.3e} | {} |",
+            q.level, q.points, q.mean, q.variance, q.variance_per_randomization, q.work, q.failed
+        );
     }
     s
 }

@@ -84,6 +84,9 @@ pub fn markdown(report: &MlmcReport) -> String {
     }
     s += &warnings(report);
     s.push_str("\n![variance and mean per level](levels.svg)\n\n![N_l per eps](samples.svg)\n\n![eps^2 cost against eps](cost.svg)\n");
+    if report.qmc.is_some() {
+        s.push_str("\n![MLQMC: n_l and variance per randomization per level](mlqmc.svg)\n");
+    }
     s
 }
 
@@ -331,7 +334,7 @@ pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std:
 }
 
 /// Writes `report.json`, `report.csv`, `report.md`, `levels.svg`, `samples.svg` and
-/// `cost.svg` into `dir`.
+/// `cost.svg` (and with `--qmc` `mlqmc.svg`) into `dir`.
 pub fn write_report(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
     write_json(&dir.join("report.json"), report)?;
     write_atomically(&dir.join("report.csv"), &csv(report))?;

@@ -101,7 +101,7 @@ fn a_checkpoint_of_another_study_is_refused() {
 fn study(out: &Path, threads: &str, extra: &[&str]) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_sdae-study"));
     command
-        .args(["--paths", "3000", "--levels", "3..8", "--ref-level", "12"])
+        .args(["--paths", "1000", "--levels", "3..7", "--ref-level", "10"])
         .args(["--threads", threads, "--out"])
         .arg(out)
         .args(extra)

@@ -1,6 +1,6 @@
-//! `cargo xtask bench`: runs every criterion benchmark of `sdae-scheme` (step, mass, ensemble,
-//! fiber, molecule) and `sdae-reference` (ensemble) and summarizes the step and ensemble
-//! figures in `target/bench/summary.json`.
+//! `cargo xtask bench`: runs the criterion benchmarks of `sdae-bench` (step, mass, ensemble,
+//! fiber, molecule, inherent_ensemble) and summarizes the step and ensemble figures in
+//! `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,29 +10,37 @@ use serde_json::{Map, Value, json};
 
 use crate::{TaskError, target_dir, workspace_root};
 
-/// Paths of the `pendulum_ensemble` group (as in crates/sdae-scheme/benches/ensemble.rs).
+/// Paths of the `pendulum_ensemble` group (as in crates/sdae-bench/benches/ensemble.rs).
 const ENSEMBLE_PATHS: u64 = 512;
 
-/// Bead counts of the `chain_step` group (as in crates/sdae-scheme/benches/step.rs).
+/// Bead counts of the `chain_step` group (as in crates/sdae-bench/benches/step.rs).
 const CHAIN_SIZES: [u64; 4] = [10, 100, 1000, 10000];
 
-/// Bead counts and paths of the `chain_ensemble` group (as in crates/sdae-scheme/benches/step.rs).
+/// Bead counts and paths of the `chain_ensemble` group (as in crates/sdae-bench/benches/step.rs).
 const CHAIN_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const CHAIN_ENSEMBLE_PATHS: u64 = 8;
 
-/// Bead counts and paths of the `fiber_ensemble` groups (as in crates/sdae-scheme/benches/fiber.rs).
+/// Bead counts and paths of the `fiber_ensemble` groups (as in crates/sdae-bench/benches/fiber.rs).
 const FIBER_ENSEMBLE_SIZES: [u64; 3] = [10, 100, 1000];
 const FIBER_ENSEMBLE_PATHS: u64 = 8;
 
-/// The molecules of crates/sdae-scheme/benches/molecule.rs (groups `<molecule>_step`,
+/// The molecules of crates/sdae-bench/benches/molecule.rs (groups `<molecule>_step`,
 /// `<molecule>_ensemble`, `<molecule>_ensemble_path_by_path`) and the paths of their ensembles.
 const MOLECULES: [&str; 2] = ["molecule", "triatomic"];
 const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
-/// The benchmarked packages: every bench target of each runs.
-const PACKAGES: [&str; 2] = ["sdae-scheme", "sdae-reference"];
+/// The benchmarks of `sdae-bench` that run (its `splitting` bench runs with
+/// `cargo bench -p sdae-bench --bench splitting`).
+const BENCHES: [&str; 6] = [
+    "step",
+    "mass",
+    "ensemble",
+    "fiber",
+    "molecule",
+    "inherent_ensemble",
+];
 
-/// Solvers of the `inherent_ensemble` group (as in crates/sdae-reference/benches/ensemble.rs),
+/// Solvers of the `inherent_ensemble` group (as in crates/sdae-bench/benches/inherent_ensemble.rs),
 /// each with the same number of paths as `pendulum_ensemble`.
 const INHERENT_SOLVERS: [&str; 4] = [
     "euler_maruyama",
@@ -114,17 +122,17 @@ fn run_criterion(
     let mut command = Command::new(&cargo);
     command
         .current_dir(&root)
-        .args(["bench", "--benches"])
-        .args(PACKAGES.iter().flat_map(|p| ["-p", p]))
+        .args(["bench", "-p", "sdae-bench"])
+        .args(BENCHES.iter().flat_map(|b| ["--bench", b]))
         .env("CARGO_TARGET_DIR", target)
         .env("CRITERION_HOME", criterion_home);
     if !criterion_args.is_empty() {
         command.arg("--").args(criterion_args);
     }
     let bench_command = format!(
-        "{} bench --benches {}",
+        "{} bench -p sdae-bench {}",
         Path::new(&cargo).display(),
-        PACKAGES.map(|p| format!("-p {p}")).join(" ")
+        BENCHES.map(|b| format!("--bench {b}")).join(" ")
     );
     eprintln!(
         "running: {bench_command}{}",

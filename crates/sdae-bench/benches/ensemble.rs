@@ -19,7 +19,7 @@
 //! The states are put back to the initial state every [`RESET_EVERY`] steps, as in
 //! benches/step.rs. Throughput is reported per path-step (criterion's elements).
 //!
-//! Run with `cargo bench -p sdae-scheme --bench ensemble`, or `cargo xtask bench`.
+//! Run with `cargo bench -p sdae-bench --bench ensemble`, or `cargo xtask bench`.
 
 use std::hint::black_box;
 

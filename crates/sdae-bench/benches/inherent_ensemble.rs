@@ -5,7 +5,7 @@
 //! beforehand. The solvers are Euler-Maruyama, truncated Euler-Maruyama (c = 1), projected
 //! Euler-Maruyama and stochastic Heun. The states are put back to the initial state every [`RESET_EVERY`] steps.
 //!
-//! Run with `cargo bench -p sdae-reference --bench ensemble`, or `cargo xtask bench`.
+//! Run with `cargo bench -p sdae-bench --bench inherent_ensemble`, or `cargo xtask bench`.
 
 use std::hint::black_box;
 

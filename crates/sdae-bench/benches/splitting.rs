@@ -2,7 +2,7 @@
 //! path-step, increments drawn beforehand:
 //!
 //! - `half-explicit`: `sdae_scheme::Stepper` with the practical constants (C_eta = 1; for the
-//!   molecules no ball either, C_kappa = inf, as benches/molecule.rs of `sdae-systems`);
+//!   molecules no ball either, C_kappa = inf, as benches/molecule.rs);
 //! - `baoab`: `sdae_splitting::Splitting` with `SplittingConfig::baoab()` (one SHAKE/RATTLE
 //!   drift per half-step);
 //! - `g-baoab`: the same with `SplittingConfig::g_baoab()` (K_r = 3 geodesic substeps per
@@ -36,7 +36,7 @@
 //! over the step's 2 K_r SHAKE projections, 0 where the sphere's closed form takes the step)
 //! and, for the ensembles, how many path-steps went through the scalar step.
 //!
-//! Run with `cargo bench -p sdae-splitting --bench splitting`.
+//! Run with `cargo bench -p sdae-bench --bench splitting`.
 
 use std::hint::black_box;
 
@@ -62,10 +62,10 @@ const RESET_EVERY: usize = 1024;
 /// Steps of increments drawn beforehand (cycled).
 const DRAWN_STEPS: usize = 128;
 
-/// Paths of the pendulum ensembles (as benches/ensemble.rs of `sdae-scheme`).
+/// Paths of the pendulum ensembles (as benches/ensemble.rs).
 const PENDULUM_PATHS: usize = 512;
 
-/// Paths of the molecule ensembles (as benches/molecule.rs of `sdae-systems`).
+/// Paths of the molecule ensembles (as benches/molecule.rs).
 const MOLECULE_PATHS: usize = 64;
 
 const _: () = assert!(
@@ -118,7 +118,7 @@ impl Scene for ChainMolecule {
     fn start(&self) -> (Vec<f64>, Vec<f64>) {
         self.initial_state()
     }
-    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs of `sdae-systems`.
+    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs.
     fn stepper_config(&self) -> StepperConfig {
         StepperConfig::for_system(self)
             .and_then(|c| c.with_c_eta(1.0))
@@ -136,7 +136,7 @@ impl Scene for RigidTriatomic {
     fn start(&self) -> (Vec<f64>, Vec<f64>) {
         self.initial_state()
     }
-    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs of `sdae-systems`.
+    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs.
     fn stepper_config(&self) -> StepperConfig {
         StepperConfig::for_system(self)
             .and_then(|c| c.with_c_eta(1.0))

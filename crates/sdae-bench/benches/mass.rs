@@ -2,7 +2,7 @@
 //! `IdentityMass` (no solves: M^-1 is the identity at compile time), as `DiagonalMass` (one
 //! multiplication per coordinate) and as `DenseMass` (Cholesky solves).
 //!
-//! Run with `cargo bench -p sdae-scheme --bench mass`.
+//! Run with `cargo bench -p sdae-bench --bench mass`.
 
 use std::hint::black_box;
 

@@ -17,7 +17,7 @@
 //! the pendulum's energy does not random-walk away; the reset costs one copy of (r, v) per
 //! [`RESET_EVERY`] steps. A failed step panics with the step index and the error.
 //!
-//! Run with `cargo bench -p sdae-scheme --bench step`, or `cargo xtask bench` for a summary.
+//! Run with `cargo bench -p sdae-bench --bench step`, or `cargo xtask bench` for a summary.
 
 use std::hint::black_box;
 

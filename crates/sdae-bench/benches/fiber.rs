@@ -17,7 +17,7 @@
 //! [`RESET_EVERY`] steps so that the fiber neither drifts away nor crumples during the run;
 //! a failed step panics with the step index and the error.
 //!
-//! Run with `cargo bench -p sdae-scheme --bench fiber`.
+//! Run with `cargo bench -p sdae-bench --bench fiber`.
 
 use std::hint::black_box;
 

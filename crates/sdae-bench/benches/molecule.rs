@@ -14,7 +14,7 @@
 //! forms, as a user's system is), for comparison.
 //!
 //! Every path restarts from its initial state every 1000 steps. Run with
-//! `cargo bench -p sdae-scheme --bench molecule`, or `cargo xtask bench`.
+//! `cargo bench -p sdae-bench --bench molecule`, or `cargo xtask bench`.
 
 use std::hint::black_box;
 

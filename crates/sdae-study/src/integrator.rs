@@ -1,11 +1,11 @@
 //! The built-in schemes a study compares, each an implementation of the one step trait
 //! [`Scheme`]: the half-explicit drift-truncated Euler scheme (seed eq. 3.1-3.2) with several
 //! constants, and the solvers of the inherent SDE (seed eq. 2.4) from `sdae-reference`. Each
-//! also comes as a [`PathEnsemble`] of many paths: each built-in scheme has a lane form and
-//! runs as a [`LaneEnsemble`], which steps in SIMD lanes where the system has a lane form; a
-//! user's scheme runs as a [`PathLoop`].
+//! also comes as a [`PathEnsemble`](sdae_model::PathEnsemble) of many paths: each built-in
+//! scheme has a lane form and runs as a [`LaneEnsemble`], which steps in SIMD lanes where the
+//! system has a lane form; a user's scheme runs as a [`PathLoop`].
 
-use sdae_model::{LaneEnsemble, LaneScheme, PathEnsemble, PathLoop, Scheme};
+use sdae_model::{LaneEnsemble, LaneScheme, PathLoop, Scheme};
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
@@ -131,8 +131,7 @@ pub struct SchemeConstants {
 /// A boxed scheme stepping systems of type `S`.
 pub type BoxedScheme<S> = Box<dyn Scheme<System = S>>;
 
-/// A boxed ensemble of paths of systems of type `S`.
-pub type BoxedEnsemble<S> = Box<dyn PathEnsemble<System = S>>;
+pub use sdae_lockstep::BoxedEnsemble;
 
 /// A built-in scheme as built (each has a lane form).
 type Built<S> = Box<dyn LaneScheme<System = S>>;

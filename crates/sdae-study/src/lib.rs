@@ -7,7 +7,8 @@
 //!   untruncated, and Euler-Maruyama, truncated, projected and stochastic Heun on the inherent
 //!   SDE (eq. 2.4).
 //! - [`lockstep`]: one Monte Carlo path, every scheme at every step size and the fine reference
-//!   driven by one Brownian path, with memory independent of the number of fine steps.
+//!   driven by one Brownian path, with memory independent of the number of fine steps (the
+//!   [`sdae_lockstep`] crate).
 //! - [`convergence`]: strong errors (L^p over paths of the sup over the grid) with confidence
 //!   intervals, observed orders, run time and failures per scheme and step size; sharding.
 //! - [`stability`]: failures by kind, constraint residuals and truncation on stiff and extreme
@@ -33,7 +34,7 @@ mod error;
 pub mod files;
 pub mod gibbs;
 pub mod integrator;
-pub mod lockstep;
+pub use sdae_lockstep as lockstep;
 pub mod mlmc;
 pub mod observable;
 pub mod output;

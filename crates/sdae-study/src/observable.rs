@@ -16,9 +16,6 @@
 //! assert!((angle.value(&[1.0, 0.0], &[0.0, 0.0]) - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
 //! ```
 
-use std::fmt;
-use std::sync::Arc;
-
 use sdae_manifold::Mass;
 use sdae_model::System;
 
@@ -29,48 +26,7 @@ pub(crate) mod kinds;
 
 use kinds::Function;
 pub use kinds::{FIBER, MOLECULE, PENDULUM, TRIATOMIC};
-
-/// A named scalar function f(r, v) of the state.
-#[derive(Clone)]
-pub struct Observable {
-    name: String,
-    function: Arc<Function>,
-}
-
-impl Observable {
-    /// The observable `name` computing `f(r, v)`.
-    pub fn new(
-        name: impl Into<String>, f: impl Fn(&[f64], &[f64]) -> f64 + Send + Sync + 'static,
-    ) -> Self {
-        Self {
-            name: name.into(),
-            function: Arc::new(f),
-        }
-    }
-
-    /// Its name (as in a scene's `[weak]` table and the reports).
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
-    /// f(r, v).
-    pub fn value(&self, r: &[f64], v: &[f64]) -> f64 {
-        (self.function)(r, v)
-    }
-}
-
-impl fmt::Debug for Observable {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "Observable({})", self.name)
-    }
-}
-
-/// Observables are equal when their names are (a closure cannot be compared).
-impl PartialEq for Observable {
-    fn eq(&self, other: &Self) -> bool {
-        self.name == other.name
-    }
-}
+pub use sdae_lockstep::Observable;
 
 /// The built-in observables of a system kind (none for a system built in code: its observables
 /// are the user's closures).
@@ -228,10 +184,7 @@ where
             nearest: None,
             known: names_for(&scene.system).join(", "),
         })?;
-    Ok(Observable {
-        name: name.to_string(),
-        function: Arc::from(f),
-    })
+    Ok(Observable::from_boxed(name, f))
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 use sdae_systems::{PendulumParams, RigidTriatomicParams};
 
 /// The function of an observable: f(r, v).
-pub(crate) type Function = dyn Fn(&[f64], &[f64]) -> f64 + Send + Sync;
+pub(crate) use sdae_lockstep::ObservableFunction as Function;
 
 /// The built-in observables of the pendulums: the cosine of the angle from the downward vertical
 /// -r_d / rho, the height r_d, the energy |v|^2 / 2 + c_g r_d (unit mass), the cosine of the

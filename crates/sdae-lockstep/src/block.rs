@@ -1,23 +1,6 @@
-//! One Monte Carlo path of a study: every scheme at every level, and the fine reference, driven
-//! in lockstep by one Brownian path.
-//!
-//! The finest increments are drawn once, a chunk at a time, and summed pairwise into the
-//! increments of the coarser levels (a level of 2^k steps uses sums of 2^(fine - k) fine
-//! increments), so every level sees the same Brownian path. The reference runs first over a
-//! chunk and records its state on the finest level's grid; then each scheme and level steps a
-//! block of paths through the chunk, and after each step every path's state is compared with
-//! the reference's record at that time. Memory per path is bounded by the chunk, not by the
-//! number of fine steps.
-//!
-//! The increments are each path's own pseudo-random streams, or its point of a randomization
-//! of scrambled Sobol' points ([`PathNoise`], [`QuasiPaths`]): the chunks are filled through
-//! [`EnsembleNoise`], the same for both.
-//!
-//! Each scheme and level steps its block of paths as one [`PathEnsemble`]: SIMD lanes where the
-//! scheme and the system have a lane form ([`LaneEnsemble`](sdae_model::LaneEnsemble): every
-//! built-in scheme on the pendulums), otherwise one path at a time through the scheme's step
-//! (a user's scheme as a [`PathLoop`](sdae_model::PathLoop)); any
-//! [`Scheme`](sdae_model::Scheme) runs here.
+//! The block runner: every scheme at every level and the reference step a block of paths
+//! through the chunks of one Brownian path per path, compared after each step with the
+//! reference's records.
 
 use std::time::Instant;
 
@@ -25,171 +8,16 @@ use sdae_lanes::lane_stride;
 use sdae_manifold::vector::{dot, max_abs};
 use sdae_manifold::{Constraint, Mass};
 use sdae_model::{FailureKind, ModelError, PathDiagnostics, PathEnsemble, System, TimeGrid};
-use std::sync::OnceLock;
+use sdae_noise::{EnsembleIncrements, EnsembleNoise};
 
-use sdae_noise::{EnsembleIncrements, EnsembleNoise, NoiseError, QuasiBrownian};
-
-use crate::integrator::BoxedEnsemble;
-use crate::observable::Observable;
-use serde::{Deserialize, Serialize};
+use crate::BoxedEnsemble;
+use crate::noise::PathNoise;
+use crate::plan::{PathPlan, PathRecord, TrackOutcome};
 
 /// Fine steps per chunk (fewer when the state is large, see [`chunk_len`]).
 const CHUNK: usize = 4096;
 /// Floats the chunk's buffers may hold (64 MiB).
 const CHUNK_BUDGET: usize = 1 << 23;
-
-/// Bounds beyond which a path counts as failed.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Limits {
-    /// |r_i| or |v_i| above this is a blow-up.
-    #[serde(with = "sdae_stats::json_f64")]
-    pub blow_up: f64,
-    /// |g(r)| or |Dg(r) v| above this is a failure (`None`: not checked, as for the
-    /// convergence of unprojected schemes, which drift off the manifold by O(h)).
-    #[serde(with = "sdae_stats::json_f64::option", default)]
-    pub drift_tolerance: Option<f64>,
-}
-
-impl Default for Limits {
-    fn default() -> Self {
-        Self {
-            blow_up: 1e8,
-            drift_tolerance: None,
-        }
-    }
-}
-
-/// What one path runs.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PathPlan {
-    /// Final time T.
-    pub t_end: f64,
-    /// Increments are drawn on 2^`fine` steps; the reference (if any) runs on them.
-    pub fine: u32,
-    /// Level exponents k (N = 2^k steps), ascending, at most `fine` (below it with a reference).
-    pub levels: Vec<u32>,
-    /// Accumulate mu (only when an output needs it).
-    pub want_mu: bool,
-    /// Failure bounds.
-    pub limits: Limits,
-    /// Average the kinetic energy v^T M v / 2 over the grid points with t >= this time (on
-    /// the track's own clock where [`BlockEnsembles::own_clock`] says so).
-    pub kinetic_after: Option<f64>,
-    /// An observable f(r, v) averaged in time like the kinetic energy (same grid points, weights
-    /// and burn-in `kinetic_after`): a configurational average of the invariant measure.
-    pub time_averaged: Option<Observable>,
-    /// Observables to evaluate on the grid of a coarse level (`None`: none, nothing more is
-    /// computed).
-    pub observing: Option<Observing>,
-    /// The reference also runs at half its steps, 2^(`fine` - 1), on the same Brownian path
-    /// (pairwise sums of its increments), its observables recorded on the same grid: the
-    /// reference's two finest levels, whose difference bounds its bias and Richardson-extrapolates
-    /// it (the weak study, [`crate::weak`]). Only with a reference and observables.
-    pub paired_reference: bool,
-}
-
-/// Observables f(r, v) evaluated on every track and the reference at the grid points
-/// t_k = k T / 2^`grid_level`, k = 1..=2^`grid_level` (the grid every level at or above
-/// `grid_level` shares; its last point is T).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Observing {
-    /// The observables.
-    pub observables: Vec<Observable>,
-    /// The level whose grid the values are taken on (at most the plan's coarsest level).
-    pub grid_level: u32,
-}
-
-impl Observing {
-    /// Values per path: one per observable and grid point.
-    pub fn values_per_path(&self) -> usize {
-        self.observables.len() << self.grid_level
-    }
-
-    /// Appends f(r, v) of every observable to `out`.
-    fn evaluate(&self, r: &[f64], v: &[f64], out: &mut Vec<f64>) {
-        out.extend(self.observables.iter().map(|f| f.value(r, v)));
-    }
-}
-
-/// What one scheme at one level did on one path.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct TrackOutcome {
-    /// sup over the level's grid of |r - r_ref|, |v - v_ref|, |mu - mu_ref| (0 for mu when it is
-    /// not accumulated); `None` if the path failed or there is no reference.
-    #[serde(with = "sdae_stats::json_f64::option_triple", default)]
-    pub distances: Option<[f64; 3]>,
-    /// Why the path stopped early.
-    pub failure: Option<FailureKind>,
-    /// Wall-clock seconds spent stepping.
-    #[serde(with = "sdae_stats::json_f64")]
-    pub seconds: f64,
-    /// Steps done.
-    pub steps: usize,
-    /// Steps with a truncated drift.
-    pub truncated_steps: usize,
-    /// Newton iterations.
-    pub newton_iterations: usize,
-    /// Steps that needed the homotopy.
-    pub homotopy_steps: usize,
-    /// Steps whose kappa was certified with its rounding part set aside.
-    #[serde(default)]
-    pub rounding_certified_steps: usize,
-    /// The clock lag sum_k (1 - eta_k) h of the truncated drift.
-    #[serde(default, with = "sdae_stats::json_f64")]
-    pub clock_lag: f64,
-    /// Largest |g(r_k)| on the grid.
-    #[serde(with = "sdae_stats::json_f64")]
-    pub max_position_residual: f64,
-    /// Largest |Dg(r_k) v_k| on the grid.
-    #[serde(with = "sdae_stats::json_f64")]
-    pub max_velocity_residual: f64,
-    /// Time average of v^T M v / 2 after the plan's `kinetic_after` (over the scheme's own
-    /// clock for a time-changed scheme).
-    #[serde(with = "sdae_stats::json_f64::option", default)]
-    pub kinetic_energy: Option<f64>,
-    /// Time average of the plan's [`PathPlan::time_averaged`] observable, over the points and
-    /// weights of `kinetic_energy`.
-    #[serde(with = "sdae_stats::json_f64::option", default)]
-    pub time_average: Option<f64>,
-    /// The plan's observables at the grid points of its [`Observing`] (grid-point-major:
-    /// `observed[k * observables + o]` is observable o at t_(k+1)), up to where the path
-    /// stopped; empty when the plan observes nothing.
-    #[serde(
-        default,
-        skip_serializing_if = "Vec::is_empty",
-        with = "sdae_stats::json_f64::vec"
-    )]
-    pub observed: Vec<f64>,
-}
-
-/// One path: the reference's fate and the outcome of every scheme at every level.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PathRecord {
-    /// Path index i (its stream is derived from (seed, i)).
-    pub index: usize,
-    /// Why the reference failed, if it did (the path is then left out of the errors).
-    pub reference_failure: Option<FailureKind>,
-    /// Wall-clock seconds of the reference.
-    #[serde(with = "sdae_stats::json_f64")]
-    pub reference_seconds: f64,
-    /// Outcomes, scheme-major: `tracks[s * levels + j]` is scheme s at level j.
-    pub tracks: Vec<TrackOutcome>,
-    /// The plan's observables on the reference, laid out as [`TrackOutcome::observed`].
-    #[serde(
-        default,
-        skip_serializing_if = "Vec::is_empty",
-        with = "sdae_stats::json_f64::vec"
-    )]
-    pub reference_observed: Vec<f64>,
-    /// The same on the reference at half its steps ([`PathPlan::paired_reference`]; empty
-    /// without it).
-    #[serde(
-        default,
-        skip_serializing_if = "Vec::is_empty",
-        with = "sdae_stats::json_f64::vec"
-    )]
-    pub reference_coarse_observed: Vec<f64>,
-}
 
 /// The chunk length: a power of two that keeps the buffers within [`CHUNK_BUDGET`], whatever
 /// the distance between the reference and the finest level. A chunk may be shorter than a step
@@ -925,7 +753,8 @@ pub fn run_block_until<S: System>(
 }
 
 /// [`run_block_until`] with the Brownian paths of `noise`: each path's own pseudo-random
-/// streams, or its point of a randomization of scrambled Sobol' points ([`QuasiPaths`]).
+/// streams, or its point of a randomization of scrambled Sobol' points
+/// ([`QuasiPaths`](crate::QuasiPaths)).
 pub fn run_block_with<S: System>(
     plan: &PathPlan, ensembles: &mut BlockEnsembles<S>, start: (&[f64], &[f64]),
     noise: PathNoise<'_>, indices: &[usize], abandon: &dyn Fn() -> bool,
@@ -996,161 +825,6 @@ pub fn run_block_with<S: System>(
     }
     lockstep.finish_records(&mut records, tracks, &mut states, has_reference);
     Ok(Some(records))
-}
-
-/// Where the Brownian paths of a block come from.
-#[derive(Clone, Copy)]
-pub enum PathNoise<'a> {
-    /// Path i draws from its own pseudo-random streams (`seed`, i).
-    Pseudo {
-        /// Seed of the path streams.
-        seed: u64,
-    },
-    /// Randomized quasi-Monte Carlo: path p is point p % n of randomization p / n.
-    Quasi(&'a QuasiPaths),
-}
-
-/// The randomized quasi-Monte Carlo paths of a study of R n paths: R randomizations of n
-/// scrambled Sobol' points ([`QuasiBrownian`]). Global path p is point i = p % n of
-/// randomization r = p / n, i.e. the increments of [`QuasiBrownian::new`]`(seed, r, l, 2^fine)`
-/// at index i: a path's numbers depend on (seed, p) alone, not on the block, thread or shard it
-/// runs in. Each randomization's scrambled points are made once, on first use, and shared by
-/// every block (and thread) that runs paths of it; a block may hold paths of several
-/// randomizations.
-pub struct QuasiPaths {
-    seed: u64,
-    points: usize,
-    /// The randomizations' scrambled points, made on first use (or why they could not be).
-    randomizations: Vec<OnceLock<Result<QuasiBrownian, NoiseError>>>,
-}
-
-impl QuasiPaths {
-    /// R = `randomizations` randomizations of n = `points` points each, for a study with seed
-    /// `seed`.
-    pub fn new(seed: u64, randomizations: usize, points: usize) -> Self {
-        Self {
-            seed,
-            points,
-            randomizations: (0..randomizations).map(|_| OnceLock::new()).collect(),
-        }
-    }
-
-    /// Where global path `index` is: (randomization r, point i) = (index / n, index % n).
-    pub fn locate(&self, index: usize) -> (usize, usize) {
-        (index / self.points.max(1), index % self.points.max(1))
-    }
-
-    /// The increments of the paths `indices` of a block of `paths` lanes (the lanes beyond the
-    /// block's paths repeat its first path) with l = `dim` components over 2^`fine` steps, all
-    /// of them computed up front.
-    fn block(
-        &self, indices: &[usize], paths: usize, dim: usize, fine: u32,
-    ) -> Result<QuasiBlock, ModelError> {
-        let steps = 1usize << fine;
-        let stride = lane_stride(paths);
-        let mut unit = vec![0.0; steps * dim * stride];
-        let mut path = vec![0.0; steps * dim];
-        for lane in 0..stride {
-            let Some(&index) = indices.get(lane).or(indices.first()) else {
-                break;
-            };
-            let (r, i) = self.locate(index);
-            let Some(cell) = self.randomizations.get(r) else {
-                return Err(ModelError::DimensionMismatch {
-                    what: "paths of a randomized QMC study (randomizations times points)",
-                    expected: self.randomizations.len() * self.points,
-                    found: index + 1,
-                });
-            };
-            let quasi = cell
-                .get_or_init(|| QuasiBrownian::new(self.seed, r as u64, dim, steps))
-                .as_ref()
-                .map_err(|e| ModelError::from(e.clone()))?;
-            if quasi.dim() != dim || quasi.steps() != steps {
-                return Err(ModelError::DimensionMismatch {
-                    what: "increments of a randomized QMC path (steps * dim)",
-                    expected: quasi.steps() * quasi.dim(),
-                    found: steps * dim,
-                });
-            }
-            quasi.unit_increments(i as u64, &mut path)?;
-            for (c, xi) in path.iter().enumerate() {
-                unit[c * stride + lane] = *xi;
-            }
-        }
-        Ok(QuasiBlock {
-            unit,
-            paths,
-            dim,
-            stride,
-            position: 0,
-        })
-    }
-}
-
-/// The quasi-Monte Carlo increments of a block of paths (of one or several randomizations), in
-/// the ensembles' layout, computed up front over unit steps (as
-/// [`QuasiEnsembleIncrements`](sdae_noise::QuasiEnsembleIncrements), whose numbers they are).
-struct QuasiBlock {
-    /// Step k, coordinate j, lane p at `(k * dim + j) * stride + p`, over unit steps.
-    unit: Vec<f64>,
-    paths: usize,
-    dim: usize,
-    stride: usize,
-    position: usize,
-}
-
-impl EnsembleNoise for QuasiBlock {
-    fn paths(&self) -> usize {
-        self.paths
-    }
-    fn dim(&self) -> usize {
-        self.dim
-    }
-    fn stride(&self) -> usize {
-        self.stride
-    }
-    fn fill(&mut self, h: f64, dw: &mut [f64]) -> Result<usize, NoiseError> {
-        let row = self.dim * self.stride;
-        if row == 0 || dw.is_empty() {
-            return Ok(0);
-        }
-        if !(h.is_finite() && h > 0.0) {
-            return Err(NoiseError::InvalidSetting {
-                name: "h",
-                value: h,
-                reason: "step size must be finite and > 0",
-            });
-        }
-        let end = self.position + dw.len();
-        if !dw.len().is_multiple_of(row) || end > self.unit.len() {
-            return Err(NoiseError::DimensionMismatch {
-                what: "increments buffer (whole steps of dim * stride, at most those left)",
-                expected: self.unit.len() - self.position,
-                found: dw.len(),
-            });
-        }
-        let scale = h.sqrt();
-        for (o, xi) in dw.iter_mut().zip(&self.unit[self.position..end]) {
-            *o = scale * xi;
-        }
-        self.position = end;
-        Ok(dw.len() / row)
-    }
-}
-
-impl PathRecord {
-    /// The record of path `index` before it runs: no failure, no time, no outcome.
-    fn empty(index: usize) -> Self {
-        Self {
-            index,
-            reference_failure: None,
-            reference_seconds: 0.0,
-            tracks: Vec::new(),
-            reference_observed: Vec::new(),
-            reference_coarse_observed: Vec::new(),
-        }
-    }
 }
 
 /// The reference of a block and, where the plan pairs it, the same scheme at half its steps.
@@ -1238,38 +912,6 @@ impl Lockstep<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_quasi_block_spanning_randomizations_holds_each_paths_point() {
-        // 3 randomizations of 4 points; a block of paths 2..8 (randomizations 0 and 1) and 11
-        // (randomization 2, point 3) on 16 lanes.
-        let (seed, dim, fine) = (5, 2, 4);
-        let quasi = QuasiPaths::new(seed, 3, 4);
-        assert_eq!(quasi.locate(6), (1, 2));
-        let indices = [2, 3, 4, 5, 6, 7, 11];
-        let mut block = quasi.block(&indices, 16, dim, fine).unwrap();
-        let stride = block.stride();
-        let steps = 1usize << fine;
-        let mut dw = vec![0.0; steps * dim * stride];
-        assert_eq!(block.fill(0.25, &mut dw).unwrap(), steps);
-        for (lane, &p) in indices.iter().enumerate() {
-            let (r, i) = (p / 4, p % 4);
-            let own = QuasiBrownian::new(seed, r as u64, dim, steps).unwrap();
-            let mut alone = own.ensemble(&[i as u64]).unwrap();
-            let mut expected = vec![0.0; steps * dim * alone.stride()];
-            alone.fill(0.25, &mut expected).unwrap();
-            for c in 0..steps * dim {
-                assert_eq!(
-                    dw[c * stride + lane],
-                    expected[c * alone.stride()],
-                    "path {p}"
-                );
-            }
-        }
-        // Nothing is left; a path beyond R n is refused.
-        assert!(block.fill(0.25, &mut dw[..dim * stride]).is_err());
-        assert!(quasi.block(&[12], 4, dim, fine).is_err());
-    }
 
     #[test]
     fn chunks_are_powers_of_two_within_the_path() {

@@ -14,6 +14,8 @@
 //!   keeps finished blocks (a checkpoint: a resumed run folds exactly the uninterrupted sums).
 //! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
 //!   one level.
+//! - [`shard`]: a plan's run split into shards (on the nodes of a cluster) and merged into
+//!   exactly the sums of the unsharded run.
 //! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
 //! - [`qmc`]: multilevel randomized quasi-Monte Carlo (Giles and Waterhouse 2009) over a
 //!   [`QuasiSampler`], whose samples are points of randomized low-discrepancy sequences.
@@ -30,6 +32,7 @@ pub mod error;
 pub mod fit;
 pub mod qmc;
 pub mod sampler;
+pub mod shard;
 pub mod sums;
 
 pub use algorithm::{

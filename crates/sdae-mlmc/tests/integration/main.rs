@@ -1,8 +1,9 @@
 //! Multilevel Monte Carlo against closed forms: the rates of Euler-Maruyama on scalar linear SDEs and
-//! the adaptive estimate of geometric Brownian motion.
+//! the adaptive estimate of geometric Brownian motion; plans run in shards.
 //!
 //! One test binary for the crate: each file below is a module of it.
 
 mod linear;
 mod qmc;
 mod rates;
+mod shard;

@@ -289,6 +289,10 @@ impl<S: Simd> Lanes<S> {
 /// for path i (the systems of `sdae-systems` write their forces this way).
 pub trait Real:
     Copy
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + 'static
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>

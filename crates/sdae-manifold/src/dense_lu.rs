@@ -1,9 +1,8 @@
 //! Dense matrices (row-major, order m) and their LU factorization with partial pivoting,
-//! written once over [`Real`]: [`DenseGram`](crate::DenseGram) and the hand-written
-//! [`DenseFactor`](crate::DenseFactor) (orders up to
-//! [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD)) run them on one matrix (`f64`),
-//! [`DenseLanes`](crate::lane_form::DenseLanes) and [`LuLanes`](crate::lane_form::LuLanes) on W
-//! matrices in SIMD lanes. Each path picks its own pivot rows (the last largest |entry| of the
+//! written once over [`Real`]: [`DenseGram`](crate::DenseGram) and
+//! [`LuFactor`](crate::LuFactor) run them on one matrix (`f64`, as
+//! [`DenseFactor`](crate::DenseFactor) does up to
+//! [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD)) and on W matrices in SIMD lanes. Each path picks its own pivot rows (the last largest |entry| of the
 //! column, as `Iterator::max_by` does), so that in lanes the row interchanges are selects;
 //! lane i computes exactly what the `f64` form computes for matrix i. Sums run in order from
 //! -0, as the standard library's `sum` does.

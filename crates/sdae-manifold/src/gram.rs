@@ -1,11 +1,16 @@
-//! Containers for the m x m matrices of the form Dg(x1) M^-1 grad g(x2).
+//! Containers for the m x m matrices of the form Dg(x1) M^-1 grad g(x2), written once over the
+//! number type: `f64` for one path, [`Lanes`](sdae_lanes::Lanes) for W paths in SIMD lanes.
 //!
 //! With x1 = x2 = x this is the Gram matrix G_M(x) of seed Section 2.1; with x1 = r', x2 = r it
 //! is the Newton matrix of the kappa system and the matrix of the lambda system (seed eq. 3.1).
 //! A constraint names its container as an associated type, so the structure (scalar,
-//! tridiagonal, dense) is known at compile time and solvers take the O(m) path where one exists.
+//! tridiagonal, dense) is known at compile time and solvers take the O(m) path where one exists;
+//! [`GramShape`] names the storage and its factorization for every number type at once.
+
+use sdae_lanes::Real;
 
 use crate::dense_lu::dense_mul;
+use crate::factor::{LuFactor, MatrixFactor, ScalarFactor, ThomasFactor};
 use crate::thomas::tridiagonal_mul;
 
 /// Which structure a constraint's Gram matrix has.
@@ -19,7 +24,16 @@ pub enum GramStructure {
     Dense,
 }
 
-/// An m x m matrix in one of the structured storages.
+/// An m x m matrix of numbers of type T (one path's `f64`, or W paths' lanes), in one of the
+/// structured storages.
+pub trait SquareMatrix<T: Real>: Clone + std::fmt::Debug + Send + Sync + 'static {
+    /// Zeros of order m >= 1, of the kind of `like`.
+    fn zeros_like(like: T, m: usize) -> Self;
+    /// out = A x.
+    fn product(&self, x: &[T], out: &mut [T]);
+}
+
+/// An m x m matrix of one path (`f64`) in one of the structured storages.
 pub trait GramMatrix: Clone + std::fmt::Debug {
     /// The structure of this storage.
     const STRUCTURE: GramStructure;
@@ -27,13 +41,67 @@ pub trait GramMatrix: Clone + std::fmt::Debug {
     fn order(&self) -> usize;
     /// Entry (i, j); zero outside the stored pattern.
     fn entry(&self, i: usize, j: usize) -> f64;
-    /// out = A x.
+    /// out = A x ([`SquareMatrix::product`]).
     fn mul_vec(&self, x: &[f64], out: &mut [f64]);
+}
+
+/// The structure of a Gram matrix as a type: its storage and the factorization run in lanes,
+/// for every number type. A constraint's lane form names its shape
+/// ([`ConstraintLanes::Shape`](crate::ConstraintLanes::Shape)).
+pub trait GramShape: Send + Sync + 'static {
+    /// The structure.
+    const STRUCTURE: GramStructure;
+    /// The storage of a matrix of this shape.
+    type Matrix<T: Real>: SquareMatrix<T>;
+    /// Its factorization without fallbacks (the one that runs in lanes; a path it rejects
+    /// goes through the one-path factorization with its fallbacks and typed errors).
+    type Factor<T: Real>: MatrixFactor<T, Matrix = Self::Matrix<T>>;
+}
+
+/// m = 1: [`ScalarGram`] and [`ScalarFactor`].
+#[derive(Debug, Clone, Copy)]
+pub struct Scalar;
+
+/// Tridiagonal: [`TridiagonalGram`] and Thomas' factors ([`ThomasFactor`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Tridiagonal;
+
+/// Dense: [`DenseGram`] and LU factors with partial pivoting ([`LuFactor`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Dense;
+
+impl GramShape for Scalar {
+    const STRUCTURE: GramStructure = GramStructure::Scalar;
+    type Matrix<T: Real> = ScalarGram<T>;
+    type Factor<T: Real> = ScalarFactor<T>;
+}
+
+impl GramShape for Tridiagonal {
+    const STRUCTURE: GramStructure = GramStructure::Tridiagonal;
+    type Matrix<T: Real> = TridiagonalGram<T>;
+    type Factor<T: Real> = ThomasFactor<T>;
+}
+
+impl GramShape for Dense {
+    const STRUCTURE: GramStructure = GramStructure::Dense;
+    type Matrix<T: Real> = DenseGram<T>;
+    type Factor<T: Real> = LuFactor<T>;
 }
 
 /// A 1 x 1 matrix.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ScalarGram(pub f64);
+pub struct ScalarGram<T = f64>(pub T);
+
+impl<T: Real> SquareMatrix<T> for ScalarGram<T> {
+    fn zeros_like(like: T, _m: usize) -> Self {
+        Self(like.splat_like(0.0))
+    }
+    /// out = A x.
+    #[inline(always)]
+    fn product(&self, x: &[T], out: &mut [T]) {
+        out[0] = self.0 * x[0];
+    }
+}
 
 impl GramMatrix for ScalarGram {
     const STRUCTURE: GramStructure = GramStructure::Scalar;
@@ -43,31 +111,45 @@ impl GramMatrix for ScalarGram {
     fn entry(&self, _i: usize, _j: usize) -> f64 {
         self.0
     }
+    #[inline]
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
-        out[0] = self.0 * x[0];
+        self.product(x, out);
     }
 }
 
 /// A tridiagonal matrix: `lower[i] = A[i+1][i]`, `diag[i] = A[i][i]`, `upper[i] = A[i][i+1]`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TridiagonalGram {
+pub struct TridiagonalGram<T = f64> {
     /// Sub-diagonal, length m - 1.
-    pub lower: Vec<f64>,
+    pub lower: Vec<T>,
     /// Diagonal, length m.
-    pub diag: Vec<f64>,
+    pub diag: Vec<T>,
     /// Super-diagonal, length m - 1.
-    pub upper: Vec<f64>,
+    pub upper: Vec<T>,
 }
 
 impl TridiagonalGram {
     /// A zero matrix of order m >= 1.
     pub fn zeros(m: usize) -> Self {
+        Self::zeros_like(0.0, m)
+    }
+}
+
+impl<T: Real> SquareMatrix<T> for TridiagonalGram<T> {
+    fn zeros_like(like: T, m: usize) -> Self {
+        let zero = like.splat_like(0.0);
         let off = m.saturating_sub(1);
         Self {
-            lower: vec![0.0; off],
-            diag: vec![0.0; m],
-            upper: vec![0.0; off],
+            lower: vec![zero; off],
+            diag: vec![zero; m],
+            upper: vec![zero; off],
         }
+    }
+    /// out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1} (`thomas::tridiagonal_mul`): the first
+    /// and last rows apart, so that the loop over the interior rows vectorizes.
+    #[inline(always)]
+    fn product(&self, x: &[T], out: &mut [T]) {
+        tridiagonal_mul(&self.lower, &self.diag, &self.upper, x, out);
     }
 }
 
@@ -87,36 +169,54 @@ impl GramMatrix for TridiagonalGram {
             0.0
         }
     }
-    /// out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1}: the first and last rows apart, so
-    /// that the loop over the interior rows vectorizes.
+    #[inline]
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
-        tridiagonal_mul(&self.lower, &self.diag, &self.upper, x, out);
+        self.product(x, out);
     }
 }
 
 /// A dense matrix stored row-major.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DenseGram {
+pub struct DenseGram<T = f64> {
     order: usize,
-    data: Vec<f64>,
+    data: Vec<T>,
 }
 
 impl DenseGram {
     /// A zero matrix of order m.
     pub fn zeros(m: usize) -> Self {
-        Self {
-            order: m,
-            data: vec![0.0; m * m],
-        }
+        Self::zeros_like(0.0, m)
     }
+}
+
+impl<T: Copy> DenseGram<T> {
     /// Sets entry (i, j).
-    #[inline]
-    pub fn set(&mut self, i: usize, j: usize, value: f64) {
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, j: usize, value: T) {
         self.data[i * self.order + j] = value;
     }
+    /// Entry (i, j).
+    #[inline(always)]
+    pub fn get(&self, i: usize, j: usize) -> T {
+        self.data[i * self.order + j]
+    }
     /// Row-major entries.
-    pub fn as_slice(&self) -> &[f64] {
+    pub fn as_slice(&self) -> &[T] {
         &self.data
+    }
+}
+
+impl<T: Real> SquareMatrix<T> for DenseGram<T> {
+    fn zeros_like(like: T, m: usize) -> Self {
+        Self {
+            order: m,
+            data: vec![like.splat_like(0.0); m * m],
+        }
+    }
+    /// out_i = sum_j A_ij x_j (`dense_lu::dense_mul`).
+    #[inline(always)]
+    fn product(&self, x: &[T], out: &mut [T]) {
+        dense_mul(&self.data, x, &mut out[..self.order]);
     }
 }
 
@@ -126,9 +226,10 @@ impl GramMatrix for DenseGram {
         self.order
     }
     fn entry(&self, i: usize, j: usize) -> f64 {
-        self.data[i * self.order + j]
+        self.get(i, j)
     }
+    #[inline]
     fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
-        dense_mul(&self.data, x, &mut out[..self.order]);
+        self.product(x, out);
     }
 }

@@ -7,9 +7,10 @@
 //! offers none, and an engine then steps the paths one at a time. Any crate can implement
 //! [`ConstraintLanes`] for its own constraint; the built-in ones are the bead chain's
 //! ([`ChainLanes`], with Thomas' algorithm for its tridiagonal Newton matrix) and rigid
-//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane). A
-//! constraint with one equation can take [`ScalarLanes`] and [`ReciprocalLanes`] for its Newton
-//! matrix (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus).
+//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane). The Newton
+//! matrix and its factorization are the one-path storage and code run over lanes, named by
+//! the structure ([`GramShape`]): a constraint with one equation names
+//! [`Scalar`](crate::Scalar) (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus).
 //!
 //! Each formula of a lane form must take the floating-point operations of the scalar
 //! [`Constraint`](crate::Constraint) method it names, in the same order: then a lane's numbers
@@ -17,22 +18,18 @@
 
 mod bonds;
 mod chain;
-mod dense;
-mod scalar;
-mod tridiagonal;
 
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
+use crate::factor::MatrixFactor;
+use crate::gram::GramShape;
 use crate::mass::Mass;
 use crate::sphere::Sphere;
 use crate::vector::sum_squares;
 
 pub use bonds::BondLanes;
 pub use chain::ChainLanes;
-pub use dense::{DenseLanes, LuLanes};
-pub use scalar::{ReciprocalLanes, ScalarLanes};
-pub use tridiagonal::{ThomasLanes, TridiagonalLanes};
 
 /// What a constraint offers an engine over lanes ([`Constraint::lane_form`](crate::Constraint::lane_form)):
 /// the engine implements the methods for the forms it can step, and a constraint calls the one
@@ -56,46 +53,12 @@ pub trait LaneFormVisitor: Sized {
     }
 }
 
-/// A right-hand side b and the solution's storage, for a factorization that solves as it goes.
-pub type RightHandSide<'a, Sd> = Option<(&'a [Lanes<Sd>], &'a mut [Lanes<Sd>])>;
-
-/// An m x m matrix of W lanes (the Newton matrix Dg(x) M^-1 grad g(r)).
-pub trait MatrixLanes<Sd: Simd>: Send + Sync + 'static {
-    /// Zeros of order m >= 1.
-    fn zeros(simd: Sd, m: usize) -> Self;
-    /// out = A x, with the scalar storage's `GramMatrix::mul_vec` operations.
-    fn mul_vec(&self, x: &[Lanes<Sd>], out: &mut [Lanes<Sd>]);
-}
-
-/// The factorization of a [`MatrixLanes`], with the scalar factorization's operations.
-pub trait FactorLanes<Sd: Simd>: Send + Sync + 'static {
-    /// The matrix it factors.
-    type Matrix: MatrixLanes<Sd>;
-    /// Storage for the factors of order m >= 1.
-    fn zeros(simd: Sd, m: usize) -> Self;
-    /// Factors `a`, and with `rhs` = (b, out) runs the first half of the solve A out = b into
-    /// `out` ([`FactorLanes::back_substitute`] finishes it); the lanes whose factorization the
-    /// scalar one would accept (the others go through the scalar step).
-    fn factor(&mut self, a: &Self::Matrix, rhs: RightHandSide<'_, Sd>) -> LaneMask<Sd>;
-    /// The first half of b <- A^-1 b (the forward substitution).
-    fn forward_in_place(&self, b: &mut [Lanes<Sd>]);
-    /// The second half of a solve whose first half [`FactorLanes::factor`] or
-    /// [`FactorLanes::forward_in_place`] ran.
-    fn back_substitute(&self, out: &mut [Lanes<Sd>]);
-    /// b <- A^-1 b.
-    #[inline(always)]
-    fn solve_in_place(&self, b: &mut [Lanes<Sd>]) {
-        self.forward_in_place(b);
-        self.back_substitute(b);
-    }
-}
-
 /// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
 /// operations of the scalar [`Constraint`](crate::Constraint) method it names: the Newton
 /// step of an ensemble engine is written once over them.
 pub trait ConstraintLanes: Send + Sync + Sized + 'static {
-    /// The factorization of the Newton matrix.
-    type Factor<Sd: Simd>: FactorLanes<Sd>;
+    /// The structure of the Newton matrix: its storage and factorization over lanes.
+    type Shape: GramShape;
     /// (n, m).
     fn dims(&self) -> (usize, usize);
     /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
@@ -105,19 +68,19 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// One evaluation of the kappa system at (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
     /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
     /// factored into `factor` with the first half of J^-1 g(x1) into `step`
-    /// ([`FactorLanes::factor`]). `values` is scratch for g(x1); a constraint whose
+    /// ([`MatrixFactor::factor`]). `values` is scratch for g(x1); a constraint whose
     /// factorization runs row by row does it all in one pass over the rows.
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
-        jacobian: &mut Jacobian<Sd, Self>, factor: &mut Self::Factor<Sd>, step: &mut [Lanes<Sd>],
+        jacobian: &mut Jacobian<Sd, Self>, factor: &mut Factor<Sd, Self>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd>;
     /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
-    /// half ([`FactorLanes::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
+    /// half ([`MatrixFactor::forward_in_place`]) of lambda = J^-1 (-Dg(x) v~) into `out`. The
     /// default takes three passes; a constraint can fuse them.
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
         &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
-        factor: &Self::Factor<Sd>, out: &mut [Lanes<Sd>],
+        factor: &Factor<Sd, Self>, out: &mut [Lanes<Sd>],
     ) {
         let inverse_mass = self.inverse_mass();
         for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
@@ -231,7 +194,10 @@ pub struct Evaluation<Sd: Simd> {
 }
 
 /// The Newton matrix of constraint C over lanes of Sd.
-pub type Jacobian<Sd, C> = <<C as ConstraintLanes>::Factor<Sd> as FactorLanes<Sd>>::Matrix;
+pub type Jacobian<Sd, C> = <<C as ConstraintLanes>::Shape as GramShape>::Matrix<Lanes<Sd>>;
+
+/// The factorization of the Newton matrix of constraint C over lanes of Sd.
+pub type Factor<Sd, C> = <<C as ConstraintLanes>::Shape as GramShape>::Factor<Lanes<Sd>>;
 
 /// Whether any lane of `mask` holds.
 #[inline(always)]

@@ -50,10 +50,13 @@ pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
 };
 pub use factor::{
-    DENSE_FAER_THRESHOLD, DenseFactor, Factorize, PIVOT_TOLERANCE, ScalarFactor, Solve,
-    TridiagonalFactor,
+    DENSE_FAER_THRESHOLD, DenseFactor, Factorize, LuFactor, MatrixFactor, PIVOT_TOLERANCE,
+    RightHandSide, ScalarFactor, Solve, ThomasFactor, TridiagonalFactor,
 };
-pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, TridiagonalGram};
+pub use gram::{
+    Dense, DenseGram, GramMatrix, GramShape, GramStructure, Scalar, ScalarGram, SquareMatrix,
+    Tridiagonal, TridiagonalGram,
+};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use sphere::Sphere;

@@ -1,9 +1,9 @@
 //! Tridiagonal matrices and Thomas' algorithm (their LU factorization without pivoting),
 //! written once over [`Real`]: [`TridiagonalGram`](crate::TridiagonalGram) and
-//! [`TridiagonalFactor`](crate::TridiagonalFactor) run them on one matrix (`f64`, with LAPACK's
-//! pivoted LU where Thomas rejects a pivot), [`TridiagonalLanes`](crate::lane_form::TridiagonalLanes)
-//! and [`ThomasLanes`](crate::lane_form::ThomasLanes) on W matrices in SIMD lanes (a lane whose
-//! pivot is rejected steps through the scalar path). Lane i computes exactly what the `f64`
+//! [`ThomasFactor`](crate::ThomasFactor) run them on one matrix (`f64`, where
+//! [`TridiagonalFactor`](crate::TridiagonalFactor) adds LAPACK's pivoted LU for a pivot Thomas
+//! rejects) and on W matrices in SIMD lanes (a lane whose pivot is rejected steps through the
+//! scalar path). Lane i computes exactly what the `f64`
 //! form computes for matrix i.
 //!
 //! The factors are the multipliers l_i / p_{i+1}, the inverse pivots 1 / p_i and u_i / p_i

@@ -18,12 +18,11 @@ use std::marker::PhantomData;
 use pulp::Simd;
 use sdae_ift::{ProbeMap, SolverSettings, power_iteration};
 use sdae_lanes::{LaneMask, Lanes};
-use sdae_manifold::Constraint;
 use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, PointLanes,
-    active_any,
+    ConstraintLanes, Evaluation, Factor, Jacobian, LaneFormVisitor, PointLanes, active_any,
 };
 use sdae_manifold::vector::sum_squares;
+use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
 
 use crate::system::System;
 
@@ -102,8 +101,8 @@ pub struct NewtonRoot<Sd: Simd, C: ConstraintLanes> {
     residual: Vec<Lanes<Sd>>,
     /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
     jacobian: Jacobian<Sd, C>,
-    factor_at_zero: C::Factor<Sd>,
-    factor: C::Factor<Sd>,
+    factor_at_zero: Factor<Sd, C>,
+    factor: Factor<Sd, C>,
     /// gamma*, unless the certificate's probes took its place (then free scratch of m rows).
     pub gamma: Vec<Lanes<Sd>>,
     step: Vec<Lanes<Sd>>,
@@ -161,13 +160,13 @@ impl<Sd: Simd> Iterates<Sd> {
 /// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
 struct AtZero<'a, Sd: Simd, C: ConstraintLanes> {
     jacobian: &'a Jacobian<Sd, C>,
-    factor_at_zero: &'a C::Factor<Sd>,
+    factor_at_zero: &'a Factor<Sd, C>,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for AtZero<'_, Sd, C> {
     #[inline(always)]
     fn apply(&mut self, probe: &[Lanes<Sd>], image: &mut [Lanes<Sd>]) {
-        self.jacobian.mul_vec(probe, image);
+        self.jacobian.product(probe, image);
         self.factor_at_zero.solve_in_place(image);
     }
 }
@@ -181,9 +180,9 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
             simd,
             x: vec![zero; n],
             residual: vec![zero; m],
-            jacobian: MatrixLanes::zeros(simd, m),
-            factor_at_zero: FactorLanes::zeros(simd, m),
-            factor: FactorLanes::zeros(simd, m),
+            jacobian: SquareMatrix::zeros_like(zero, m),
+            factor_at_zero: MatrixFactor::zeros_like(zero, m),
+            factor: MatrixFactor::zeros_like(zero, m),
             gamma: vec![zero; m],
             step: vec![zero; m],
         }
@@ -285,7 +284,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// The Jacobian at the root, factored: the lanes whose root is 0 were evaluated again at
     /// 0 if any lane iterated, so one of the two factors holds every lane's.
     #[inline(always)]
-    pub fn root_factor(&self, root: &NewtonLanes<Sd>) -> &C::Factor<Sd> {
+    pub fn root_factor(&self, root: &NewtonLanes<Sd>) -> &Factor<Sd, C> {
         if root.iterated {
             &self.factor
         } else {

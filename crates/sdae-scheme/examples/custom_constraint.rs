@@ -7,7 +7,8 @@
 //! - `f64`: the scalar [`Constraint`] the stepper solves one path at a time;
 //! - `Lanes<S>`: its [`ConstraintLanes`], offered through [`Constraint::lane_form`], with which
 //!   an [`Ensemble`] steps W paths at once (W = 8 with AVX-512, 4 with AVX2) by Newton with a
-//!   convergence mask per lane, using the one-equation Newton matrix [`ScalarLanes`].
+//!   convergence mask per lane, with the one-equation Newton matrix ([`Scalar`]: [`ScalarGram`]
+//!   and its inverse, over lanes).
 //!
 //! It then checks that every path of the ensemble, at every lane width, is the scalar
 //! stepper's path bit for bit (position, velocity and multiplier after 400 steps) under three
@@ -21,10 +22,12 @@ use std::time::Instant;
 use pulp::Simd;
 use sdae_lanes::{LaneWidth, Lanes, Real};
 use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, FactorLanes, InverseMass, LaneFormVisitor, PointLanes,
-    ReciprocalLanes, ScalarLanes, base_coords, max_abs_and_finite,
+    ConstraintLanes, Evaluation, InverseMass, LaneFormVisitor, PointLanes, base_coords,
+    max_abs_and_finite,
 };
-use sdae_manifold::{Constraint, DiagonalMass, Mass, ScalarGram, check_state};
+use sdae_manifold::{
+    Constraint, DiagonalMass, Mass, MatrixFactor, Scalar, ScalarFactor, ScalarGram, check_state,
+};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
 use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
@@ -138,7 +141,7 @@ impl TorusLanes {
 }
 
 impl ConstraintLanes for TorusLanes {
-    type Factor<Sd: Simd> = ReciprocalLanes<Sd>;
+    type Shape = Scalar;
 
     fn dims(&self) -> (usize, usize) {
         (3, 1)
@@ -151,8 +154,9 @@ impl ConstraintLanes for TorusLanes {
     }
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut ScalarLanes<Sd>,
-        factor: &mut ReciprocalLanes<Sd>, step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        jacobian: &mut ScalarGram<Lanes<Sd>>, factor: &mut ScalarFactor<Lanes<Sd>>,
+        step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         let x = x1.coords::<3>(0);
         values[0] = self.torus.g(&x);

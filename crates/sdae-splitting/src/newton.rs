@@ -16,11 +16,9 @@ use std::marker::PhantomData;
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes, per_path};
-use sdae_manifold::Constraint;
-use sdae_manifold::lane_form::{
-    ConstraintLanes, FactorLanes, Jacobian, LaneFormVisitor, MatrixLanes, max_abs,
-};
+use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneFormVisitor, max_abs};
 use sdae_manifold::vector::sum_squares;
+use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
     Drifted, GroupState, LanePaths, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot,
     StepInput, WideKernel, step_newton_lanes,
@@ -111,7 +109,7 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     /// G_M(r) and its factors, with g(r) and the first half of G_M(r)^-1 g(r) that their
     /// evaluation leaves (m rows each, not read).
     gram: Jacobian<Sd, C>,
-    gram_factor: C::Factor<Sd>,
+    gram_factor: Factor<Sd, C>,
     values: Vec<Lanes<Sd>>,
     solved: Vec<Lanes<Sd>>,
     /// A projection's multiplier (m rows).
@@ -139,7 +137,7 @@ struct EndPoint<Sd: Simd, C: ConstraintLanes> {
     /// r_{k+1}, row by row (W values per coordinate); empty until the group's first step.
     r: Vec<f64>,
     force: Vec<Lanes<Sd>>,
-    gram_factor: C::Factor<Sd>,
+    gram_factor: Factor<Sd, C>,
 }
 
 /// The lanes of a group inside a step: (r, v), mu's increment (the sum of the step's
@@ -169,8 +167,8 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             },
             root: NewtonRoot::new(simd, &constraint),
             constraint,
-            gram: MatrixLanes::zeros(simd, m),
-            gram_factor: FactorLanes::zeros(simd, m),
+            gram: SquareMatrix::zeros_like(zero, m),
+            gram_factor: MatrixFactor::zeros_like(zero, m),
             values: vec![zero; m],
             solved: vec![zero; m],
             lambda: vec![zero; m],
@@ -219,7 +217,10 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             self.ends.push(EndPoint {
                 r: Vec::new(),
                 force: self.force.clone(),
-                gram_factor: FactorLanes::zeros(self.simd, self.lambda.len()),
+                gram_factor: MatrixFactor::zeros_like(
+                    Lanes::splat(self.simd, 0.0),
+                    self.lambda.len(),
+                ),
             });
         }
         let end = &mut self.ends[group];

@@ -14,11 +14,11 @@ use crate::vector::{distance_value, dot3};
 use pulp::Simd;
 use sdae_lanes::Lanes;
 
-use super::dense::{DenseLanes, LuLanes};
 use super::{
-    ConstraintLanes, Evaluation, FactorLanes, InverseMass, PointLanes, base_coords,
-    max_abs_and_finite,
+    ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, max_abs_and_finite,
 };
+use crate::factor::{LuFactor, MatrixFactor};
+use crate::gram::{Dense, DenseGram};
 
 /// The bond network's constants for a diagonal mass.
 pub struct BondLanes {
@@ -69,7 +69,8 @@ impl BondLanes {
     /// d_a(x1).W_c d_b(r) / (L_a^2 L_b^2) (`RigidBonds::cross_gram` for a diagonal mass).
     #[inline(always)]
     fn value_and_cross_gram<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut DenseLanes<Sd>,
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        jacobian: &mut DenseGram<Lanes<Sd>>,
     ) {
         for ((value, bond), s) in values.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
             let d = bond_vector(x1, bond);
@@ -94,7 +95,7 @@ impl BondLanes {
                 for &(b, sb) in self.incident(c) {
                     let db = bond_vector(r, &self.bonds[b]);
                     let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
-                    jacobian.set(a, b, jacobian.entry(a, b) + term);
+                    jacobian.set(a, b, jacobian.get(a, b) + term);
                 }
             }
         }
@@ -102,7 +103,7 @@ impl BondLanes {
 }
 
 impl ConstraintLanes for BondLanes {
-    type Factor<Sd: Simd> = LuLanes<Sd>;
+    type Shape = Dense;
 
     fn dims(&self) -> (usize, usize) {
         (3 * self.atoms, self.bonds.len())
@@ -120,8 +121,9 @@ impl ConstraintLanes for BondLanes {
     /// largest |g_b| and the LU factorization, each in a pass of its own.
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut DenseLanes<Sd>,
-        factor: &mut LuLanes<Sd>, step: &mut [Lanes<Sd>],
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        jacobian: &mut DenseGram<Lanes<Sd>>, factor: &mut LuFactor<Lanes<Sd>>,
+        step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         self.value_and_cross_gram(x1, r, values, jacobian);
         let (largest, finite) = max_abs_and_finite(values);

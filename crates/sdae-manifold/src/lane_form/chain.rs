@@ -1,7 +1,7 @@
 //! The bead chain's lane form ([`BeadChain`](sdae_manifold::BeadChain) with a diagonal mass:
 //! the chain molecule, the fiber) for the Newton step of an ensemble engine (`sdae_scheme::Ensemble`): its formulas over W
 //! lanes, with the floating-point operations of `BeadChain`'s methods in the same order, and
-//! Thomas' algorithm for its tridiagonal Newton matrix (`super::tridiagonal`).
+//! Thomas' algorithm for its tridiagonal Newton matrix ([`ThomasFactor`]).
 
 use crate::chain::{BeadChain, chain_motion, difference, segment_rates};
 use crate::constraint::Constraint;
@@ -9,8 +9,10 @@ use crate::mass::Mass;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
-use super::tridiagonal::{ThomasLanes, ThomasSweep, TridiagonalLanes};
 use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
+use crate::factor::ThomasFactor;
+use crate::gram::{Tridiagonal, TridiagonalGram};
+use crate::thomas::ThomasSweep;
 use crate::vector::{distance_value, dot3};
 
 /// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
@@ -78,7 +80,7 @@ impl ChainLanes {
 }
 
 impl ConstraintLanes for ChainLanes {
-    type Factor<Sd: Simd> = ThomasLanes<Sd>;
+    type Shape = Tridiagonal;
 
     fn dims(&self) -> (usize, usize) {
         (3 * self.beads, self.beads - 1)
@@ -101,7 +103,8 @@ impl ConstraintLanes for ChainLanes {
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self, x1: &P, r: &[Lanes<Sd>], _values: &mut [Lanes<Sd>],
-        jacobian: &mut TridiagonalLanes<Sd>, factor: &mut ThomasLanes<Sd>, step: &mut [Lanes<Sd>],
+        jacobian: &mut TridiagonalGram<Lanes<Sd>>, factor: &mut ThomasFactor<Lanes<Sd>>,
+        step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         let s = self.inv_ds2 * self.inv_ds2;
         let m = self.beads - 1;
@@ -145,8 +148,8 @@ impl ConstraintLanes for ChainLanes {
     /// (the default's three passes in one).
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
-        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>], factor: &ThomasLanes<Sd>,
-        out: &mut [Lanes<Sd>],
+        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
+        factor: &ThomasFactor<Lanes<Sd>>, out: &mut [Lanes<Sd>],
     ) {
         let w = &self.inverse_mass;
         let mut previous = [x[0]; 3];

@@ -6,7 +6,7 @@
 //! Newton matrix at the root. The step is written once here; a constraint brings its formulas
 //! over lanes ([`ConstraintLanes`] through [`Constraint::lane_form`]: g, the Newton matrix, the
 //! displacement, Dg u, the local measure of the motion) and the factorization of its Newton
-//! matrix ([`FactorLanes`]): `sdae_manifold::lane_form` has the bead chain's and rigid bonds'.
+//! matrix ([`MatrixFactor`]): `sdae_manifold::lane_form` has the bead chain's and rigid bonds'.
 //!
 //! Each formula is the scalar stepper's, with the same floating-point operations in the same
 //! order, so that a decided lane is the scalar step of its path. A lane Newton does not decide
@@ -20,7 +20,8 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_lanes::{LaneMask, Lanes, per_path};
-use sdae_manifold::lane_form::{ConstraintLanes, FactorLanes};
+use sdae_manifold::MatrixFactor;
+use sdae_manifold::lane_form::ConstraintLanes;
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,

@@ -1,0 +1,261 @@
+//! Dense LU factorizations with partial pivoting: written once over the number type
+//! ([`LuFactor`], `crate::dense_lu`), and for one path with faer above
+//! [`DENSE_FAER_THRESHOLD`] and typed errors ([`DenseFactor`]).
+
+use faer::linalg::solvers::Solve as _;
+use sdae_lanes::{PathMask, Real};
+
+use super::{DENSE_FAER_THRESHOLD, Factorize, MatrixFactor, PIVOT_TOLERANCE, RightHandSide, Solve};
+use crate::dense_lu::{self, PivotRow};
+use crate::error::LinearError;
+use crate::gram::{DenseGram, GramMatrix};
+
+/// The LU factors of a dense matrix with partial pivoting: L (unit, below the diagonal) and U
+/// packed row-major, and the pivot row of each elimination step (an index for one path, a
+/// number per path in lanes).
+#[derive(Debug, Clone)]
+pub struct LuFactor<T = f64> {
+    order: usize,
+    lu: Vec<T>,
+    perm: Vec<PivotRow<T>>,
+}
+
+impl<T: Real> MatrixFactor<T> for LuFactor<T> {
+    type Matrix = DenseGram<T>;
+
+    fn zeros_like(like: T, m: usize) -> Self {
+        let zero = like.splat_like(0.0);
+        Self {
+            order: m,
+            lu: vec![zero; m * m],
+            perm: vec![PivotRow::PerPath(zero); m],
+        }
+    }
+
+    /// The elimination with partial pivoting (`dense_lu`), and with `rhs` = (b, out) the first
+    /// half of the solve; the paths whose entries are finite and whose pivots all pass
+    /// (|p| > `PIVOT_TOLERANCE` x max |A_ij|).
+    #[inline(always)]
+    fn factor(&mut self, a: &DenseGram<T>, rhs: RightHandSide<'_, T>) -> T::Mask {
+        let m = self.order;
+        let entries = a.as_slice();
+        let zero = entries[0].splat_like(0.0);
+        let mut ok = zero.mask_like(true);
+        let mut scale = zero;
+        for entry in entries {
+            ok = ok.and(entry.finite());
+            scale = scale.max(entry.abs());
+        }
+        let tolerance = scale * PIVOT_TOLERANCE;
+        self.lu.copy_from_slice(entries);
+        for k in 0..m {
+            let (pivot_row, pivot) = dense_lu::choose_pivot(&mut self.lu, m, k);
+            self.perm[k] = pivot_row;
+            ok = ok.and(!dense_lu::pivot_rejected(pivot, tolerance));
+            dense_lu::eliminate(&mut self.lu, m, k);
+        }
+        if let Some((b, out)) = rhs {
+            out.copy_from_slice(b);
+            self.forward_in_place(out);
+        }
+        ok
+    }
+
+    /// The row interchanges in elimination order and the forward substitution
+    /// (`dense_lu::permute`, `dense_lu::forward`).
+    #[inline(always)]
+    fn forward_in_place(&self, b: &mut [T]) {
+        let b = &mut b[..self.order];
+        dense_lu::permute(self.perm.iter().copied(), b);
+        dense_lu::forward(&self.lu, b);
+    }
+
+    /// The back substitution (`dense_lu::backward`).
+    #[inline(always)]
+    fn back_substitute(&self, b: &mut [T]) {
+        dense_lu::backward(&self.lu, &mut b[..self.order]);
+    }
+}
+
+impl LuFactor {
+    /// The step and the pivot of the first pivot [`MatrixFactor::factor`] rejected, for a
+    /// matrix whose largest |entry| is `scale` (each step leaves the rows above it as they
+    /// are, so U's diagonal holds every step's pivot).
+    fn first_rejected_pivot(&self, scale: f64) -> Option<(usize, f64)> {
+        let m = self.order;
+        (0..m)
+            .map(|k| (k, self.lu[k * m + k]))
+            .find(|&(_, pivot)| dense_lu::pivot_rejected(pivot, scale * PIVOT_TOLERANCE))
+    }
+}
+
+/// LU factors of a dense matrix of one path with partial pivoting.
+#[derive(Debug, Clone)]
+pub enum DenseFactor {
+    /// Hand-written ([`LuFactor`]), in preallocated storage.
+    Small(LuFactor),
+    /// faer's partial-pivoting LU, for orders above [`DENSE_FAER_THRESHOLD`].
+    Faer(Box<faer::linalg::solvers::PartialPivLu<f64>>),
+    /// Not factored yet.
+    Empty,
+}
+
+impl Solve for DenseFactor {
+    fn solve_in_place(&self, b: &mut [f64]) {
+        match self {
+            DenseFactor::Small(lu) => MatrixFactor::solve_in_place(lu, b),
+            DenseFactor::Faer(lu) => {
+                let m = b.len();
+                lu.solve_in_place(faer::MatMut::from_column_major_slice_mut(b, m, 1));
+            }
+            DenseFactor::Empty => {
+                b.fill(f64::NAN);
+            }
+        }
+    }
+}
+
+impl Factorize for DenseGram {
+    type Factor = DenseFactor;
+    fn new_factor(&self) -> DenseFactor {
+        let m = self.order();
+        if m <= DENSE_FAER_THRESHOLD {
+            DenseFactor::Small(LuFactor::zeros_like(0.0, m))
+        } else {
+            DenseFactor::Empty
+        }
+    }
+    fn factor_into(&self, factor: &mut DenseFactor) -> Result<(), LinearError> {
+        let m = self.order();
+        let a = self.as_slice();
+        if let Some(k) = a.iter().position(|v| !v.is_finite()) {
+            return Err(LinearError::NonFinite { index: k / m });
+        }
+        let scale = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
+        if m > DENSE_FAER_THRESHOLD {
+            let mat = faer::Mat::<f64>::from_fn(m, m, |i, j| a[i * m + j]);
+            let lu = mat.partial_piv_lu();
+            let u = lu.U();
+            if let Some(index) = (0..m).find(|&i| u[(i, i)].abs() <= PIVOT_TOLERANCE * scale) {
+                return Err(LinearError::Singular {
+                    index,
+                    pivot: u[(index, index)],
+                });
+            }
+            *factor = DenseFactor::Faer(Box::new(lu));
+            return Ok(());
+        }
+        let DenseFactor::Small(lu) = factor else {
+            *factor = self.new_factor();
+            return self.factor_into(factor);
+        };
+        // The entries are finite: the factorization fails exactly where a pivot is rejected.
+        lu.factor(self, None);
+        match lu.first_rejected_pivot(scale) {
+            Some((index, pivot)) => Err(LinearError::Singular { index, pivot }),
+            None => Ok(()),
+        }
+    }
+}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::SquareMatrix;
+    use pulp::{Simd, WithSimd};
+    use sdae_lanes::{LaneWidth, Lanes};
+
+    /// Matrices of order `m`, one per lane, whose pivot rows differ from lane to lane (a
+    /// permuted diagonally weak matrix, ties included) and one singular matrix (lane 2).
+    fn matrix(m: usize, lane: usize) -> DenseGram {
+        let mut a = DenseGram::zeros(m);
+        for i in 0..m {
+            for j in 0..m {
+                let value = ((i * 7 + j * 3 + lane * 5) % 11) as f64 - 5.0
+                    + if (i + lane) % m == j { 0.25 } else { 0.0 };
+                a.set(i, j, if lane == 2 { 1.0 } else { value });
+            }
+        }
+        a
+    }
+
+    /// Each lane's factor, solve and product against one path's `DenseGram` and `DenseFactor`,
+    /// bit for bit, and the lanes the scalar factorization rejects.
+    struct Check {
+        m: usize,
+    }
+
+    impl WithSimd for Check {
+        type Output = ();
+        fn with_simd<S: Simd>(self, simd: S) {
+            let m = self.m;
+            let width = Lanes::<S>::WIDTH;
+            let lanes_of = |values: &dyn Fn(usize) -> f64| {
+                let per_lane: Vec<f64> = (0..width).map(values).collect();
+                Lanes::load(simd, &per_lane)
+            };
+            let scalar: Vec<DenseGram> = (0..width).map(|lane| matrix(m, lane)).collect();
+            let zero = Lanes::splat(simd, 0.0);
+            let mut a = DenseGram::zeros_like(zero, m);
+            for i in 0..m {
+                for j in 0..m {
+                    a.set(i, j, lanes_of(&|lane| scalar[lane].entry(i, j)));
+                }
+            }
+            let b_of = |lane: usize, i: usize| (i as f64 + 0.5 * lane as f64).sin();
+            let b: Vec<Lanes<S>> = (0..m).map(|i| lanes_of(&|lane| b_of(lane, i))).collect();
+            let mut x = vec![Lanes::splat(simd, 0.0); m];
+            let mut factor = LuFactor::zeros_like(zero, m);
+            let ok = factor.factor(&a, Some((&b, &mut x)));
+            factor.back_substitute(&mut x);
+            let mut product = vec![Lanes::splat(simd, 0.0); m];
+            a.product(&b, &mut product);
+            for (lane, gram) in scalar.iter().enumerate() {
+                let mut expected_product = vec![0.0; m];
+                let b_lane: Vec<f64> = (0..m).map(|i| b_of(lane, i)).collect();
+                gram.mul_vec(&b_lane, &mut expected_product);
+                for i in 0..m {
+                    assert_eq!(
+                        product[i].lane(lane).to_bits(),
+                        expected_product[i].to_bits()
+                    );
+                }
+                let mut scalar_factor = gram.new_factor();
+                let factored = gram.factor_into(&mut scalar_factor);
+                assert_eq!(ok.lane(lane), factored.is_ok(), "m = {m}, lane {lane}");
+                if factored.is_ok() {
+                    let mut expected = b_lane.clone();
+                    scalar_factor.solve_in_place(&mut expected);
+                    for i in 0..m {
+                        assert_eq!(
+                            x[i].lane(lane).to_bits(),
+                            expected[i].to_bits(),
+                            "m = {m}, lane {lane}, entry {i}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_factor_and_solve_as_the_scalar_lu_bit_for_bit() {
+        for m in 1..=6 {
+            for width in [
+                LaneWidth::One,
+                LaneWidth::Four,
+                LaneWidth::Eight,
+                LaneWidth::Best,
+            ] {
+                width.dispatch(Check { m });
+            }
+        }
+    }
+
+    #[test]
+    fn the_test_matrices_need_row_interchanges() {
+        // The eliminations above pivot: some lane's first pivot row is not row 0.
+        let a = matrix(4, 0);
+        let first_column: Vec<f64> = (0..4).map(|i| a.entry(i, 0).abs()).collect();
+        assert!(first_column[1..].iter().any(|&c| c >= first_column[0]));
+    }
+}

@@ -8,6 +8,7 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::{DenseGram, GramMatrix};
 use crate::lane_form::{BondLanes, LaneFormVisitor};
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use crate::vector::{distance_value, dot3, max_norm3_squared};
 use sdae_lanes::Real;
 
@@ -202,7 +203,7 @@ impl RigidBonds {
         &self.inv_l2
     }
 
-    /// The shortest bond length: the length scale of [`Constraint::value_roundoff`] and of
+    /// The shortest bond length: the length scale of [`Constraint::roundoff`] and of
     /// the force term of [`Constraint::local_motion`].
     pub fn shortest(&self) -> f64 {
         self.shortest
@@ -310,8 +311,8 @@ impl Constraint for RigidBonds {
     fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
         Some(bonds_motion(&self.bonds, &self.inv_l2, self.shortest, v, a))
     }
-    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
-        4.0 * f64::EPSILON * max_abs_x / self.shortest
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Length(self.shortest)
     }
     /// Newton in lanes ([`BondLanes`]) for a diagonal mass and at most
     /// [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD) bonds.

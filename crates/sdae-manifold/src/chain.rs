@@ -8,6 +8,7 @@ use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
 use crate::lane_form::{ChainLanes, LaneFormVisitor};
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use crate::vector::{distance_value, dot3, max_norm3_squared};
 use sdae_lanes::Real;
 
@@ -270,8 +271,8 @@ impl Constraint for BeadChain {
     fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
         Some(chain_motion(self.segment, v, a))
     }
-    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
-        4.0 * f64::EPSILON * max_abs_x / self.segment
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Length(self.segment)
     }
     /// Newton in lanes ([`ChainLanes`]) for a diagonal mass.
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {

@@ -8,6 +8,7 @@ use crate::factor::Factorize;
 use crate::gram::{DenseGram, TridiagonalGram};
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use sdae_lanes::Real;
 
 /// The size of the motion of eq. 3.2, max(w, w^2, alpha), from a speed w and an acceleration
@@ -104,11 +105,11 @@ pub trait Constraint {
         let _ = mass;
         visitor.none()
     }
-    /// The size of |g(x)| that rounding alone produces for coordinates of size `max_abs_x`
-    /// (the floor below which Newton cannot push the residual); 0 if unknown.
-    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
-        let _ = max_abs_x;
-        0.0
+    /// The kind of g's rounding floor, the size of |g(x)| that rounding alone produces (the
+    /// floor below which Newton cannot push the residual; [`Roundoff::floor`]): none known by
+    /// default.
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Unknown
     }
 }
 

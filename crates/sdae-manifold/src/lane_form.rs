@@ -25,6 +25,7 @@ use sdae_lanes::{LaneMask, Lanes};
 use crate::factor::MatrixFactor;
 use crate::gram::GramShape;
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use crate::sphere::Sphere;
 use crate::vector::sum_squares;
 
@@ -61,8 +62,8 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     type Shape: GramShape;
     /// (n, m).
     fn dims(&self) -> (usize, usize);
-    /// The length L of the residual floor 4 eps max_i |y_i| / L (`Constraint::value_roundoff`).
-    fn roundoff_length(&self) -> f64;
+    /// The kind of the residual floor, the constraint's own (`Constraint::roundoff`).
+    fn roundoff(&self) -> Roundoff;
     /// M^-1.
     fn inverse_mass(&self) -> &InverseMass;
     /// One evaluation of the kappa system at (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into

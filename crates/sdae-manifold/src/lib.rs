@@ -33,6 +33,7 @@ mod factor;
 mod gram;
 pub mod lane_form;
 mod mass;
+mod roundoff;
 mod sphere;
 mod sphere_constraint;
 mod state;
@@ -59,5 +60,6 @@ pub use gram::{
 };
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
+pub use roundoff::Roundoff;
 pub use sphere::Sphere;
 pub use state::{DEFAULT_STATE_TOLERANCE, StateResiduals, check_state, state_residuals};

@@ -105,11 +105,6 @@ impl Sphere {
             *o = s * *ri * w(k) + *yi;
         }
     }
-
-    /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
-    pub fn roundoff(&self, max_abs_x: f64) -> f64 {
-        4.0 * f64::EPSILON * (self.dim as f64) * max_abs_x * max_abs_x * self.inv_r2
-    }
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ use crate::constraint::{Constraint, Curvature, TheoryBound, motion_measure};
 use crate::gram::ScalarGram;
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use crate::sphere::Sphere;
 use crate::vector::dot;
 
@@ -92,8 +93,12 @@ impl Constraint for Sphere {
         }
         Some(self.kappa_coefficients(r, y, |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)))
     }
-    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
-        self.roundoff(max_abs_x)
+    /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::SquaredRadius {
+            dim: self.dim(),
+            inverse_radius_squared: self.inverse_radius_squared(),
+        }
     }
     /// The closed form of the kappa system ([`LaneFormVisitor::sphere`]).
     #[inline(always)]

@@ -206,8 +206,8 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         let r = y.r;
         let zero = self.splat(0.0);
         let one = self.splat(1.0);
-        // The residual floor of g near y (`Constraint::value_roundoff`) and the tolerance.
-        let floor = self.splat(4.0 * f64::EPSILON) * max_abs_y / constraint.roundoff_length();
+        // The residual floor of g near y (`Constraint::roundoff`) and the tolerance.
+        let floor = constraint.roundoff().floor(max_abs_y);
         let tolerance = self.splat(settings.tolerance).max(floor);
 
         let mut step = std::mem::take(&mut self.step);

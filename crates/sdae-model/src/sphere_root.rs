@@ -12,7 +12,7 @@
 use pulp::Simd;
 use sdae_ift::{SolverSettings, quadratic_root};
 use sdae_lanes::{LaneMask, Lanes};
-use sdae_manifold::Sphere;
+use sdae_manifold::{Constraint, Roundoff, Sphere};
 
 /// The constants of the root: the sphere's, the diagonal of M^-1, the solver's settings and
 /// the radius of the ball the root must lie in (C_kappa, or infinite).
@@ -21,9 +21,8 @@ pub struct SphereRoot<const N: usize> {
     settings: SolverSettings,
     radius: f64,
     sphere: Sphere,
-    inv_r2: f64,
-    /// 4 eps d, the factor of the residual floor (`Sphere::roundoff`).
-    floor_factor: f64,
+    /// The sphere's rounding floor (`Constraint::roundoff`).
+    roundoff: Roundoff,
     inverse_mass: [f64; N],
 }
 
@@ -57,8 +56,7 @@ impl<const N: usize> SphereRoot<N> {
             settings: *settings,
             radius,
             sphere: *sphere,
-            inv_r2: sphere.inverse_radius_squared(),
-            floor_factor: 4.0 * f64::EPSILON * (N as f64),
+            roundoff: sphere.roundoff(),
             inverse_mass,
         }
     }
@@ -76,7 +74,7 @@ impl<const N: usize> SphereRoot<N> {
         for yi in y {
             max_abs_y = max_abs_y.max(yi.abs());
         }
-        let floor = zero.splat_like(self.floor_factor) * max_abs_y * max_abs_y * self.inv_r2;
+        let floor = self.roundoff.floor(max_abs_y);
         let tolerance = zero.splat_like(self.settings.tolerance).max(floor);
 
         // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`) and

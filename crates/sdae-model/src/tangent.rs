@@ -27,7 +27,7 @@ pub struct KappaProblem<'a, C, M> {
     pub x: &'a mut [f64],
     /// Workspace of length [`scratch_len`].
     pub scratch: &'a mut [f64],
-    /// The residual floor of g near y ([`Constraint::value_roundoff`]).
+    /// The residual floor of g near y ([`Constraint::roundoff`]).
     pub floor: f64,
     /// Whether the last evaluation was at gamma = 0, i.e. at x = y.
     pub at_y: bool,
@@ -140,7 +140,9 @@ impl<G: Factorize> TangentProjector<G> {
         M: Mass,
     {
         self.y.copy_from_slice(r);
-        let floor = constraint.value_roundoff(sdae_manifold::vector::max_abs(&self.y));
+        let floor = constraint
+            .roundoff()
+            .floor(sdae_manifold::vector::max_abs(&self.y));
         let mut problem = KappaProblem {
             constraint,
             mass,

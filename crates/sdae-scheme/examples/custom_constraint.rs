@@ -26,7 +26,8 @@ use sdae_manifold::lane_form::{
     max_abs_and_finite,
 };
 use sdae_manifold::{
-    Constraint, DiagonalMass, Mass, MatrixFactor, Scalar, ScalarFactor, ScalarGram, check_state,
+    Constraint, DiagonalMass, Mass, MatrixFactor, Roundoff, Scalar, ScalarFactor, ScalarGram,
+    check_state,
 };
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
 use sdae_noise::{GaussianIncrements, IncrementSource};
@@ -106,9 +107,10 @@ impl Constraint for Torus {
         mass.apply_inverse(&mut weighted);
         out.0 = dot(&self.grad(&three(x1)), &weighted);
     }
-    /// g is a length: rounding leaves a few ulps of the coordinates.
-    fn value_roundoff(&self, max_abs_x: f64) -> f64 {
-        4.0 * f64::EPSILON * max_abs_x / 1.0
+    /// g is a length: rounding leaves a few ulps of the coordinates (relative to a unit
+    /// length).
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Length(1.0)
     }
     /// Newton in lanes ([`TorusLanes`]) for a diagonal mass.
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
@@ -146,8 +148,8 @@ impl ConstraintLanes for TorusLanes {
     fn dims(&self) -> (usize, usize) {
         (3, 1)
     }
-    fn roundoff_length(&self) -> f64 {
-        1.0
+    fn roundoff(&self) -> Roundoff {
+        self.torus.roundoff()
     }
     fn inverse_mass(&self) -> &InverseMass {
         &self.inverse_mass

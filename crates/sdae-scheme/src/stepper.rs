@@ -231,7 +231,7 @@ fn half_explicit_step<S: System>(
             y,
             x,
             scratch,
-            floor: constraint.value_roundoff(max_abs_y),
+            floor: constraint.roundoff().floor(max_abs_y),
             at_y: false,
             velocity: Some(force),
         };

@@ -321,7 +321,7 @@ impl<S: System> Splitting<S> {
             y: &self.y,
             x: &mut self.x,
             scratch: &mut self.scratch,
-            floor: c.value_roundoff(max_abs(&self.y)),
+            floor: c.roundoff().floor(max_abs(&self.y)),
             at_y: false,
             velocity: None,
         };

@@ -67,7 +67,8 @@ fn the_theory_constants_take_every_step_of_a_stiff_fiber_at_small_h() {
             fiber.constraint().value(&r, &mut g);
             let floor = fiber
                 .constraint()
-                .value_roundoff(1.0 + r.iter().fold(0.0_f64, |m, x| m.max(x.abs())));
+                .roundoff()
+                .floor(1.0 + r.iter().fold(0.0_f64, |m, x| m.max(x.abs())));
             assert!(
                 g.iter().all(|x| x.abs() <= floor.max(1e-14)),
                 "path {path}, step {k}: {g:?}"

@@ -10,6 +10,7 @@ use crate::bonds::{Bond, RigidBonds, bond_rates, bonds_motion};
 use crate::constraint::Constraint;
 use crate::factor::DENSE_FAER_THRESHOLD;
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use crate::vector::{distance_value, dot3};
 use pulp::Simd;
 use sdae_lanes::Lanes;
@@ -31,6 +32,8 @@ pub struct BondLanes {
     start: Vec<usize>,
     incidence: Vec<(usize, f64)>,
     shortest: f64,
+    /// The network's rounding floor (`Constraint::roundoff`).
+    roundoff: Roundoff,
     inverse_mass: InverseMass,
 }
 
@@ -54,6 +57,7 @@ impl BondLanes {
             start,
             incidence,
             shortest: network.shortest(),
+            roundoff: network.roundoff(),
             inverse_mass: InverseMass::of(mass, network.dim()),
         })
     }
@@ -109,8 +113,8 @@ impl ConstraintLanes for BondLanes {
         (3 * self.atoms, self.bonds.len())
     }
 
-    fn roundoff_length(&self) -> f64 {
-        self.shortest
+    fn roundoff(&self) -> Roundoff {
+        self.roundoff
     }
 
     fn inverse_mass(&self) -> &InverseMass {

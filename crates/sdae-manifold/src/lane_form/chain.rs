@@ -6,6 +6,7 @@
 use crate::chain::{BeadChain, chain_motion, difference, segment_rates};
 use crate::constraint::Constraint;
 use crate::mass::Mass;
+use crate::roundoff::Roundoff;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
@@ -20,6 +21,8 @@ pub struct ChainLanes {
     beads: usize,
     segment: f64,
     inv_ds2: f64,
+    /// The chain's rounding floor (`Constraint::roundoff`).
+    roundoff: Roundoff,
     inverse_mass: InverseMass,
 }
 
@@ -33,6 +36,7 @@ impl ChainLanes {
             beads: chain.beads(),
             segment: chain.segment(),
             inv_ds2: chain.inverse_segment_squared(),
+            roundoff: chain.roundoff(),
             inverse_mass: InverseMass::of(mass, chain.dim()),
         })
     }
@@ -86,8 +90,8 @@ impl ConstraintLanes for ChainLanes {
         (3 * self.beads, self.beads - 1)
     }
 
-    fn roundoff_length(&self) -> f64 {
-        self.segment
+    fn roundoff(&self) -> Roundoff {
+        self.roundoff
     }
 
     fn inverse_mass(&self) -> &InverseMass {

@@ -5,8 +5,9 @@ use crate::constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, motion_measure,
 };
 use crate::error::{ManifoldError, check_at_least, check_positive};
+use crate::factor::DENSE_FAER_THRESHOLD;
 use crate::gram::{DenseGram, GramMatrix};
-use crate::lane_form::{BondLanes, LaneFormVisitor};
+use crate::lane_form::{LaneForm, LaneFormVisitor};
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
 use crate::vector::{distance_value, dot3, max_norm3_squared};
@@ -314,13 +315,19 @@ impl Constraint for RigidBonds {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(self.shortest)
     }
-    /// Newton in lanes ([`BondLanes`]) for a diagonal mass and at most
-    /// [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD) bonds.
+    /// Newton in lanes (the network's [`ConstraintLanes`](crate::ConstraintLanes)) for a
+    /// diagonal mass and at most [`DENSE_FAER_THRESHOLD`] bonds (larger networks are
+    /// factored by faer, path by path).
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         if !M::DIAGONAL {
             return visitor.none();
         }
-        visitor.newton(|| BondLanes::new(self, mass))
+        visitor.newton(|| {
+            if self.n_constraints() > DENSE_FAER_THRESHOLD {
+                return None;
+            }
+            LaneForm::new(self, mass)
+        })
     }
 }
 

@@ -6,7 +6,7 @@ use crate::constraint::{
 };
 use crate::error::{ManifoldError, check_at_least, check_positive};
 use crate::gram::TridiagonalGram;
-use crate::lane_form::{ChainLanes, LaneFormVisitor};
+use crate::lane_form::{LaneForm, LaneFormVisitor};
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
 use crate::vector::{distance_value, dot3, max_norm3_squared};
@@ -274,12 +274,13 @@ impl Constraint for BeadChain {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(self.segment)
     }
-    /// Newton in lanes ([`ChainLanes`]) for a diagonal mass.
+    /// Newton in lanes (the chain's [`ConstraintLanes`](crate::ConstraintLanes)) for a
+    /// diagonal mass.
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         if !M::DIAGONAL {
             return visitor.none();
         }
-        visitor.newton(|| ChainLanes::new(self, mass))
+        visitor.newton(|| LaneForm::new(self, mass))
     }
 }
 

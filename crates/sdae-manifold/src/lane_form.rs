@@ -2,12 +2,13 @@
 //!
 //! A constraint offers them through [`Constraint::lane_form`](crate::Constraint::lane_form):
 //! it hands a [`LaneFormVisitor`] either its [`Sphere`] (whose kappa system has a closed
-//! form) or a [`ConstraintLanes`], its formulas over lanes for the Newton iteration of the
-//! kappa system (seed eq. 3.1, upper part) and the velocity update (lower part). The default
-//! offers none, and an engine then steps the paths one at a time. Any crate can implement
-//! [`ConstraintLanes`] for its own constraint; the built-in ones are the bead chain's
-//! ([`ChainLanes`], with Thomas' algorithm for its tridiagonal Newton matrix) and rigid
-//! bonds' ([`BondLanes`], with an LU factorization with partial pivoting per lane). The Newton
+//! form) or itself with its mass as a [`LaneForm`]: its [`ConstraintLanes`] formulas over lanes
+//! for the Newton iteration of the kappa system (seed eq. 3.1, upper part) and the velocity
+//! update (lower part). The default offers none, and an engine then steps the paths one at a
+//! time. Any crate can implement [`ConstraintLanes`] for its own constraint; the built-in ones
+//! are the bead chain's ([`BeadChain`](crate::BeadChain), with Thomas' algorithm for its
+//! tridiagonal Newton matrix) and rigid bonds' ([`RigidBonds`](crate::RigidBonds), with an LU
+//! factorization with partial pivoting per lane). The Newton
 //! matrix and its factorization are the one-path storage and code run over lanes, named by
 //! the structure ([`GramShape`]): a constraint with one equation names
 //! [`Scalar`](crate::Scalar) (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus).
@@ -22,15 +23,13 @@ mod chain;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
+use crate::constraint::Constraint;
 use crate::factor::MatrixFactor;
 use crate::gram::GramShape;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
 use crate::sphere::Sphere;
 use crate::vector::sum_squares;
-
-pub use bonds::BondLanes;
-pub use chain::ChainLanes;
 
 /// What a constraint offers an engine over lanes ([`Constraint::lane_form`](crate::Constraint::lane_form)):
 /// the engine implements the methods for the forms it can step, and a constraint calls the one
@@ -45,34 +44,32 @@ pub trait LaneFormVisitor: Sized {
         let _ = sphere;
         self.none()
     }
-    /// Formulas over lanes for the Newton iteration, built by `build` (called at most once,
-    /// when the engine has no lane form kept from an earlier step; `None`: no lane form for
-    /// this mass after all).
-    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
+    /// The constraint's formulas over lanes for the Newton iteration with its mass, built by
+    /// `build` (called at most once, when the engine has no lane form kept from an earlier
+    /// step; `None`: no lane form for this mass after all).
+    fn newton<L: ConstraintLanes>(
+        self, build: impl FnOnce() -> Option<LaneForm<L>>,
+    ) -> Self::Output {
         let _ = build;
         self.none()
     }
 }
 
-/// A constraint's formulas over W lanes for a diagonal mass, each with the floating-point
-/// operations of the scalar [`Constraint`](crate::Constraint) method it names: the Newton
-/// step of an ensemble engine is written once over them.
-pub trait ConstraintLanes: Send + Sync + Sized + 'static {
+/// A constraint's formulas over W lanes for a diagonal mass M^-1 (`w`), each with the
+/// floating-point operations of the one-path [`Constraint`] method it names: the Newton step of
+/// an ensemble engine is written once over them. The constraint implements them itself; an
+/// engine holds it with its mass as a [`LaneForm`].
+pub trait ConstraintLanes: Constraint + Clone + Send + Sync + 'static {
     /// The structure of the Newton matrix: its storage and factorization over lanes.
     type Shape: GramShape;
-    /// (n, m).
-    fn dims(&self) -> (usize, usize);
-    /// The kind of the residual floor, the constraint's own (`Constraint::roundoff`).
-    fn roundoff(&self) -> Roundoff;
-    /// M^-1.
-    fn inverse_mass(&self) -> &InverseMass;
     /// One evaluation of the kappa system at (x1, r): g(x1) and J = Dg(x1) M^-1 grad g(r) into
     /// `jacobian` (`Constraint::value_and_cross_gram`), [`max_abs_and_finite`] of g(x1), J
     /// factored into `factor` with the first half of J^-1 g(x1) into `step`
     /// ([`MatrixFactor::factor`]). `values` is scratch for g(x1); a constraint whose
     /// factorization runs row by row does it all in one pass over the rows.
+    #[allow(clippy::too_many_arguments)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
         jacobian: &mut Jacobian<Sd, Self>, factor: &mut Factor<Sd, Self>, step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd>;
     /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
@@ -80,32 +77,33 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     /// default takes three passes; a constraint can fuse them.
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
-        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
+        &self, w: &InverseMass, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
         factor: &Factor<Sd, Self>, out: &mut [Lanes<Sd>],
     ) {
-        let inverse_mass = self.inverse_mass();
         for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
-            *f = inverse_mass.apply(k, *f) + *vi;
+            *f = w.apply(k, *f) + *vi;
         }
         self.negated_jacobian_mul(x, force, out);
         factor.forward_in_place(out);
     }
     /// out = base + M^-1 grad g(r) z (`Constraint::displace`); without a base, out is its own
     /// (out <- out + M^-1 grad g(r) z, each entry of out read before it is written).
-    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
+    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
+        out: &mut [Lanes<Sd>],
     );
-    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`ConstraintLanes::displace`]
-    /// without a base), then the lanes whose v_{k+1} the scalar step finds finite (|v_{k+1}|^2
-    /// finite; a constraint may report fewer lanes, which then step through the scalar
-    /// stepper) and, if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in `scratch`, m rows). The
-    /// default takes three passes; a constraint can fuse them.
+    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`,
+    /// [`ConstraintLanes::displace_lanes`] without a base), then the lanes whose v_{k+1} the
+    /// scalar step finds finite (|v_{k+1}|^2 finite; a constraint may report fewer lanes, which
+    /// then step through the scalar stepper) and, if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in
+    /// `scratch`, m rows). The default takes three passes; a constraint can fuse them.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
-        &self, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>], monitor: bool,
-        v: &mut [Lanes<Sd>], scratch: &mut [Lanes<Sd>],
+        &self, w: &InverseMass, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>],
+        monitor: bool, v: &mut [Lanes<Sd>], scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {
-        self.displace(r, lambda, None::<&[Lanes<Sd>]>, v);
+        self.displace_lanes(w, r, lambda, None::<&[Lanes<Sd>]>, v);
         let finite = sum_squares(v).is_finite();
         if !monitor {
             return (finite, v[0].splat_like(0.0));
@@ -122,9 +120,93 @@ pub trait ConstraintLanes: Send + Sync + Sized + 'static {
     );
     /// The local measure of the motion (`Constraint::local_motion`); `None` (the default)
     /// where that is `None`, and the engine takes the seed's measure.
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
+    fn local_motion_lanes<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
         let _ = (v, a);
         None
+    }
+}
+
+/// A constraint with its lane formulas and the diagonal M^-1 it steps with: what a
+/// constraint offers an engine ([`LaneFormVisitor::newton`]) and the engine keeps. Its methods
+/// are the constraint's [`ConstraintLanes`] methods with this mass.
+pub struct LaneForm<C> {
+    constraint: C,
+    inverse_mass: InverseMass,
+}
+
+impl<C: ConstraintLanes> LaneForm<C> {
+    /// `constraint` with a diagonal `mass`; `None` for another mass.
+    pub fn new<M: Mass>(constraint: &C, mass: &M) -> Option<Self> {
+        M::DIAGONAL.then(|| Self {
+            constraint: constraint.clone(),
+            inverse_mass: InverseMass::of(mass, constraint.dim()),
+        })
+    }
+    /// The constraint.
+    pub fn constraint(&self) -> &C {
+        &self.constraint
+    }
+    /// M^-1.
+    pub fn inverse_mass(&self) -> &InverseMass {
+        &self.inverse_mass
+    }
+    /// The kind of the residual floor (`Constraint::roundoff`).
+    pub fn roundoff(&self) -> Roundoff {
+        self.constraint.roundoff()
+    }
+    /// (n, m).
+    pub fn dims(&self) -> (usize, usize) {
+        (self.constraint.dim(), self.constraint.n_constraints())
+    }
+    /// [`ConstraintLanes::evaluate_and_factor`].
+    #[inline(always)]
+    pub fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>], jacobian: &mut Jacobian<Sd, C>,
+        factor: &mut Factor<Sd, C>, step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd> {
+        let w = &self.inverse_mass;
+        self.constraint
+            .evaluate_and_factor(w, x1, r, values, jacobian, factor, step)
+    }
+    /// [`ConstraintLanes::velocity_right_hand_side`].
+    #[inline(always)]
+    pub fn velocity_right_hand_side<Sd: Simd>(
+        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>], factor: &Factor<Sd, C>,
+        out: &mut [Lanes<Sd>],
+    ) {
+        let w = &self.inverse_mass;
+        self.constraint
+            .velocity_right_hand_side(w, x, force, v, factor, out);
+    }
+    /// [`ConstraintLanes::displace_lanes`].
+    #[inline(always)]
+    pub fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
+    ) {
+        self.constraint
+            .displace_lanes(&self.inverse_mass, r, z, base, out);
+    }
+    /// [`ConstraintLanes::finish_velocity`].
+    #[inline(always)]
+    pub fn finish_velocity<Sd: Simd>(
+        &self, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>], monitor: bool,
+        v: &mut [Lanes<Sd>], scratch: &mut [Lanes<Sd>],
+    ) -> (LaneMask<Sd>, Lanes<Sd>) {
+        let w = &self.inverse_mass;
+        self.constraint
+            .finish_velocity(w, r, lambda, x, monitor, v, scratch)
+    }
+    /// [`ConstraintLanes::negated_jacobian_mul`].
+    #[inline(always)]
+    pub fn negated_jacobian_mul<Sd: Simd>(
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) {
+        self.constraint.negated_jacobian_mul(x, u, out);
+    }
+    /// [`ConstraintLanes::local_motion_lanes`].
+    #[inline(always)]
+    pub fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
+        self.constraint.local_motion_lanes(v, a)
     }
 }
 
@@ -174,7 +256,7 @@ impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
     }
 }
 
-/// Coordinates k..k + N of a displacement's base ([`ConstraintLanes::displace`]), or of `out`
+/// Coordinates k..k + N of a displacement's base ([`ConstraintLanes::displace_lanes`]), or of `out`
 /// where it is its own base.
 #[inline(always)]
 pub fn base_coords<Sd: Simd, P: PointLanes<Sd> + ?Sized, const N: usize>(

@@ -9,7 +9,7 @@ use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
 use sdae_lanes::LaneWidth;
-use sdae_manifold::lane_form::ConstraintLanes;
+use sdae_manifold::lane_form::{ConstraintLanes, LaneForm};
 
 use crate::lane_ensemble::{LanePaths, LaneRows, LaneStore, StepInput, WideKernel};
 use crate::newton_root::build_lane_form;
@@ -21,7 +21,9 @@ pub trait NewtonKernels: Scheme + Sized {
     /// The kernel for the lane form C at the instruction set Sd, with its buffers.
     type Kernel<Sd: Simd, C: ConstraintLanes>: WideKernel<Self, Sd> + Send + Sync + 'static;
     /// The kernel for `constraint`'s lane form.
-    fn kernel<Sd: Simd, C: ConstraintLanes>(&self, simd: Sd, constraint: C) -> Self::Kernel<Sd, C>;
+    fn kernel<Sd: Simd, C: ConstraintLanes>(
+        &self, simd: Sd, constraint: LaneForm<C>,
+    ) -> Self::Kernel<Sd, C>;
     /// Sets the kernel's numbers for a step of size h (before each step).
     fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Self::Kernel<Sd, C>, h: f64);
     /// Where the scheme keeps the kernel and its buffers between steps.

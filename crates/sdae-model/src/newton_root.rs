@@ -19,7 +19,8 @@ use pulp::Simd;
 use sdae_ift::{ProbeMap, SolverSettings, power_iteration};
 use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, Factor, Jacobian, LaneFormVisitor, PointLanes, active_any,
+    ConstraintLanes, Evaluation, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes,
+    active_any,
 };
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
@@ -29,7 +30,7 @@ use crate::system::System;
 /// The lane form C that the system's constraint offers for its mass
 /// ([`LaneFormVisitor::newton`]), built when an ensemble first steps; `None` where it offers
 /// another (or none for this mass).
-pub fn build_lane_form<C: ConstraintLanes, S: System>(system: &S) -> Option<C> {
+pub fn build_lane_form<C: ConstraintLanes, S: System>(system: &S) -> Option<LaneForm<C>> {
     system
         .constraint()
         .lane_form(system.mass(), Build::<C>(PhantomData))
@@ -39,14 +40,16 @@ pub fn build_lane_form<C: ConstraintLanes, S: System>(system: &S) -> Option<C> {
 struct Build<C>(PhantomData<C>);
 
 impl<C: ConstraintLanes> LaneFormVisitor for Build<C> {
-    type Output = Option<C>;
-    fn none(self) -> Option<C> {
+    type Output = Option<LaneForm<C>>;
+    fn none(self) -> Option<LaneForm<C>> {
         None
     }
-    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Option<C> {
+    fn newton<L: ConstraintLanes>(
+        self, build: impl FnOnce() -> Option<LaneForm<L>>,
+    ) -> Option<LaneForm<C>> {
         // A constraint offers one lane form: L is C where C was chosen from its offer.
         let built: Box<dyn Any> = Box::new(build()?);
-        built.downcast::<C>().ok().map(|lanes| *lanes)
+        built.downcast::<LaneForm<C>>().ok().map(|form| *form)
     }
 }
 
@@ -173,7 +176,7 @@ impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for AtZero<'_, Sd, C> {
 
 impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// Buffers for `constraint`'s dimensions.
-    pub fn new(simd: Sd, constraint: &C) -> Self {
+    pub fn new(simd: Sd, constraint: &LaneForm<C>) -> Self {
         let (n, m) = constraint.dims();
         let zero = Lanes::splat(simd, 0.0);
         Self {
@@ -200,8 +203,8 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// numbers. gamma* stays in `gamma` where `settings.probes(radius)` is 0.
     #[inline(always)]
     pub fn solve(
-        &mut self, constraint: &C, settings: &SolverSettings, radius: f64, y: &Drifted<'_, Sd>,
-        max_abs_y: Lanes<Sd>,
+        &mut self, constraint: &LaneForm<C>, settings: &SolverSettings, radius: f64,
+        y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
         let r = y.r;
         let zero = self.splat(0.0);
@@ -296,7 +299,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// J(0)^-1 R(0) into `step`: the evaluation's result and the step's length.
     #[inline(always)]
     fn first_newton_step(
-        &mut self, constraint: &C, y: &Drifted<'_, Sd>, step: &mut [Lanes<Sd>],
+        &mut self, constraint: &LaneForm<C>, y: &Drifted<'_, Sd>, step: &mut [Lanes<Sd>],
     ) -> (Evaluation<Sd>, Lanes<Sd>) {
         let at_y = constraint.evaluate_and_factor(
             y,

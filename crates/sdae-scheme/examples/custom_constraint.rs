@@ -22,7 +22,7 @@ use std::time::Instant;
 use pulp::Simd;
 use sdae_lanes::{LaneWidth, Lanes, Real};
 use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, InverseMass, LaneFormVisitor, PointLanes, base_coords,
+    ConstraintLanes, Evaluation, InverseMass, LaneForm, LaneFormVisitor, PointLanes, base_coords,
     max_abs_and_finite,
 };
 use sdae_manifold::{
@@ -112,58 +112,36 @@ impl Constraint for Torus {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(1.0)
     }
-    /// Newton in lanes ([`TorusLanes`]) for a diagonal mass.
+    /// Newton in lanes (its [`ConstraintLanes`]) for a diagonal mass.
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         if !M::DIAGONAL {
             return visitor.none();
         }
-        visitor.newton(|| {
-            Some(TorusLanes {
-                torus: *self,
-                inverse_mass: InverseMass::of(mass, 3),
-            })
-        })
+        visitor.newton(|| LaneForm::new(self, mass))
     }
 }
 
-/// The lane form: the same formulas on `Lanes<Sd>`, with the scalar methods' operations in
-/// the same order (the default `Constraint::displace`: grad g(r) z, then M^-1, then + y).
-struct TorusLanes {
-    torus: Torus,
-    inverse_mass: InverseMass,
+/// M^-1 u for a diagonal M^-1 = `w`.
+#[inline(always)]
+fn weighted<Sd: Simd>(w: &InverseMass, u: [Lanes<Sd>; 3]) -> [Lanes<Sd>; 3] {
+    [w.apply(0, u[0]), w.apply(1, u[1]), w.apply(2, u[2])]
 }
 
-impl TorusLanes {
-    /// M^-1 u.
-    #[inline(always)]
-    fn weighted<Sd: Simd>(&self, u: [Lanes<Sd>; 3]) -> [Lanes<Sd>; 3] {
-        let w = &self.inverse_mass;
-        [w.apply(0, u[0]), w.apply(1, u[1]), w.apply(2, u[2])]
-    }
-}
-
-impl ConstraintLanes for TorusLanes {
+/// The same formulas on `Lanes<Sd>`, with the one-path methods' operations in the same order
+/// (the default `Constraint::displace`: grad g(r) z, then M^-1, then + y).
+impl ConstraintLanes for Torus {
     type Shape = Scalar;
 
-    fn dims(&self) -> (usize, usize) {
-        (3, 1)
-    }
-    fn roundoff(&self) -> Roundoff {
-        self.torus.roundoff()
-    }
-    fn inverse_mass(&self) -> &InverseMass {
-        &self.inverse_mass
-    }
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
         jacobian: &mut ScalarGram<Lanes<Sd>>, factor: &mut ScalarFactor<Lanes<Sd>>,
         step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         let x = x1.coords::<3>(0);
-        values[0] = self.torus.g(&x);
-        let weighted = self.weighted(self.torus.grad(&r.coords::<3>(0)));
-        jacobian.0 = dot(&self.torus.grad(&x), &weighted);
+        values[0] = self.g(&x);
+        let weighted = weighted(w, self.grad(&r.coords::<3>(0)));
+        jacobian.0 = dot(&self.grad(&x), &weighted);
         let (largest, finite) = max_abs_and_finite(values);
         let factored = factor.factor(jacobian, Some((values, step)));
         Evaluation {
@@ -172,12 +150,13 @@ impl ConstraintLanes for TorusLanes {
         }
     }
     #[inline(always)]
-    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
+    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
+        out: &mut [Lanes<Sd>],
     ) {
         let y = base_coords::<Sd, P, 3>(base, out, 0);
-        let grad = self.torus.grad(&r.coords::<3>(0));
-        let moved = self.weighted([grad[0] * z[0], grad[1] * z[0], grad[2] * z[0]]);
+        let grad = self.grad(&r.coords::<3>(0));
+        let moved = weighted(w, [grad[0] * z[0], grad[1] * z[0], grad[2] * z[0]]);
         for k in 0..3 {
             out[k] = moved[k] + y[k];
         }
@@ -186,7 +165,7 @@ impl ConstraintLanes for TorusLanes {
     fn negated_jacobian_mul<Sd: Simd>(
         &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
-        out[0] = -dot(&self.torus.grad(&x.coords::<3>(0)), &u.coords::<3>(0));
+        out[0] = -dot(&self.grad(&x.coords::<3>(0)), &u.coords::<3>(0));
     }
 }
 

@@ -6,7 +6,7 @@ pub(crate) mod sphere;
 use std::marker::PhantomData;
 
 use sdae_lanes::LaneWidth;
-use sdae_manifold::lane_form::{ConstraintLanes, LaneFormVisitor};
+use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, LaneFormVisitor};
 use sdae_manifold::{Constraint, Sphere};
 use sdae_model::engine::{LanePaths, StepInput, step_newton_lanes};
 use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
@@ -155,7 +155,9 @@ impl<S: System> LaneFormVisitor for ChooseKernel<S> {
     fn sphere(self, sphere: &Sphere) -> Self::Output {
         Some(LaneKernelChoice::Sphere(*sphere, sphere::step_all::<S>))
     }
-    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
+    fn newton<L: ConstraintLanes>(
+        self, build: impl FnOnce() -> Option<LaneForm<L>>,
+    ) -> Self::Output {
         let _ = build;
         Some(LaneKernelChoice::Newton(step_newton_lanes::<Stepper<S>, L>))
     }

@@ -16,7 +16,9 @@ use std::marker::PhantomData;
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes, per_path};
-use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneFormVisitor, max_abs};
+use sdae_manifold::lane_form::{
+    ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, max_abs,
+};
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
@@ -56,7 +58,9 @@ impl<S: System> LaneFormVisitor for Choose<S> {
     fn none(self) -> Self::Output {
         None
     }
-    fn newton<L: ConstraintLanes>(self, build: impl FnOnce() -> Option<L>) -> Self::Output {
+    fn newton<L: ConstraintLanes>(
+        self, build: impl FnOnce() -> Option<LaneForm<L>>,
+    ) -> Self::Output {
         let _ = build;
         Some(step_newton_lanes::<Splitting<S>, L>)
     }
@@ -64,7 +68,9 @@ impl<S: System> LaneFormVisitor for Choose<S> {
 
 impl<S: System> NewtonKernels for Splitting<S> {
     type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
-    fn kernel<Sd: Simd, C: ConstraintLanes>(&self, simd: Sd, constraint: C) -> Kernel<Sd, C> {
+    fn kernel<Sd: Simd, C: ConstraintLanes>(
+        &self, simd: Sd, constraint: LaneForm<C>,
+    ) -> Kernel<Sd, C> {
         Kernel::new(simd, constraint)
     }
     fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
@@ -103,7 +109,7 @@ impl Constants {
 pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     constants: Constants,
-    constraint: C,
+    constraint: LaneForm<C>,
     /// The SHAKE root.
     root: NewtonRoot<Sd, C>,
     /// G_M(r) and its factors, with g(r) and the first half of G_M(r)^-1 g(r) that their
@@ -154,7 +160,7 @@ struct Motion<'a, Sd: Simd> {
 }
 
 impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
-    fn new(simd: Sd, constraint: C) -> Self {
+    fn new(simd: Sd, constraint: LaneForm<C>) -> Self {
         let (n, m) = constraint.dims();
         let zero = Lanes::splat(simd, 0.0);
         Self {

@@ -1,12 +1,9 @@
-//! The bead chain's lane form ([`BeadChain`](sdae_manifold::BeadChain) with a diagonal mass:
-//! the chain molecule, the fiber) for the Newton step of an ensemble engine (`sdae_scheme::Ensemble`): its formulas over W
-//! lanes, with the floating-point operations of `BeadChain`'s methods in the same order, and
-//! Thomas' algorithm for its tridiagonal Newton matrix ([`ThomasFactor`]).
+//! The bead chain's formulas over lanes ([`BeadChain`] with a diagonal mass: the chain
+//! molecule, the fiber) for the Newton step of an ensemble engine (`sdae_scheme::Ensemble`):
+//! over W lanes, with the floating-point operations of `BeadChain`'s one-path methods in the
+//! same order, and Thomas' algorithm for its tridiagonal Newton matrix ([`ThomasFactor`]).
 
 use crate::chain::{BeadChain, chain_motion, difference, segment_rates};
-use crate::constraint::Constraint;
-use crate::mass::Mass;
-use crate::roundoff::Roundoff;
 use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
@@ -16,35 +13,13 @@ use crate::gram::{Tridiagonal, TridiagonalGram};
 use crate::thomas::ThomasSweep;
 use crate::vector::{distance_value, dot3};
 
-/// The chain's constants: the formulas of `BeadChain` for a diagonal mass, over lanes.
-pub struct ChainLanes {
-    beads: usize,
-    segment: f64,
-    inv_ds2: f64,
-    /// The chain's rounding floor (`Constraint::roundoff`).
-    roundoff: Roundoff,
-    inverse_mass: InverseMass,
-}
-
-impl ChainLanes {
-    /// The chain's lane form for a diagonal `mass`; `None` for another mass.
-    pub fn new<M: Mass>(chain: &BeadChain, mass: &M) -> Option<Self> {
-        if !M::DIAGONAL {
-            return None;
-        }
-        Some(Self {
-            beads: chain.beads(),
-            segment: chain.segment(),
-            inv_ds2: chain.inverse_segment_squared(),
-            roundoff: chain.roundoff(),
-            inverse_mass: InverseMass::of(mass, chain.dim()),
-        })
-    }
-
+/// The chain's formulas over lanes, each with the operations of the one-path method it names.
+impl BeadChain {
     /// (M^-1)_kk a_k b_k summed over bead j's three coordinates, in the scalar order.
     #[inline(always)]
-    fn weighted<Sd: Simd>(&self, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
-        let w = &self.inverse_mass;
+    fn weighted<Sd: Simd>(
+        w: &InverseMass, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3],
+    ) -> Lanes<Sd> {
         let k = 3 * bead;
         w.apply(k, a[0]) * b[0] + w.apply(k + 1, a[1]) * b[1] + w.apply(k + 2, a[2]) * b[2]
     }
@@ -55,9 +30,9 @@ impl ChainLanes {
         let d = segment(r, i);
         // Written out: a closure (array map) would not inherit the instruction set.
         [
-            d[0] * z * self.inv_ds2,
-            d[1] * z * self.inv_ds2,
-            d[2] * z * self.inv_ds2,
+            d[0] * z * self.inverse_segment_squared(),
+            d[1] * z * self.inverse_segment_squared(),
+            d[2] * z * self.inverse_segment_squared(),
         ]
     }
 
@@ -67,36 +42,26 @@ impl ChainLanes {
         &self, x: &[Lanes<Sd>], i: usize, bead: &[Lanes<Sd>; 3], next: &[Lanes<Sd>; 3],
     ) -> Lanes<Sd> {
         let du = [next[0] - bead[0], next[1] - bead[1], next[2] - bead[2]];
-        dot3(&segment(x, i), &du) * self.inv_ds2
+        dot3(&segment(x, i), &du) * self.inverse_segment_squared()
     }
 
     /// The diagonal entry's sum `weighted(a, bead, b) + weighted(a, bead + 1, b)`: with M^-1 = I
     /// both terms are a . b, the same bits, which is formed once.
     #[inline(always)]
-    fn diagonal<Sd: Simd>(&self, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3]) -> Lanes<Sd> {
-        if self.inverse_mass.is_unit() {
+    fn diagonal<Sd: Simd>(
+        w: &InverseMass, a: &[Lanes<Sd>; 3], bead: usize, b: &[Lanes<Sd>; 3],
+    ) -> Lanes<Sd> {
+        if w.is_unit() {
             let t = dot3(a, b);
             t + t
         } else {
-            self.weighted(a, bead, b) + self.weighted(a, bead + 1, b)
+            Self::weighted(w, a, bead, b) + Self::weighted(w, a, bead + 1, b)
         }
     }
 }
 
-impl ConstraintLanes for ChainLanes {
+impl ConstraintLanes for BeadChain {
     type Shape = Tridiagonal;
-
-    fn dims(&self) -> (usize, usize) {
-        (3 * self.beads, self.beads - 1)
-    }
-
-    fn roundoff(&self) -> Roundoff {
-        self.roundoff
-    }
-
-    fn inverse_mass(&self) -> &InverseMass {
-        &self.inverse_mass
-    }
 
     /// g(x1) and Dg(x1) M^-1 grad g(r), with e = segments of x1 and f = segments of r:
     /// g_i = 1/2 - |e_i|^2 / (2 ds^2) and the tridiagonal matrix scaled by 1 / ds^4
@@ -106,12 +71,12 @@ impl ConstraintLanes for ChainLanes {
     /// back (`values` is not used).
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, x1: &P, r: &[Lanes<Sd>], _values: &mut [Lanes<Sd>],
+        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], _values: &mut [Lanes<Sd>],
         jacobian: &mut TridiagonalGram<Lanes<Sd>>, factor: &mut ThomasFactor<Lanes<Sd>>,
         step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
-        let s = self.inv_ds2 * self.inv_ds2;
-        let m = self.beads - 1;
+        let s = self.inverse_segment_squared() * self.inverse_segment_squared();
+        let m = self.beads() - 1;
         let mut e_next = segment(x1, 0);
         let mut f_next = segment(r, 0);
         let half = r[0].splat_like(0.5);
@@ -121,14 +86,14 @@ impl ConstraintLanes for ChainLanes {
         let mut factors = factor.factors();
         for (i, out) in step.iter_mut().enumerate().take(m) {
             let (e, f) = (e_next, f_next);
-            let value = distance_value(&e, self.inv_ds2);
-            let diag = self.diagonal(&e, i, &f) * s;
+            let value = distance_value(&e, self.inverse_segment_squared());
+            let diag = Self::diagonal(w, &e, i, &f) * s;
             jacobian.diag[i] = diag;
             let off_diagonal = if i + 1 < m {
                 e_next = segment(x1, i + 1);
                 f_next = segment(r, i + 1);
-                let upper = -self.weighted(&e, i + 1, &f_next) * s;
-                let lower = -self.weighted(&e_next, i + 1, &f) * s;
+                let upper = -Self::weighted(w, &e, i + 1, &f_next) * s;
+                let lower = -Self::weighted(w, &e_next, i + 1, &f) * s;
                 jacobian.upper[i] = upper;
                 jacobian.lower[i] = lower;
                 Some((upper, lower))
@@ -152,10 +117,9 @@ impl ConstraintLanes for ChainLanes {
     /// (the default's three passes in one).
     #[inline(always)]
     fn velocity_right_hand_side<Sd: Simd>(
-        &self, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
+        &self, w: &InverseMass, x: &[Lanes<Sd>], force: &mut [Lanes<Sd>], v: &[Lanes<Sd>],
         factor: &ThomasFactor<Lanes<Sd>>, out: &mut [Lanes<Sd>],
     ) {
-        let w = &self.inverse_mass;
         let mut previous = [x[0]; 3];
         for c in 0..3 {
             force[c] = w.apply(c, force[c]) + v[c];
@@ -174,7 +138,7 @@ impl ConstraintLanes for ChainLanes {
                 next[1] - previous[1],
                 next[2] - previous[2],
             ];
-            let value = dot3(&segment(x, i), &du) * self.inv_ds2;
+            let value = dot3(&segment(x, i), &du) * self.inverse_segment_squared();
             forward = factor.forward_row(i, value, forward);
             *o = forward;
             previous = next;
@@ -185,11 +149,11 @@ impl ConstraintLanes for ChainLanes {
     /// d_{j-1}) / ds^2 (`BeadChain::displace` for a diagonal mass); bead j's base is read
     /// before bead j of out is written.
     #[inline(always)]
-    fn displace<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>, out: &mut [Lanes<Sd>],
+    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
+        out: &mut [Lanes<Sd>],
     ) {
         let mut previous = [r[0].splat_like(0.0); 3];
-        let w = &self.inverse_mass;
         for (i, zi) in z.iter().enumerate() {
             let current = self.segment_term(r, i, *zi);
             let b = base_coords::<_, _, 3>(base, out, 3 * i);
@@ -199,14 +163,14 @@ impl ConstraintLanes for ChainLanes {
             }
             previous = current;
         }
-        let last = 3 * (self.beads - 1);
+        let last = 3 * (self.beads() - 1);
         let b = base_coords::<_, _, 3>(base, out, last);
         for c in 0..3 {
             out[last + c] = b[c] + w.apply(last + c, -previous[c]);
         }
     }
 
-    /// [`ConstraintLanes::displace`] in place, the check of v_{k+1} and the velocity residual
+    /// [`ConstraintLanes::displace_lanes`] in place, the check of v_{k+1} and the velocity residual
     /// in one pass over the beads: bead j of v_{k+1} is final once segment j is displaced, so
     /// row j - 1 of Dg(x) v_{k+1} follows at once. A lane passes the check if every |v_k| <=
     /// sqrt(MAX / (2 n)), under which |v|^2 cannot overflow whatever the order of the sum: it
@@ -215,12 +179,11 @@ impl ConstraintLanes for ChainLanes {
     /// `negated_jacobian_mul`'s rows, in their order.
     #[inline(always)]
     fn finish_velocity<Sd: Simd>(
-        &self, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>], monitor: bool,
-        v: &mut [Lanes<Sd>], _scratch: &mut [Lanes<Sd>],
+        &self, w: &InverseMass, r: &[Lanes<Sd>], lambda: &[Lanes<Sd>], x: &[Lanes<Sd>],
+        monitor: bool, v: &mut [Lanes<Sd>], _scratch: &mut [Lanes<Sd>],
     ) -> (LaneMask<Sd>, Lanes<Sd>) {
-        let w = &self.inverse_mass;
         let zero = r[0].splat_like(0.0);
-        let bound = zero.splat_like((f64::MAX / (6 * self.beads) as f64).sqrt());
+        let bound = zero.splat_like((f64::MAX / (6 * self.beads()) as f64).sqrt());
         let mut bounded = [zero.eq(zero); 3];
         let mut residual = zero;
         let mut previous = [zero; 3];
@@ -240,7 +203,7 @@ impl ConstraintLanes for ChainLanes {
             before = bead;
             previous = current;
         }
-        let last = 3 * (self.beads - 1);
+        let last = 3 * (self.beads() - 1);
         let mut bead = [zero; 3];
         for c in 0..3 {
             v[last + c] = v[last + c] + w.apply(last + c, -previous[c]);
@@ -248,7 +211,7 @@ impl ConstraintLanes for ChainLanes {
             bounded[c] = bounded[c].and(bead[c].abs().le(bound));
         }
         if monitor {
-            let row = self.beads - 2;
+            let row = self.beads() - 2;
             residual = residual.max(self.velocity_row(x, row, &before, &bead).abs());
         }
         (bounded[0].and(bounded[1]).and(bounded[2]), residual)
@@ -259,13 +222,13 @@ impl ConstraintLanes for ChainLanes {
     fn negated_jacobian_mul<Sd: Simd>(
         &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
-        segment_rates(x, u, self.inv_ds2, out);
+        segment_rates(x, u, self.inverse_segment_squared(), out);
     }
 
     /// The chain's local measure of the motion (`BeadChain`'s formula).
     #[inline(always)]
-    fn local_motion<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
-        Some(chain_motion(self.segment, v, a))
+    fn local_motion_lanes<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
+        Some(chain_motion(self.segment(), v, a))
     }
 }
 

@@ -21,7 +21,7 @@
 use pulp::{Simd, WithSimd};
 use sdae_lanes::{LaneMask, Lanes, per_path};
 use sdae_manifold::MatrixFactor;
-use sdae_manifold::lane_form::ConstraintLanes;
+use sdae_manifold::lane_form::{ConstraintLanes, LaneForm};
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,
@@ -35,7 +35,9 @@ use crate::stepper::Stepper;
 
 impl<S: System> NewtonKernels for Stepper<S> {
     type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
-    fn kernel<Sd: Simd, C: ConstraintLanes>(&self, simd: Sd, constraint: C) -> Kernel<Sd, C> {
+    fn kernel<Sd: Simd, C: ConstraintLanes>(
+        &self, simd: Sd, constraint: LaneForm<C>,
+    ) -> Kernel<Sd, C> {
         Kernel::new(simd, constraint)
     }
     fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
@@ -50,7 +52,7 @@ impl<S: System> NewtonKernels for Stepper<S> {
 pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     h: f64,
-    constraint: C,
+    constraint: LaneForm<C>,
     /// The kappa root; its `gamma` rows are scratch after it (-Dg(r_{k+1}) v_{k+1}).
     root: NewtonRoot<Sd, C>,
     /// Path-by-path buffers of a system without lane forms of this size.
@@ -58,7 +60,7 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
 }
 
 impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
-    fn new(simd: Sd, constraint: C) -> Self {
+    fn new(simd: Sd, constraint: LaneForm<C>) -> Self {
         Self {
             simd,
             h: 0.0,

@@ -181,10 +181,103 @@ impl Factorize for ScalarGram {
     }
 }
 
+/// The check that a factorization over lanes is the one-path factorization in each lane.
+#[cfg(test)]
+pub(crate) mod lanes_check {
+    use super::*;
+    use pulp::Simd;
+    use sdae_lanes::Lanes;
+
+    /// W lanes whose lane i holds `value(i)`.
+    pub(crate) fn lanes_of<S: Simd>(simd: S, value: impl Fn(usize) -> f64) -> Lanes<S> {
+        let per_lane: Vec<f64> = (0..Lanes::<S>::WIDTH).map(value).collect();
+        Lanes::load(simd, &per_lane)
+    }
+
+    /// Factors, solves and multiplies the lanes' matrix `a` (lane i holding `one_path[i]`)
+    /// with F, and checks each lane against one path's storage and factorization bit for
+    /// bit: the product A b in every lane, the lanes F accepts exactly where `accepted` holds
+    /// of one path's factorization (its factor and result), and their solutions A^-1 b.
+    pub(crate) fn assert_lanes_are_one_path<S: Simd, F: MatrixFactor<Lanes<S>>, G: Factorize>(
+        simd: S, a: &F::Matrix, one_path: &[G],
+        accepted: impl Fn(&G::Factor, Result<(), LinearError>) -> bool,
+    ) {
+        let m = one_path[0].order();
+        let b_of = |lane: usize, i: usize| (i as f64 + 0.5 * lane as f64).sin();
+        let b: Vec<Lanes<S>> = (0..m)
+            .map(|i| lanes_of(simd, |lane| b_of(lane, i)))
+            .collect();
+        let zero = Lanes::splat(simd, 0.0);
+        let (mut x, mut product) = (vec![zero; m], vec![zero; m]);
+        let mut factor = F::zeros_like(zero, m);
+        let ok = factor.factor(a, Some((&b, &mut x)));
+        factor.back_substitute(&mut x);
+        a.product(&b, &mut product);
+        for (lane, gram) in one_path.iter().enumerate() {
+            let b_lane: Vec<f64> = (0..m).map(|i| b_of(lane, i)).collect();
+            let mut expected_product = vec![0.0; m];
+            gram.mul_vec(&b_lane, &mut expected_product);
+            let mut one_factor = gram.new_factor();
+            let result = gram.factor_into(&mut one_factor);
+            let lane_ok = accepted(&one_factor, result);
+            assert_eq!(ok.lane(lane), lane_ok, "m = {m}, lane {lane}");
+            let mut expected = b_lane;
+            one_factor.solve_in_place(&mut expected);
+            for i in 0..m {
+                let case = format!("m = {m}, lane {lane}, entry {i}");
+                assert_eq!(
+                    product[i].lane(lane).to_bits(),
+                    expected_product[i].to_bits(),
+                    "{case}"
+                );
+                if lane_ok {
+                    assert_eq!(x[i].lane(lane).to_bits(), expected[i].to_bits(), "{case}");
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::{DenseGram, TridiagonalGram};
+
+    /// 1 / A over lanes against one path's `ScalarFactor`, with lanes of A = 0 and A infinite
+    /// that both reject.
+    struct ScalarCheck;
+
+    impl pulp::WithSimd for ScalarCheck {
+        type Output = ();
+        fn with_simd<S: pulp::Simd>(self, simd: S) {
+            let value = |lane: usize| match lane % 4 {
+                1 => 0.0,
+                3 => f64::INFINITY,
+                _ => 2.5 - 1.75 * lane as f64,
+            };
+            let width = sdae_lanes::Lanes::<S>::WIDTH;
+            let one_path: Vec<ScalarGram> =
+                (0..width).map(|lane| ScalarGram(value(lane))).collect();
+            let a = ScalarGram(lanes_check::lanes_of(simd, value));
+            lanes_check::assert_lanes_are_one_path::<S, ScalarFactor<_>, _>(
+                simd,
+                &a,
+                &one_path,
+                |_, result| result.is_ok(),
+            );
+        }
+    }
+
+    #[test]
+    fn scalar_lanes_are_one_path_bit_for_bit() {
+        for width in [
+            sdae_lanes::LaneWidth::One,
+            sdae_lanes::LaneWidth::Four,
+            sdae_lanes::LaneWidth::Eight,
+        ] {
+            width.dispatch(ScalarCheck);
+        }
+    }
 
     fn residual<A: GramMatrix>(a: &A, x: &[f64], b: &[f64]) -> f64 {
         let mut ax = vec![0.0; b.len()];

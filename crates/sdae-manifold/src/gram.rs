@@ -11,7 +11,7 @@ use sdae_lanes::Real;
 
 use crate::dense_lu::dense_mul;
 use crate::factor::{LuFactor, MatrixFactor, ScalarFactor, ThomasFactor};
-use crate::thomas::tridiagonal_mul;
+use crate::thomas::{tridiagonal_mul, zero_bands};
 
 /// Which structure a constraint's Gram matrix has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -137,13 +137,8 @@ impl TridiagonalGram {
 
 impl<T: Real> SquareMatrix<T> for TridiagonalGram<T> {
     fn zeros_like(like: T, m: usize) -> Self {
-        let zero = like.splat_like(0.0);
-        let off = m.saturating_sub(1);
-        Self {
-            lower: vec![zero; off],
-            diag: vec![zero; m],
-            upper: vec![zero; off],
-        }
+        let [lower, diag, upper] = zero_bands(like, m);
+        Self { lower, diag, upper }
     }
     /// out_i = (d_i x_i + l_{i-1} x_{i-1}) + u_i x_{i+1} (`thomas::tridiagonal_mul`): the first
     /// and last rows apart, so that the loop over the interior rows vectorizes.

@@ -38,6 +38,14 @@ pub(crate) fn tridiagonal_mul<T: Real>(
     out[m - 1] = diag[m - 1] * x[m - 1] + lower[m - 2] * x[m - 2];
 }
 
+/// Three bands of zeros of the kind of `like` for order m >= 1: m - 1 below the diagonal, m
+/// on it, m - 1 above (a tridiagonal matrix, or Thomas' factors).
+pub(crate) fn zero_bands<T: Real>(like: T, m: usize) -> [Vec<T>; 3] {
+    let zero = like.splat_like(0.0);
+    let off = m.saturating_sub(1);
+    [vec![zero; off], vec![zero; m], vec![zero; off]]
+}
+
 /// Row i of A x for a tridiagonal A of order `x.len()`, from the row's entries: what
 /// [`tridiagonal_mul`] computes for that row.
 #[inline(always)]

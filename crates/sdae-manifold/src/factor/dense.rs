@@ -161,6 +161,7 @@ impl Factorize for DenseGram {
 mod tests {
     use super::*;
     use crate::SquareMatrix;
+    use crate::factor::lanes_check::{assert_lanes_are_one_path, lanes_of};
     use pulp::{Simd, WithSimd};
     use sdae_lanes::{LaneWidth, Lanes};
 
@@ -179,7 +180,7 @@ mod tests {
     }
 
     /// Each lane's factor, solve and product against one path's `DenseGram` and `DenseFactor`,
-    /// bit for bit, and the lanes the scalar factorization rejects.
+    /// bit for bit, and the lanes one path's factorization rejects.
     struct Check {
         m: usize,
     }
@@ -188,52 +189,17 @@ mod tests {
         type Output = ();
         fn with_simd<S: Simd>(self, simd: S) {
             let m = self.m;
-            let width = Lanes::<S>::WIDTH;
-            let lanes_of = |values: &dyn Fn(usize) -> f64| {
-                let per_lane: Vec<f64> = (0..width).map(values).collect();
-                Lanes::load(simd, &per_lane)
-            };
-            let scalar: Vec<DenseGram> = (0..width).map(|lane| matrix(m, lane)).collect();
-            let zero = Lanes::splat(simd, 0.0);
-            let mut a = DenseGram::zeros_like(zero, m);
+            let one_path: Vec<DenseGram> =
+                (0..Lanes::<S>::WIDTH).map(|lane| matrix(m, lane)).collect();
+            let mut a = DenseGram::zeros_like(Lanes::splat(simd, 0.0), m);
             for i in 0..m {
                 for j in 0..m {
-                    a.set(i, j, lanes_of(&|lane| scalar[lane].entry(i, j)));
+                    a.set(i, j, lanes_of(simd, |lane| one_path[lane].entry(i, j)));
                 }
             }
-            let b_of = |lane: usize, i: usize| (i as f64 + 0.5 * lane as f64).sin();
-            let b: Vec<Lanes<S>> = (0..m).map(|i| lanes_of(&|lane| b_of(lane, i))).collect();
-            let mut x = vec![Lanes::splat(simd, 0.0); m];
-            let mut factor = LuFactor::zeros_like(zero, m);
-            let ok = factor.factor(&a, Some((&b, &mut x)));
-            factor.back_substitute(&mut x);
-            let mut product = vec![Lanes::splat(simd, 0.0); m];
-            a.product(&b, &mut product);
-            for (lane, gram) in scalar.iter().enumerate() {
-                let mut expected_product = vec![0.0; m];
-                let b_lane: Vec<f64> = (0..m).map(|i| b_of(lane, i)).collect();
-                gram.mul_vec(&b_lane, &mut expected_product);
-                for i in 0..m {
-                    assert_eq!(
-                        product[i].lane(lane).to_bits(),
-                        expected_product[i].to_bits()
-                    );
-                }
-                let mut scalar_factor = gram.new_factor();
-                let factored = gram.factor_into(&mut scalar_factor);
-                assert_eq!(ok.lane(lane), factored.is_ok(), "m = {m}, lane {lane}");
-                if factored.is_ok() {
-                    let mut expected = b_lane.clone();
-                    scalar_factor.solve_in_place(&mut expected);
-                    for i in 0..m {
-                        assert_eq!(
-                            x[i].lane(lane).to_bits(),
-                            expected[i].to_bits(),
-                            "m = {m}, lane {lane}, entry {i}"
-                        );
-                    }
-                }
-            }
+            assert_lanes_are_one_path::<S, LuFactor<_>, _>(simd, &a, &one_path, |_, result| {
+                result.is_ok()
+            });
         }
     }
 

@@ -10,7 +10,9 @@ use super::{
 };
 use crate::error::LinearError;
 use crate::gram::TridiagonalGram;
-use crate::thomas::{self, Row, ThomasFactors, ThomasSweep, forward_step, tridiagonal_row};
+use crate::thomas::{
+    self, Row, ThomasFactors, ThomasSweep, forward_step, tridiagonal_row, zero_bands,
+};
 
 /// Thomas' factors of a tridiagonal matrix of order m (`crate::thomas`): the multipliers
 /// l_i / p_{i+1}, the inverse pivots 1 / p_i and u_i / p_i.
@@ -109,12 +111,11 @@ impl<T: Real> MatrixFactor<T> for ThomasFactor<T> {
     type Matrix = TridiagonalGram<T>;
 
     fn zeros_like(like: T, m: usize) -> Self {
-        let zero = like.splat_like(0.0);
-        let off = m.saturating_sub(1);
+        let [lower, inverse_pivot, upper] = zero_bands(like, m);
         Self {
-            lower: vec![zero; off],
-            inverse_pivot: vec![zero; m],
-            upper: vec![zero; off],
+            lower,
+            inverse_pivot,
+            upper,
         }
     }
 
@@ -420,7 +421,7 @@ impl TridiagonalGram {
 mod tests {
     use super::*;
     use crate::SquareMatrix;
-    use crate::gram::GramMatrix;
+    use crate::factor::lanes_check::{assert_lanes_are_one_path, lanes_of};
     use pulp::{Simd, WithSimd};
     use sdae_lanes::{LaneWidth, Lanes};
 
@@ -441,8 +442,9 @@ mod tests {
         a
     }
 
-    /// Each lane's factor, solve and fused product against one path's `TridiagonalFactor`,
-    /// bit for bit, and the lanes Thomas' algorithm rejects.
+    /// Each lane's factor, solve and product against one path's `TridiagonalGram` and
+    /// `TridiagonalFactor`, bit for bit, and the lanes whose pivots Thomas' algorithm rejects
+    /// (where one path pivots).
     struct Check {
         m: usize,
     }
@@ -451,56 +453,22 @@ mod tests {
         type Output = ();
         fn with_simd<S: Simd>(self, simd: S) {
             let m = self.m;
-            let width = Lanes::<S>::WIDTH;
-            let lanes_of = |values: &dyn Fn(usize) -> f64| {
-                let per_lane: Vec<f64> = (0..width).map(values).collect();
-                Lanes::load(simd, &per_lane)
-            };
-            let one_path: Vec<TridiagonalGram> = (0..width).map(|lane| matrix(m, lane)).collect();
-            let zero = Lanes::splat(simd, 0.0);
-            let mut a = TridiagonalGram::zeros_like(zero, m);
+            let one_path: Vec<TridiagonalGram> =
+                (0..Lanes::<S>::WIDTH).map(|lane| matrix(m, lane)).collect();
+            let mut a = TridiagonalGram::zeros_like(Lanes::splat(simd, 0.0), m);
             for i in 0..m {
-                a.diag[i] = lanes_of(&|lane| one_path[lane].diag[i]);
+                a.diag[i] = lanes_of(simd, |lane| one_path[lane].diag[i]);
             }
             for i in 0..m - 1 {
-                a.lower[i] = lanes_of(&|lane| one_path[lane].lower[i]);
-                a.upper[i] = lanes_of(&|lane| one_path[lane].upper[i]);
+                a.lower[i] = lanes_of(simd, |lane| one_path[lane].lower[i]);
+                a.upper[i] = lanes_of(simd, |lane| one_path[lane].upper[i]);
             }
-            let b_of = |lane: usize, i: usize| (i as f64 + 0.5 * lane as f64).sin();
-            let b: Vec<Lanes<S>> = (0..m).map(|i| lanes_of(&|lane| b_of(lane, i))).collect();
-            let mut x = vec![zero; m];
-            let mut factor = ThomasFactor::zeros_like(zero, m);
-            let ok = factor.factor(&a, Some((&b, &mut x)));
-            factor.back_substitute(&mut x);
-            let mut product = vec![zero; m];
-            a.product(&b, &mut product);
-            for (lane, gram) in one_path.iter().enumerate() {
-                let b_lane: Vec<f64> = (0..m).map(|i| b_of(lane, i)).collect();
-                let mut expected_product = vec![0.0; m];
-                gram.mul_vec(&b_lane, &mut expected_product);
-                let mut one_factor = gram.new_factor();
-                gram.factor_into(&mut one_factor).unwrap();
-                assert_eq!(
-                    ok.lane(lane),
-                    !one_factor.is_pivoted(),
-                    "m = {m}, lane {lane}"
-                );
-                let mut expected = b_lane.clone();
-                one_factor.solve_in_place(&mut expected);
-                for i in 0..m {
-                    assert_eq!(
-                        product[i].lane(lane).to_bits(),
-                        expected_product[i].to_bits()
-                    );
-                    if ok.lane(lane) {
-                        assert_eq!(
-                            x[i].lane(lane).to_bits(),
-                            expected[i].to_bits(),
-                            "m = {m}, lane {lane}, entry {i}"
-                        );
-                    }
-                }
-            }
+            assert_lanes_are_one_path::<S, ThomasFactor<_>, _>(
+                simd,
+                &a,
+                &one_path,
+                |factor, result| result.is_ok() && !factor.is_pivoted(),
+            );
         }
     }
 

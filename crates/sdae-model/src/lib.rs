@@ -88,6 +88,7 @@ mod lane_ensemble;
 mod newton_lanes;
 mod newton_root;
 mod observer;
+mod one_lane;
 mod scheme;
 mod sphere_lanes;
 mod sphere_root;
@@ -126,6 +127,7 @@ pub mod engine {
     };
     pub use crate::newton_lanes::{NewtonKernels, step_newton_lanes};
     pub use crate::newton_root::{Drifted, NewtonLanes, NewtonRoot, build_lane_form};
+    pub use crate::one_lane::{OneLaneRoot, OneLaneStep, step_one_lane};
     pub use crate::sphere_lanes::{
         SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_groups, step_sphere_lanes,
     };

@@ -3,17 +3,19 @@
 //! take the sphere the constraint offers ([`LaneFormVisitor::sphere`], so that the kernels are
 //! compiled only for systems on a sphere), choose the instruction set of the width and the
 //! dimension, build the kernel and step every group of lanes
-//! ([`LanePaths::step_groups`]).
+//! ([`LanePaths::step_groups`]). A scheme's own step of one path runs the same kernels at W = 1
+//! ([`step_one_lane`](crate::engine::step_one_lane)).
 
 use std::marker::PhantomData;
 
-use pulp::{Simd, WithSimd};
-use sdae_lanes::LaneWidth;
+use pulp::{Scalar, Simd, WithSimd};
+use sdae_lanes::{LaneWidth, Lanes};
 use sdae_manifold::lane_form::LaneFormVisitor;
 use sdae_manifold::{Constraint, Mass, Sphere};
 
-use crate::lane_ensemble::{LaneKernel, LanePaths, StepInput};
+use crate::lane_ensemble::{LaneKernel, LanePaths, LaneStep, StepInput};
 use crate::scheme::Scheme;
+use crate::sphere_root::RootLanes;
 use crate::system::System;
 
 /// The largest sphere dimension stepped in lanes (the planar and the spherical pendulum).
@@ -29,6 +31,16 @@ pub trait SphereKernels<Sch: ?Sized> {
     fn kernel<const N: usize>(
         &self, scheme: &Sch, sphere: &Sphere, h: f64,
     ) -> Option<Self::Kernel<N>>;
+    /// The kernel's step of one path at W = 1
+    /// ([`step_one_lane`](crate::engine::step_one_lane)), with its kappa root where the scheme
+    /// reads it: [`LaneKernel::step`] and no root unless overridden.
+    #[inline(always)]
+    fn step_with_root<const N: usize>(
+        &self, kernel: &Self::Kernel<N>, scheme: &Sch, r: &[Lanes<Scalar>; N],
+        v: &[Lanes<Scalar>; N], dw: &[Lanes<Scalar>],
+    ) -> Option<(LaneStep<Scalar, N>, Option<RootLanes<Scalar, N>>)> {
+        kernel.step(scheme, r, v, dw).map(|step| (step, None))
+    }
 }
 
 /// Steps every path of `paths` through the kernels of `kernels` where the scheme's system is a

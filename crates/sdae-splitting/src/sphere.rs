@@ -8,10 +8,9 @@
 
 use pulp::Simd;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes, dot};
-use sdae_manifold::lane_form::LaneFormVisitor;
-use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_manifold::Sphere;
 use sdae_model::engine::{
-    LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
+    self, LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
 };
 use sdae_model::{LaneScheme, StepOutcome, System};
@@ -199,73 +198,18 @@ impl<const N: usize> Kernel<N> {
 }
 
 /// [`Splitting`]'s step of one path (checked input) for a sphere of dimension 2 or 3 with a
-/// diagonal mass: this module's step at W = 1, in plain f64, with mu's increment. `None` where
-/// the lane form does not apply or does not decide; (r, v) are then unchanged and the general
-/// path decides, with its errors.
+/// diagonal mass: this module's step at W = 1, in plain f64 ([`engine::step_one_lane`]), with
+/// mu's increment. `None` where the lane form does not apply or does not decide; (r, v) are
+/// then unchanged and the general path decides, with its errors.
 #[inline]
 pub(crate) fn step_one_lane<S: System>(
     scheme: &Splitting<S>, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
 ) -> Option<(StepOutcome, f64)> {
-    if !<S::Mass as Mass>::DIAGONAL {
-        return None;
-    }
-    let system = &scheme.system;
-    let step = OneLaneStep {
-        scheme,
-        r,
-        v,
-        h,
-        dw,
+    let step = engine::step_one_lane(scheme, Kernels, r, v, h, dw)?;
+    let outcome = StepOutcome {
+        position_residual: step.position_residual,
+        velocity_residual: step.velocity_residual,
+        ..StepOutcome::PLAIN
     };
-    system.constraint().lane_form(system.mass(), step)
-}
-
-/// [`step_one_lane`] where the constraint offers its sphere: compiled only for spheres.
-struct OneLaneStep<'a, S: System> {
-    scheme: &'a Splitting<S>,
-    r: &'a mut [f64],
-    v: &'a mut [f64],
-    h: f64,
-    dw: &'a [f64],
-}
-
-impl<S: System> LaneFormVisitor for OneLaneStep<'_, S> {
-    type Output = Option<(StepOutcome, f64)>;
-    fn none(self) -> Self::Output {
-        None
-    }
-    #[inline(always)]
-    fn sphere(self, sphere: &Sphere) -> Self::Output {
-        match (sphere.dim(), self.dw.len() <= sphere.dim()) {
-            (2, true) => self.one_lane::<2>(sphere),
-            (3, true) => self.one_lane::<3>(sphere),
-            _ => None,
-        }
-    }
-}
-
-impl<S: System> OneLaneStep<'_, S> {
-    #[inline(always)]
-    fn one_lane<const N: usize>(self, sphere: &Sphere) -> Option<(StepOutcome, f64)> {
-        let simd = pulp::Scalar;
-        let kernel = Kernel::<N>::new(self.scheme, sphere, self.h);
-        let lanes = |x: &[f64]| -> [Lanes<pulp::Scalar>; N] {
-            std::array::from_fn(|i| Lanes::splat(simd, x.get(i).copied().unwrap_or(0.0)))
-        };
-        let (r, v, dw) = (lanes(self.r), lanes(self.v), lanes(self.dw));
-        let step = kernel.step(self.scheme, &r, &v, &dw[..self.dw.len()])?;
-        if !step.ok.lane(0) {
-            return None;
-        }
-        for i in 0..N {
-            self.r[i] = step.r[i].lane(0);
-            self.v[i] = step.v[i].lane(0);
-        }
-        let outcome = StepOutcome {
-            position_residual: step.record.position_residual.map(|x| x.lane(0)),
-            velocity_residual: step.record.velocity_residual.map(|x| x.lane(0)),
-            ..StepOutcome::PLAIN
-        };
-        Some((outcome, step.dmu.lane(0)))
-    }
+    Some((outcome, step.dmu))
 }

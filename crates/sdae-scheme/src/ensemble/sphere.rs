@@ -8,14 +8,13 @@
 //! The ensemble runs it W paths at a time; [`Stepper`]'s own step of one path runs the same
 //! code at W = 1, in plain f64 ([`step_one_lane`]).
 
-use pulp::Simd;
+use pulp::{Scalar, Simd};
 use sdae_ift::{Certificate, Method};
 use sdae_lanes::{LaneWidth, Lanes, dot};
-use sdae_manifold::lane_form::LaneFormVisitor;
-use sdae_manifold::{Constraint, Mass, Sphere, motion_measure};
+use sdae_manifold::{Mass, Sphere, motion_measure};
 use sdae_model::engine::{
-    LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
-    step_sphere_groups,
+    self, LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot,
+    StepInput, step_sphere_groups,
 };
 use sdae_model::{Scheme, StepOutcome, System};
 
@@ -44,6 +43,15 @@ impl<S: System> SphereKernels<Stepper<S>> for Kernels {
         &self, stepper: &Stepper<S>, sphere: &Sphere, h: f64,
     ) -> Option<Kernel<N>> {
         Kernel::new(stepper, sphere, h)
+    }
+    /// The step with its kappa root, which the certificate of one path's step reads.
+    #[inline(always)]
+    fn step_with_root<const N: usize>(
+        &self, kernel: &Kernel<N>, stepper: &Stepper<S>, r: &[Lanes<Scalar>; N],
+        v: &[Lanes<Scalar>; N], dw: &[Lanes<Scalar>],
+    ) -> Option<(LaneStep<Scalar, N>, Option<RootLanes<Scalar, N>>)> {
+        let (step, root) = kernel.step_with_root(stepper, r, v, dw)?;
+        Some((step, Some(root)))
     }
 }
 
@@ -223,101 +231,38 @@ pub(crate) struct OneLane {
 }
 
 /// [`Stepper`]'s step of one path (checked input) for a sphere of dimension 2 or 3 with a
-/// diagonal mass: this module's step at W = 1, in plain f64, with the certificate of the
-/// ball solver's closed form (no iterations, no rounding correction: a decided root lies in
-/// the ball). `None` where the lane form does not apply (another constraint or mass, more
-/// noise components than coordinates) or does not decide the step; (r, v) are then
-/// unchanged and the general path decides, with its errors.
+/// diagonal mass: this module's step at W = 1, in plain f64 ([`engine::step_one_lane`]), with
+/// the certificate of the ball solver's closed form (no iterations, no rounding correction: a
+/// decided root lies in the ball). `None` where the lane form does not apply (another
+/// constraint or mass, more noise components than coordinates) or does not decide the step;
+/// (r, v) are then unchanged and the general path decides, with its errors.
 #[inline]
 pub(crate) fn step_one_lane<S: System>(
     stepper: &Stepper<S>, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
 ) -> Option<OneLane> {
-    if !<S::Mass as Mass>::DIAGONAL {
-        return None;
-    }
-    let system = stepper.system();
-    let step = OneLaneStep {
-        stepper,
-        r,
-        v,
-        h,
-        dw,
-    };
-    system.constraint().lane_form(system.mass(), step)
-}
-
-/// [`step_one_lane`] where the constraint offers its sphere ([`LaneFormVisitor::sphere`]): the
-/// closed form is compiled only for constraints that offer it.
-struct OneLaneStep<'a, S: System> {
-    stepper: &'a Stepper<S>,
-    r: &'a mut [f64],
-    v: &'a mut [f64],
-    h: f64,
-    dw: &'a [f64],
-}
-
-impl<S: System> LaneFormVisitor for OneLaneStep<'_, S> {
-    type Output = Option<OneLane>;
-    fn none(self) -> Option<OneLane> {
-        None
-    }
-    #[inline(always)]
-    fn sphere(self, sphere: &Sphere) -> Option<OneLane> {
-        let Self {
-            stepper,
-            r,
-            v,
-            h,
-            dw,
-        } = self;
-        match (sphere.dim(), dw.len() <= sphere.dim()) {
-            (2, true) => one_lane::<S, 2>(stepper, sphere, r, v, h, dw),
-            (3, true) => one_lane::<S, 3>(stepper, sphere, r, v, h, dw),
-            _ => None,
-        }
-    }
-}
-
-#[inline(always)]
-fn one_lane<S: System, const N: usize>(
-    stepper: &Stepper<S>, sphere: &Sphere, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
-) -> Option<OneLane> {
-    let simd = pulp::Scalar;
-    let kernel = Kernel::<N>::new(stepper, sphere, h)?;
-    let lanes = |x: &[f64]| -> [Lanes<pulp::Scalar>; N] {
-        std::array::from_fn(|i| Lanes::splat(simd, x.get(i).copied().unwrap_or(0.0)))
-    };
-    let (r_lanes, v_lanes, dw_lanes) = (lanes(r), lanes(v), lanes(dw));
-    let (step, root) = kernel.step_with_root(stepper, &r_lanes, &v_lanes, &dw_lanes[..dw.len()])?;
-    if !step.ok.lane(0) {
-        return None;
-    }
-    for i in 0..N {
-        r[i] = step.r[i].lane(0);
-        v[i] = step.v[i].lane(0);
-    }
-    let residual = root.residual.lane(0);
+    let step = engine::step_one_lane(stepper, Kernels, r, v, h, dw)?;
+    let root = step.root?;
     let certificate = Certificate {
         iterations: 0,
         homotopy_steps: 0,
         method: Method::ClosedForm,
-        residual,
-        norm: root.gamma.lane(0).abs(),
-        radius: kernel.root.radius(),
-        first_step: root.first_step.lane(0),
-        contraction: root.contraction.lane(0),
+        residual: root.residual,
+        norm: root.gamma.abs(),
+        radius: stepper.config().c_kappa,
+        first_step: root.first_step,
+        contraction: root.contraction,
         rounding: 0.0,
     };
     Some(OneLane {
         outcome: StepOutcome {
-            eta: step.record.eta.lane(0),
+            eta: step.eta,
             newton_iterations: 0,
             certificate: Some(certificate),
-            position_residual: Some(residual),
-            velocity_residual: step.record.velocity_residual.map(|x| x.lane(0)),
+            position_residual: Some(root.residual),
+            velocity_residual: step.velocity_residual,
         },
-        kappa: root.gamma.lane(0),
-        lambda: step.dmu.lane(0),
+        kappa: root.gamma,
+        lambda: step.dmu,
     })
 }
 

@@ -185,8 +185,21 @@ impl Factorize for ScalarGram {
 #[cfg(test)]
 pub(crate) mod lanes_check {
     use super::*;
-    use pulp::Simd;
-    use sdae_lanes::Lanes;
+    use pulp::{Simd, WithSimd};
+    use sdae_lanes::{LaneWidth, Lanes};
+
+    /// `check` (made by `make` for each width) at one lane, four, eight and the machine's
+    /// widest.
+    pub(crate) fn at_every_width<C: WithSimd<Output = ()>>(make: impl Fn() -> C) {
+        for width in [
+            LaneWidth::One,
+            LaneWidth::Four,
+            LaneWidth::Eight,
+            LaneWidth::Best,
+        ] {
+            width.dispatch(make());
+        }
+    }
 
     /// W lanes whose lane i holds `value(i)`.
     pub(crate) fn lanes_of<S: Simd>(simd: S, value: impl Fn(usize) -> f64) -> Lanes<S> {
@@ -270,13 +283,7 @@ mod tests {
 
     #[test]
     fn scalar_lanes_are_one_path_bit_for_bit() {
-        for width in [
-            sdae_lanes::LaneWidth::One,
-            sdae_lanes::LaneWidth::Four,
-            sdae_lanes::LaneWidth::Eight,
-        ] {
-            width.dispatch(ScalarCheck);
-        }
+        lanes_check::at_every_width(|| ScalarCheck);
     }
 
     fn residual<A: GramMatrix>(a: &A, x: &[f64], b: &[f64]) -> f64 {

@@ -4,6 +4,7 @@
 //! compute each path's own numbers, the projection's typed failure where the half-explicit
 //! step goes on, and the systems the schemes refuse.
 
+use crate::common::noisy_pendulum;
 use sdae_lanes::LaneWidth;
 use sdae_manifold::Constraint;
 use sdae_manifold::{DenseMass, DiagonalMass, Sphere};
@@ -577,16 +578,6 @@ fn one_lane_against_general<S: System + Clone>(
 /// 0.5 (0 against 1.1e-16), max |Dg v| 0.84. Asserted with a factor 2 over them.
 #[test]
 fn the_one_lane_step_is_the_general_step_to_an_ulp_of_the_rattle_multiplier() {
-    let thermal = |dim| {
-        pendulum(PendulumParams {
-            dim,
-            length: 1.5,
-            gravity: 1.0,
-            noise: 3.0,
-            friction: 0.5,
-        })
-        .unwrap()
-    };
     let heavy = MechanicalSystem::new(
         Sphere::new(3, 1.5).unwrap(),
         DiagonalMass::new(vec![2.0, 0.5, 1.0]).unwrap(),
@@ -602,11 +593,11 @@ fn the_one_lane_step_is_the_general_step_to_an_ulp_of_the_rattle_multiplier() {
             for (what, apart) in [
                 (
                     "d = 2",
-                    one_lane_against_general(thermal(2), config, 1.0, name),
+                    one_lane_against_general(noisy_pendulum(2), config, 1.0, name),
                 ),
                 (
                     "d = 3",
-                    one_lane_against_general(thermal(3), config, 1.0, name),
+                    one_lane_against_general(noisy_pendulum(3), config, 1.0, name),
                 ),
                 (
                     "diagonal mass",

@@ -161,9 +161,9 @@ impl Factorize for DenseGram {
 mod tests {
     use super::*;
     use crate::SquareMatrix;
-    use crate::factor::lanes_check::{assert_lanes_are_one_path, lanes_of};
+    use crate::factor::lanes_check::{assert_lanes_are_one_path, at_every_width, lanes_of};
     use pulp::{Simd, WithSimd};
-    use sdae_lanes::{LaneWidth, Lanes};
+    use sdae_lanes::Lanes;
 
     /// Matrices of order `m`, one per lane, whose pivot rows differ from lane to lane (a
     /// permuted diagonally weak matrix, ties included) and one singular matrix (lane 2).
@@ -206,14 +206,7 @@ mod tests {
     #[test]
     fn lanes_factor_and_solve_as_the_scalar_lu_bit_for_bit() {
         for m in 1..=6 {
-            for width in [
-                LaneWidth::One,
-                LaneWidth::Four,
-                LaneWidth::Eight,
-                LaneWidth::Best,
-            ] {
-                width.dispatch(Check { m });
-            }
+            at_every_width(|| Check { m });
         }
     }
 

@@ -421,9 +421,9 @@ impl TridiagonalGram {
 mod tests {
     use super::*;
     use crate::SquareMatrix;
-    use crate::factor::lanes_check::{assert_lanes_are_one_path, lanes_of};
+    use crate::factor::lanes_check::{assert_lanes_are_one_path, at_every_width, lanes_of};
     use pulp::{Simd, WithSimd};
-    use sdae_lanes::{LaneWidth, Lanes};
+    use sdae_lanes::Lanes;
 
     /// Matrices of order `m`, one per lane: diagonally dominant ones of different entries, and
     /// in lane 1 one with a zero leading pivot (Thomas rejects it, one path pivots).
@@ -475,14 +475,7 @@ mod tests {
     #[test]
     fn lanes_factor_and_solve_as_one_path_bit_for_bit() {
         for m in [2, 3, 7, 16] {
-            for width in [
-                LaneWidth::One,
-                LaneWidth::Four,
-                LaneWidth::Eight,
-                LaneWidth::Best,
-            ] {
-                width.dispatch(Check { m });
-            }
+            at_every_width(|| Check { m });
         }
     }
 }

@@ -14,7 +14,7 @@ use sdae_study::mlmc::QmcSettings;
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
 use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
-use sdae_study::mlmc::study::{MlmcSettings, run_mlmc};
+use sdae_study::mlmc::study::{MlmcReport, MlmcSettings, run_mlmc};
 use sdae_study::mlmc::{caused_by_input, study_error};
 
 use sdae_study::scene::Scene;
@@ -72,6 +72,40 @@ impl MlmcArgs {
             s = s.quick();
         }
         s
+    }
+
+    /// The settings of `scene` with the command line's changes, checked against the scene: a
+    /// bad value from the scene file (not typed) is named with the file.
+    fn checked_settings(&self, scene: &Scene) -> Result<MlmcSettings, Failure> {
+        let settings = self.settings(scene);
+        settings.validate_for(scene).map_err(|e| {
+            let e = match (e, self.scenes.file_of(0)) {
+                // A value from the scene file (not typed) is named with the file, as the scene
+                // file's own checks name it.
+                (MlmcError::Setting { key, value, rule }, Some(file))
+                    if crate::flag(key).is_none() =>
+                {
+                    MlmcError::Setting {
+                        key,
+                        value,
+                        rule: format!("{rule} (scene file {})", file.display()),
+                    }
+                }
+                (e, _) => e,
+            };
+            Failure::from(e).within(&format!("scene {}", scene.name))
+        })?;
+        Ok(settings)
+    }
+
+    /// The shard (i, n) that `--shard` names, its variables read from the environment.
+    fn resolved_shard(&self) -> Result<Option<(u64, u64)>, Failure> {
+        Ok(self
+            .shard
+            .map(|s| s.resolve(|name| std::env::var(name).ok()))
+            .transpose()
+            .map_err(Failure::Usage)?
+            .map(|(i, n)| (i as u64, n as u64)))
     }
 }
 
@@ -251,22 +285,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
             scenes.len()
         )));
     };
-    let settings = args.settings(scene);
-    settings.validate_for(scene).map_err(|e| {
-        let e = match (e, args.scenes.file_of(0)) {
-            // A value from the scene file (not typed) is named with the file, as the scene
-            // file's own checks name it.
-            (MlmcError::Setting { key, value, rule }, Some(file)) if crate::flag(key).is_none() => {
-                MlmcError::Setting {
-                    key,
-                    value,
-                    rule: format!("{rule} (scene file {})", file.display()),
-                }
-            }
-            (e, _) => e,
-        };
-        Failure::from(e).within(&format!("scene {}", scene.name))
-    })?;
+    let settings = args.checked_settings(scene)?;
     let plan = args
         .plan
         .as_deref()
@@ -275,12 +294,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     if let Some(file) = &args.write_plan {
         check_plan_file(file)?;
     }
-    let shard = args
-        .shard
-        .map(|s| s.resolve(|name| std::env::var(name).ok()))
-        .transpose()
-        .map_err(Failure::Usage)?
-        .map(|(i, n)| (i as u64, n as u64));
+    let shard = args.resolved_shard()?;
     let dir = args.out.out.join("mlmc").join(&scene.name);
     let files = RunFiles::of(plan.is_some(), shard);
     let outputs = files.outputs();
@@ -313,6 +327,23 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         };
         return deliver(written, &journal, &checkpoint);
     }
+    note_study(scene, &settings);
+    let report = run_mlmc(scene, &settings, &control);
+    bar.finish_and_clear();
+    let report = report.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
+    keep(&journal, &checkpoint, &scene.name)?;
+    deliver(write_report(&report, &dir), &journal, &checkpoint)?;
+    print_summary(&report);
+    say!("wrote {}", dir.join("report.md").display());
+    if let Some(file) = &args.write_plan {
+        write_plan_file(file, scene, &settings, &report)?;
+    }
+    Ok(())
+}
+
+/// Says on stderr what the study of `scene` runs: the observable, scheme, levels, eps and
+/// threads.
+fn note_study(scene: &Scene, settings: &MlmcSettings) {
     let s = &settings.spec;
     note!(
         "{}: MLMC of E[{}] with {}, level 0 on 2^{} steps, {}eps {:?}, {} threads",
@@ -324,23 +355,26 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         s.eps,
         settings.threads
     );
-    let report = run_mlmc(scene, &settings, &control);
-    bar.finish_and_clear();
-    let report = report.map_err(|e| stopped(e, &journal, &checkpoint, &scene.name))?;
-    keep(&journal, &checkpoint, &scene.name)?;
-    deliver(write_report(&report, &dir), &journal, &checkpoint)?;
-    print_summary(&report);
-    say!("wrote {}", dir.join("report.md").display());
-    if let Some(file) = &args.write_plan {
-        let eps = s.eps.iter().copied().fold(f64::INFINITY, f64::min);
-        let plan = plan_for_eps(scene, &settings, &report, eps)?;
-        write_json(file, &plan)?;
-        say!(
-            "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
-            file.display(),
-            plan.samples
-        );
-    }
+}
+
+/// Writes to `file` the plan for the smallest eps of `settings` from the study's `report`,
+/// and says where.
+fn write_plan_file(
+    file: &Path, scene: &Scene, settings: &MlmcSettings, report: &MlmcReport,
+) -> Result<(), Failure> {
+    let eps = settings
+        .spec
+        .eps
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let plan = plan_for_eps(scene, settings, report, eps)?;
+    write_json(file, &plan)?;
+    say!(
+        "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
+        file.display(),
+        plan.samples
+    );
     Ok(())
 }
 

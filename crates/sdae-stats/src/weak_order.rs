@@ -165,17 +165,10 @@ impl<'a> OrderCandidates<'a> {
             .rev()
             .find(|&k| e[u[k]].signum() != e[u[k + 1]].signum())
             .map_or(0, |k| k + 1);
-        let mut start = after_sign;
-        if m - start < 2 {
+        if m - after_sign < 2 {
             return None;
         }
-        while m - start > 3
-            && differences[start]
-                .as_ref()
-                .is_some_and(|d| d.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE && !d.contains(0.0))
-        {
-            start += 1;
-        }
+        let start = first_asymptotic(after_sign, m, differences);
         // The change of the local slope between the two finest pairs of fitted levels.
         let bending = (m - start >= 3)
             .then(|| changes[m - 3])
@@ -185,39 +178,12 @@ impl<'a> OrderCandidates<'a> {
         // After a change of sign, x = h_finest / h0 with h0 at the first fitted level.
         let crossing = (start > 0 && e[u[start - 1]].signum() != e[u[start]].signum())
             .then(|| self.h[u[m - 1]] / self.h[u[start]]);
-        let after_crossing = crossing.map(|x| {
-            if x > 0.25 {
-                f64::INFINITY
-            } else {
-                ((1.0 - 2.0 * x) / (1.0 - x)).log2().abs()
-            }
-        });
-        // The local slopes after the change of sign do not settle where their last change is
-        // beyond the Monte Carlo error and the tolerance, and no smaller than the change before.
-        let unsettled = bending.is_some()
-            && m - after_sign >= 4
-            && match (changes[m - 3], changes[m - 4]) {
-                (Some(last), Some(before)) => {
-                    last.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE
-                        && last.estimate.abs() >= before.estimate.abs()
-                }
-                _ => false,
-            };
+        let after_crossing = crossing.map(crossing_widening);
+        let unsettled = bending.is_some() && m - after_sign >= 4 && unsettling(changes);
         let order = suffix[start]
             .filter(|_| after_crossing.is_none_or(f64::is_finite))
-            .filter(|_| !unsettled);
-        let order = order.map(|mut order| {
-            let tolerance = PRE_ASYMPTOTIC_TOLERANCE;
-            order.ci_low = order.ci_low.min(order.estimate - tolerance);
-            order.ci_high = order.ci_high.max(order.estimate + tolerance);
-            for widen in [bending, after_crossing].into_iter().flatten() {
-                if let Some(finest) = local[m - 2] {
-                    order.ci_low = order.ci_low.min(finest.ci_low - widen);
-                    order.ci_high = order.ci_high.max(finest.ci_high + widen);
-                }
-            }
-            order
-        });
+            .filter(|_| !unsettled)
+            .map(|order| widened_order(order, local[m - 2], [bending, after_crossing]));
         Some(WeakOrder {
             order,
             unsettled,
@@ -226,19 +192,80 @@ impl<'a> OrderCandidates<'a> {
             fitted: u[start..].to_vec(),
             unresolved: self.unresolved.clone(),
             pre_asymptotic: u[..start].to_vec(),
-            local_slopes: u
-                .windows(2)
-                .zip(local)
-                .filter_map(|(w, slope)| {
-                    slope.map(|slope| WeakSlope {
-                        coarse: w[0],
-                        fine: w[1],
-                        slope,
-                    })
-                })
-                .collect(),
+            local_slopes: local_slopes(u, local),
         })
     }
+}
+
+/// The first level fitted, from `start` (the first after the last change of sign) of `m`
+/// resolved levels: coarse levels are left out while their local slope differs from the
+/// slope of the finer levels (`differences`) beyond the tolerance and the Monte Carlo error,
+/// as long as three levels remain.
+fn first_asymptotic(mut start: usize, m: usize, differences: &[Option<Interval>]) -> usize {
+    while m - start > 3
+        && differences[start]
+            .as_ref()
+            .is_some_and(|d| d.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE && !d.contains(0.0))
+    {
+        start += 1;
+    }
+    start
+}
+
+/// How far the finest local slope can still be from the order after a change of sign, for
+/// x = h_finest / h0: |log2((1 - 2x) / (1 - x))|, infinite for x > 1/4 (too few levels after
+/// the change to tell the order).
+fn crossing_widening(x: f64) -> f64 {
+    if x > 0.25 {
+        f64::INFINITY
+    } else {
+        ((1.0 - 2.0 * x) / (1.0 - x)).log2().abs()
+    }
+}
+
+/// Whether the local slopes do not settle (given their `changes`, at least two): their last
+/// change is beyond the tolerance and no smaller than the change before.
+fn unsettling(changes: &[Option<Interval>]) -> bool {
+    let n = changes.len();
+    match (changes[n - 1], changes[n - 2]) {
+        (Some(last), Some(before)) => {
+            last.estimate.abs() > PRE_ASYMPTOTIC_TOLERANCE
+                && last.estimate.abs() >= before.estimate.abs()
+        }
+        _ => false,
+    }
+}
+
+/// `order`'s interval widened to at least +-[`PRE_ASYMPTOTIC_TOLERANCE`] and, by each of
+/// `widenings` that applies, to the `finest` local slope's interval widened by it.
+fn widened_order(
+    mut order: Interval, finest: Option<Interval>, widenings: [Option<f64>; 2],
+) -> Interval {
+    let tolerance = PRE_ASYMPTOTIC_TOLERANCE;
+    order.ci_low = order.ci_low.min(order.estimate - tolerance);
+    order.ci_high = order.ci_high.max(order.estimate + tolerance);
+    for widen in widenings.into_iter().flatten() {
+        if let Some(finest) = finest {
+            order.ci_low = order.ci_low.min(finest.ci_low - widen);
+            order.ci_high = order.ci_high.max(finest.ci_high + widen);
+        }
+    }
+    order
+}
+
+/// The local slopes between neighbouring levels of `usable` that have an interval in `local`.
+fn local_slopes(usable: &[usize], local: &[Option<Interval>]) -> Vec<WeakSlope> {
+    usable
+        .windows(2)
+        .zip(local)
+        .filter_map(|(w, slope)| {
+            slope.map(|slope| WeakSlope {
+                coarse: w[0],
+                fine: w[1],
+                slope,
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 
-use crate::convergence::{ConvergenceReport, Errors, LevelReport};
+use crate::convergence::{ConvergenceReport, Errors, LevelReport, ReferenceReport};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::parallel::Skipped;
@@ -370,36 +370,7 @@ pub fn print_summary(report: &ConvergenceReport) {
 pub fn write_summary(
     report: &ConvergenceReport, out: &mut impl std::io::Write,
 ) -> std::io::Result<()> {
-    writeln!(
-        out,
-        "{:<28} {:>22} {:>22} {:>22} {:>10} {:>6}",
-        "scheme", "order r", "order v", "order mu", "us/path", "fail"
-    )?;
-    for scheme in &report.schemes {
-        let o = &scheme.observed_order;
-        let f = |fit: &Option<OrderFit>| {
-            fit.as_ref().map_or("-".into(), |f| {
-                format!(
-                    "{:.2} [{:.2}, {:.2}]{}",
-                    f.order.estimate,
-                    f.order.ci_low,
-                    f.order.ci_high,
-                    if f.indicative { "*" } else { "" }
-                )
-            })
-        };
-        let finest = scheme.levels.last();
-        writeln!(
-            out,
-            "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
-            scheme.name,
-            f(&o.r),
-            f(&o.v),
-            f(&o.mu),
-            finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
-            scheme.levels.iter().map(|l| l.failures).sum::<usize>()
-        )?;
-    }
+    write_scheme_lines(report, out)?;
     let unresolved: usize = report.schemes.iter().map(|s| s.unresolved.len()).sum();
     if unresolved > 0 {
         // On standard error, as every note; a closed stream ends the note only.
@@ -415,6 +386,59 @@ pub fn write_summary(
             "* indicative: fewer than {INDICATIVE_BELOW} effective paths (errors too heavy-tailed for the paths run, or a degenerate bootstrap); the interval's coverage falls short of 95%"
         )?;
     }
+    write_biased(report, out)?;
+    if let Some(r) = &report.reference {
+        write_reference_line(r, report.paths, out)?;
+    }
+    for skipped in &report.skipped {
+        writeln!(out, "left out {}: {}", skipped.name, skipped.reason)?;
+    }
+    Ok(())
+}
+
+/// An order's cell of the summary: its estimate and interval, starred where indicative, or
+/// `-` without a fit.
+fn order_cell(fit: &Option<OrderFit>) -> String {
+    fit.as_ref().map_or("-".into(), |f| {
+        format!(
+            "{:.2} [{:.2}, {:.2}]{}",
+            f.order.estimate,
+            f.order.ci_low,
+            f.order.ci_high,
+            if f.indicative { "*" } else { "" }
+        )
+    })
+}
+
+/// The summary's header line and one line per scheme: its orders, run time per path at the
+/// finest level and failures.
+fn write_scheme_lines(
+    report: &ConvergenceReport, out: &mut impl std::io::Write,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "{:<28} {:>22} {:>22} {:>22} {:>10} {:>6}",
+        "scheme", "order r", "order v", "order mu", "us/path", "fail"
+    )?;
+    for scheme in &report.schemes {
+        let o = &scheme.observed_order;
+        let finest = scheme.levels.last();
+        writeln!(
+            out,
+            "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
+            scheme.name,
+            order_cell(&o.r),
+            order_cell(&o.v),
+            order_cell(&o.mu),
+            finest.map_or(0.0, |l| l.seconds_per_path * 1e6),
+            scheme.levels.iter().map(|l| l.failures).sum::<usize>()
+        )?;
+    }
+    Ok(())
+}
+
+/// One line per scheme that is stable but biased at some levels, naming those levels.
+fn write_biased(report: &ConvergenceReport, out: &mut impl std::io::Write) -> std::io::Result<()> {
     for scheme in &report.schemes {
         let biased: Vec<String> = scheme
             .levels
@@ -432,33 +456,35 @@ pub fn write_summary(
             )?;
         }
     }
-    if let Some(r) = &report.reference {
+    Ok(())
+}
+
+/// The reference's line of the summary, and the paths it failed on (of `paths`) if any.
+fn write_reference_line(
+    r: &ReferenceReport, paths: usize, out: &mut impl std::io::Write,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
+        format!("ref {}", r.scheme),
+        "-",
+        "-",
+        "-",
+        r.seconds_per_path * 1e6,
+        r.failures
+    )?;
+    if r.failures > 0 {
         writeln!(
             out,
-            "{:<28} {:>22} {:>22} {:>22} {:>10.1} {:>6}",
-            format!("ref {}", r.scheme),
-            "-",
-            "-",
-            "-",
-            r.seconds_per_path * 1e6,
-            r.failures
+            "the reference failed on {} of {} paths ({}): they are left out of every error",
+            r.failures,
+            paths,
+            r.failures_by_kind
+                .iter()
+                .map(|(kind, n)| format!("{kind} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         )?;
-        if r.failures > 0 {
-            writeln!(
-                out,
-                "the reference failed on {} of {} paths ({}): they are left out of every error",
-                r.failures,
-                report.paths,
-                r.failures_by_kind
-                    .iter()
-                    .map(|(kind, n)| format!("{kind} {n}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )?;
-        }
-    }
-    for skipped in &report.skipped {
-        writeln!(out, "left out {}: {}", skipped.name, skipped.reason)?;
     }
     Ok(())
 }

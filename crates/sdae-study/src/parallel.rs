@@ -137,6 +137,20 @@ impl Control<'_> {
     fn stopped(&self) -> bool {
         self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
     }
+
+    /// Hands the `records` of a finished block of `paths` paths to [`Control::finished`],
+    /// counts its paths into `finished` and reports each of them to [`Control::progress`].
+    fn block_finished(&self, records: &[PathRecord], paths: usize, finished: &AtomicUsize) {
+        if let Some(save) = self.finished {
+            save(records);
+        }
+        let finished = finished.fetch_add(paths, Ordering::Relaxed);
+        if let Some(progress) = self.progress {
+            for done in finished + 1..=finished + paths {
+                progress(done);
+            }
+        }
+    }
 }
 
 /// Runs the selected paths of `plan` with `schemes` (and `reference`, if given; all must
@@ -148,11 +162,7 @@ pub fn run_paths<S>(
 where
     S: CurvedSystem + Clone + Sync + 'static,
 {
-    let (index, count) = selection.shard;
-    let done: std::collections::BTreeSet<usize> = control.done.iter().copied().collect();
-    let mine: Vec<usize> = (0..selection.paths)
-        .filter(|i| i % count.max(1) == index && !done.contains(i))
-        .collect();
+    let mine = selection.mine(control.done);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(selection.threads.max(1))
         .build()
@@ -163,26 +173,7 @@ where
     let finished = AtomicUsize::new(0);
     let (r0, v0) = (&prepared.position[..], &prepared.velocity[..]);
     let block = block_len(mine.len(), selection.threads);
-    let quasi = match selection.randomizations {
-        Some(r) => {
-            let floats = (prepared.system.noise_dim() * lane_stride(block))
-                .saturating_mul(1usize << plan.fine);
-            if floats > QUASI_BLOCK_BUDGET {
-                return Err(StudyError::Setting {
-                    key: "study.reference",
-                    value: plan.fine.to_string(),
-                    rule: format!(
-                        "randomized QMC paths hold a block's increments over all 2^{} fine \
-                         steps at once: {floats} floats, above {QUASI_BLOCK_BUDGET}",
-                        plan.fine
-                    ),
-                });
-            }
-            let points = selection.paths / r.max(1);
-            Some(QuasiPaths::new(selection.seed, r, points))
-        }
-        None => None,
-    };
+    let quasi = quasi_paths(plan, prepared, selection, block)?;
     let noise = match &quasi {
         Some(quasi) => PathNoise::Quasi(quasi),
         None => PathNoise::Pseudo {
@@ -213,19 +204,48 @@ where
                     else {
                         return Ok(Vec::new());
                     };
-                    if let Some(save) = control.finished {
-                        save(&records);
-                    }
-                    let finished = finished.fetch_add(indices.len(), Ordering::Relaxed);
-                    if let Some(progress) = control.progress {
-                        for done in finished + 1..=finished + indices.len() {
-                            progress(done);
-                        }
-                    }
+                    control.block_finished(&records, indices.len(), &finished);
                     Ok(records)
                 },
             )
             .collect::<Result<Vec<_>, StudyError>>()
     });
     Ok(blocks?.into_iter().flatten().collect())
+}
+
+impl PathSelection {
+    /// The indices of this shard's paths that are not among `done`, in order.
+    fn mine(&self, done: &[usize]) -> Vec<usize> {
+        let (index, count) = self.shard;
+        let done: std::collections::BTreeSet<usize> = done.iter().copied().collect();
+        (0..self.paths)
+            .filter(|i| i % count.max(1) == index && !done.contains(i))
+            .collect()
+    }
+}
+
+/// The randomized QMC paths of `selection` (`None` for pseudo-random paths), for blocks of
+/// `block` paths of the prepared system: refused where a block's increments over all the fine
+/// steps exceed [`QUASI_BLOCK_BUDGET`].
+fn quasi_paths<S: CurvedSystem>(
+    plan: &PathPlan, prepared: &Prepared<S>, selection: PathSelection, block: usize,
+) -> Result<Option<QuasiPaths>, StudyError> {
+    let Some(r) = selection.randomizations else {
+        return Ok(None);
+    };
+    let floats =
+        (prepared.system.noise_dim() * lane_stride(block)).saturating_mul(1usize << plan.fine);
+    if floats > QUASI_BLOCK_BUDGET {
+        return Err(StudyError::Setting {
+            key: "study.reference",
+            value: plan.fine.to_string(),
+            rule: format!(
+                "randomized QMC paths hold a block's increments over all 2^{} fine steps at \
+                 once: {floats} floats, above {QUASI_BLOCK_BUDGET}",
+                plan.fine
+            ),
+        });
+    }
+    let points = selection.paths / r.max(1);
+    Ok(Some(QuasiPaths::new(selection.seed, r, points)))
 }

@@ -405,9 +405,6 @@ impl LevelPaths {
     /// the finer step sizes (only where both levels are compared). The reference's bias enters
     /// 2 d_j - d_(j-1) once, as it enters d_j: the bounds stay.
     pub fn extrapolated(&self) -> LevelPaths {
-        let combine = |a: &[f64], b: &[f64]| -> Vec<f64> {
-            a.iter().zip(b).map(|(c, f)| 2.0 * f - c).collect()
-        };
         let pairs: Vec<usize> = (1..self.h.len())
             .filter(|&j| self.index[j] == self.index[j - 1] + 1)
             .collect();
@@ -416,14 +413,14 @@ impl LevelPaths {
             index: pairs.iter().map(|&j| self.index[j]).collect(),
             last: pairs
                 .iter()
-                .map(|&j| combine(&self.last[j - 1], &self.last[j]))
+                .map(|&j| richardson(&self.last[j - 1], &self.last[j]))
                 .collect(),
             grid: pairs
                 .iter()
                 .filter(|_| !self.grid.is_empty())
                 .map(|&j| {
                     let (c, f) = (&self.grid[j - 1], &self.grid[j]);
-                    c.iter().zip(f).map(|(c, f)| combine(c, f)).collect()
+                    c.iter().zip(f).map(|(c, f)| richardson(c, f)).collect()
                 })
                 .collect(),
             bound: self.bound,
@@ -565,6 +562,62 @@ impl Layout {
     fn at(self, k: usize, o: usize) -> usize {
         k * self.count + o
     }
+}
+
+/// Where one scheme's values of one observable sit in a path's records.
+#[derive(Clone, Copy)]
+struct SchemeTrack {
+    /// The scheme's index among the schemes that ran.
+    s: usize,
+    /// The observable's index.
+    o: usize,
+    /// The study's levels.
+    count: usize,
+    /// Where the observables sit in a track's values.
+    layout: Layout,
+}
+
+impl SchemeTrack {
+    /// The scheme's outcome on path `p` at level `j`.
+    fn outcome(self, p: &PathRecord, j: usize) -> &TrackOutcome {
+        &p.tracks[self.s * self.count + j]
+    }
+
+    /// The observable's value on path `p` at level `j` and grid point `k`.
+    fn value(self, p: &PathRecord, j: usize, k: usize) -> f64 {
+        self.outcome(p, j).observed[self.layout.at(k, self.o)]
+    }
+}
+
+/// The Richardson-Romberg combination of a coarse and a fine level's per-path values: per path
+/// 2 fine - coarse.
+fn richardson(coarse: &[f64], fine: &[f64]) -> Vec<f64> {
+    coarse.iter().zip(fine).map(|(c, f)| 2.0 * f - c).collect()
+}
+
+/// The levels an extrapolation loses, one per level j of `levels` (the study's step exponents)
+/// whose pair j - 1, j is not both in `kept`: an extrapolated level is lost with either of its
+/// two levels, and counts the failures and non-finite values of both (from `lost`).
+fn lost_pairs(levels: &[u32], kept: &[usize], lost: &[LostLevel]) -> Vec<LostLevel> {
+    (1..levels.len())
+        .filter(|j| !(kept.contains(j) && kept.contains(&(j - 1))))
+        .map(|j| {
+            let n = 1usize << levels[j];
+            let of = |n: usize| lost.iter().find(|l| l.n_steps == n);
+            let mut pair = LostLevel {
+                n_steps: n,
+                failures: BTreeMap::new(),
+                non_finite: 0,
+            };
+            for l in [of(n / 2), of(n)].into_iter().flatten() {
+                for (kind, paths) in &l.failures {
+                    *pair.failures.entry(*kind).or_insert(0) += paths;
+                }
+                pair.non_finite += l.non_finite;
+            }
+            pair
+        })
+        .collect()
 }
 
 /// A row's levels and orders.
@@ -762,37 +815,62 @@ impl<'a> WeakInputs<'a> {
 
     /// Scheme `s`'s report rows (the scheme and its extrapolation) for observable `o`.
     fn scheme_rows(&self, s: usize, o: usize, basis: &PathBasis) -> Vec<WeakScheme> {
-        let (name, layout, settings) = (&self.schemes[s], self.layout, self.settings);
-        let good = self.good;
-        let count = settings.levels().len();
+        let settings = self.settings;
         let (kept, lost) = self.split_levels(s, o);
-        let h: Vec<f64> = kept
-            .iter()
-            .map(|&j| settings.t_end / (1u64 << settings.levels()[j]) as f64)
+        let track = SchemeTrack {
+            s,
+            o,
+            count: settings.levels().len(),
+            layout: self.layout,
+        };
+        let data = self.level_paths(track, &kept, basis);
+        let values = self.final_values(track, &kept);
+        let seconds = self.mean_seconds(track, &kept);
+        let plain = rows_of(&data, &values, &seconds, settings);
+        let pairs: Vec<usize> = (1..kept.len())
+            .filter(|&j| kept[j] == kept[j - 1] + 1)
             .collect();
-        let last_point = layout.points - 1;
-        let value_at =
-            |p: &PathRecord, j: usize, k: usize| p.tracks[s * count + j].observed[layout.at(k, o)];
-        let data = LevelPaths {
-            h: h.clone(),
-            index: kept.clone(),
+        let combined: Vec<Vec<f64>> = pairs
+            .iter()
+            .map(|&j| richardson(&values[j - 1], &values[j]))
+            .collect();
+        let both: Vec<f64> = pairs.iter().map(|&j| seconds[j - 1] + seconds[j]).collect();
+        let extrapolated = rows_of(&data.extrapolated(), &combined, &both, settings);
+        let lost_pairs = lost_pairs(&settings.levels(), &kept, &lost);
+        vec![
+            self.row(s, plain, false, lost),
+            self.row(s, extrapolated, true, lost_pairs),
+        ]
+    }
+
+    /// The per-path differences of `track` against `basis` at the levels `kept` (indices among
+    /// the study's levels), with the basis's bias bounds.
+    fn level_paths(&self, track: SchemeTrack, kept: &[usize], basis: &PathBasis) -> LevelPaths {
+        let (good, settings) = (self.good, self.settings);
+        let last_point = self.layout.points - 1;
+        LevelPaths {
+            h: kept
+                .iter()
+                .map(|&j| settings.t_end / (1u64 << settings.levels()[j]) as f64)
+                .collect(),
+            index: kept.to_vec(),
             last: kept
                 .iter()
                 .map(|&j| {
                     good.iter()
                         .enumerate()
-                        .map(|(i, p)| value_at(p, j, last_point) - basis.last(i))
+                        .map(|(i, p)| track.value(p, j, last_point) - basis.last(i))
                         .collect()
                 })
                 .collect(),
             grid: kept
                 .iter()
                 .map(|&j| {
-                    (0..layout.points)
+                    (0..self.layout.points)
                         .map(|k| {
                             good.iter()
                                 .enumerate()
-                                .map(|(i, p)| value_at(p, j, k) - basis.at[k][i])
+                                .map(|(i, p)| track.value(p, j, k) - basis.at[k][i])
                                 .collect()
                         })
                         .collect()
@@ -800,70 +878,54 @@ impl<'a> WeakInputs<'a> {
                 .collect(),
             bound: basis.bound(),
             grid_bound: basis.grid_bound.clone(),
-        };
-        let values: Vec<Vec<f64>> = kept
-            .iter()
-            .map(|&j| good.iter().map(|p| value_at(p, j, last_point)).collect())
-            .collect();
-        let seconds: Vec<f64> = kept
-            .iter()
+        }
+    }
+
+    /// The values of `track` at T on every good path, per level of `kept`.
+    fn final_values(&self, track: SchemeTrack, kept: &[usize]) -> Vec<Vec<f64>> {
+        let last_point = self.layout.points - 1;
+        kept.iter()
+            .map(|&j| {
+                self.good
+                    .iter()
+                    .map(|p| track.value(p, j, last_point))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The mean run time per good path of `track`, per level of `kept`.
+    fn mean_seconds(&self, track: SchemeTrack, kept: &[usize]) -> Vec<f64> {
+        let good = self.good;
+        kept.iter()
             .map(|&j| {
                 good.iter()
-                    .map(|p| p.tracks[s * count + j].seconds)
+                    .map(|p| track.outcome(p, j).seconds)
                     .sum::<f64>()
                     / good.len().max(1) as f64
             })
-            .collect();
-        let plain = rows_of(&data, &values, &seconds, settings);
-        let pairs: Vec<usize> = (1..kept.len())
-            .filter(|&j| kept[j] == kept[j - 1] + 1)
-            .collect();
-        let combined: Vec<Vec<f64>> = pairs
-            .iter()
-            .map(|&j| {
-                values[j - 1]
-                    .iter()
-                    .zip(&values[j])
-                    .map(|(c, f)| 2.0 * f - c)
-                    .collect()
-            })
-            .collect();
-        let both: Vec<f64> = pairs.iter().map(|&j| seconds[j - 1] + seconds[j]).collect();
-        let extrapolated = rows_of(&data.extrapolated(), &combined, &both, settings);
-        // An extrapolated level is lost with either of its two levels.
-        let lost_pairs: Vec<LostLevel> = (1..count)
-            .filter(|j| !(kept.contains(j) && kept.contains(&(j - 1))))
-            .map(|j| {
-                let n = 1usize << settings.levels()[j];
-                let of = |n: usize| lost.iter().find(|l| l.n_steps == n);
-                let mut pair = LostLevel {
-                    n_steps: n,
-                    failures: BTreeMap::new(),
-                    non_finite: 0,
-                };
-                for l in [of(n / 2), of(n)].into_iter().flatten() {
-                    for (kind, paths) in &l.failures {
-                        *pair.failures.entry(*kind).or_insert(0) += paths;
-                    }
-                    pair.non_finite += l.non_finite;
-                }
-                pair
-            })
-            .collect();
-        let row = |parts: RowParts, extrapolated: bool, lost: Vec<LostLevel>| WeakScheme {
+            .collect()
+    }
+
+    /// The report row of scheme `s` (its extrapolation if `extrapolated`) from its levels and
+    /// orders and the levels it lost.
+    fn row(
+        &self, s: usize, parts: RowParts, extrapolated: bool, lost: Vec<LostLevel>,
+    ) -> WeakScheme {
+        let name = &self.schemes[s];
+        WeakScheme {
             name: if extrapolated {
                 format!("{name} + richardson")
             } else {
                 name.to_string()
             },
             extrapolated,
-            paths: good.len(),
+            paths: self.good.len(),
             levels: parts.levels,
             lost,
             order: parts.order,
             sup_order: parts.sup_order,
-        };
-        vec![row(plain, false, lost), row(extrapolated, true, lost_pairs)]
+        }
     }
 
     /// One report per observable: the reference's value at T and the rows of every scheme.

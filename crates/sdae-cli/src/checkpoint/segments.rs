@@ -149,6 +149,38 @@ pub(crate) fn damaged(path: &Path, reason: String) -> StudyError {
 pub(crate) fn read<'a>(
     path: &Path, bytes: &'a [u8], magic: &[u8], older: &[&[u8]],
 ) -> Result<Segments<'a>, StudyError> {
+    let mut rest = after_magic(path, bytes, magic, older)?;
+    let mut at = magic.len();
+    let mut payloads = Vec::new();
+    let mut torn = 0;
+    while !rest.is_empty() {
+        let Some((payload, taken)) = segment(path, rest, at, payloads.len())? else {
+            torn = rest.len();
+            break;
+        };
+        payloads.push(payload);
+        rest = &rest[taken..];
+        at += taken;
+    }
+    if payloads.is_empty() {
+        return Err(damaged(
+            path,
+            "its header segment is cut short: nothing to verify against its checksum".into(),
+        ));
+    }
+    let header = payloads.remove(0);
+    Ok(Segments {
+        header,
+        records: payloads,
+        torn,
+    })
+}
+
+/// The bytes of checkpoint file `path` after its first line, which must be `magic`: a file of
+/// an `older` format, or of none, is refused naming its first line.
+fn after_magic<'a>(
+    path: &Path, bytes: &'a [u8], magic: &[u8], older: &[&[u8]],
+) -> Result<&'a [u8], StudyError> {
     let shown = |m: &[u8]| String::from_utf8_lossy(m.trim_ascii_end()).into_owned();
     let Some(rest) = bytes.strip_prefix(magic) else {
         let reason = match older.iter().find(|o| bytes.starts_with(o)) {
@@ -165,68 +197,54 @@ pub(crate) fn read<'a>(
         };
         return Err(damaged(path, reason));
     };
-    let mut at = magic.len();
-    let mut rest = rest;
-    let mut payloads = Vec::new();
-    let mut torn = 0;
-    while !rest.is_empty() {
-        let number = payloads.len();
-        let which = if number == 0 {
-            "the header segment".to_string()
-        } else {
-            format!("segment {number}")
-        };
-        if rest.len() < 8 {
-            torn = rest.len();
-            break;
-        }
-        let length: [u8; 4] = rest[..4].try_into().unwrap_or_default();
-        let said = u32::from_le_bytes(rest[4..8].try_into().unwrap_or_default());
-        if crc(&length) != said {
-            return Err(damaged(
-                path,
-                format!(
-                    "the checksum of the length of {which} (at byte {at}) does not match: the \
-                     file was changed after it was written"
-                ),
-            ));
-        }
-        let length = u32::from_le_bytes(length) as usize;
-        if rest.len() < 8 + length + 4 {
-            torn = rest.len();
-            break;
-        }
-        let payload = &rest[8..8 + length];
-        let end = 8 + length;
-        let said = u32::from_le_bytes(rest[end..end + 4].try_into().unwrap_or_default());
-        if crc(payload) != said {
-            return Err(damaged(
-                path,
-                format!(
-                    "the checksum of {which} (bytes {at}..{}) does not match its content \
-                     (CRC-32 {:08x}, saved {said:08x}): the file was changed after it was \
-                     written",
-                    at + end + 4,
-                    crc(payload)
-                ),
-            ));
-        }
-        payloads.push(payload);
-        rest = &rest[end + 4..];
-        at += end + 4;
+    Ok(rest)
+}
+
+/// The segment at the start of `rest` (segment `number`, 0 the header, at byte `at` of file
+/// `path`) with its checksums verified: its payload and the bytes it takes, or `None` where
+/// `rest` ends before the segment does (cut short).
+fn segment<'a>(
+    path: &Path, rest: &'a [u8], at: usize, number: usize,
+) -> Result<Option<(&'a [u8], usize)>, StudyError> {
+    let which = if number == 0 {
+        "the header segment".to_string()
+    } else {
+        format!("segment {number}")
+    };
+    if rest.len() < 8 {
+        return Ok(None);
     }
-    if payloads.is_empty() {
+    let length: [u8; 4] = rest[..4].try_into().unwrap_or_default();
+    let said = u32::from_le_bytes(rest[4..8].try_into().unwrap_or_default());
+    if crc(&length) != said {
         return Err(damaged(
             path,
-            "its header segment is cut short: nothing to verify against its checksum".into(),
+            format!(
+                "the checksum of the length of {which} (at byte {at}) does not match: the \
+                 file was changed after it was written"
+            ),
         ));
     }
-    let header = payloads.remove(0);
-    Ok(Segments {
-        header,
-        records: payloads,
-        torn,
-    })
+    let length = u32::from_le_bytes(length) as usize;
+    if rest.len() < 8 + length + 4 {
+        return Ok(None);
+    }
+    let payload = &rest[8..8 + length];
+    let end = 8 + length;
+    let said = u32::from_le_bytes(rest[end..end + 4].try_into().unwrap_or_default());
+    if crc(payload) != said {
+        return Err(damaged(
+            path,
+            format!(
+                "the checksum of {which} (bytes {at}..{}) does not match its content \
+                 (CRC-32 {:08x}, saved {said:08x}): the file was changed after it was \
+                 written",
+                at + end + 4,
+                crc(payload)
+            ),
+        ));
+    }
+    Ok(Some((payload, end + 4)))
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use sdae_cli::checkpoint::{Checkpoint, Resumed};
 use sdae_study::StudyError;
-use sdae_study::convergence::ConvergenceSettings;
+use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings};
 use sdae_study::parallel::Control;
 use sdae_study::scene::Scene;
 
@@ -243,92 +243,146 @@ fn host() -> String {
         .unwrap_or_else(|_| "this-host".into())
 }
 
+/// A small run and a checkpoint in a folder of its own, to save malformed versions of the run
+/// in and resume from.
+struct Malformed {
+    scene: Scene,
+    settings: ConvergenceSettings,
+    dir: PathBuf,
+    checkpoint: Checkpoint,
+    run: ConvergenceRun,
+}
+
+impl Malformed {
+    /// A run of 8 paths on one thread, and its checkpoint (not yet written).
+    fn new() -> Self {
+        let (scene, mut settings) = common::small(8);
+        settings.threads = 1;
+        let dir = folder("malformed");
+        let checkpoint = Checkpoint::new(dir.join("checkpoint.bin"));
+        let run = common::run(&scene, &settings, 0, 1);
+        Self {
+            scene,
+            settings,
+            dir,
+            checkpoint,
+            run,
+        }
+    }
+
+    /// Loads the checkpoint and resumes the run from it.
+    fn resume(&self) -> Result<Resumed, StudyError> {
+        let c = &self.checkpoint;
+        let saved = c.load(&self.scene, &self.settings, (0, 1))?;
+        c.run(
+            &self.scene,
+            &self.settings,
+            (0, 1),
+            saved,
+            Control::default(),
+        )
+    }
+
+    /// Saves the run's first `keep` records as `spoil` changes them, and returns the error
+    /// resuming from them gives, required to be a [`StudyError::Resume`].
+    fn resume_refused(&self, keep: usize, spoil: impl FnOnce(&mut ConvergenceRun)) -> String {
+        let mut bad = self.run.clone();
+        bad.records.truncate(keep);
+        spoil(&mut bad);
+        self.checkpoint.save(&bad).unwrap();
+        let err = self.resume().unwrap_err();
+        assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+        err.to_string()
+    }
+}
+
 #[test]
 fn malformed_checkpoints_are_refused_with_a_typed_error() {
-    let (scene, mut settings) = common::small(8);
-    settings.threads = 1;
-    let dir = folder("malformed");
-    let checkpoint = Checkpoint::new(dir.join("checkpoint.bin"));
-    let run = common::run(&scene, &settings, 0, 1);
-    let resume = |c: &Checkpoint| {
-        let saved = c.load(&scene, &settings, (0, 1))?;
-        c.run(&scene, &settings, (0, 1), saved, Control::default())
+    let m = Malformed::new();
+    malformed_records_are_refused(&m);
+    let bytes = cut_checkpoints_are_refused_or_dropped(&m);
+    // A good one resumes to the whole run.
+    std::fs::write(m.checkpoint.path(), &bytes).unwrap();
+    let Ok(Resumed::Finished(resumed)) = m.resume() else {
+        panic!("a good checkpoint did not resume");
     };
+    // The saved records read back bit for bit; the report's numbers are the whole run's.
+    assert_eq!(resumed.records[..4], m.run.records[..4]);
+    let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
+    let numbers_of = |json: String| sdae_cli::compare::numbers_of(&json).unwrap();
+    assert_eq!(
+        numbers_of(report(*resumed)),
+        numbers_of(report(m.run.clone()))
+    );
+    damaged_checkpoints_are_refused_by_the_binary(&m.dir.join("out"), &bytes);
+    let _ = std::fs::remove_dir_all(&m.dir);
+}
+
+/// Records that do not fit the run are refused on resuming, naming what is wrong.
+fn malformed_records_are_refused(m: &Malformed) {
     // A record with fewer tracks.
-    let mut short = run.clone();
-    short.records.truncate(3);
-    short.records[1].tracks.pop();
-    checkpoint.save(&short).unwrap();
-    let err = resume(&checkpoint).unwrap_err();
-    assert!(matches!(err, StudyError::Resume { .. }), "{err}");
-    assert!(err.to_string().contains("scheme-level results"), "{err}");
+    let err = m.resume_refused(3, |short| {
+        short.records[1].tracks.pop();
+    });
+    assert!(err.contains("scheme-level results"), "{err}");
     // A duplicated record, and one out of range.
     for index in [2, 8] {
-        let mut bad = run.clone();
-        bad.records.truncate(3);
-        bad.records[0].index = index;
-        checkpoint.save(&bad).unwrap();
-        let err = resume(&checkpoint).unwrap_err();
-        assert!(matches!(err, StudyError::Resume { .. }), "{err}");
-        assert!(err.to_string().contains(&format!("path {index}")), "{err}");
+        let err = m.resume_refused(3, |bad| bad.records[0].index = index);
+        assert!(err.contains(&format!("path {index}")), "{err}");
     }
     // A track with neither distances nor a failure: refused on load, as merge refuses it.
-    let mut lost = run.clone();
-    lost.records.truncate(3);
-    lost.records[2].tracks[0].distances = None;
-    lost.records[2].tracks[0].failure = None;
-    checkpoint.save(&lost).unwrap();
-    let err = resume(&checkpoint).unwrap_err();
-    assert!(matches!(err, StudyError::Resume { .. }), "{err}");
+    let err = m.resume_refused(3, |lost| {
+        lost.records[2].tracks[0].distances = None;
+        lost.records[2].tracks[0].failure = None;
+    });
     assert!(
-        err.to_string()
-            .contains("path 2: scheme-level result 0 has neither"),
+        err.contains("path 2: scheme-level result 0 has neither"),
         "{err}"
     );
+}
+
+/// A checkpoint of the run's first 4 records cut short in its header is refused, one cut short
+/// in its last segment resumes whole; returns the checkpoint's bytes.
+fn cut_checkpoints_are_refused_or_dropped(m: &Malformed) -> Vec<u8> {
+    let checkpoint = &m.checkpoint;
     // A file cut short in its header, or not a checkpoint at all: refused.
-    let mut partial = run.clone();
+    let mut partial = m.run.clone();
     partial.records.truncate(4);
     checkpoint.save(&partial).unwrap();
     let bytes = std::fs::read(checkpoint.path()).unwrap();
     for cut in [10, 40] {
         std::fs::write(checkpoint.path(), &bytes[..cut]).unwrap();
-        let err = resume(&checkpoint).unwrap_err();
+        let err = m.resume().unwrap_err();
         assert!(matches!(err, StudyError::Checksum { .. }), "{err}");
     }
     // Cut short in its last segment (a save killed midway): the segment is dropped, its paths
     // run again, and the run ends whole.
     for cut in [bytes.len() - 1, bytes.len() - 200] {
         std::fs::write(checkpoint.path(), &bytes[..cut]).unwrap();
-        let saved = checkpoint.load(&scene, &settings, (0, 1)).unwrap().unwrap();
+        let saved = checkpoint
+            .load(&m.scene, &m.settings, (0, 1))
+            .unwrap()
+            .unwrap();
         assert!(saved.records.is_empty() && saved.torn > 0, "{}", saved.torn);
         assert!(saved.torn_note().unwrap().contains("dropped"));
-        let Ok(Resumed::Finished(whole)) = resume(&checkpoint) else {
+        let Ok(Resumed::Finished(whole)) = m.resume() else {
             panic!("a torn checkpoint did not resume");
         };
         assert_eq!(whole.records.len(), 8);
     }
-    // A good one resumes to the whole run.
-    std::fs::write(checkpoint.path(), &bytes).unwrap();
-    let Ok(Resumed::Finished(resumed)) = resume(&checkpoint) else {
-        panic!("a good checkpoint did not resume");
-    };
-    // The saved records read back bit for bit; the report's numbers are the whole run's.
-    assert_eq!(resumed.records[..4], run.records[..4]);
-    let report = |r| serde_json::to_string(&sdae_study::convergence::build_report(r)).unwrap();
-    let numbers_of = |json: String| sdae_cli::compare::numbers_of(&json).unwrap();
-    assert_eq!(
-        numbers_of(report(*resumed)),
-        numbers_of(report(run.clone()))
-    );
-    // Through the binary: a corrupt checkpoint is refused (exit code 2), naming the file.
-    let out = dir.join("out");
+    bytes
+}
+
+/// Through the binary writing to `out`: the checkpoint `bytes` with a flipped bit, or in the
+/// format before checksums, are refused (exit code 2), naming the file.
+fn damaged_checkpoints_are_refused_by_the_binary(out: &Path, bytes: &[u8]) {
     let file = out.join("pendulum").join("checkpoint-0-of-1.bin");
     std::fs::create_dir_all(file.parent().unwrap()).unwrap();
-    let mut flipped = bytes.clone();
+    let mut flipped = bytes.to_vec();
     flipped[bytes.len() / 2] ^= 4;
     std::fs::write(&file, &flipped).unwrap();
     refused(
-        &mut quick(&out, &["--resume"]),
+        &mut quick(out, &["--resume"]),
         &["checkpoint-0-of-1.bin", "checksum"],
     );
     // A checkpoint of the format before checksums is refused by name.
@@ -336,10 +390,9 @@ fn malformed_checkpoints_are_refused_with_a_typed_error() {
     old.extend_from_slice(&bytes[24..]);
     std::fs::write(&file, &old).unwrap();
     refused(
-        &mut quick(&out, &["--resume"]),
+        &mut quick(out, &["--resume"]),
         &["checkpoint-0-of-1.bin", "older version"],
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -159,56 +159,11 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
     assert!(text.contains("without running again"), "{text}");
     assert!(checkpoint.exists());
     std::fs::remove_dir(scene.join("report.json")).unwrap();
-    // Another seed or observable: refused, naming what differs.
-    refused(
-        &mut mlmc(&out, eps, &["--resume", "--seed", "7"]),
-        &["cannot resume", "mlmc-checkpoint.bin", "another seed"],
-    );
-    refused(
-        &mut mlmc(&out, eps, &["--resume", "--observable", "energy"]),
-        &["cannot resume", "another observable"],
-    );
-    // Without --resume: refused, saying what the checkpoint holds.
-    refused(
-        &mut mlmc(&out, eps, &[]),
-        &[
-            "mlmc-checkpoint.bin",
-            "blocks of samples",
-            "--resume",
-            "--fresh",
-        ],
-    );
+    other_runs_and_forgotten_checkpoints_are_refused(&out, eps);
     assert!(checkpoint.exists());
-    // A flipped bit anywhere (its format line, header, segments, checksums) is refused.
     let bytes = std::fs::read(&checkpoint).unwrap();
-    for bit in sampled_bits(bytes.len()) {
-        let mut flipped = bytes.clone();
-        flipped[bit / 8] ^= 1 << (bit % 8);
-        std::fs::write(&checkpoint, &flipped).unwrap();
-        refused(
-            &mut mlmc(&out, eps, &["--resume"]),
-            &["mlmc-checkpoint.bin", "checksum"],
-        );
-    }
-    // A save cut short (a kill while appending): dropped, its blocks run again, and the report
-    // is the uninterrupted run's.
-    std::fs::write(&checkpoint, &bytes[..bytes.len() - 5]).unwrap();
-    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
-    let text = stderr(&resumed);
-    assert_eq!(resumed.status.code(), Some(0), "{text}");
-    assert!(text.contains("dropped"), "{text}");
-    let report = |d: &Path| numbers(&d.join("mlmc/pendulum/report.json"));
-    assert_eq!(report(&dir.join("whole")), report(&out));
-    std::fs::remove_file(scene.join("report.json")).unwrap();
-    std::fs::write(&checkpoint, &bytes).unwrap();
-    // --resume writes the report from the saved blocks: the uninterrupted run's numbers.
-    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
-    let text = stderr(&resumed);
-    assert_eq!(resumed.status.code(), Some(0), "{text}");
-    assert!(text.contains("resuming from"), "{text}");
-    let report = |d: &Path| numbers(&d.join("mlmc/pendulum/report.json"));
-    assert_eq!(report(&dir.join("whole")), report(&out));
-    assert!(!checkpoint.exists());
+    flipped_bits_are_refused(&out, eps, &checkpoint, &bytes);
+    saved_blocks_resume_to_the_whole_run(&dir, eps, &checkpoint, &bytes);
     // --fresh discards a checkpoint (here of another seed) and runs afresh.
     std::fs::write(&checkpoint, &bytes).unwrap();
     let fresh = mlmc(&out, eps, &["--fresh", "--seed", "7"])
@@ -223,6 +178,72 @@ fn checkpoints_of_other_runs_and_forgotten_checkpoints_are_refused() {
     assert_eq!(nothing.status.code(), Some(0), "{}", stderr(&nothing));
     assert!(stderr(&nothing).contains("nothing to resume"));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// With the checkpoint of a run at `eps` in `out`: a run of another seed or observable is
+/// refused naming what differs, and one without `--resume` saying what the checkpoint holds.
+fn other_runs_and_forgotten_checkpoints_are_refused(out: &Path, eps: &str) {
+    // Another seed or observable: refused, naming what differs.
+    refused(
+        &mut mlmc(out, eps, &["--resume", "--seed", "7"]),
+        &["cannot resume", "mlmc-checkpoint.bin", "another seed"],
+    );
+    refused(
+        &mut mlmc(out, eps, &["--resume", "--observable", "energy"]),
+        &["cannot resume", "another observable"],
+    );
+    // Without --resume: refused, saying what the checkpoint holds.
+    refused(
+        &mut mlmc(out, eps, &[]),
+        &[
+            "mlmc-checkpoint.bin",
+            "blocks of samples",
+            "--resume",
+            "--fresh",
+        ],
+    );
+}
+
+/// The checkpoint `bytes` with a flipped bit anywhere (its format line, header, segments,
+/// checksums) are refused on resuming, naming the checksum.
+fn flipped_bits_are_refused(out: &Path, eps: &str, checkpoint: &Path, bytes: &[u8]) {
+    for bit in sampled_bits(bytes.len()) {
+        let mut flipped = bytes.to_vec();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        std::fs::write(checkpoint, &flipped).unwrap();
+        refused(
+            &mut mlmc(out, eps, &["--resume"]),
+            &["mlmc-checkpoint.bin", "checksum"],
+        );
+    }
+}
+
+/// The numbers of the MLMC report of the pendulum under `out`.
+fn report_numbers(out: &Path) -> serde_json::Value {
+    numbers(&out.join("mlmc/pendulum/report.json"))
+}
+
+/// Resuming from the checkpoint `bytes` of the run in `dir`/run, cut short in its last save
+/// or whole, writes the numbers of the uninterrupted run in `dir`/whole.
+fn saved_blocks_resume_to_the_whole_run(dir: &Path, eps: &str, checkpoint: &Path, bytes: &[u8]) {
+    let out = dir.join("run");
+    // A save cut short (a kill while appending): dropped, its blocks run again, and the report
+    // is the uninterrupted run's.
+    std::fs::write(checkpoint, &bytes[..bytes.len() - 5]).unwrap();
+    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
+    let text = stderr(&resumed);
+    assert_eq!(resumed.status.code(), Some(0), "{text}");
+    assert!(text.contains("dropped"), "{text}");
+    assert_eq!(report_numbers(&dir.join("whole")), report_numbers(&out));
+    std::fs::remove_file(out.join("mlmc/pendulum/report.json")).unwrap();
+    std::fs::write(checkpoint, bytes).unwrap();
+    // --resume writes the report from the saved blocks: the uninterrupted run's numbers.
+    let resumed = mlmc(&out, eps, &["--resume"]).output().unwrap();
+    let text = stderr(&resumed);
+    assert_eq!(resumed.status.code(), Some(0), "{text}");
+    assert!(text.contains("resuming from"), "{text}");
+    assert_eq!(report_numbers(&dir.join("whole")), report_numbers(&out));
+    assert!(!checkpoint.exists());
 }
 
 #[test]

@@ -126,6 +126,31 @@ fn draw(path: &Path, title: &str, panels: &[Panel]) -> Result<(), StudyError> {
 /// level, one line per eps) and `cost.svg` (eps^2 x cost against eps) into `dir`, and with
 /// `--qmc` `mlqmc.svg` (n_l and the variance per randomization per level).
 pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
+    let levels = level_panels(report);
+    let stem = format!(
+        "{} ({}, E[{}])",
+        report.scene, report.scheme, report.observable
+    );
+    draw(&dir.join("levels.svg"), &format!("{stem}: levels"), &levels)?;
+    draw(
+        &dir.join("samples.svg"),
+        &format!("{stem}: N_l"),
+        &[samples_panel(report)],
+    )?;
+    draw(
+        &dir.join("cost.svg"),
+        &format!("{stem}: cost"),
+        &[cost_panel(report)],
+    )?;
+    match &report.qmc {
+        Some(qmc) => draw_quasi(qmc, dir, &stem),
+        None => Ok(()),
+    }
+}
+
+/// The panels of `levels.svg`: log2 of the variance and of |mean| per level of the
+/// convergence test, of P_l - P_l-1 and of P_l.
+fn level_panels(report: &MlmcReport) -> [Panel; 2] {
     let per_level = |pick: fn(&sdae_mlmc::LevelStats) -> f64, from: u32| {
         report
             .test
@@ -135,7 +160,7 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
             .collect::<Vec<_>>()
     };
     let level_axes = (plain as Format, plain as Format);
-    let levels = [
+    [
         Panel {
             title: "variance".into(),
             axes: ("level l", "log2 variance"),
@@ -154,13 +179,12 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
                 ("P_l".into(), per_level(|l| l.mean_p, 0)),
             ],
         },
-    ];
-    let stem = format!(
-        "{} ({}, E[{}])",
-        report.scene, report.scheme, report.observable
-    );
-    draw(&dir.join("levels.svg"), &format!("{stem}: levels"), &levels)?;
-    let samples = Panel {
+    ]
+}
+
+/// The panel of `samples.svg`: log10 N_l per level, one line per eps.
+fn samples_panel(report: &MlmcReport) -> Panel {
+    Panel {
         title: "samples per level".into(),
         axes: ("level l", "N_l"),
         formats: (plain, power_of_ten),
@@ -178,12 +202,12 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
                 )
             })
             .collect(),
-    };
-    draw(
-        &dir.join("samples.svg"),
-        &format!("{stem}: N_l"),
-        &[samples],
-    )?;
+    }
+}
+
+/// The panel of `cost.svg`: log10 of eps^2 x work against log10 eps, of MLMC, standard MC
+/// and, with `--qmc`, MLQMC.
+fn cost_panel(report: &MlmcReport) -> Panel {
     let cost = |pick: fn(&super::study::ComplexityRow) -> f64| {
         report
             .complexity
@@ -194,7 +218,7 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
             })
             .collect::<Vec<_>>()
     };
-    let costs = Panel {
+    Panel {
         title: "eps^2 x work (steps)".into(),
         axes: ("accuracy eps", "eps^2 cost"),
         formats: (power_of_ten, power_of_ten),
@@ -211,11 +235,6 @@ pub fn write_plots(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
             ("MLQMC".to_string(), line.collect())
         }))
         .collect(),
-    };
-    draw(&dir.join("cost.svg"), &format!("{stem}: cost"), &[costs])?;
-    match &report.qmc {
-        Some(qmc) => draw_quasi(qmc, dir, &stem),
-        None => Ok(()),
     }
 }
 

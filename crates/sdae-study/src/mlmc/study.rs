@@ -54,6 +54,11 @@ pub struct MlmcSettings {
 /// The largest step exponent a level may have (2^24 steps per path).
 pub const MAX_STEP_EXPONENT: u32 = 24;
 
+/// The [`MlmcError::Setting`] refusing the setting `key` of `value` by `rule`.
+fn setting<T>(key: &'static str, value: String, rule: String) -> Result<T, MlmcError> {
+    Err(MlmcError::Setting { key, value, rule })
+}
+
 /// Refuses a final time whose smallest step T / 2^`finest` is below [`MIN_STEP`].
 fn check_step(t_end: f64, finest: u32) -> Result<(), MlmcError> {
     let h = t_end / 2f64.powi(finest as i32);
@@ -105,13 +110,38 @@ impl MlmcSettings {
     /// at least [`MIN_STEP`], the threads (at most [`MAX_THREADS`]), and the convergence
     /// test's samples within the memory available ([`samples_exceed_memory`]).
     pub fn validate(&self) -> Result<(), MlmcError> {
-        let s = &self.spec;
-        let setting = |key: &'static str, value: String, rule: String| {
-            Err(MlmcError::Setting { key, value, rule })
-        };
         if let Some(qmc) = &self.qmc {
             qmc.validate()?;
         }
+        self.validate_eps_and_time()?;
+        let finest = self.finest_exponent()?;
+        check_step(self.t_end, finest)?;
+        self.validate_test()?;
+        if self.threads == 0 || self.threads > MAX_THREADS {
+            return setting(
+                "threads",
+                self.threads.to_string(),
+                format!("must be in 1..={MAX_THREADS}"),
+            );
+        }
+        let s = &self.spec;
+        if SchemeKind::from_name(&s.scheme).is_none() {
+            return setting(
+                "mlmc.scheme",
+                s.scheme.clone(),
+                format!(
+                    "one of {}",
+                    SchemeKind::ALL.map(SchemeKind::name).join(", ")
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// Checks the accuracies (at least one, each as [`check_eps`] does) and the final time
+    /// (finite and > 0).
+    fn validate_eps_and_time(&self) -> Result<(), MlmcError> {
+        let s = &self.spec;
         if s.eps.is_empty() {
             return setting("mlmc.eps", "[]".into(), "at least one accuracy".into());
         }
@@ -125,6 +155,13 @@ impl MlmcSettings {
                 "the final time must be finite and > 0".into(),
             );
         }
+        Ok(())
+    }
+
+    /// The step exponent k0 + L_max of the finest level, checked: level 0 on at least 2 steps,
+    /// and the sum in checked arithmetic at most [`MAX_STEP_EXPONENT`].
+    fn finest_exponent(&self) -> Result<u32, MlmcError> {
+        let s = &self.spec;
         if s.coarsest == 0 {
             return setting(
                 "mlmc.coarsest",
@@ -153,7 +190,13 @@ impl MlmcSettings {
                 ),
             );
         };
-        check_step(self.t_end, finest)?;
+        Ok(finest)
+    }
+
+    /// Checks the convergence test: at least 3 levels within L_max, at least 2 samples per
+    /// level (of the test and initially), and its samples within the memory available.
+    fn validate_test(&self) -> Result<(), MlmcError> {
+        let s = &self.spec;
         if s.test_levels < 2 || s.test_levels > s.max_level {
             return setting(
                 "mlmc.test_levels",
@@ -176,23 +219,6 @@ impl MlmcSettings {
         if let Some(rule) = samples_exceed_memory(&test, "the convergence test's levels") {
             return setting("mlmc.test_samples", s.test_samples.to_string(), rule);
         }
-        if self.threads == 0 || self.threads > MAX_THREADS {
-            return setting(
-                "threads",
-                self.threads.to_string(),
-                format!("must be in 1..={MAX_THREADS}"),
-            );
-        }
-        if SchemeKind::from_name(&s.scheme).is_none() {
-            return setting(
-                "mlmc.scheme",
-                s.scheme.clone(),
-                format!(
-                    "one of {}",
-                    SchemeKind::ALL.map(SchemeKind::name).join(", ")
-                ),
-            );
-        }
         Ok(())
     }
 
@@ -202,9 +228,6 @@ impl MlmcSettings {
     /// smallest step T / 2^(k0 + L) at least [`MIN_STEP`], at least 2 samples per level, and
     /// all its samples within the memory available ([`samples_exceed_memory`]).
     pub fn validate_plan(&self, plan: &Plan) -> Result<(), MlmcError> {
-        let setting = |key: &'static str, value: String, rule: String| {
-            Err(MlmcError::Setting { key, value, rule })
-        };
         check_eps(plan.eps).map_err(|e| match e {
             MlmcError::Eps { value } => MlmcError::Setting {
                 key: "plan.eps",

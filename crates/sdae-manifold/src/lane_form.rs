@@ -1,6 +1,6 @@
 //! A constraint's forms over SIMD lanes, for engines that step many paths at once.
 //!
-//! A constraint offers them through [`Constraint::lane_form`](crate::Constraint::lane_form):
+//! A constraint offers them through [`Constraint::lane_form`]:
 //! it hands a [`LaneFormVisitor`] either its [`Sphere`] (whose kappa system has a closed
 //! form) or itself with its mass as a [`LaneForm`]: its [`ConstraintLanes`] formulas over lanes
 //! for the Newton iteration of the kappa system (seed eq. 3.1, upper part) and the velocity
@@ -14,7 +14,7 @@
 //! [`Scalar`](crate::Scalar) (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus).
 //!
 //! Each formula of a lane form must take the floating-point operations of the scalar
-//! [`Constraint`](crate::Constraint) method it names, in the same order: then a lane's numbers
+//! [`Constraint`] method it names, in the same order: then a lane's numbers
 //! are the scalar step's, bit for bit, whatever the width.
 
 mod bonds;
@@ -31,7 +31,7 @@ use crate::roundoff::Roundoff;
 use crate::sphere::Sphere;
 use crate::vector::sum_squares;
 
-/// What a constraint offers an engine over lanes ([`Constraint::lane_form`](crate::Constraint::lane_form)):
+/// What a constraint offers an engine over lanes ([`Constraint::lane_form`]):
 /// the engine implements the methods for the forms it can step, and a constraint calls the one
 /// that fits it. A form the engine does not step falls back to [`LaneFormVisitor::none`].
 pub trait LaneFormVisitor: Sized {

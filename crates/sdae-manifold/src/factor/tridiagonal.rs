@@ -119,7 +119,7 @@ impl<T: Real> MatrixFactor<T> for ThomasFactor<T> {
         }
     }
 
-    /// [`ThomasFactor::factor_fused`] without a mapped product.
+    /// Thomas' algorithm (`ThomasFactor::factor_fused`) without a mapped product.
     #[inline(always)]
     fn factor(&mut self, a: &TridiagonalGram<T>, rhs: RightHandSide<'_, T>) -> T::Mask {
         self.factor_fused(a, rhs, None)

@@ -37,7 +37,6 @@ impl<T: Real> MatrixFactor<T> for LuFactor<T> {
     /// (|p| > `PIVOT_TOLERANCE` x max |A_ij|).
     #[inline(always)]
     fn factor(&mut self, a: &DenseGram<T>, rhs: RightHandSide<'_, T>) -> T::Mask {
-        let m = self.order;
         let entries = a.as_slice();
         let zero = entries[0].splat_like(0.0);
         let mut ok = zero.mask_like(true);
@@ -46,14 +45,8 @@ impl<T: Real> MatrixFactor<T> for LuFactor<T> {
             ok = ok.and(entry.finite());
             scale = scale.max(entry.abs());
         }
-        let tolerance = scale * PIVOT_TOLERANCE;
         self.lu.copy_from_slice(entries);
-        for k in 0..m {
-            let (pivot_row, pivot) = dense_lu::choose_pivot(&mut self.lu, m, k);
-            self.perm[k] = pivot_row;
-            ok = ok.and(!dense_lu::pivot_rejected(pivot, tolerance));
-            dense_lu::eliminate(&mut self.lu, m, k);
-        }
+        ok = ok.and(self.eliminate(scale * PIVOT_TOLERANCE));
         if let Some((b, out)) = rhs {
             out.copy_from_slice(b);
             self.forward_in_place(out);
@@ -77,10 +70,31 @@ impl<T: Real> MatrixFactor<T> for LuFactor<T> {
     }
 }
 
+impl<T: Real> LuFactor<T> {
+    /// The elimination with partial pivoting of `lu` (holding A) in place (`dense_lu`): the
+    /// paths whose pivots all pass (|p| > `tolerance`); one path stops at its first rejected
+    /// pivot.
+    #[inline(always)]
+    fn eliminate(&mut self, tolerance: T) -> T::Mask {
+        let m = self.order;
+        let mut ok = tolerance.mask_like(true);
+        for k in 0..m {
+            let (pivot_row, pivot) = dense_lu::choose_pivot(&mut self.lu, m, k);
+            self.perm[k] = pivot_row;
+            ok = ok.and(!dense_lu::pivot_rejected(pivot, tolerance));
+            if T::ONE_PATH && !ok.all() {
+                return ok;
+            }
+            dense_lu::eliminate(&mut self.lu, m, k);
+        }
+        ok
+    }
+}
+
 impl LuFactor {
-    /// The step and the pivot of the first pivot [`MatrixFactor::factor`] rejected, for a
-    /// matrix whose largest |entry| is `scale` (each step leaves the rows above it as they
-    /// are, so U's diagonal holds every step's pivot).
+    /// The step and the pivot of the first pivot the elimination rejected, for a matrix whose
+    /// largest |entry| is `scale` (each step leaves the rows above it as they are, so U's
+    /// diagonal holds every step's pivot up to the one it stopped at).
     fn first_rejected_pivot(&self, scale: f64) -> Option<(usize, f64)> {
         let m = self.order;
         (0..m)
@@ -149,8 +163,12 @@ impl Factorize for DenseGram {
             *factor = self.new_factor();
             return self.factor_into(factor);
         };
-        // The entries are finite: the factorization fails exactly where a pivot is rejected.
-        lu.factor(self, None);
+        // The entries are finite (checked above): the elimination fails exactly where a
+        // pivot is rejected, and stops there.
+        lu.lu.copy_from_slice(a);
+        if lu.eliminate(scale * PIVOT_TOLERANCE) {
+            return Ok(());
+        }
         match lu.first_rejected_pivot(scale) {
             Some((index, pivot)) => Err(LinearError::Singular { index, pivot }),
             None => Ok(()),

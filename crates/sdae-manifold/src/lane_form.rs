@@ -276,6 +276,23 @@ pub struct Evaluation<Sd: Simd> {
     pub ok: LaneMask<Sd>,
 }
 
+impl<Sd: Simd> Evaluation<Sd> {
+    /// The end of an evaluation that stores g(x1) in `values` and J in `jacobian`, each in a
+    /// pass of its own: [`max_abs_and_finite`] of g(x1), then J factored into `factor` with
+    /// the first half of J^-1 g(x1) into `step` ([`MatrixFactor::factor`]).
+    #[inline(always)]
+    pub fn reduce_and_factor<F: MatrixFactor<Lanes<Sd>>>(
+        values: &[Lanes<Sd>], jacobian: &F::Matrix, factor: &mut F, step: &mut [Lanes<Sd>],
+    ) -> Self {
+        let (largest, finite) = max_abs_and_finite(values);
+        let factored = factor.factor(jacobian, Some((values, step)));
+        Self {
+            largest,
+            ok: finite.and(factored),
+        }
+    }
+}
+
 /// The Newton matrix of constraint C over lanes of Sd.
 pub type Jacobian<Sd, C> = <<C as ConstraintLanes>::Shape as GramShape>::Matrix<Lanes<Sd>>;
 

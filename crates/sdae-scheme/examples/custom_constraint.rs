@@ -23,11 +23,9 @@ use pulp::Simd;
 use sdae_lanes::{LaneWidth, Lanes, Real};
 use sdae_manifold::lane_form::{
     ConstraintLanes, Evaluation, InverseMass, LaneForm, LaneFormVisitor, PointLanes, base_coords,
-    max_abs_and_finite,
 };
 use sdae_manifold::{
-    Constraint, DiagonalMass, Mass, MatrixFactor, Roundoff, Scalar, ScalarFactor, ScalarGram,
-    check_state,
+    Constraint, DiagonalMass, Mass, Roundoff, Scalar, ScalarFactor, ScalarGram, check_state,
 };
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
 use sdae_noise::{GaussianIncrements, IncrementSource};
@@ -142,12 +140,7 @@ impl ConstraintLanes for Torus {
         values[0] = self.g(&x);
         let weighted = weighted(w, self.grad(&r.coords::<3>(0)));
         jacobian.0 = dot(&self.grad(&x), &weighted);
-        let (largest, finite) = max_abs_and_finite(values);
-        let factored = factor.factor(jacobian, Some((values, step)));
-        Evaluation {
-            largest,
-            ok: finite.and(factored),
-        }
+        Evaluation::reduce_and_factor(values, jacobian, factor, step)
     }
     #[inline(always)]
     fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(

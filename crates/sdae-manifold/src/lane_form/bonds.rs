@@ -11,10 +11,8 @@ use crate::vector::{distance_value, dot3};
 use pulp::Simd;
 use sdae_lanes::Lanes;
 
-use super::{
-    ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords, max_abs_and_finite,
-};
-use crate::factor::{LuFactor, MatrixFactor};
+use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
+use crate::factor::LuFactor;
 use crate::gram::{Dense, DenseGram};
 
 /// The network's formulas over lanes, each with the operations of the one-path method it
@@ -77,12 +75,7 @@ impl ConstraintLanes for RigidBonds {
         step: &mut [Lanes<Sd>],
     ) -> Evaluation<Sd> {
         self.value_and_cross_gram_lanes(w, x1, r, values, jacobian);
-        let (largest, finite) = max_abs_and_finite(values);
-        let factored = factor.factor(jacobian, Some((values, step)));
-        Evaluation {
-            largest,
-            ok: finite.and(factored),
-        }
+        Evaluation::reduce_and_factor(values, jacobian, factor, step)
     }
 
     /// out = base + M^-1 grad g(r) z, with (grad g(r) z)_a = sum over the bonds b at atom a

@@ -119,9 +119,25 @@ fn selected(shard: (usize, usize), paths: usize) -> usize {
     (index..paths).step_by(count.max(1)).count()
 }
 
+/// The header, the records (read with `read`, named `what` in messages) and the bytes of a
+/// torn last segment of the checkpoint file at `path` holding `bytes`, whose magic line is
+/// `magic.0` (or one of the older lines `magic.1`): checksums verified, records read, nothing
+/// checked against a run.
+pub(crate) fn parse_file<H: serde::de::DeserializeOwned, T>(
+    path: &Path, bytes: &[u8], magic: (&[u8], &[&[u8]]), what: &str,
+    read: impl FnMut(&mut Reader<'_>) -> Result<T, String>,
+) -> Result<(H, Vec<T>, usize), StudyError> {
+    let unreadable = |m| not_whole(path, m);
+    let segments = segments::read(path, bytes, magic.0, magic.1)?;
+    let header: H =
+        serde_json::from_slice(segments.header).map_err(|e| unreadable(format!("header: {e}")))?;
+    let records = read_payloads(&segments.records, what, read).map_err(unreadable)?;
+    Ok((header, records, segments.torn))
+}
+
 /// Every record in the segments' `payloads`, read with `read`; a malformed one is named by its
 /// segment and place.
-pub(crate) fn read_payloads<T>(
+fn read_payloads<T>(
     payloads: &[&[u8]], what: &str, mut read: impl FnMut(&mut Reader<'_>) -> Result<T, String>,
 ) -> Result<Vec<T>, String> {
     let mut records = Vec::new();
@@ -161,13 +177,7 @@ impl Checkpoint {
     /// The header, the records and the bytes of a torn last segment of the checkpoint file
     /// holding `bytes`: checksums verified, records read, nothing checked against a run.
     fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<PathRecord>, usize), StudyError> {
-        let unreadable = |m| not_whole(&self.path, m);
-        let segments = segments::read(&self.path, bytes, MAGIC, &OLDER)?;
-        let header: Header = serde_json::from_slice(segments.header)
-            .map_err(|e| unreadable(format!("header: {e}")))?;
-        let records =
-            read_payloads(&segments.records, "record", |r| r.record()).map_err(unreadable)?;
-        Ok((header, records, segments.torn))
+        parse_file(&self.path, bytes, (MAGIC, &OLDER), "record", |r| r.record())
     }
 
     /// The number of paths the checkpoint file holds and of the paths of its shard, if it
@@ -316,7 +326,7 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Option<Vec<u8>>, StudyError> {
 }
 
 /// The [`StudyError::Read`] of a checkpoint file that is not whole, saying why.
-pub(crate) fn not_whole(path: &Path, message: String) -> StudyError {
+fn not_whole(path: &Path, message: String) -> StudyError {
     StudyError::Read {
         path: path.to_path_buf(),
         message: format!("not a whole checkpoint: {message}"),

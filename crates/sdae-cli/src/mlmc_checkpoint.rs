@@ -29,12 +29,11 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::saves::Saves;
-use crate::checkpoint::segments;
 #[cfg(test)]
 use crate::checkpoint::segments::{Appender, batches};
 use crate::checkpoint::{
-    DEFAULT_INTERVAL, Reader, RunLock, not_whole, read_bytes, read_payloads, remove_checkpoint,
-    torn_note, write_f64, write_varint,
+    DEFAULT_INTERVAL, Reader, RunLock, parse_file, read_bytes, remove_checkpoint, torn_note,
+    write_f64, write_varint,
 };
 use sdae_mlmc::algorithm::Plan;
 use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
@@ -120,12 +119,7 @@ impl MlmcCheckpoint {
     /// The header, the blocks and the bytes of a torn last segment of the checkpoint file
     /// holding `bytes`: checksums verified, blocks read, nothing checked against a run.
     fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<Block>, usize), StudyError> {
-        let unreadable = |m| not_whole(&self.path, m);
-        let segments = segments::read(&self.path, bytes, MAGIC, &OLDER)?;
-        let header: Header = serde_json::from_slice(segments.header)
-            .map_err(|e| unreadable(format!("header: {e}")))?;
-        let blocks = read_payloads(&segments.records, "block", read_block).map_err(unreadable)?;
-        Ok((header, blocks, segments.torn))
+        parse_file(&self.path, bytes, (MAGIC, &OLDER), "block", read_block)
     }
 
     /// The number of blocks the checkpoint file holds, if it exists and can be read (for

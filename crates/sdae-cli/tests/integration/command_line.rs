@@ -168,6 +168,19 @@ fn scene_file(dir: &Path, text: &str) -> PathBuf {
     file
 }
 
+/// Writes the built-in pendulum scene, renamed and with `from` replaced by `to` (see
+/// [`edited`]), as a scene file in `dir` and returns its path.
+fn pendulum_file(dir: &Path, from: &str, to: &str) -> PathBuf {
+    scene_file(
+        dir,
+        &edited(
+            include_str!("../../../sdae-study/scenes/pendulum.toml"),
+            from,
+            to,
+        ),
+    )
+}
+
 /// The thermal pendulum as a small, fast equipartition scene: 2 paths, N = 4 and 8 over T = 1.
 fn small_thermal() -> String {
     edited(
@@ -191,14 +204,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
             "available",
         ],
     );
-    let file = scene_file(
-        &dir,
-        &edited(
-            include_str!("../../../sdae-study/scenes/pendulum.toml"),
-            "paths = 10000",
-            &format!("paths = {huge}"),
-        ),
-    );
+    let file = pendulum_file(&dir, "paths = 10000", &format!("paths = {huge}"));
     let args = [&["--scene-file", path(&file)][..], &out].concat();
     usage_error(
         &args,
@@ -484,14 +490,7 @@ fn step_sizes_that_underflow_are_refused_before_running() {
         ],
     );
     // From a scene file the key and the file are named, not a flag.
-    let file = scene_file(
-        &dir,
-        &edited(
-            include_str!("../../../sdae-study/scenes/pendulum.toml"),
-            "T = 1.0",
-            "T = 1e-310",
-        ),
-    );
+    let file = pendulum_file(&dir, "T = 1.0", "T = 1e-310");
     let args = ["--scene-file", path(&file), "--quick", "--out", path(&dir)];
     usage_error(&args, &["T = 1e-310", "normal float", path(&file)]);
     assert!(!text(&study(&args).stderr).contains("--t-end"));
@@ -665,14 +664,7 @@ fn weak_table_settings_are_named_by_their_key_and_file() {
 #[test]
 fn a_bad_system_in_a_later_scene_stops_the_command_before_the_first_scene_runs() {
     let dir = folder("later-scene");
-    let file = scene_file(
-        &dir,
-        &edited(
-            include_str!("../../../sdae-study/scenes/pendulum.toml"),
-            "gravity = 1.0",
-            "gravity = nan",
-        ),
-    );
+    let file = pendulum_file(&dir, "gravity = 1.0", "gravity = nan");
     for study in ["convergence", "weak", "trace"] {
         let mut args = vec![study, "--scene", "pendulum", "--scene-file", path(&file)];
         if study != "trace" {
@@ -817,14 +809,7 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
 fn weak_errors_that_underflow_give_no_order() {
     // At T = 1e-140 every weak error is exactly 0: no order is fitted to them.
     let dir = folder("zero-weak-errors");
-    let file = scene_file(
-        &dir,
-        &edited(
-            include_str!("../../../sdae-study/scenes/pendulum.toml"),
-            "T = 1.0",
-            "T = 1e-140",
-        ),
-    );
+    let file = pendulum_file(&dir, "T = 1.0", "T = 1e-140");
     let ran = study(&[
         "weak",
         "--quick",

@@ -8,9 +8,10 @@ use sdae_study::StudyError;
 use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::observable::built_in_all;
-use sdae_study::parallel::Control;
 use sdae_study::scene::{Prepared, Scene, SceneRunner};
-use sdae_study::weak::{Basis, WeakReport, build_weak_report, run_weak_on, weak_settings};
+use sdae_study::weak::{Basis, WeakReport, build_weak_report, weak_settings};
+
+use crate::weak_run::run_whole;
 
 /// The run of a weak study with `settings` (its observables the scene's built-in ones).
 struct Run<'a> {
@@ -24,15 +25,7 @@ impl SceneRunner for Run<'_> {
         S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
     {
         let observables = built_in_all(scene, &prepared, &self.settings.observables)?;
-        run_weak_on(
-            scene,
-            &prepared,
-            &[],
-            &observables,
-            self.settings,
-            (0, 1),
-            Control::default(),
-        )
+        run_whole(scene, &prepared, &observables, self.settings)
     }
 }
 

@@ -1,6 +1,7 @@
 //! The weak report of a scene, as the tests of the weak study run it.
 
-use sdae_study::convergence::ConvergenceSettings;
+use sdae_study::StudyError;
+use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings};
 use sdae_study::observable::{Observable, built_in_all};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{Prepared, Scene, SceneRunner};
@@ -20,16 +21,27 @@ impl SceneRunner for Weak<'_> {
     {
         let mut observables = built_in_all(scene, &prepared, &self.settings.observables).unwrap();
         observables.extend(self.extra);
-        let run = run_weak_on(
-            scene,
-            &prepared,
-            &[],
-            &observables,
-            self.settings,
-            (0, 1),
-            Control::default(),
-        )
-        .unwrap();
+        let run = run_whole(scene, &prepared, &observables, self.settings).unwrap();
         build_weak_report(run).unwrap()
     }
+}
+
+/// The weak study of a scene's `observables` with `settings` over all its paths (one shard,
+/// no schemes beyond the settings', never stopped), as the tests run it.
+pub fn run_whole<S>(
+    scene: &Scene, prepared: &Prepared<S>, observables: &[Observable],
+    settings: &ConvergenceSettings,
+) -> Result<ConvergenceRun, StudyError>
+where
+    S: sdae_reference::CurvedSystem + Clone + Send + Sync + 'static,
+{
+    run_weak_on(
+        scene,
+        prepared,
+        &[],
+        observables,
+        settings,
+        (0, 1),
+        Control::default(),
+    )
 }

@@ -38,6 +38,8 @@
 //!
 //! Run with `cargo bench -p sdae-bench --bench splitting`.
 
+mod verify;
+
 use std::hint::black_box;
 
 use criterion::measurement::WallTime;
@@ -231,17 +233,7 @@ impl<Sch: Scheme> OnePath<Sch> {
             worst = worst.max(residual);
             iterations += k;
         }
-        assert!(
-            worst < RESIDUAL_BOUND,
-            "{}: position residual {worst:e} after {RESET_EVERY} steps",
-            self.name
-        );
-        eprintln!(
-            "{}: {RESET_EVERY} verification steps ok, max |g| = {worst:.1e}, \
-             mean Newton iterations per step = {:.2}",
-            self.name,
-            iterations as f64 / RESET_EVERY as f64
-        );
+        verify::report_verification(&self.name, worst, iterations, RESET_EVERY, RESIDUAL_BOUND);
     }
 }
 

@@ -19,6 +19,8 @@
 //!
 //! Run with `cargo bench -p sdae-bench --bench step`, or `cargo xtask bench` for a summary.
 
+mod verify;
+
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -158,17 +160,7 @@ impl<S: System> Bench<S> {
             worst = worst.max(self.step());
             iterations += self.last_iterations;
         }
-        assert!(
-            worst < 1e-10,
-            "{}: position residual {worst:e} after {RESET_EVERY} steps",
-            self.name
-        );
-        eprintln!(
-            "{}: {RESET_EVERY} verification steps ok, max |g| = {worst:.1e}, \
-             mean Newton iterations per step = {:.2}",
-            self.name,
-            iterations as f64 / RESET_EVERY as f64
-        );
+        verify::report_verification(&self.name, worst, iterations, RESET_EVERY as usize, 1e-10);
     }
 }
 

@@ -8,6 +8,18 @@ use sdae_mlmc::sums::level_stats;
 
 use crate::linear::Linear;
 
+/// Geometric Brownian motion dX = X / 2 dt + X / 2 dW from level 0 on 2 steps, T = 1.
+fn gbm(seed: u64) -> Linear {
+    Linear {
+        a: 0.5,
+        b: 0.5,
+        multiplicative: true,
+        t_end: 1.0,
+        coarsest: 1,
+        seed,
+    }
+}
+
 /// The convergence test's rates on levels 0..=8 with 20 000 samples each, fitted from l = 2.
 fn rates_of(model: &Linear) -> sdae_mlmc::Rates {
     let control = RunControl::new(2).unwrap();
@@ -57,14 +69,7 @@ fn check_rates(model: &Linear, alpha_limit: f64, beta_limit: f64) {
 
 #[test]
 fn euler_maruyama_has_alpha_1_and_beta_1_on_geometric_brownian_motion() {
-    let gbm = Linear {
-        a: 0.5,
-        b: 0.5,
-        multiplicative: true,
-        t_end: 1.0,
-        coarsest: 1,
-        seed: 11,
-    };
+    let gbm = gbm(11);
     check_rates(&gbm, 1.0, 1.0);
 }
 
@@ -76,14 +81,7 @@ fn euler_maruyama_has_alpha_1_and_beta_2_on_additive_noise() {
 
 #[test]
 fn the_adaptive_estimate_of_geometric_brownian_motion_covers_its_mean() {
-    let gbm = Linear {
-        a: 0.5,
-        b: 0.5,
-        multiplicative: true,
-        t_end: 1.0,
-        coarsest: 1,
-        seed: 13,
-    };
+    let gbm = gbm(13);
     let control = RunControl::new(2).unwrap();
     let run = adaptive(
         &gbm,

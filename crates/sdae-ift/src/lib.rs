@@ -34,12 +34,14 @@
 
 mod criteria;
 mod error;
+mod iteration;
 mod problem;
 mod settings;
 mod solver;
 
 pub use criteria::{ProbeMap, QuadraticRoot, power_iteration, quadratic_root};
 pub use error::IftError;
+pub use iteration::{NewtonIterates, NewtonSystem, certify, newton_from_zero};
 pub use problem::BallProblem;
 pub use settings::SolverSettings;
 pub use solver::{BallSolver, Certificate, Method};

@@ -4,6 +4,7 @@
 
 use crate::criteria::{ProbeMap, power_iteration, quadratic_root};
 use crate::error::IftError;
+use crate::iteration::{NewtonSystem, certify, newton_from_zero};
 use crate::problem::BallProblem;
 use crate::settings::SolverSettings;
 use sdae_manifold::GramStructure;
@@ -394,102 +395,61 @@ impl<A: Factorize> BallSolver<A> {
         }))
     }
 
-    /// Newton from gamma = 0 for m = 1 on scalars: the iteration, tolerances, checks and
-    /// certificate of the general path (`newton` at tau = 1, `accept`, `contraction_estimate`)
-    /// with the same floating-point operations, without the per-call overhead of slices of
-    /// length 1. `None` when the general path must decide (no convergence, a singular or
-    /// non-finite Jacobian, a root outside the ball or implausible): it repeats the solve, so
-    /// errors and the homotopy fallback are those of the general path.
+    /// Newton from gamma = 0 for m = 1 on scalars: the iteration and certificate written once
+    /// for one path and for lanes ([`newton_from_zero`], [`certify`]), with the tolerances and
+    /// checks of the general path (`newton` at tau = 1, `accept`, `contraction_estimate`) and
+    /// its floating-point operations, without the per-call overhead of slices of length 1.
+    /// `None` when the general path must decide (no convergence, a singular or non-finite
+    /// Jacobian, a root outside the ball, implausible or not contracting): it repeats the
+    /// solve, so errors and the homotopy fallback are those of the general path.
     #[inline]
     fn solve_scalar<P: BallProblem<Matrix = A>>(
         &mut self, problem: &mut P, radius: f64,
     ) -> Option<Certificate> {
-        let mut residual = [0.0];
-        problem.evaluate(&[0.0], &mut residual, Some(&mut self.matrix));
-        self.matrix.factor_into(&mut self.factor_at_zero).ok()?;
-        self.residual_at_zero[0] = residual[0];
-        let mut step = residual;
-        self.factor_at_zero.solve_in_place(&mut step);
-        let first_step = (step[0] * step[0]).sqrt();
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
-        self.root_in_factor = false;
-        let r0 = residual[0].abs();
-        if !r0.is_finite() {
-            return None;
-        }
-        let (gamma, r, iterations) = if r0 > self.tolerance {
-            self.scalar_newton(problem, r0, 0.0 - step[0])?
-        } else {
-            (0.0, r0, 0)
+        let (mut gamma, mut step) = ([0.0], [0.0]);
+        let mut system = OnePath {
+            problem,
+            matrix: &mut self.matrix,
+            factor: &mut self.factor,
+            factor_at_zero: &mut self.factor_at_zero,
+            residual_at_zero: &mut self.residual_at_zero[0],
+            at_zero: true,
         };
-        self.gamma[0] = gamma;
-        let norm = (gamma * gamma).sqrt();
-        let bound = self.settings.plausibility_bound(first_step);
-        if norm.partial_cmp(&radius) != Some(std::cmp::Ordering::Less)
-            || self.settings.implausible(norm, bound)
-        {
-            return None;
-        }
+        let settings = self.settings;
+        let root = newton_from_zero(
+            &mut system,
+            &settings,
+            self.tolerance,
+            &mut gamma,
+            &mut step,
+        );
+        self.root_in_factor = root.iterated;
+        self.gamma[0] = gamma[0];
         // Power iteration on J(0)^-1 J(gamma*) - 1 (exact after one step for m = 1).
-        let probes = self.settings.probes(radius).min(1);
-        let mut map = AtZero {
-            matrix: &self.matrix,
-            factor_at_zero: &self.factor_at_zero,
-        };
-        let contraction = power_iteration(
-            norm,
+        let probes = settings.probes(radius).min(1);
+        let (ok, norm, contraction) = certify(
+            &mut system,
+            &settings,
+            radius,
             probes,
-            &mut [gamma / norm],
-            &mut [0.0],
-            false,
-            &mut map,
+            root.first_step,
+            root.ok,
+            &mut gamma,
+            &mut step,
         );
         // Not certified: the general path repeats the solve and reports it.
-        self.contracting(contraction, radius).ok()?;
-        Some(Certificate {
-            iterations,
+        ok.then_some(Certificate {
+            iterations: root.iterations as usize,
             homotopy_steps: 0,
             method: Method::Newton,
             rounding: 0.0,
-            residual: r,
+            residual: root.residual,
             norm,
             radius,
-            first_step,
+            first_step: root.first_step,
             contraction,
         })
-    }
-
-    /// Newton's iterations 1, 2, ... of [`BallSolver::solve_scalar`] from gamma = `start` (0
-    /// less the first step), after |R(0)| = `r0`: the root, its residual and the iterations;
-    /// `None` where the general path must decide (no convergence, a singular or non-finite
-    /// Jacobian or residual).
-    fn scalar_newton<P: BallProblem<Matrix = A>>(
-        &mut self, problem: &mut P, r0: f64, start: f64,
-    ) -> Option<(f64, f64, usize)> {
-        let (mut gamma, mut previous_residual) = (start, r0);
-        let mut residual = [0.0];
-        let max_iterations = self.settings.max_iterations;
-        for iterations in 1..=max_iterations {
-            problem.evaluate(&[gamma], &mut residual, Some(&mut self.matrix));
-            let r = residual[0].abs();
-            if !r.is_finite() {
-                return None;
-            }
-            self.matrix.factor_into(&mut self.factor).ok()?;
-            self.root_in_factor = true;
-            let last = iterations == max_iterations;
-            if self
-                .settings
-                .converged(r, previous_residual, self.tolerance, last)
-            {
-                return Some((gamma, r, iterations));
-            }
-            previous_residual = r;
-            let mut step = residual;
-            self.factor.solve_in_place(&mut step);
-            gamma -= step[0];
-        }
-        None
     }
 
     /// The ball check of a root of Euclidean norm `norm`: `Ok(rounding)` when |gamma| - rounding
@@ -786,5 +746,55 @@ impl<A: Factorize> ProbeMap<f64> for AtZero<'_, A> {
     fn apply(&mut self, probe: &[f64], image: &mut [f64]) {
         self.matrix.mul_vec(probe, image);
         self.factor_at_zero.solve_in_place(image);
+    }
+}
+
+/// A problem of one unknown with the solver's matrix and factors, as the [`NewtonSystem`] of
+/// [`BallSolver::solve_scalar`]: an evaluation of R and J, J factored (J(0) into
+/// `factor_at_zero`, R(0) kept in `residual_at_zero`), and the step solved in one half.
+struct OnePath<'a, P, A: Factorize> {
+    problem: &'a mut P,
+    matrix: &'a mut A,
+    factor: &'a mut A::Factor,
+    factor_at_zero: &'a mut A::Factor,
+    residual_at_zero: &'a mut f64,
+    /// Whether the last evaluation was at gamma = 0.
+    at_zero: bool,
+}
+
+impl<P: BallProblem<Matrix = A>, A: Factorize> NewtonSystem<f64> for OnePath<'_, P, A> {
+    #[inline(always)]
+    fn evaluate_and_factor(&mut self, gamma: Option<&[f64]>, step: &mut [f64]) -> (f64, bool) {
+        self.at_zero = gamma.is_none();
+        self.problem
+            .evaluate(gamma.unwrap_or(&[0.0]), step, Some(&mut *self.matrix));
+        let largest = step[0].abs();
+        let factor = if self.at_zero {
+            *self.residual_at_zero = step[0];
+            &mut *self.factor_at_zero
+        } else {
+            &mut *self.factor
+        };
+        let factored = self.matrix.factor_into(factor).is_ok();
+        (largest, largest.is_finite() && factored)
+    }
+    #[inline(always)]
+    fn back_substitute(&mut self, step: &mut [f64]) {
+        if self.at_zero {
+            self.factor_at_zero.solve_in_place(step);
+        } else {
+            self.factor.solve_in_place(step);
+        }
+    }
+}
+
+impl<P, A: Factorize> ProbeMap<f64> for OnePath<'_, P, A> {
+    #[inline(always)]
+    fn apply(&mut self, probe: &[f64], image: &mut [f64]) {
+        let mut map = AtZero {
+            matrix: &*self.matrix,
+            factor_at_zero: &*self.factor_at_zero,
+        };
+        map.apply(probe, image);
     }
 }

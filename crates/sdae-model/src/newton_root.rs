@@ -2,9 +2,11 @@
 //! over lanes ([`ConstraintLanes`]) with a diagonal mass: the root gamma connected to 0 of
 //! R(gamma) = g(y + M^-1 grad g(r) gamma) (seed eq. 3.1 upper part, eq. 3.10), Newton from
 //! gamma = 0 with a convergence mask per lane, and the ball solver's certificate (the ball,
-//! the plausibility bound, the contraction probes). It is `BallSolver::solve` of `sdae-ift` on
-//! its general path without the homotopy, with the same floating-point operations in the same
-//! order, so that a decided lane has its path's scalar numbers. With y = r + tau v it is the
+//! the plausibility bound, the contraction probes): the iteration and certificate of
+//! `sdae-ift` ([`newton_from_zero`], [`certify`]), which `BallSolver` runs for one path of one
+//! unknown, over this constraint's lane formulas. It is `BallSolver::solve` on its general path
+//! without the homotopy, with the same floating-point operations in the same order, so that a
+//! decided lane has its path's scalar numbers. With y = r + tau v it is the
 //! half-explicit step's root (tau = eta h) and a SHAKE projection (tau the substep).
 //!
 //! A lane the iteration does not decide (no convergence within the iteration limit, a pivot
@@ -16,13 +18,11 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::Simd;
-use sdae_ift::{ProbeMap, SolverSettings, power_iteration};
+use sdae_ift::{NewtonSystem, ProbeMap, SolverSettings, certify, newton_from_zero};
 use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes,
-    active_any,
+    ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes, active_any,
 };
-use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
 
 use crate::system::System;
@@ -130,43 +130,63 @@ pub struct NewtonLanes<Sd: Simd> {
     pub contraction: Lanes<Sd>,
 }
 
-/// The root's Newton iteration, per lane, while it runs.
-struct Iterates<Sd: Simd> {
-    /// The lanes not failed so far.
-    ok: LaneMask<Sd>,
-    /// The lanes still iterating.
-    active: LaneMask<Sd>,
-    /// The iteration at which a lane converged (0 while it runs, and at a root of 0).
-    iterations: Lanes<Sd>,
-    /// The residual at which a lane converged.
-    residual: Lanes<Sd>,
-    /// The residual of the last iteration of the lanes still iterating.
-    previous: Lanes<Sd>,
+/// The kappa system of W lanes at y as the [`NewtonSystem`] of [`newton_from_zero`]: x = y +
+/// M^-1 grad g(r) gamma, R(gamma) = g(x) and J(gamma) = Dg(x) M^-1 grad g(r) from the
+/// constraint's lane formulas, J(0) factored into `factor_at_zero`, the others into `factor`.
+struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes> {
+    constraint: &'a LaneForm<C>,
+    y: &'a Drifted<'a, Sd>,
+    x: &'a mut [Lanes<Sd>],
+    residual: &'a mut [Lanes<Sd>],
+    jacobian: &'a mut Jacobian<Sd, C>,
+    factor_at_zero: &'a mut Factor<Sd, C>,
+    factor: &'a mut Factor<Sd, C>,
+    /// Whether the last evaluation was at gamma = 0 (at y).
+    at_zero: bool,
 }
 
-impl<Sd: Simd> Iterates<Sd> {
-    /// Iteration k with residual `r_k`: the active lanes that `fails` drop out of `ok`, those
-    /// `converged` (and not failed) record k and r_k, the rest go on.
+impl<Sd: Simd, C: ConstraintLanes> NewtonSystem<Lanes<Sd>> for KappaLanes<'_, Sd, C> {
     #[inline(always)]
-    fn record(
-        &mut self, k: Lanes<Sd>, r_k: Lanes<Sd>, converged: LaneMask<Sd>, fails: LaneMask<Sd>,
-    ) {
-        self.ok = self.ok.and(!self.active.and(fails));
-        let finished = self.active.and(converged).and(!fails);
-        self.iterations = Lanes::select(finished, k, self.iterations);
-        self.residual = Lanes::select(finished, r_k, self.residual);
-        self.active = self.active.and(!converged).and(!fails);
-        self.previous = Lanes::select(self.active, r_k, self.previous);
+    fn evaluate_and_factor(
+        &mut self, gamma: Option<&[Lanes<Sd>]>, step: &mut [Lanes<Sd>],
+    ) -> (Lanes<Sd>, LaneMask<Sd>) {
+        let (y, r) = (self.y, self.y.r);
+        self.at_zero = gamma.is_none();
+        let evaluation = match gamma {
+            None => self.constraint.evaluate_and_factor(
+                y,
+                r,
+                self.residual,
+                self.jacobian,
+                self.factor_at_zero,
+                step,
+            ),
+            Some(gamma) => {
+                self.constraint.displace(r, gamma, Some(y), self.x);
+                self.constraint.evaluate_and_factor(
+                    &self.x[..],
+                    r,
+                    self.residual,
+                    self.jacobian,
+                    self.factor,
+                    step,
+                )
+            }
+        };
+        (evaluation.largest, evaluation.ok)
+    }
+    #[inline(always)]
+    fn back_substitute(&mut self, step: &mut [Lanes<Sd>]) {
+        if self.at_zero {
+            self.factor_at_zero.back_substitute(step);
+        } else {
+            self.factor.back_substitute(step);
+        }
     }
 }
 
 /// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
-struct AtZero<'a, Sd: Simd, C: ConstraintLanes> {
-    jacobian: &'a Jacobian<Sd, C>,
-    factor_at_zero: &'a Factor<Sd, C>,
-}
-
-impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for AtZero<'_, Sd, C> {
+impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for KappaLanes<'_, Sd, C> {
     #[inline(always)]
     fn apply(&mut self, probe: &[Lanes<Sd>], image: &mut [Lanes<Sd>]) {
         self.jacobian.product(probe, image);
@@ -200,74 +220,54 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// ball of `radius` (infinite: no ball), with `max_abs_y` = max_i |y_i| for the residual
     /// floor: the lanes it decides, with the root's point in `x` where the root is not 0, the
     /// Jacobian at the root factored ([`NewtonRoot::root_factor`]) and the certificate's
-    /// numbers. gamma* stays in `gamma` where `settings.probes(radius)` is 0.
+    /// numbers ([`newton_from_zero`], [`certify`]). gamma* stays in `gamma` where
+    /// `settings.probes(radius)` is 0.
     #[inline(always)]
     pub fn solve(
         &mut self, constraint: &LaneForm<C>, settings: &SolverSettings, radius: f64,
         y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
-        let r = y.r;
-        let zero = self.splat(0.0);
-        let one = self.splat(1.0);
         // The residual floor of g near y (`Constraint::roundoff`) and the tolerance.
         let floor = constraint.roundoff().floor(max_abs_y);
         let tolerance = self.splat(settings.tolerance).max(floor);
-
-        let mut step = std::mem::take(&mut self.step);
-        let (at_y, first_step) = self.first_newton_step(constraint, y, &mut step);
-        let (residual_at_zero, ok) = (at_y.largest, at_y.ok);
-        let at_zero = residual_at_zero.le(tolerance);
-        for (g, s) in self.gamma.iter_mut().zip(&step) {
-            *g = Lanes::select(at_zero, zero, zero - *s);
-        }
-        let mut lanes = Iterates {
-            ok,
-            active: ok.and(!at_zero),
-            iterations: zero,
-            residual: residual_at_zero,
-            previous: residual_at_zero,
+        let Self {
+            x,
+            residual,
+            jacobian,
+            factor_at_zero,
+            factor,
+            gamma,
+            step,
+            ..
+        } = self;
+        let mut system = KappaLanes {
+            constraint,
+            y,
+            x,
+            residual,
+            jacobian,
+            factor_at_zero,
+            factor,
+            at_zero: true,
         };
-        let mut iterated = false;
-        let max_iterations = settings.max_iterations;
-        for k in 1..=max_iterations {
-            if !active_any(lanes.active) {
-                break;
-            }
-            iterated = true;
-            constraint.displace(r, &self.gamma, Some(y), &mut self.x);
-            let at_x = constraint.evaluate_and_factor(
-                &self.x[..],
-                r,
-                &mut self.residual,
-                &mut self.jacobian,
-                &mut self.factor,
-                &mut step,
-            );
-            let r_k = at_x.largest;
-            let converged = settings.converged(r_k, lanes.previous, tolerance, k == max_iterations);
-            // The next Newton step only if a lane goes on (most often none does: one
-            // iteration converges); the factors at the root are kept either way.
-            if active_any(lanes.active.and(!converged)) {
-                self.factor.back_substitute(&mut step);
-            }
-            // A lane that fails now (no finite residual, a rejected pivot, the last
-            // iteration without convergence) goes through the scalar step.
-            let fails = (!at_x.ok).or(if k == max_iterations {
-                !converged
-            } else {
-                !one.eq(one)
-            });
-            lanes.record(self.splat(k as f64), r_k, converged, fails);
-            self.newton_update(lanes.active, &step);
-        }
-        self.step = step;
-        let (ok, norm, contraction) = self.certificate(settings, radius, first_step, lanes.ok);
+        let root = newton_from_zero(&mut system, settings, tolerance, gamma, step);
+        // gamma* is not read again where there are probes: they take its place.
+        let (ok, norm, contraction) = certify(
+            &mut system,
+            settings,
+            radius,
+            settings.probes(radius),
+            root.first_step,
+            root.ok,
+            gamma,
+            step,
+        );
         NewtonLanes {
             ok,
-            iterated,
-            at_zero: lanes.iterations.eq(zero),
-            iterations: lanes.iterations,
-            residual: lanes.residual,
+            iterated: root.iterated,
+            at_zero: root.iterations.eq(self.splat(0.0)),
+            iterations: root.iterations,
+            residual: root.residual,
             norm,
             contraction,
         }
@@ -293,74 +293,5 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         } else {
             &self.factor_at_zero
         }
-    }
-
-    /// R(0) and J(0) at x = y, J(0) factored into `factor_at_zero`, and the first Newton step
-    /// J(0)^-1 R(0) into `step`: the evaluation's result and the step's length.
-    #[inline(always)]
-    fn first_newton_step(
-        &mut self, constraint: &LaneForm<C>, y: &Drifted<'_, Sd>, step: &mut [Lanes<Sd>],
-    ) -> (Evaluation<Sd>, Lanes<Sd>) {
-        let at_y = constraint.evaluate_and_factor(
-            y,
-            y.r,
-            &mut self.residual,
-            &mut self.jacobian,
-            &mut self.factor_at_zero,
-            step,
-        );
-        self.factor_at_zero.back_substitute(step);
-        (at_y, sum_squares(step).sqrt())
-    }
-
-    /// gamma <- gamma - step in the `active` lanes (the Newton update).
-    #[inline(always)]
-    fn newton_update(&mut self, active: LaneMask<Sd>, step: &[Lanes<Sd>]) {
-        if active.all() {
-            for (g, s) in self.gamma.iter_mut().zip(step) {
-                *g = *g - *s;
-            }
-        } else if active_any(active) {
-            let zero = self.splat(0.0);
-            for (g, s) in self.gamma.iter_mut().zip(step) {
-                *g = *g - Lanes::select(active, *s, zero);
-            }
-        }
-    }
-
-    /// The root's certificate in the lanes `ok` (`BallSolver`'s): |gamma*| inside the ball of
-    /// `radius`, within the plausibility bound of the first Newton step, and a contraction
-    /// estimate below its maximum where the radius is finite. The lanes that pass, |gamma*|
-    /// and the contraction estimate (NaN without probes, gamma* then kept).
-    #[inline(always)]
-    fn certificate(
-        &mut self, settings: &SolverSettings, radius: f64, first_step: Lanes<Sd>,
-        mut ok: LaneMask<Sd>,
-    ) -> (LaneMask<Sd>, Lanes<Sd>, Lanes<Sd>) {
-        let norm = sum_squares(&self.gamma).sqrt();
-        ok = ok.and(norm.lt(self.splat(radius)));
-        ok = ok.and(!settings.implausible(norm, settings.plausibility_bound(first_step)));
-        let probes = settings.probes(radius);
-        if probes == 0 {
-            return (ok, norm, self.splat(f64::NAN));
-        }
-        // gamma* is not read again: the probes take its place, starting at gamma* / |gamma*|.
-        for p in self.gamma.iter_mut() {
-            *p = *p / norm;
-        }
-        let Self {
-            jacobian,
-            factor_at_zero,
-            gamma: probe,
-            step: image,
-            ..
-        } = self;
-        let mut map = AtZero::<Sd, C> {
-            jacobian,
-            factor_at_zero,
-        };
-        let contraction = power_iteration(norm, probes, probe, image, false, &mut map);
-        ok = ok.and(!settings.not_contracting(contraction, radius));
-        (ok, norm, contraction)
     }
 }

@@ -31,6 +31,7 @@ mod dense_lu;
 mod error;
 mod factor;
 mod gram;
+mod hypersurface;
 pub mod lane_form;
 mod mass;
 mod roundoff;
@@ -58,6 +59,7 @@ pub use gram::{
     Dense, DenseGram, GramMatrix, GramShape, GramStructure, Scalar, ScalarGram, SquareMatrix,
     Tridiagonal, TridiagonalGram,
 };
+pub use hypersurface::{Hypersurface, Surface};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use roundoff::Roundoff;

@@ -1,14 +1,17 @@
 //! Bring your own constraint, and step its ensembles in SIMD lanes.
 //!
 //! A particle of mass 2 on a torus (major radius R = 2, tube radius a = 0.5) under gravity
-//! and additive noise. The torus is defined here: its formulas (g, grad g) are written once
-//! over [`Real`], and both forms use them:
+//! and additive noise. The torus is defined here by what a constraint of one equation really
+//! has: g and grad g, written once over [`Real`] (its [`Surface`]). [`Hypersurface`] makes of
+//! them both forms:
 //!
-//! - `f64`: the scalar [`Constraint`] the stepper solves one path at a time;
-//! - `Lanes<S>`: its [`ConstraintLanes`], offered through [`Constraint::lane_form`], with which
-//!   an [`Ensemble`] steps W paths at once (W = 8 with AVX-512, 4 with AVX2) by Newton with a
-//!   convergence mask per lane, with the one-equation Newton matrix ([`Scalar`]: [`ScalarGram`]
-//!   and its inverse, over lanes).
+//! - `f64`: the scalar [`Constraint`](sdae_manifold::Constraint) the stepper solves one path at a time;
+//! - `Lanes<S>`: its [`ConstraintLanes`](sdae_manifold::ConstraintLanes), with which an [`Ensemble`] steps W paths at once
+//!   (W = 8 with AVX-512, 4 with AVX2) by Newton with a convergence mask per lane.
+//!
+//! A constraint of several equations implements `Constraint` and `ConstraintLanes` itself,
+//! naming the structure of its Newton matrix (`sdae_manifold::lane_form`; the bead chain and
+//! rigid bonds are built that way).
 //!
 //! It then checks that every path of the ensemble, at every lane width, is the scalar
 //! stepper's path bit for bit (position, velocity and multiplier after 400 steps) under three
@@ -21,12 +24,7 @@ use std::time::Instant;
 
 use pulp::Simd;
 use sdae_lanes::{LaneWidth, Lanes, Real};
-use sdae_manifold::lane_form::{
-    ConstraintLanes, Evaluation, InverseMass, LaneForm, LaneFormVisitor, PointLanes, base_coords,
-};
-use sdae_manifold::{
-    Constraint, DiagonalMass, Mass, Roundoff, Scalar, ScalarFactor, ScalarGram, check_state,
-};
+use sdae_manifold::{DiagonalMass, Hypersurface, Roundoff, Surface, check_state};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
 use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
@@ -38,127 +36,33 @@ struct Torus {
     minor: f64,
 }
 
-impl Torus {
+impl Surface<3> for Torus {
     /// g(x) = ((rho - R)^2 + z^2 - a^2) / (2a), rho = (x^2 + y^2)^(1/2): a length, whose
     /// gradient has norm 1 on the torus.
     #[inline(always)]
-    fn g<T: Real>(&self, x: &[T; 3]) -> T {
+    fn value<T: Real>(&self, x: &[T; 3]) -> T {
         let d = (x[0] * x[0] + x[1] * x[1]).sqrt() - self.major;
         (d * d + x[2] * x[2] - self.minor * self.minor) / (2.0 * self.minor)
     }
-
     /// grad g(x) = ((rho - R) x / (a rho), (rho - R) y / (a rho), z / a).
     #[inline(always)]
-    fn grad<T: Real>(&self, x: &[T; 3]) -> [T; 3] {
+    fn gradient<T: Real>(&self, x: &[T; 3]) -> [T; 3] {
         let rho = (x[0] * x[0] + x[1] * x[1]).sqrt();
         let s = (rho - self.major) / (rho * self.minor);
         [s * x[0], s * x[1], x[2] / self.minor]
-    }
-
-    /// A point of the torus: angle `theta` around the axis, `phi` around the tube.
-    fn point(&self, theta: f64, phi: f64) -> [f64; 3] {
-        let rho = self.major + self.minor * phi.cos();
-        [rho * theta.cos(), rho * theta.sin(), self.minor * phi.sin()]
-    }
-}
-
-/// a . b, in order.
-#[inline(always)]
-fn dot<T: Real>(a: &[T; 3], b: &[T; 3]) -> T {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// The first three entries of a slice.
-fn three(x: &[f64]) -> [f64; 3] {
-    [x[0], x[1], x[2]]
-}
-
-/// The scalar form: the stepper's general path (and its homotopy fallback) uses these.
-impl Constraint for Torus {
-    type Gram = ScalarGram;
-    fn dim(&self) -> usize {
-        3
-    }
-    fn n_constraints(&self) -> usize {
-        1
-    }
-    fn value(&self, x: &[f64], out: &mut [f64]) {
-        out[0] = self.g(&three(x));
-    }
-    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        out[0] = dot(&self.grad(&three(x)), &three(u));
-    }
-    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
-        let grad = self.grad(&three(x));
-        for (o, gk) in out.iter_mut().zip(grad) {
-            *o = gk * z[0];
-        }
-    }
-    fn new_gram(&self) -> ScalarGram {
-        ScalarGram(0.0)
-    }
-    /// Dg(x1) M^-1 grad g(x2) = grad g(x1) . (M^-1 grad g(x2)).
-    fn cross_gram<M: Mass>(
-        &self, x1: &[f64], x2: &[f64], mass: &M, _scratch: &mut [f64], out: &mut ScalarGram,
-    ) {
-        let mut weighted = self.grad(&three(x2));
-        mass.apply_inverse(&mut weighted);
-        out.0 = dot(&self.grad(&three(x1)), &weighted);
     }
     /// g is a length: rounding leaves a few ulps of the coordinates (relative to a unit
     /// length).
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(1.0)
     }
-    /// Newton in lanes (its [`ConstraintLanes`]) for a diagonal mass.
-    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        if !M::DIAGONAL {
-            return visitor.none();
-        }
-        visitor.newton(|| LaneForm::new(self, mass))
-    }
 }
 
-/// M^-1 u for a diagonal M^-1 = `w`.
-#[inline(always)]
-fn weighted<Sd: Simd>(w: &InverseMass, u: [Lanes<Sd>; 3]) -> [Lanes<Sd>; 3] {
-    [w.apply(0, u[0]), w.apply(1, u[1]), w.apply(2, u[2])]
-}
-
-/// The same formulas on `Lanes<Sd>`, with the one-path methods' operations in the same order
-/// (the default `Constraint::displace`: grad g(r) z, then M^-1, then + y).
-impl ConstraintLanes for Torus {
-    type Shape = Scalar;
-
-    #[inline(always)]
-    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
-        jacobian: &mut ScalarGram<Lanes<Sd>>, factor: &mut ScalarFactor<Lanes<Sd>>,
-        step: &mut [Lanes<Sd>],
-    ) -> Evaluation<Sd> {
-        let x = x1.coords::<3>(0);
-        values[0] = self.g(&x);
-        let weighted = weighted(w, self.grad(&r.coords::<3>(0)));
-        jacobian.0 = dot(&self.grad(&x), &weighted);
-        Evaluation::reduce_and_factor(values, jacobian, factor, step)
-    }
-    #[inline(always)]
-    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
-        out: &mut [Lanes<Sd>],
-    ) {
-        let y = base_coords::<Sd, P, 3>(base, out, 0);
-        let grad = self.grad(&r.coords::<3>(0));
-        let moved = weighted(w, [grad[0] * z[0], grad[1] * z[0], grad[2] * z[0]]);
-        for k in 0..3 {
-            out[k] = moved[k] + y[k];
-        }
-    }
-    #[inline(always)]
-    fn negated_jacobian_mul<Sd: Simd>(
-        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
-    ) {
-        out[0] = -dot(&self.grad(&x.coords::<3>(0)), &u.coords::<3>(0));
+impl Torus {
+    /// A point of the torus: angle `theta` around the axis, `phi` around the tube.
+    fn point(&self, theta: f64, phi: f64) -> [f64; 3] {
+        let rho = self.major + self.minor * phi.cos();
+        [rho * theta.cos(), rho * theta.sin(), self.minor * phi.sin()]
     }
 }
 
@@ -179,7 +83,7 @@ impl Drift for Gravity {
 }
 
 /// The particle on the torus.
-type TorusSystem = MechanicalSystem<Torus, DiagonalMass, Gravity, AdditiveNoise>;
+type TorusSystem = MechanicalSystem<Hypersurface<Torus, 3>, DiagonalMass, Gravity, AdditiveNoise>;
 
 const PATHS: usize = 64;
 const STEPS: usize = 400;
@@ -261,7 +165,7 @@ fn ensemble_paths(
         truncated += ensemble.diagnostics(p)?.truncated_steps;
         let (mut r, mut v, mut mu) = ([0.0; 3], [0.0; 3], [0.0; 1]);
         ensemble.state(p, &mut r, &mut v, &mut mu)?;
-        check_state(torus, &r, &v, 1e-10)?;
+        check_state(&Hypersurface::new(*torus), &r, &v, 1e-10)?;
         bits.push(r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect());
     }
     Ok(EnsembleRun {
@@ -277,7 +181,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         minor: 0.5,
     };
     let system = MechanicalSystem::new(
-        torus,
+        Hypersurface::new(torus),
         DiagonalMass::new(vec![2.0; 3])?,
         Gravity,
         AdditiveNoise::new(0.8, 3)?,

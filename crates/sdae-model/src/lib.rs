@@ -78,6 +78,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod constrained;
 mod diagnostics;
 mod driver;
 mod ensemble;
@@ -95,6 +96,7 @@ mod sphere_root;
 mod system;
 mod tangent;
 
+pub use constrained::{UpdateBuffers, constrained_update};
 pub use diagnostics::{ITERATION_BINS, PathDiagnostics, PathFailure, TRUNCATION_DOMINATED};
 pub use driver::{INITIAL_STATE_TOLERANCE, PathState, Steps, advance, run_path};
 pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};

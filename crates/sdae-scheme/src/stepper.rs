@@ -2,10 +2,10 @@
 
 use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
-use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, Solve, scratch_len};
+use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, scratch_len};
 use sdae_model::{
-    KappaProblem, StepFailure, StepOutcome, StepResult, System, check_dimensions, check_step_input,
-    lambda_right_hand_side,
+    StepFailure, StepOutcome, StepResult, System, UpdateBuffers, check_dimensions,
+    check_step_input, constrained_update,
 };
 
 use sdae_model::engine::LaneStore;
@@ -214,38 +214,29 @@ fn half_explicit_step<S: System>(
     for ((yi, ri), vi) in y.iter_mut().zip(r.iter()).zip(v.iter()) {
         *yi = formulas::drifted(*ri, *vi, eta_h);
     }
-    // NaN when y is (then so is g(y), and the step fails on it whatever the floor).
-    let max_abs_y = max_abs(y);
-
     // v~ is formed before the root (it does not depend on it) so that the solver can solve
     // the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton
     // matrix at the root, in the pass that factors that matrix.
     let scale = ForceScale::new(config.rescale_noise, eta, h);
     free_velocity(system, &scale, r, v, dw, drift, force);
 
-    let (certificate, at_y) = {
-        let mut problem = KappaProblem {
-            constraint,
-            mass,
-            r,
-            y,
+    // v' into the drift buffer (a is no longer needed).
+    let (certificate, at_y) = constrained_update(
+        constraint,
+        mass,
+        solver,
+        config.c_kappa,
+        r,
+        y,
+        force,
+        UpdateBuffers {
             x,
             scratch,
-            floor: constraint.roundoff().floor(max_abs_y),
-            at_y: false,
-            velocity: Some(force),
-        };
-        let certificate = solver
-            .solve(&mut problem, config.c_kappa)
-            .map_err(|source| StepFailure::Root {
-                what: "kappa system",
-                source,
-            })?;
-        (certificate, problem.at_y)
-    };
+            lambda,
+            new_v: drift,
+        },
+    )?;
     let r_new: &[f64] = if at_y { y } else { x };
-    // v' into the drift buffer (a is no longer needed).
-    constrained_velocity(system, solver, r, r_new, force, lambda, drift)?;
     r.copy_from_slice(r_new);
     v.copy_from_slice(drift);
     let velocity_residual = config.monitor_velocity_constraint.then(|| {
@@ -259,33 +250,6 @@ fn half_explicit_step<S: System>(
         certificate: Some(certificate),
         velocity_residual,
     })
-}
-
-/// The new velocity v' = v~ + M^-1 grad g(r) lambda with Dg(r') v' = 0 (seed eq. 3.1, lower
-/// part), written into `new_v`: lambda from the root solver where it solved the lambda system
-/// in its last pass, else from the root's factors. A failure if v' is not finite.
-#[inline(always)]
-fn constrained_velocity<S: System>(
-    system: &S, solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>, r: &[f64],
-    r_new: &[f64], free_velocity: &[f64], lambda: &mut [f64], new_v: &mut [f64],
-) -> Result<(), StepFailure> {
-    let constraint = system.constraint();
-    match solver.companion() {
-        Some(solution) => lambda.copy_from_slice(solution),
-        None => {
-            lambda_right_hand_side(constraint, r_new, free_velocity, lambda);
-            solver.root_factor().solve_in_place(lambda);
-        }
-    }
-    constraint.displace(r, lambda, system.mass(), free_velocity, new_v);
-    let new_v_norm2 = norm2_squared(new_v);
-    if !new_v_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "velocity after the step",
-            size: new_v_norm2.sqrt(),
-        });
-    }
-    Ok(())
 }
 
 /// |v|^2 and |a|^2 with the drift a(r, v) written into `drift`; a failure if either is not

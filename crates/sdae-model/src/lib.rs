@@ -127,7 +127,7 @@ pub mod engine {
     pub use crate::lane_ensemble::{
         GroupState, LaneKernel, LanePaths, LaneRows, LaneStep, LaneStore, StepInput, WideKernel,
     };
-    pub use crate::newton_lanes::{NewtonKernels, step_newton_lanes};
+    pub use crate::newton_lanes::{NewtonKernels, step_newton_lanes, step_offered_newton_lanes};
     pub use crate::newton_root::{Drifted, NewtonLanes, NewtonRoot, build_lane_form};
     pub use crate::one_lane::{OneLaneRoot, OneLaneStep, step_one_lane};
     pub use crate::sphere_lanes::{

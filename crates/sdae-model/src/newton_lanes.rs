@@ -9,7 +9,8 @@ use std::marker::PhantomData;
 
 use pulp::{Simd, WithSimd};
 use sdae_lanes::LaneWidth;
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm};
+use sdae_manifold::Constraint;
+use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, LaneFormVisitor};
 
 use crate::lane_ensemble::{LanePaths, LaneRows, LaneStore, StepInput, WideKernel};
 use crate::newton_root::build_lane_form;
@@ -78,5 +79,40 @@ impl<Sch: NewtonKernels, C: ConstraintLanes> WithSimd for StepAll<'_, Sch, C> {
         store.put(buffers);
         *self.scheme.lane_store() = store;
         true
+    }
+}
+
+/// One step of every path of `paths` through the scheme's Newton kernel for the lane form its
+/// system's constraint offers ([`step_newton_lanes`], compiled only for the constraints that
+/// offer one); `false`, having changed nothing, where it offers none for its mass.
+pub fn step_offered_newton_lanes<Sch: NewtonKernels>(
+    scheme: &mut Sch, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
+) -> bool {
+    let system = scheme.system();
+    match system
+        .constraint()
+        .lane_form(system.mass(), Offered(PhantomData))
+    {
+        Some(step_all) => step_all(scheme, paths, width, input),
+        None => false,
+    }
+}
+
+/// [`step_newton_lanes`] for one constraint's lane form.
+type NewtonStep<Sch> = fn(&mut Sch, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
+
+/// Asks a constraint for its lane form ([`step_offered_newton_lanes`]).
+struct Offered<Sch>(PhantomData<Sch>);
+
+impl<Sch: NewtonKernels> LaneFormVisitor for Offered<Sch> {
+    type Output = Option<NewtonStep<Sch>>;
+    fn none(self) -> Self::Output {
+        None
+    }
+    fn newton<L: ConstraintLanes>(
+        self, build: impl FnOnce() -> Option<LaneForm<L>>,
+    ) -> Self::Output {
+        let _ = build;
+        Some(step_newton_lanes::<Sch, L>)
     }
 }

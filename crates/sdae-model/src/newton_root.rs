@@ -133,9 +133,10 @@ pub struct NewtonLanes<Sd: Simd> {
 /// The kappa system of W lanes at y as the [`NewtonSystem`] of [`newton_from_zero`]: x = y +
 /// M^-1 grad g(r) gamma, R(gamma) = g(x) and J(gamma) = Dg(x) M^-1 grad g(r) from the
 /// constraint's lane formulas, J(0) factored into `factor_at_zero`, the others into `factor`.
-struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes> {
+struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> {
     constraint: &'a LaneForm<C>,
-    y: &'a Drifted<'a, Sd>,
+    r: &'a [Lanes<Sd>],
+    y: &'a Y,
     x: &'a mut [Lanes<Sd>],
     residual: &'a mut [Lanes<Sd>],
     jacobian: &'a mut Jacobian<Sd, C>,
@@ -145,12 +146,14 @@ struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes> {
     at_zero: bool,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> NewtonSystem<Lanes<Sd>> for KappaLanes<'_, Sd, C> {
+impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> NewtonSystem<Lanes<Sd>>
+    for KappaLanes<'_, Sd, C, Y>
+{
     #[inline(always)]
     fn evaluate_and_factor(
         &mut self, gamma: Option<&[Lanes<Sd>]>, step: &mut [Lanes<Sd>],
     ) -> (Lanes<Sd>, LaneMask<Sd>) {
-        let (y, r) = (self.y, self.y.r);
+        let (y, r) = (self.y, self.r);
         self.at_zero = gamma.is_none();
         let evaluation = match gamma {
             None => self.constraint.evaluate_and_factor(
@@ -186,7 +189,9 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonSystem<Lanes<Sd>> for KappaLanes<'_, Sd
 }
 
 /// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
-impl<Sd: Simd, C: ConstraintLanes> ProbeMap<Lanes<Sd>> for KappaLanes<'_, Sd, C> {
+impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> ProbeMap<Lanes<Sd>>
+    for KappaLanes<'_, Sd, C, Y>
+{
     #[inline(always)]
     fn apply(&mut self, probe: &[Lanes<Sd>], image: &mut [Lanes<Sd>]) {
         self.jacobian.product(probe, image);
@@ -216,16 +221,18 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         Lanes::splat(self.simd, x)
     }
 
-    /// The root at y (`BallSolver::solve` on the general path, without the homotopy) in the
+    /// The root at y along the normals at r (`BallSolver::solve` on the general path, without
+    /// the homotopy; y stored, or formed where it is read, [`Drifted`]) in the
     /// ball of `radius` (infinite: no ball), with `max_abs_y` = max_i |y_i| for the residual
     /// floor: the lanes it decides, with the root's point in `x` where the root is not 0, the
     /// Jacobian at the root factored ([`NewtonRoot::root_factor`]) and the certificate's
     /// numbers ([`newton_from_zero`], [`certify`]). gamma* stays in `gamma` where
     /// `settings.probes(radius)` is 0.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub fn solve(
+    pub fn solve<Y: PointLanes<Sd> + ?Sized>(
         &mut self, constraint: &LaneForm<C>, settings: &SolverSettings, radius: f64,
-        y: &Drifted<'_, Sd>, max_abs_y: Lanes<Sd>,
+        r: &[Lanes<Sd>], y: &Y, max_abs_y: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
         // The residual floor of g near y (`Constraint::roundoff`) and the tolerance.
         let floor = constraint.roundoff().floor(max_abs_y);
@@ -242,6 +249,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         } = self;
         let mut system = KappaLanes {
             constraint,
+            r,
             y,
             x,
             residual,
@@ -276,10 +284,10 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// The root's point in every lane: y where the root is 0 (most often no lane's is), x
     /// elsewhere, into `x`.
     #[inline(always)]
-    pub fn point(&mut self, root: &NewtonLanes<Sd>, y: &Drifted<'_, Sd>) {
+    pub fn point<Y: PointLanes<Sd> + ?Sized>(&mut self, root: &NewtonLanes<Sd>, y: &Y) {
         if active_any(root.at_zero) {
             for (k, x) in self.x.iter_mut().enumerate() {
-                *x = Lanes::select(root.at_zero, y.at(k), *x);
+                *x = Lanes::select(root.at_zero, y.coords::<1>(k)[0], *x);
             }
         }
     }

@@ -3,13 +3,9 @@
 mod newton;
 pub(crate) mod sphere;
 
-use std::marker::PhantomData;
-
 use sdae_lanes::LaneWidth;
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, LaneFormVisitor};
-use sdae_manifold::{Constraint, Sphere};
-use sdae_model::engine::{LanePaths, StepInput, step_newton_lanes};
-use sdae_model::{LaneEnsemble, LaneScheme, Scheme, System};
+use sdae_model::engine::{LanePaths, StepInput, step_offered_newton_lanes};
+use sdae_model::{LaneEnsemble, LaneScheme, System};
 
 use crate::stepper::Stepper;
 
@@ -111,54 +107,12 @@ pub type Ensemble<S> = LaneEnsemble<Stepper<S>>;
 /// ([`Constraint::lane_form`]); `false` (every path through the scalar step) for any other
 /// constraint or mass.
 impl<S: System> LaneScheme for Stepper<S> {
+    /// The sphere's closed form in lanes ([`sphere::step_all`]) where the constraint is a
+    /// sphere, Newton with its formulas over lanes where it offers them
+    /// ([`step_offered_newton_lanes`] with the kernel of `newton.rs`); `false` otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        let system = self.system();
-        let choice = system
-            .constraint()
-            .lane_form(system.mass(), ChooseKernel(PhantomData));
         let input = StepInput { h, dw };
-        match choice {
-            None => false,
-            Some(LaneKernelChoice::Newton(step_all)) => step_all(self, paths, width, input),
-            Some(LaneKernelChoice::Sphere(sphere, step_all)) => {
-                step_all(self, paths, width, sphere, input)
-            }
-        }
-    }
-}
-
-/// The lanes' step that a constraint's lane form chose, as a function compiled only for the
-/// constraints that offer it.
-enum LaneKernelChoice<S: System> {
-    /// The sphere's closed form ([`sphere::step_all`]).
-    Sphere(Sphere, SphereStep<S>),
-    /// Newton with the constraint's formulas over lanes ([`step_newton_lanes`] with the
-    /// kernel of `newton.rs`).
-    Newton(NewtonStep<S>),
-}
-
-/// [`sphere::step_all`].
-type SphereStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, Sphere, StepInput<'_>) -> bool;
-
-/// [`step_newton_lanes`] for one constraint's lane form.
-type NewtonStep<S> = fn(&mut Stepper<S>, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
-
-/// Asks a constraint which lane form it has ([`LaneFormVisitor`]); the Newton kernel builds
-/// the form itself when it first steps.
-struct ChooseKernel<S>(PhantomData<S>);
-
-impl<S: System> LaneFormVisitor for ChooseKernel<S> {
-    type Output = Option<LaneKernelChoice<S>>;
-    fn none(self) -> Self::Output {
-        None
-    }
-    fn sphere(self, sphere: &Sphere) -> Self::Output {
-        Some(LaneKernelChoice::Sphere(*sphere, sphere::step_all::<S>))
-    }
-    fn newton<L: ConstraintLanes>(
-        self, build: impl FnOnce() -> Option<LaneForm<L>>,
-    ) -> Self::Output {
-        let _ = build;
-        Some(LaneKernelChoice::Newton(step_newton_lanes::<Stepper<S>, L>))
+        sphere::step_all(self, paths, width, input)
+            || step_offered_newton_lanes(self, paths, width, input)
     }
 }

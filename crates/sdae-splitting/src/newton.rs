@@ -11,60 +11,20 @@
 //! non-finite value) goes through the scalar step from (r_k, v_k), which reports the failure
 //! as for one path.
 
-use std::marker::PhantomData;
-
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes, per_path};
-use sdae_manifold::lane_form::{
-    ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, max_abs,
-};
+use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, per_path};
+use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
-use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
+use sdae_manifold::{MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
-    Drifted, GroupState, LanePaths, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot,
-    StepInput, WideKernel, step_newton_lanes,
+    Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot, WideKernel,
 };
 use sdae_model::{Scheme, System};
 
 use crate::config::{SplittingConfig, StepSizes};
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
-
-/// Steps every path of `paths` with Newton's SHAKE over lanes where the system's constraint
-/// offers a [`ConstraintLanes`] for its mass; `false`, having changed nothing, otherwise.
-pub(crate) fn step_lanes<S: System>(
-    scheme: &mut Splitting<S>, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
-) -> bool {
-    let system = scheme.system();
-    match system
-        .constraint()
-        .lane_form(system.mass(), Choose(PhantomData))
-    {
-        Some(step_all) => step_all(scheme, paths, width, input),
-        None => false,
-    }
-}
-
-/// [`step_newton_lanes`] for one constraint's lane form.
-type NewtonStep<S> = fn(&mut Splitting<S>, &mut LanePaths, LaneWidth, StepInput<'_>) -> bool;
-
-/// Asks a constraint for its lane form: the step compiled only for the constraints that offer
-/// one.
-struct Choose<S>(PhantomData<S>);
-
-impl<S: System> LaneFormVisitor for Choose<S> {
-    type Output = Option<NewtonStep<S>>;
-    fn none(self) -> Self::Output {
-        None
-    }
-    fn newton<L: ConstraintLanes>(
-        self, build: impl FnOnce() -> Option<LaneForm<L>>,
-    ) -> Self::Output {
-        let _ = build;
-        Some(step_newton_lanes::<Splitting<S>, L>)
-    }
-}
 
 impl<S: System> NewtonKernels for Splitting<S> {
     type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
@@ -302,6 +262,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             &self.constraint,
             &self.constants.settings,
             f64::INFINITY,
+            y.r,
             &y,
             y.max_abs(),
         );

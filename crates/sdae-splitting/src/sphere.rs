@@ -11,12 +11,11 @@ use sdae_lanes::{LaneMask, LaneWidth, Lanes, dot};
 use sdae_manifold::Sphere;
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
-    step_sphere_lanes,
+    step_offered_newton_lanes, step_sphere_lanes,
 };
 use sdae_model::{LaneScheme, StepOutcome, System};
 
 use crate::config::StepSizes;
-use crate::newton;
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
@@ -28,7 +27,7 @@ impl<S: System> LaneScheme for Splitting<S> {
         self.refresh_ou(h);
         let input = StepInput { h, dw };
         step_sphere_lanes(self, Kernels, paths, width, input)
-            || newton::step_lanes(self, paths, width, input)
+            || step_offered_newton_lanes(self, paths, width, input)
     }
 }
 

@@ -184,6 +184,7 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
             constraint,
             &config.solver,
             config.c_kappa,
+            self.y.r,
             self.y,
             self.max_abs_y,
         )

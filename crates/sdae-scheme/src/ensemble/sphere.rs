@@ -14,7 +14,7 @@ use sdae_lanes::{LaneWidth, Lanes, dot};
 use sdae_manifold::{Mass, Sphere, motion_measure};
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot,
-    StepInput, step_sphere_groups,
+    StepInput, step_sphere_lanes,
 };
 use sdae_model::{Scheme, StepOutcome, System};
 
@@ -22,14 +22,13 @@ use super::newton::kappa_ratio;
 use crate::formulas::{self, ForceScale};
 use crate::stepper::Stepper;
 
-/// One step of every path of an ensemble whose constraint is `sphere`
-/// ([`step_sphere_groups`]); `false` where the lanes do not apply (more than three
-/// coordinates, more noise components than coordinates, a mass that is not diagonal).
+/// One step of every path of an ensemble whose constraint is a sphere ([`step_sphere_lanes`]);
+/// `false` where the lanes do not apply (another constraint, more than three coordinates,
+/// more noise components than coordinates, a mass that is not diagonal).
 pub(super) fn step_all<S: System>(
-    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, sphere: Sphere,
-    input: StepInput<'_>,
+    stepper: &mut Stepper<S>, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
 ) -> bool {
-    step_sphere_groups(stepper, Kernels, paths, width, sphere, input)
+    step_sphere_lanes(stepper, Kernels, paths, width, input)
 }
 
 /// The stepper's kernels on a sphere ([`SphereKernels`]).

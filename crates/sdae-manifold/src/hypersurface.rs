@@ -37,7 +37,7 @@
 use pulp::Simd;
 use sdae_lanes::{Lanes, Real};
 
-use crate::constraint::Constraint;
+use crate::constraint::{Constraint, Curvature};
 use crate::gram::{Scalar, ScalarGram};
 use crate::lane_form::{
     ConstraintLanes, Evaluation, Factor, InverseMass, Jacobian, LaneForm, LaneFormVisitor,
@@ -57,6 +57,13 @@ pub trait Surface<const N: usize>: Clone + Send + Sync + 'static {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Unknown
     }
+}
+
+/// A [`Surface`] whose second derivative is known: then its [`Hypersurface`] is a
+/// [`Curvature`] too, for the solvers of the inherent SDE (seed eq. 2.3, 2.4).
+pub trait CurvedSurface<const N: usize>: Surface<N> {
+    /// D^2 g(x)(u, w).
+    fn second_derivative(&self, x: &[f64; N], u: &[f64; N], w: &[f64; N]) -> f64;
 }
 
 /// The constraint g(x) = 0 of a [`Surface`] in R^N: a [`Constraint`] (one path, with the
@@ -137,6 +144,12 @@ impl<F: Surface<N>, const N: usize> Constraint for Hypersurface<F, N> {
             return visitor.none();
         }
         visitor.newton(|| LaneForm::new(self, mass))
+    }
+}
+
+impl<F: CurvedSurface<N>, const N: usize> Curvature for Hypersurface<F, N> {
+    fn second_derivative(&self, x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
+        out[0] = self.0.second_derivative(point(x), point(u), point(w));
     }
 }
 

@@ -59,7 +59,7 @@ pub use gram::{
     Dense, DenseGram, GramMatrix, GramShape, GramStructure, Scalar, ScalarGram, SquareMatrix,
     Tridiagonal, TridiagonalGram,
 };
-pub use hypersurface::{Hypersurface, Surface};
+pub use hypersurface::{CurvedSurface, Hypersurface, Surface};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use roundoff::Roundoff;

@@ -84,6 +84,8 @@ mod driver;
 mod ensemble;
 mod error;
 mod grid;
+mod kernel_lanes;
+mod kernel_scheme;
 mod lane_diagnostics;
 mod lane_ensemble;
 mod newton_lanes;
@@ -102,6 +104,9 @@ pub use driver::{INITIAL_STATE_TOLERANCE, PathState, Steps, advance, run_path};
 pub use ensemble::{PathEnsemble, PathLoop, check_initial_state, check_path};
 pub use error::{FailureKind, ModelError, StepError, StepFailure, check_dim, check_step_size};
 pub use grid::TimeGrid;
+pub use kernel_scheme::{
+    Constrained, KernelNext, KernelOutcome, KernelScheme, KernelState, Kernelized, StepKernel,
+};
 pub use lane_ensemble::{LaneEnsemble, LaneScheme};
 pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use scheme::{Scheme, StepOutcome, StepResult};

@@ -1,24 +1,33 @@
-//! Bring your own scheme, and your own system, to a convergence study.
+//! Bring your own scheme, and your own system, to a convergence study, and step it in SIMD
+//! lanes.
 //!
-//! The scheme is defined here: a projected symplectic Euler step (momentum first, then the
-//! position with the new velocity, projected back onto the manifold along its normal line and
-//! the velocity made tangent). It runs side by side with the built-in schemes on
+//! The scheme is defined here, written once over the number type ([`KernelScheme`]): a
+//! symplectic Euler step (momentum first, then the position with the new velocity) whose
+//! constraint is kept by the constrained update of the half-explicit scheme (a SHAKE-type
+//! step). [`Kernelized`] runs it path by path and, in an ensemble, W paths at a time in SIMD
+//! lanes. It runs side by side with the built-in schemes on
 //!
-//! - the seed's stochastic pendulum (a built-in scene), and
-//! - a particle on an ellipse x^2/a^2 + y^2/b^2 = 1, defined here by closures, under gravity
-//!   and additive noise.
+//! - the seed's stochastic pendulum (a built-in scene: a sphere, the closed-form root in
+//!   lanes), and
+//! - a particle on an ellipse x^2/a^2 + y^2/b^2 = 1, defined here by its g and grad g over
+//!   [`Real`] ([`Surface`]: Newton in lanes), under gravity and additive noise.
+//!
+//! Before each study it checks that every path of an ensemble in lanes, at W = 1, 4 and 8, is
+//! the path-by-path run's bit for bit (r, v and mu after 200 steps), and that the lanes decided
+//! every step; any difference ends the run with an error.
 //!
 //! Run with `cargo run --release -p sdae-study --example custom_scheme`; it prints the observed
 //! strong orders of every scheme and writes the reports under `target/custom-scheme/`.
 
 use std::path::Path;
 
-use sdae_ift::SolverSettings;
-use sdae_manifold::{ClosureConstraint, Constraint, IdentityMass, Mass};
+use sdae_lanes::{LaneWidth, Real};
+use sdae_manifold::{CurvedSurface, Hypersurface, IdentityMass, Surface};
 use sdae_model::{
-    AdditiveNoise, MechanicalSystem, Scheme, StepFailure, StepOutcome, StepResult, System,
-    TangentProjector, check_step_input,
+    AdditiveNoise, KernelNext, KernelOutcome, KernelScheme, KernelState, Kernelized, LaneEnsemble,
+    MechanicalSystem, PathEnsemble, PathState, StepFailure, StepKernel, System,
 };
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_reference::CurvedSystem;
 use sdae_study::convergence::{
     ConvergenceReport, ConvergenceSettings, build_report, run_convergence_on,
@@ -28,89 +37,162 @@ use sdae_study::output::{describe_fit, write_report};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{Output, Prepared, Scene, SceneRunner};
 
-/// Projected symplectic Euler for M dv = a dt + B dw + grad g dmu, g(r) = 0:
+/// Symplectic Euler with the half-explicit constrained update, for
+/// M dv = a dt + B dw + grad g dmu, g(r) = 0:
 ///
 /// ```text
 /// v~ = v + M^-1 [a(r, v) h + B(r, v) dw]
-/// r' = r + h v~ + M^-1 grad g(r + h v~) gamma,   g(r') = 0
-/// v' = (r' - r) / h, made tangent at r' (M-orthogonal projection)
+/// r' = r + h v~ + M^-1 grad g(r) kappa,   g(r') = 0
+/// v' = v~ + M^-1 grad g(r) lambda,        Dg(r') v' = 0,   mu' = mu + lambda
 /// ```
 ///
-/// It does not approximate the multiplier mu: its increment is reported as 0, and the studies
-/// below compare r and v only.
-struct ProjectedSymplecticEuler<S: System> {
+/// Written once over `T: Real`: one path in `f64`, W paths in lanes.
+#[derive(Debug, Clone)]
+struct ConstrainedSymplecticEuler<S> {
     system: S,
-    projector: TangentProjector<<S::Constraint as Constraint>::Gram>,
-    force: Vec<f64>,
-    next_r: Vec<f64>,
-    next_v: Vec<f64>,
-    dmu: Vec<f64>,
 }
 
-impl<S: System> ProjectedSymplecticEuler<S> {
-    fn new(system: S) -> Self {
-        let c = system.constraint();
-        let (n, m) = (c.dim(), c.n_constraints());
-        Self {
-            projector: TangentProjector::new(c, SolverSettings::default()),
-            force: vec![0.0; n],
-            next_r: vec![0.0; n],
-            next_v: vec![0.0; n],
-            dmu: vec![0.0; m],
-            system,
-        }
-    }
-}
-
-impl<S: System> Scheme for ProjectedSymplecticEuler<S> {
+impl<S: System + Clone + Send + Sync + 'static> KernelScheme for ConstrainedSymplecticEuler<S> {
     type System = S;
 
     fn system(&self) -> &S {
         &self.system
     }
 
-    fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
-        let (c, mass) = (self.system.constraint(), self.system.mass());
-        check_step_input(&self.system, r, v, h, dw)?;
-        self.system.drift(r, v, &mut self.force);
-        for f in self.force.iter_mut() {
-            *f *= h;
+    #[inline(always)]
+    fn step<T: Real, K: StepKernel<T>>(
+        &self, kernel: &mut K, h: f64, state: KernelState<'_, T>, next: KernelNext<'_, T>,
+    ) -> Result<KernelOutcome<T>, StepFailure> {
+        let KernelState { r, v, dw } = state;
+        let KernelNext {
+            r: next_r,
+            v: free_velocity,
+            dmu,
+            work: y,
+        } = next;
+        // v~ = v + M^-1 (a h + B dw), built in the velocity's rows.
+        kernel.drift(r, v, free_velocity);
+        for f in free_velocity.iter_mut() {
+            *f = *f * h;
         }
-        self.system.add_noise(r, v, dw, &mut self.force);
-        mass.apply_inverse(&mut self.force);
-        for (((x, x0), v0), dv) in self
-            .next_r
-            .iter_mut()
-            .zip(r.iter())
-            .zip(v.iter())
-            .zip(&self.force)
-        {
-            *x = x0 + h * (v0 + dv);
+        kernel.add_noise(r, v, dw, free_velocity);
+        kernel.apply_inverse_mass(free_velocity);
+        for (f, vi) in free_velocity.iter_mut().zip(v) {
+            *f = *f + *vi;
         }
-        let certificate = self
-            .projector
-            .project_position(c, mass, &mut self.next_r)
-            .map_err(|source| StepFailure::Root {
-                what: "projection onto the manifold",
-                source,
-            })?;
-        for ((w, x), x0) in self.next_v.iter_mut().zip(&self.next_r).zip(r.iter()) {
-            *w = (x - x0) / h;
+        // y = r + h v~, then r' and v' (in place of v~) by the constrained update.
+        for ((yi, ri), wi) in y.iter_mut().zip(r).zip(free_velocity.iter()) {
+            *yi = *ri + *wi * h;
         }
-        self.projector
-            .project_velocity(c, mass, &self.next_r, &mut self.next_v)?;
-        StepFailure::check_finite("velocity after the step", &self.next_v)?;
-        r.copy_from_slice(&self.next_r);
-        v.copy_from_slice(&self.next_v);
-        Ok(StepOutcome {
-            newton_iterations: certificate.iterations,
-            ..StepOutcome::PLAIN
+        let constrained = kernel.constrain(r, y, free_velocity, next_r, dmu)?;
+        Ok(KernelOutcome {
+            ok: constrained.ok,
+            eta: kernel.splat(1.0),
+            constrained: Some(constrained),
         })
     }
+}
 
-    fn multiplier_increment(&self) -> &[f64] {
-        &self.dmu
+/// Paths and steps of the check that lanes and one path agree.
+const CHECK_PATHS: usize = 37;
+const CHECK_STEPS: usize = 200;
+const CHECK_H: f64 = 0.01;
+const CHECK_SEED: u64 = 5;
+
+/// Every path's final (r, v, mu) as bits, path by path.
+fn one_path_bits<S>(
+    scheme: &ConstrainedSymplecticEuler<S>, r0: &[f64], v0: &[f64],
+) -> Result<Vec<Vec<u64>>, String>
+where
+    S: System + Clone + Send + Sync + 'static,
+{
+    let mut kernelized = Kernelized::new(scheme.clone()).map_err(|e| e.to_string())?;
+    let l = scheme.system.noise_dim();
+    (0..CHECK_PATHS)
+        .map(|p| {
+            let mut noise = GaussianIncrements::for_path(CHECK_SEED, p as u64, l);
+            let (mut r, mut v) = (r0.to_vec(), v0.to_vec());
+            let mut path = PathState::new(1, true, false);
+            let mut dw = vec![0.0; l];
+            for _ in 0..CHECK_STEPS {
+                noise.next_increment(CHECK_H, &mut dw);
+                path.step(&mut kernelized, &mut r, &mut v, CHECK_H, &dw)
+                    .map_err(|e| format!("path {p}: {e}"))?;
+            }
+            Ok(r.iter()
+                .chain(&v)
+                .chain(&path.mu)
+                .map(|x| x.to_bits())
+                .collect())
+        })
+        .collect()
+}
+
+/// Every path's final (r, v, mu) as bits in an ensemble of `width`, and the path-steps the
+/// lanes left to the one-path step.
+fn lane_bits<S>(
+    scheme: &ConstrainedSymplecticEuler<S>, r0: &[f64], v0: &[f64], width: LaneWidth,
+) -> Result<(Vec<Vec<u64>>, usize), String>
+where
+    S: System + Clone + Send + Sync + 'static,
+{
+    let kernelized = Kernelized::new(scheme.clone()).map_err(|e| e.to_string())?;
+    let mut ensemble = LaneEnsemble::new(kernelized, CHECK_PATHS, r0, v0)
+        .map_err(|e| e.to_string())?
+        .with_width(width);
+    let l = scheme.system.noise_dim();
+    let mut sources: Vec<_> = (0..CHECK_PATHS)
+        .map(|p| GaussianIncrements::for_path(CHECK_SEED, p as u64, l))
+        .collect();
+    let stride = ensemble.stride();
+    let (mut dw, mut one) = (vec![0.0; l * stride], vec![0.0; l]);
+    for _ in 0..CHECK_STEPS {
+        for (p, source) in sources.iter_mut().enumerate() {
+            source.next_increment(CHECK_H, &mut one);
+            for j in 0..l {
+                dw[j * stride + p] = one[j];
+            }
+        }
+        ensemble.step(CHECK_H, &dw).map_err(|e| e.to_string())?;
     }
+    let n = r0.len();
+    let mut bits = Vec::with_capacity(CHECK_PATHS);
+    for p in 0..CHECK_PATHS {
+        let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; 1]);
+        ensemble
+            .state(p, &mut r, &mut v, &mut mu)
+            .map_err(|e| e.to_string())?;
+        bits.push(r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect());
+    }
+    Ok((bits, ensemble.scalar_steps()))
+}
+
+/// Checks that the scheme's paths in lanes are its paths one at a time, bit for bit, at
+/// W = 1, 4 and 8 (the machine's widest where narrower), with every step decided in lanes.
+fn check_lanes<S>(name: &str, system: &S, r0: &[f64], v0: &[f64]) -> Result<(), String>
+where
+    S: System + Clone + Send + Sync + 'static,
+{
+    let scheme = ConstrainedSymplecticEuler {
+        system: system.clone(),
+    };
+    let expected = one_path_bits(&scheme, r0, v0)?;
+    for width in [LaneWidth::One, LaneWidth::Four, LaneWidth::Eight] {
+        let (bits, left) = lane_bits(&scheme, r0, v0, width)?;
+        let differing = (0..CHECK_PATHS).filter(|&p| bits[p] != expected[p]).count();
+        println!(
+            "{name}, W = {}: {differing} of {CHECK_PATHS} paths differ from one path at a time, \
+             {left} steps left to it",
+            width.lanes()
+        );
+        if differing > 0 || left > 0 {
+            return Err(format!(
+                "{name} at W = {}: {differing} paths differ, {left} one-path steps",
+                width.lanes()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The study settings of both systems: 400 paths, h = 2^-3 .. 2^-7, reference 2^-12.
@@ -128,14 +210,18 @@ fn settings(scene: &Scene) -> ConvergenceSettings {
     }
 }
 
-/// Runs the study of `prepared` with the built-in schemes and the scheme of this example.
+/// Checks the scheme in lanes, then runs the study of `prepared` with the built-in schemes and
+/// the scheme of this example (its ensembles in lanes).
 fn study<S>(scene: &Scene, prepared: &Prepared<S>) -> Result<ConvergenceReport, String>
 where
     S: CurvedSystem + Clone + Send + Sync + 'static,
 {
     let system = prepared.system.clone();
-    let ours = StudyScheme::new("projected-symplectic-euler", move || {
-        Ok(ProjectedSymplecticEuler::new(system.clone()))
+    check_lanes(&scene.name, &system, &prepared.position, &prepared.velocity)?;
+    let ours = StudyScheme::in_lanes("constrained-symplectic-euler", move || {
+        Ok(ConstrainedSymplecticEuler {
+            system: system.clone(),
+        })
     });
     let run = run_convergence_on(
         scene,
@@ -162,32 +248,40 @@ impl SceneRunner for Study {
     }
 }
 
-/// A particle of unit mass on the ellipse x^2/a^2 + y^2/b^2 = 1 (a = 2, b = 1), under gravity
-/// -e_y and additive noise of amplitude 0.5: constraint, curvature and drift from closures.
+/// The ellipse x^2/a^2 + y^2/b^2 = 1 (a = 2, b = 1) as g = (x^2/a^2 + y^2/b^2 - 1) / 2.
+#[derive(Debug, Clone, Copy)]
+struct Ellipse;
+
+const A2: f64 = 4.0;
+const B2: f64 = 1.0;
+
+impl Surface<2> for Ellipse {
+    #[inline(always)]
+    fn value<T: Real>(&self, x: &[T; 2]) -> T {
+        (x[0] * x[0] / A2 + x[1] * x[1] / B2 - 1.0) * 0.5
+    }
+    #[inline(always)]
+    fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
+        [x[0] / A2, x[1] / B2]
+    }
+}
+
+impl CurvedSurface<2> for Ellipse {
+    fn second_derivative(&self, _x: &[f64; 2], u: &[f64; 2], w: &[f64; 2]) -> f64 {
+        u[0] * w[0] / A2 + u[1] * w[1] / B2
+    }
+}
+
+/// A particle of unit mass on the ellipse, under gravity -e_y and additive noise of amplitude
+/// 0.5.
 fn ellipse_study() -> Result<ConvergenceReport, String> {
-    const A2: f64 = 4.0;
-    const B2: f64 = 1.0;
-    let ellipse = ClosureConstraint::new(
-        2,
-        1,
-        |x: &[f64], g: &mut [f64]| g[0] = 0.5 * (x[0] * x[0] / A2 + x[1] * x[1] / B2 - 1.0),
-        |x: &[f64], u: &[f64], out: &mut [f64]| out[0] = x[0] * u[0] / A2 + x[1] * u[1] / B2,
-        |x: &[f64], z: &[f64], out: &mut [f64]| {
-            out[0] = x[0] * z[0] / A2;
-            out[1] = x[1] * z[0] / B2;
-        },
-    )
-    .map_err(|e| e.to_string())?
-    .with_second_derivative(|_x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]| {
-        out[0] = u[0] * w[0] / A2 + u[1] * w[1] / B2;
-    });
     let gravity = |_r: &[f64], _v: &[f64], out: &mut [f64]| {
         out[0] = 0.0;
         out[1] = -1.0;
     };
     let noise = AdditiveNoise::new(0.5, 2).map_err(|e| e.to_string())?;
-    let system =
-        MechanicalSystem::new(ellipse, IdentityMass, gravity, noise).map_err(|e| e.to_string())?;
+    let system = MechanicalSystem::new(Hypersurface::new(Ellipse), IdentityMass, gravity, noise)
+        .map_err(|e| e.to_string())?;
     let scene = Scene::custom(
         "ellipse",
         2.0,

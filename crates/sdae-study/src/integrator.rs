@@ -5,7 +5,7 @@
 //! scheme has a lane form and runs as a [`LaneEnsemble`], which steps in SIMD lanes where the
 //! system has a lane form; a user's scheme runs as a [`PathLoop`].
 
-use sdae_model::{LaneEnsemble, LaneScheme, PathLoop, Scheme};
+use sdae_model::{KernelScheme, Kernelized, LaneEnsemble, LaneScheme, PathLoop, Scheme};
 use sdae_reference::{
     CurvedSystem, EulerMaruyama, ProjectedEulerMaruyama, StochasticHeun, TruncatedEulerMaruyama,
 };
@@ -244,7 +244,7 @@ pub struct StudyScheme<S> {
     time_changed: bool,
 }
 
-impl<S: 'static> StudyScheme<S> {
+impl<S: sdae_model::System + 'static> StudyScheme<S> {
     /// A scheme named `name` (as it appears in reports), built by `build`, which says why
     /// the scheme does not apply when it does not. Its paths are stepped one at a time
     /// ([`PathLoop`]).
@@ -252,28 +252,53 @@ impl<S: 'static> StudyScheme<S> {
     where
         F: Fn() -> Result<T, String> + Send + Sync + 'static,
         T: Scheme<System = S> + 'static,
-        S: sdae_model::System,
     {
-        let name: String = name.into();
+        Self::assemble(name.into(), build, |scheme, paths, r0, v0| {
+            Ok(Box::new(PathLoop::new(scheme, paths, r0, v0)?))
+        })
+    }
+
+    /// A scheme written once over the number type ([`KernelScheme`]) named `name`, built by
+    /// `build`: its paths are stepped in SIMD lanes where its system's constraint offers a
+    /// lane form for its mass ([`Kernelized`] in a [`LaneEnsemble`]), and one at a time
+    /// elsewhere, with the same numbers either way.
+    pub fn in_lanes<F, K>(name: impl Into<String>, build: F) -> Self
+    where
+        F: Fn() -> Result<K, String> + Send + Sync + 'static,
+        K: KernelScheme<System = S>,
+    {
+        let build = move || Kernelized::new(build()?).map_err(|e| e.to_string());
+        Self::assemble(name.into(), build, |scheme, paths, r0, v0| {
+            Ok(Box::new(LaneEnsemble::new(scheme, paths, r0, v0)?))
+        })
+    }
+
+    /// A scheme built by `build`, whose ensembles `ensemble` makes of one instance.
+    fn assemble<F, T>(name: String, build: F, ensemble: EnsembleOf<T, S>) -> Self
+    where
+        F: Fn() -> Result<T, String> + Send + Sync + 'static,
+        T: Scheme<System = S> + 'static,
+    {
         let scheme = name.clone();
-        let build: std::sync::Arc<Build<S>> = std::sync::Arc::new(move || match build() {
-            Ok(s) => Ok(Box::new(s) as BoxedScheme<S>),
-            Err(reason) => Err(StudyError::SchemeNotApplicable {
+        let one = move || {
+            build().map_err(|reason| StudyError::SchemeNotApplicable {
                 scheme: scheme.clone(),
                 reason,
-            }),
-        });
-        let one = build.clone();
+            })
+        };
+        let one = std::sync::Arc::new(one);
+        let single = one.clone();
         Self {
             name,
-            build,
-            ensemble: std::sync::Arc::new(move |(paths, r0, v0)| {
-                Ok(Box::new(PathLoop::new(one()?, paths, r0, v0)?) as BoxedEnsemble<S>)
-            }),
+            build: std::sync::Arc::new(move || Ok(Box::new(single()?) as BoxedScheme<S>)),
+            ensemble: std::sync::Arc::new(move |(paths, r0, v0)| ensemble(one()?, paths, r0, v0)),
             time_changed: false,
         }
     }
 }
+
+/// How a [`StudyScheme`] makes an ensemble of `paths` paths from (r0, v0) of one instance.
+type EnsembleOf<T, S> = fn(T, usize, &[f64], &[f64]) -> Result<BoxedEnsemble<S>, StudyError>;
 
 impl<S> StudyScheme<S> {
     /// The name used in reports.

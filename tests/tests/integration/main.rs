@@ -19,6 +19,7 @@ mod ensemble;
 mod fiber_dynamics;
 mod free_rotor;
 mod interpolation;
+mod kernel_scheme;
 mod langevin_equipartition;
 mod local_size;
 mod one_lane;

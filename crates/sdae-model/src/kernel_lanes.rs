@@ -1,0 +1,346 @@
+//! A [`KernelScheme`]'s step over W lanes ([`Kernelized`] as a [`LaneScheme`](crate::LaneScheme)):
+//! the lanes' [`StepKernel`] (the system's lane forms of its drift and noise, path by path
+//! where it has none; a diagonal M^-1) with the constrained update of the constraint's lane
+//! form: the sphere's closed form ([`SphereRoot`], arrays of N = 2 or 3 coordinates through
+//! [`LanePaths::step_groups`](crate::engine::LanePaths::step_groups)) or Newton over its
+//! [`ConstraintLanes`] ([`NewtonRoot`], rows through
+//! [`LanePaths::step_wide_groups`](crate::engine::LanePaths::step_wide_groups)). Each formula
+//! is the one-path kernel's, with the same floating-point operations in the same order.
+
+use pulp::Simd;
+use sdae_ift::SolverSettings;
+use sdae_lanes::{LaneMask, Lanes, per_path};
+use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
+use sdae_manifold::vector::sum_squares;
+use sdae_manifold::{Mass, MatrixFactor, Sphere};
+
+use crate::error::StepFailure;
+use crate::kernel_scheme::{
+    Constrained, KernelNext, KernelScheme, KernelState, Kernelized, StepKernel, lane_record, radius,
+};
+use crate::lane_diagnostics::LaneRecord;
+use crate::lane_ensemble::{GroupState, LaneKernel, LaneRows, LaneStep, LaneStore, WideKernel};
+use crate::newton_lanes::NewtonKernels;
+use crate::newton_root::NewtonRoot;
+use crate::scheme::Scheme;
+use crate::sphere_lanes::SphereKernels;
+use crate::sphere_root::SphereRoot;
+use crate::system::System;
+
+/// How the lanes' kernel applies M^-1 and makes the constrained update: the sphere's closed
+/// form or Newton over a lane form.
+trait LaneConstraint<Sd: Simd> {
+    /// x <- M^-1 x.
+    fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]);
+    /// [`StepKernel::constrain`] over lanes.
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], y: &[Lanes<Sd>], velocity: &mut [Lanes<Sd>],
+        next_r: &mut [Lanes<Sd>], multiplier: &mut [Lanes<Sd>],
+    ) -> Constrained<Lanes<Sd>>;
+}
+
+/// The lanes' [`StepKernel`]: the system's lane forms and a [`LaneConstraint`].
+struct Lanewise<'a, S: System, L, Sd: Simd> {
+    system: &'a S,
+    /// 0 in every lane.
+    zero: Lanes<Sd>,
+    constraint: L,
+    /// Path-by-path buffers of a system without lane forms of this size.
+    scratch: &'a mut Vec<f64>,
+}
+
+impl<S: System, Sd: Simd, L: LaneConstraint<Sd>> StepKernel<Lanes<Sd>> for Lanewise<'_, S, L, Sd> {
+    #[inline(always)]
+    fn splat(&self, x: f64) -> Lanes<Sd> {
+        self.zero.splat_like(x)
+    }
+    #[inline(always)]
+    fn drift(&mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
+        let system = self.system;
+        if !system.drift_lanes(r, v, out) {
+            per_path([r, v], out, self.scratch, |[r, v], out| {
+                system.drift(r, v, out)
+            });
+        }
+    }
+    #[inline(always)]
+    fn add_noise(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) {
+        let system = self.system;
+        if !system.add_noise_lanes(r, v, dw, out) {
+            per_path([r, v, dw], out, self.scratch, |[r, v, dw], out| {
+                system.add_noise(r, v, dw, out)
+            });
+        }
+    }
+    #[inline(always)]
+    fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
+        self.constraint.apply_inverse_mass(x);
+    }
+    #[inline(always)]
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], y: &[Lanes<Sd>], velocity: &mut [Lanes<Sd>],
+        next_r: &mut [Lanes<Sd>], multiplier: &mut [Lanes<Sd>],
+    ) -> Result<Constrained<Lanes<Sd>>, StepFailure> {
+        Ok(self
+            .constraint
+            .constrain(r, y, velocity, next_r, multiplier))
+    }
+    #[inline(always)]
+    fn check_finite(
+        &self, _what: &'static str, x: &[Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, StepFailure> {
+        Ok(sum_squares(x).is_finite())
+    }
+}
+
+/// The sphere's closed form with a diagonal M^-1 ([`SphereRoot`]).
+struct SphereConstraint<'a, const N: usize> {
+    root: &'a SphereRoot<N>,
+    sphere: &'a Sphere,
+    inverse_mass: &'a [f64; N],
+}
+
+impl<Sd: Simd, const N: usize> LaneConstraint<Sd> for SphereConstraint<'_, N> {
+    #[inline(always)]
+    fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
+        for (xi, w) in x.iter_mut().zip(self.inverse_mass) {
+            *xi = *xi * *w;
+        }
+    }
+    /// The closed-form root, lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)) and
+    /// v' = v~ + M^-1 grad g(r) lambda.
+    #[inline(always)]
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], y: &[Lanes<Sd>], velocity: &mut [Lanes<Sd>],
+        next_r: &mut [Lanes<Sd>], multiplier: &mut [Lanes<Sd>],
+    ) -> Constrained<Lanes<Sd>> {
+        let (r, y) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(y));
+        let root = self.root.solve(r, y);
+        next_r.copy_from_slice(&root.x);
+        let one = root.gram.splat_like(1.0);
+        let lambda = -self.sphere.normal_rate(&root.x, velocity) * (one / root.gram);
+        let mut v_new = [lambda; N];
+        let w = self.inverse_mass;
+        self.sphere
+            .displace_diagonal(r, lambda, |k| w[k], velocity, &mut v_new);
+        velocity.copy_from_slice(&v_new);
+        multiplier[0] = lambda;
+        Constrained {
+            ok: root.ok,
+            newton_iterations: one.splat_like(0.0),
+            position_residual: root.residual,
+            contraction: root.contraction,
+            kappa_norm: root.norm,
+        }
+    }
+}
+
+/// The first N rows of `x`.
+#[inline(always)]
+fn coordinates<Sd: Simd, const N: usize>(x: &[Lanes<Sd>]) -> &[Lanes<Sd>; N] {
+    x.first_chunk::<N>()
+        .expect("a sphere kernel's rows have N coordinates")
+}
+
+/// Newton over a constraint's lane form ([`NewtonRoot`]).
+struct NewtonConstraint<'a, Sd: Simd, C: ConstraintLanes> {
+    form: &'a LaneForm<C>,
+    root: &'a mut NewtonRoot<Sd, C>,
+    settings: &'a SolverSettings,
+    radius: f64,
+}
+
+impl<Sd: Simd, C: ConstraintLanes> LaneConstraint<Sd> for NewtonConstraint<'_, Sd, C> {
+    #[inline(always)]
+    fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
+        let w = self.form.inverse_mass();
+        for (k, xi) in x.iter_mut().enumerate() {
+            *xi = w.apply(k, *xi);
+        }
+    }
+    /// The Newton root, lambda = J^-1 (-Dg(r') v~) with the factors at the root, and
+    /// v' = v~ + M^-1 grad g(r) lambda.
+    #[inline(always)]
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], y: &[Lanes<Sd>], velocity: &mut [Lanes<Sd>],
+        next_r: &mut [Lanes<Sd>], multiplier: &mut [Lanes<Sd>],
+    ) -> Constrained<Lanes<Sd>> {
+        let root = self
+            .root
+            .solve(self.form, self.settings, self.radius, r, y, max_abs(y));
+        self.root.point(&root, y);
+        next_r.copy_from_slice(&self.root.x);
+        let factor = self.root.root_factor(&root);
+        self.form
+            .negated_jacobian_mul(&self.root.x, velocity, multiplier);
+        factor.forward_in_place(multiplier);
+        factor.back_substitute(multiplier);
+        // gamma's rows are free scratch once the root is known.
+        let (finite, _) = self.form.finish_velocity(
+            r,
+            multiplier,
+            &self.root.x,
+            false,
+            velocity,
+            &mut self.root.gamma,
+        );
+        Constrained {
+            ok: root.ok.and(finite),
+            newton_iterations: root.iterations,
+            position_residual: root.residual,
+            contraction: root.contraction,
+            kappa_norm: root.norm,
+        }
+    }
+}
+
+/// A [`Kernelized`] scheme's kernels on a sphere ([`SphereKernels`](crate::engine::SphereKernels)).
+pub(crate) struct OnSphere;
+
+/// The constants of a step on a sphere of N coordinates.
+pub(crate) struct SphereKernel<const N: usize> {
+    h: f64,
+    root: SphereRoot<N>,
+    sphere: Sphere,
+    inverse_mass: [f64; N],
+}
+
+impl<K: KernelScheme> SphereKernels<Kernelized<K>> for OnSphere {
+    type Kernel<const N: usize> = SphereKernel<N>;
+    /// The kernel, or `None` if the mass is not diagonal.
+    fn kernel<const N: usize>(
+        &self, scheme: &Kernelized<K>, sphere: &Sphere, h: f64,
+    ) -> Option<SphereKernel<N>> {
+        let mass = scheme.system().mass();
+        if !<<K::System as System>::Mass as Mass>::DIAGONAL {
+            return None;
+        }
+        let inverse_mass = std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
+        let (settings, radius) = scheme.scheme.solver();
+        Some(SphereKernel {
+            h,
+            root: SphereRoot::new(sphere, inverse_mass, &settings, radius),
+            sphere: *sphere,
+            inverse_mass,
+        })
+    }
+}
+
+impl<K: KernelScheme, const N: usize> LaneKernel<Kernelized<K>, N> for SphereKernel<N> {
+    #[inline(always)]
+    fn step<Sd: Simd>(
+        &self, scheme: &Kernelized<K>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
+    ) -> Option<LaneStep<Sd, N>> {
+        let zero = r[0].splat_like(0.0);
+        let mut scratch = Vec::new();
+        let mut kernel = Lanewise {
+            system: scheme.system(),
+            zero,
+            constraint: SphereConstraint {
+                root: &self.root,
+                sphere: &self.sphere,
+                inverse_mass: &self.inverse_mass,
+            },
+            scratch: &mut scratch,
+        };
+        let (mut next_r, mut next_v, mut dmu, mut work) = ([zero; N], [zero; N], [zero], [zero; N]);
+        let next = KernelNext {
+            r: &mut next_r,
+            v: &mut next_v,
+            dmu: &mut dmu,
+            work: &mut work,
+        };
+        let state = KernelState { r, v, dw };
+        let outcome = scheme.scheme.step(&mut kernel, self.h, state, next).ok()?;
+        Some(LaneStep {
+            ok: outcome.ok,
+            r: next_r,
+            v: next_v,
+            dmu: dmu[0],
+            record: lane_record(&outcome, radius(scheme)),
+        })
+    }
+}
+
+/// A [`Kernelized`] scheme's kernel for a constraint's lane form, with its buffers.
+pub struct NewtonKernel<Sd: Simd, C: ConstraintLanes> {
+    h: f64,
+    form: LaneForm<C>,
+    root: NewtonRoot<Sd, C>,
+    settings: SolverSettings,
+    radius: f64,
+    /// The step's scratch rows ([`KernelNext::work`]).
+    work: Vec<Lanes<Sd>>,
+    /// Path-by-path buffers of a system without lane forms of this size.
+    scratch: Vec<f64>,
+}
+
+impl<K: KernelScheme> NewtonKernels for Kernelized<K> {
+    type Kernel<Sd: Simd, C: ConstraintLanes> = NewtonKernel<Sd, C>;
+    fn kernel<Sd: Simd, C: ConstraintLanes>(
+        &self, simd: Sd, form: LaneForm<C>,
+    ) -> NewtonKernel<Sd, C> {
+        let (settings, radius) = self.scheme.solver();
+        let (n, _) = form.dims();
+        NewtonKernel {
+            h: 0.0,
+            root: NewtonRoot::new(simd, &form),
+            form,
+            settings,
+            radius,
+            work: vec![Lanes::splat(simd, 0.0); n],
+            scratch: Vec::new(),
+        }
+    }
+    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut NewtonKernel<Sd, C>, h: f64) {
+        kernel.h = h;
+    }
+    fn lane_store(&mut self) -> &mut LaneStore {
+        &mut self.lanes
+    }
+}
+
+impl<K: KernelScheme, Sd: Simd, C: ConstraintLanes> WideKernel<Kernelized<K>, Sd>
+    for NewtonKernel<Sd, C>
+{
+    #[inline(always)]
+    fn step(
+        &mut self, scheme: &Kernelized<K>, state: GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
+    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
+        let Self {
+            h,
+            form,
+            root,
+            settings,
+            radius,
+            work,
+            scratch,
+        } = self;
+        let mut kernel = Lanewise {
+            system: scheme.system(),
+            zero: Lanes::splat(rows.simd(), 0.0),
+            constraint: NewtonConstraint {
+                form,
+                root,
+                settings,
+                radius: *radius,
+            },
+            scratch,
+        };
+        let next = KernelNext {
+            r: &mut rows.r,
+            v: &mut rows.v,
+            dmu: &mut rows.dmu,
+            work,
+        };
+        let state = KernelState {
+            r: state.r,
+            v: state.v,
+            dw: state.dw,
+        };
+        let outcome = scheme.scheme.step(&mut kernel, *h, state, next).ok()?;
+        Some((outcome.ok, lane_record(&outcome, *radius)))
+    }
+}

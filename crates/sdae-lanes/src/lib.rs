@@ -72,6 +72,15 @@ pub enum LaneWidth {
 }
 
 impl LaneWidth {
+    /// Every width, narrowest first (one lane, four, eight, the machine's widest): what a check
+    /// that results do not depend on W runs through.
+    pub const ALL: [LaneWidth; 4] = [
+        LaneWidth::One,
+        LaneWidth::Four,
+        LaneWidth::Eight,
+        LaneWidth::Best,
+    ];
+
     /// Runs `op` with the instruction set of this width.
     ///
     /// Only the instruction sets of [`LaneWidth::Best`] are used (AVX-512, AVX2 and plain

@@ -191,12 +191,7 @@ pub(crate) mod lanes_check {
     /// `check` (made by `make` for each width) at one lane, four, eight and the machine's
     /// widest.
     pub(crate) fn at_every_width<C: WithSimd<Output = ()>>(make: impl Fn() -> C) {
-        for width in [
-            LaneWidth::One,
-            LaneWidth::Four,
-            LaneWidth::Eight,
-            LaneWidth::Best,
-        ] {
+        for width in LaneWidth::ALL {
             width.dispatch(make());
         }
     }

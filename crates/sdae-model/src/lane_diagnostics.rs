@@ -336,12 +336,7 @@ mod tests {
     #[test]
     fn lanes_record_what_path_diagnostics_record_bit_for_bit() {
         for radius in [f64::INFINITY, 0.05] {
-            for width in [
-                LaneWidth::One,
-                LaneWidth::Four,
-                LaneWidth::Eight,
-                LaneWidth::Best,
-            ] {
+            for width in LaneWidth::ALL {
                 width.dispatch(Check { radius });
             }
         }

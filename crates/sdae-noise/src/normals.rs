@@ -643,12 +643,7 @@ mod tests {
     #[test]
     fn every_width_draws_each_paths_scalar_stream() {
         // 20 000 numbers per path: ~300 rejected draws each, tail draws (layer 0) included.
-        for width in [
-            LaneWidth::One,
-            LaneWidth::Four,
-            LaneWidth::Eight,
-            LaneWidth::Best,
-        ] {
+        for width in LaneWidth::ALL {
             check_against_scalar(width, 13, 2, 10_000);
             // Draws per lane group and tile (7 a step, 32 steps a tile, 13 in the last) not a
             // multiple of a batch: the last batch of each is partial.

@@ -129,12 +129,7 @@ pub(crate) mod check {
     /// every width (1, 4, 8 and this processor's best), the scalar functions' numbers bit for
     /// bit on each of `states` ([r, v, dw] per path).
     pub(crate) fn lane_forms_match_scalar<Sys: System>(system: &Sys, states: &[[Vec<f64>; 3]]) {
-        for width in [
-            LaneWidth::One,
-            LaneWidth::Four,
-            LaneWidth::Eight,
-            LaneWidth::Best,
-        ] {
+        for width in LaneWidth::ALL {
             width.dispatch(Compare { system, states });
         }
     }

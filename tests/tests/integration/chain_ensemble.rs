@@ -186,12 +186,7 @@ where
     let (r0, v0) = state;
     let scalar = run_scalar(stepper, PATHS, r0, v0, h);
     let mut summary = (0, 0, 0);
-    for width in [
-        LaneWidth::One,
-        LaneWidth::Four,
-        LaneWidth::Eight,
-        LaneWidth::Best,
-    ] {
+    for width in LaneWidth::ALL {
         let (lanes, scalar_steps) = run_ensemble(stepper, width, PATHS, r0, v0, h);
         for (p, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
             assert_eq!(a, b, "{what}, {width:?}, path {p}");

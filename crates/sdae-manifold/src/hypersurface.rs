@@ -57,6 +57,13 @@ pub trait Surface<const N: usize>: Clone + Send + Sync + 'static {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Unknown
     }
+    /// D^2 g(u, w) where g is a quadratic polynomial (its second derivative is constant): the
+    /// kappa system of seed eq. 3.1 is then a quadratic in kappa, whose root the solvers take
+    /// in closed form (one path and lanes alike). `None` (the default): Newton.
+    fn constant_second_derivative<T: Real>(&self, u: &[T; N], w: &[T; N]) -> Option<T> {
+        let _ = (u, w);
+        None
+    }
 }
 
 /// A [`Surface`] whose second derivative is known: then its [`Hypersurface`] is a
@@ -80,6 +87,23 @@ impl<F: Surface<N>, const N: usize> Hypersurface<F, N> {
     /// The surface's formulas.
     pub fn surface(&self) -> &F {
         &self.0
+    }
+    /// [c0, c1, c2] of R(gamma) = g(y + gamma w) = c0 + c1 gamma + c2 gamma^2 with w = M^-1
+    /// grad g(r) (seed eq. 3.1, upper part): g(y), Dg(y) w and D^2 g(w, w) / 2, where g is
+    /// quadratic ([`Surface::constant_second_derivative`]).
+    #[inline(always)]
+    fn kappa_coefficients<T: Real>(&self, w: &[T; N], y: &[T; N]) -> Option<[T; 3]> {
+        let c2 = self.0.constant_second_derivative(w, w)? * 0.5;
+        Some([self.0.value(y), dot(&self.0.gradient(y), w), c2])
+    }
+    /// M^-1 grad g(r) for a diagonal M^-1 = `w`, over lanes.
+    #[inline(always)]
+    fn weighted_gradient<Sd: Simd>(&self, w: &InverseMass, r: &[Lanes<Sd>]) -> [Lanes<Sd>; N] {
+        let mut weighted = self.gradient_at(r);
+        for (k, entry) in weighted.iter_mut().enumerate() {
+            *entry = w.apply(k, *entry);
+        }
+        weighted
     }
     /// grad g(x) for the first N coordinates of `x`.
     #[inline(always)]
@@ -138,6 +162,12 @@ impl<F: Surface<N>, const N: usize> Constraint for Hypersurface<F, N> {
     fn roundoff(&self) -> Roundoff {
         self.0.roundoff()
     }
+    /// The closed form where g is quadratic ([`Surface::constant_second_derivative`]).
+    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
+        let mut w = self.gradient_at(r);
+        mass.apply_inverse(&mut w);
+        self.kappa_coefficients(&w, point(y))
+    }
     /// Newton in lanes (the [`ConstraintLanes`] below) for a diagonal mass.
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         if !M::DIAGONAL {
@@ -165,12 +195,16 @@ impl<F: Surface<N>, const N: usize> ConstraintLanes for Hypersurface<F, N> {
     ) -> Evaluation<Sd> {
         let x = x1.coords::<N>(0);
         values[0] = self.0.value(&x);
-        let mut weighted = self.gradient_at(r);
-        for (k, entry) in weighted.iter_mut().enumerate() {
-            *entry = w.apply(k, *entry);
-        }
+        let weighted = self.weighted_gradient(w, r);
         jacobian.0 = dot(&self.0.gradient(&x), &weighted);
         Evaluation::reduce_and_factor(values, jacobian, factor, step)
+    }
+    #[inline(always)]
+    fn kappa_quadratic_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], y: &P,
+    ) -> Option<[Lanes<Sd>; 3]> {
+        let weighted = self.weighted_gradient(w, r);
+        self.kappa_coefficients(&weighted, &y.coords::<N>(0))
     }
     #[inline(always)]
     fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
@@ -208,6 +242,9 @@ mod tests {
         }
         fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
             [x[0] * 0.25, x[1]]
+        }
+        fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
+            Some(u[0] * w[0] * 0.25 + u[1] * w[1])
         }
     }
 
@@ -251,6 +288,25 @@ mod tests {
         }
     }
 
+    /// The kappa quadratic is R(gamma) = g(y + M^-1 grad g(r) gamma) at any gamma (to rounding).
+    #[test]
+    fn the_kappa_quadratic_is_the_kappa_system() {
+        let c = Hypersurface::new(Ellipse);
+        let (r, y) = ([1.2, 0.8], [1.9, 0.4]);
+        let [c0, c1, c2] = c.kappa_quadratic(&r, &y, &mass()).unwrap();
+        for gamma in [-0.7, -0.1, 0.0, 0.25, 1.5] {
+            let mut x = [0.0; 2];
+            c.displace(&r, &[gamma], &mass(), &y, &mut x);
+            let mut g = [0.0];
+            c.value(&x, &mut g);
+            let quadratic = c0 + c1 * gamma + c2 * gamma * gamma;
+            assert!(
+                (g[0] - quadratic).abs() < 1e-15,
+                "gamma = {gamma}: {g:?} vs {quadratic}"
+            );
+        }
+    }
+
     /// Each lane of the lane forms against the one-path constraint, bit for bit.
     struct LanesCheck;
 
@@ -283,6 +339,9 @@ mod tests {
             c.displace_lanes(&w, &r_lanes, &z_lanes, Some(&x1_lanes[..]), &mut displaced);
             let mut negated = [zero];
             c.negated_jacobian_mul(&x1_lanes, &u_lanes, &mut negated);
+            let coefficients = c
+                .kappa_quadratic_lanes(&w, &r_lanes, &x1_lanes[..])
+                .unwrap();
             for lane in 0..Lanes::<S>::WIDTH {
                 let point = |f: &dyn Fn(usize, usize) -> f64| [f(lane, 0), f(lane, 1)];
                 let (x1, r, u) = (point(&x1), point(&r), point(&u));
@@ -314,6 +373,10 @@ mod tests {
                     );
                 }
                 assert_eq!(bits(negated[0]), (-normal[0]).to_bits(), "lane {lane}");
+                let one_path = c.kappa_quadratic(&r, &x1, &mass()).unwrap();
+                for (a, b) in coefficients.iter().zip(one_path) {
+                    assert_eq!(bits(*a), b.to_bits(), "lane {lane}");
+                }
             }
         }
     }

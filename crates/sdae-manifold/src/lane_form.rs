@@ -118,6 +118,17 @@ pub trait ConstraintLanes: Constraint + Clone + Send + Sync + 'static {
     fn negated_jacobian_mul<Sd: Simd>(
         &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     );
+    /// The coefficients [c0, c1, c2] of the kappa system R(gamma) = g(y + M^-1 grad g(r)
+    /// gamma) = c0 + c1 gamma + c2 gamma^2 where g is quadratic, with the operations of
+    /// `Constraint::kappa_quadratic`: an engine then takes the root in closed form, as the
+    /// ball solver does for one path. `None` (the default): Newton.
+    #[inline(always)]
+    fn kappa_quadratic_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], y: &P,
+    ) -> Option<[Lanes<Sd>; 3]> {
+        let _ = (w, r, y);
+        None
+    }
     /// The local measure of the motion (`Constraint::local_motion`); `None` (the default)
     /// where that is `None`, and the engine takes the seed's measure.
     fn local_motion_lanes<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
@@ -202,6 +213,14 @@ impl<C: ConstraintLanes> LaneForm<C> {
         &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
         self.constraint.negated_jacobian_mul(x, u, out);
+    }
+    /// [`ConstraintLanes::kappa_quadratic_lanes`].
+    #[inline(always)]
+    pub fn kappa_quadratic<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, r: &[Lanes<Sd>], y: &P,
+    ) -> Option<[Lanes<Sd>; 3]> {
+        self.constraint
+            .kappa_quadratic_lanes(&self.inverse_mass, r, y)
     }
     /// [`ConstraintLanes::local_motion_lanes`].
     #[inline(always)]

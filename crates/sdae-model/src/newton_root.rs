@@ -18,7 +18,10 @@ use std::any::Any;
 use std::marker::PhantomData;
 
 use pulp::Simd;
-use sdae_ift::{NewtonSystem, ProbeMap, SolverSettings, certify, newton_from_zero};
+use sdae_ift::{
+    NewtonSystem, ProbeMap, QuadraticRoot, SolverSettings, certify, newton_from_zero,
+    quadratic_root,
+};
 use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::lane_form::{
     ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes, active_any,
@@ -237,6 +240,10 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         // The residual floor of g near y (`Constraint::roundoff`) and the tolerance.
         let floor = constraint.roundoff().floor(max_abs_y);
         let tolerance = self.splat(settings.tolerance).max(floor);
+        if let Some(coefficients) = constraint.kappa_quadratic(r, y) {
+            let root = quadratic_root(coefficients, tolerance);
+            return self.closed_form(constraint, (settings, radius), r, y, root, tolerance);
+        }
         let Self {
             x,
             residual,
@@ -278,6 +285,45 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
             residual: root.residual,
             norm,
             contraction,
+        }
+    }
+
+    /// The root connected to 0 of a quadratic kappa system (`root`, [`quadratic_root`]) with
+    /// the checks of the ball solver's closed form (`BallSolver::solve` with
+    /// `Constraint::kappa_quadratic`): a real root inside the ball, plausible, with the
+    /// residual at its point x within the tolerance, J(gamma*) factored and not contracting.
+    /// Its point is in `x` (y where the root is 0).
+    #[inline(always)]
+    fn closed_form<Y: PointLanes<Sd> + ?Sized>(
+        &mut self, constraint: &LaneForm<C>, (settings, radius): (&SolverSettings, f64),
+        r: &[Lanes<Sd>], y: &Y, root: QuadraticRoot<Lanes<Sd>>, tolerance: Lanes<Sd>,
+    ) -> NewtonLanes<Sd> {
+        let zero = self.splat(0.0);
+        let mut ok = root
+            .usable
+            .and(root.real)
+            .and(root.norm.lt(self.splat(radius)))
+            .and(!settings.implausible(root.norm, settings.plausibility_bound(root.first_step)));
+        self.gamma[0] = root.gamma;
+        constraint.displace(r, &self.gamma, Some(y), &mut self.x);
+        let at_x = constraint.evaluate_and_factor(
+            &self.x[..],
+            r,
+            &mut self.residual,
+            &mut self.jacobian,
+            &mut self.factor,
+            &mut self.step,
+        );
+        ok = ok.and(at_x.ok).and(at_x.largest.le(tolerance));
+        ok = ok.and(!settings.not_contracting(root.contraction, radius));
+        NewtonLanes {
+            ok,
+            iterated: true,
+            at_zero: root.gamma.eq(zero),
+            iterations: zero,
+            residual: at_x.largest,
+            norm: root.norm,
+            contraction: root.contraction,
         }
     }
 

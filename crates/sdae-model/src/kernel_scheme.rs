@@ -39,6 +39,20 @@ pub trait StepKernel<T: Real> {
     fn add_noise(&mut self, r: &[T], v: &[T], dw: &[T], out: &mut [T]);
     /// x <- M^-1 x.
     fn apply_inverse_mass(&self, x: &mut [T]);
+    /// out = v + M^-1 (tau a(r, v) + B(r, v) dw): the free velocity v~ of seed eq. 3.1 (tau =
+    /// eta h), from the drift's product with tau, the noise, M^-1 and v in that order.
+    #[inline(always)]
+    fn free_velocity(&mut self, r: &[T], v: &[T], dw: &[T], tau: T, out: &mut [T]) {
+        self.drift(r, v, out);
+        for f in out.iter_mut() {
+            *f = tau * *f;
+        }
+        self.add_noise(r, v, dw, out);
+        self.apply_inverse_mass(out);
+        for (f, vi) in out.iter_mut().zip(v) {
+            *f = *f + *vi;
+        }
+    }
     /// The constrained update of seed eq. 3.1 from r, a point y and the free velocity v~ (in
     /// `velocity`): r' = y + M^-1 grad g(r) kappa with g(r') = 0 (the kappa root connected to
     /// 0, in the ball of the scheme's radius, [`KernelScheme::solver`]) into `next_r`, and
@@ -100,6 +114,18 @@ pub struct KernelOutcome<T: Real> {
     pub constrained: Option<Constrained<T>>,
 }
 
+impl<T: Real> KernelOutcome<T> {
+    /// The outcome of an untruncated step (eta = 1) whose paths are those its constrained
+    /// update decided.
+    pub fn untruncated(constrained: Constrained<T>) -> Self {
+        Self {
+            ok: constrained.ok,
+            eta: constrained.kappa_norm.splat_like(1.0),
+            constrained: Some(constrained),
+        }
+    }
+}
+
 /// A scheme whose step is written once over [`Real`]; [`Kernelized`] runs it.
 pub trait KernelScheme: Clone + Send + Sync + 'static {
     /// The system it steps.
@@ -127,14 +153,11 @@ pub struct Kernelized<K: KernelScheme> {
     pub(crate) scheme: K,
     solver: BallSolver<<<K::System as System>::Constraint as Constraint>::Gram>,
     radius: f64,
-    /// One path's r_{k+1}, v_{k+1}, v' scratch, user scratch (n each), dmu (m), the
-    /// constraint's workspace.
-    next_r: Vec<f64>,
-    next_v: Vec<f64>,
-    new_v: Vec<f64>,
-    work: Vec<f64>,
-    dmu: Vec<f64>,
-    scratch: Vec<f64>,
+    /// One path's buffers, one after the other: r_{k+1}, v_{k+1}, v' and the step's scratch
+    /// (n each), the increment of mu (m), the constraint's workspace ([`OnePathBuffers`]).
+    buffers: Vec<f64>,
+    /// (n, m).
+    dims: (usize, usize),
     /// The lane kernels' buffers between steps.
     pub(crate) lanes: LaneStore,
 }
@@ -148,12 +171,8 @@ impl<K: KernelScheme> Kernelized<K> {
         Ok(Self {
             solver: BallSolver::new(c.new_gram(), settings),
             radius,
-            next_r: vec![0.0; n],
-            next_v: vec![0.0; n],
-            new_v: vec![0.0; n],
-            work: vec![0.0; n],
-            dmu: vec![0.0; m],
-            scratch: vec![0.0; scratch_len(n, m)],
+            buffers: vec![0.0; 4 * n + m + scratch_len(n, m)],
+            dims: (n, m),
             lanes: LaneStore::default(),
             scheme,
         })
@@ -176,14 +195,18 @@ impl<K: KernelScheme> Scheme for Kernelized<K> {
             scheme,
             solver,
             radius,
+            buffers,
+            dims: (n, m),
+            ..
+        } = self;
+        let OnePathBuffers {
             next_r,
             next_v,
             new_v,
             work,
             dmu,
             scratch,
-            ..
-        } = self;
+        } = OnePathBuffers::split(buffers, *n, *m);
         let mut kernel = OnePath {
             system: scheme.system(),
             solver,
@@ -218,7 +241,8 @@ impl<K: KernelScheme> Scheme for Kernelized<K> {
         })
     }
     fn multiplier_increment(&self) -> &[f64] {
-        &self.dmu
+        let (n, m) = self.dims;
+        &self.buffers[4 * n..4 * n + m]
     }
 }
 
@@ -230,6 +254,35 @@ impl<K: KernelScheme> LaneScheme for Kernelized<K> {
         let input = StepInput { h, dw };
         step_sphere_lanes(self, crate::kernel_lanes::OnSphere, paths, width, input)
             || step_offered_newton_lanes(self, paths, width, input)
+    }
+}
+
+/// One path's buffers of [`Kernelized`], split from one allocation.
+struct OnePathBuffers<'a> {
+    next_r: &'a mut [f64],
+    next_v: &'a mut [f64],
+    new_v: &'a mut [f64],
+    work: &'a mut [f64],
+    dmu: &'a mut [f64],
+    scratch: &'a mut [f64],
+}
+
+impl<'a> OnePathBuffers<'a> {
+    /// The buffers for n coordinates and m constraints, in the order of `Kernelized::buffers`.
+    fn split(buffers: &'a mut [f64], n: usize, m: usize) -> Self {
+        let (next_r, rest) = buffers.split_at_mut(n);
+        let (next_v, rest) = rest.split_at_mut(n);
+        let (new_v, rest) = rest.split_at_mut(n);
+        let (work, rest) = rest.split_at_mut(n);
+        let (dmu, scratch) = rest.split_at_mut(m);
+        Self {
+            next_r,
+            next_v,
+            new_v,
+            work,
+            dmu,
+            scratch,
+        }
     }
 }
 

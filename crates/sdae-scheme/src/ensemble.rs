@@ -26,8 +26,8 @@ use crate::stepper::Stepper;
 /// lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
 /// root outside the ball or not contracting, a non-finite value) finishes its step through the
 /// scalar [`Stepper`], which reports the failure exactly as for one path. For a constraint
-/// that offers its formulas over lanes ([`Constraint::lane_form`] with a
-/// [`ConstraintLanes`]: a bead chain ([`BeadChain`](sdae_manifold::BeadChain): the chain
+/// that offers its formulas over lanes ([`Constraint::lane_form`](sdae_manifold::Constraint::lane_form) with a
+/// [`ConstraintLanes`](sdae_manifold::ConstraintLanes): a bead chain ([`BeadChain`](sdae_manifold::BeadChain): the chain
 /// molecule, the fiber), rigid bonds ([`RigidBonds`](sdae_manifold::RigidBonds) of up to
 /// [`DENSE_FAER_THRESHOLD`](sdae_manifold::DENSE_FAER_THRESHOLD) bonds: the rigid triatomic,
 /// any bond network), or a user's constraint, as in `examples/custom_constraint.rs`) with a
@@ -104,10 +104,10 @@ pub type Ensemble<S> = LaneEnsemble<Stepper<S>>;
 
 /// The closed form of a sphere, or Newton for a constraint that offers formulas over lanes
 /// (the bead chain, rigid bonds, a user's constraint), with a diagonal mass
-/// ([`Constraint::lane_form`]); `false` (every path through the scalar step) for any other
+/// ([`Constraint::lane_form`](sdae_manifold::Constraint::lane_form)); `false` (every path through the scalar step) for any other
 /// constraint or mass.
 impl<S: System> LaneScheme for Stepper<S> {
-    /// The sphere's closed form in lanes ([`sphere::step_all`]) where the constraint is a
+    /// The sphere's closed form in lanes (`ensemble/sphere.rs`) where the constraint is a
     /// sphere, Newton with its formulas over lanes where it offers them
     /// ([`step_offered_newton_lanes`] with the kernel of `newton.rs`); `false` otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {

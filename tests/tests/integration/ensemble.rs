@@ -4,13 +4,12 @@
 //! with the scalar stepper's numbers; the generic per-path loop gives the same numbers; a
 //! block read gives each path's state; bad input is a typed error.
 
-use crate::common::{lane_configs, noisy_pendulum};
+use crate::common::{lane_configs, lane_increments, noisy_pendulum};
 use sdae_lanes::LaneWidth;
 use sdae_manifold::{IdentityMass, ManifoldError, Sphere};
 use sdae_model::{
     AdditiveNoise, MechanicalSystem, PathEnsemble, PathLoop, PathState, Scheme, StepFailure, System,
 };
-use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 
 const PATHS: usize = 37;
@@ -27,22 +26,7 @@ where
 
 /// Increments of every path for every step, in the ensemble's layout.
 fn increments(l: usize, stride: usize) -> Vec<Vec<f64>> {
-    let mut sources: Vec<_> = (0..PATHS)
-        .map(|p| GaussianIncrements::for_path(11, p as u64, l))
-        .collect();
-    let mut one = vec![0.0; l];
-    (0..STEPS)
-        .map(|_| {
-            let mut dw = vec![0.0; l * stride];
-            for (p, source) in sources.iter_mut().enumerate() {
-                source.next_increment(H, &mut one);
-                for (j, x) in one.iter().enumerate() {
-                    dw[j * stride + p] = *x;
-                }
-            }
-            dw
-        })
-        .collect()
+    lane_increments(PATHS, STEPS, 11, l, stride, H)
 }
 
 fn initial(dim: usize) -> (Vec<f64>, Vec<f64>) {

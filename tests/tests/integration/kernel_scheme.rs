@@ -6,14 +6,14 @@
 //! failing path stops with the typed one-path failure while the others go on in lanes; bad
 //! input is a typed error.
 
+use crate::common::ensemble_bits;
 use sdae_lanes::{LaneWidth, Real};
-use sdae_manifold::{ClosureConstraint, Constraint, IdentityMass, Sphere};
+use sdae_manifold::{ClosureConstraint, IdentityMass, Sphere};
 use sdae_model::{
     AdditiveNoise, FailureKind, KernelNext, KernelOutcome, KernelScheme, KernelState, Kernelized,
     LaneEnsemble, MechanicalSystem, NoNoise, PathEnsemble, Scheme, StepFailure, StepKernel, System,
     ZeroDrift,
 };
-use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{
     ChainMoleculeParams, PendulumParams, RigidTriatomicParams, chain_molecule, pendulum,
@@ -39,73 +39,20 @@ impl<S: System + Clone + Send + Sync + 'static> KernelScheme for UntruncatedHalf
     fn step<T: Real, K: StepKernel<T>>(
         &self, kernel: &mut K, h: f64, state: KernelState<'_, T>, next: KernelNext<'_, T>,
     ) -> Result<KernelOutcome<T>, StepFailure> {
-        let KernelState { r, v, dw } = state;
-        let KernelNext {
-            r: next_r,
-            v: force,
-            dmu,
-            work: y,
-        } = next;
-        let h_lanes = kernel.splat(h);
-        for ((yi, ri), vi) in y.iter_mut().zip(r).zip(v) {
-            *yi = *ri + h_lanes * *vi;
+        let (r, v, tau) = (state.r, state.v, kernel.splat(h));
+        for ((y, ri), vi) in next.work.iter_mut().zip(r).zip(v) {
+            *y = *ri + tau * *vi;
         }
-        kernel.drift(r, v, force);
-        for f in force.iter_mut() {
-            *f = h_lanes * *f;
-        }
-        kernel.add_noise(r, v, dw, force);
-        kernel.apply_inverse_mass(force);
-        for (f, vi) in force.iter_mut().zip(v) {
-            *f = *f + *vi;
-        }
-        let constrained = kernel.constrain(r, y, force, next_r, dmu)?;
-        Ok(KernelOutcome {
-            ok: constrained.ok,
-            eta: kernel.splat(1.0),
-            constrained: Some(constrained),
-        })
+        kernel.free_velocity(r, v, state.dw, tau, next.v);
+        let update = kernel.constrain(r, next.work, next.v, next.r, next.dmu)?;
+        Ok(KernelOutcome::untruncated(update))
     }
 }
 
-/// The increments of every path for every step, in the layout of an ensemble of `stride`.
-fn increments(l: usize, stride: usize, h: f64) -> Vec<Vec<f64>> {
-    let mut sources: Vec<_> = (0..PATHS)
-        .map(|p| GaussianIncrements::for_path(17, p as u64, l))
-        .collect();
-    let mut one = vec![0.0; l];
-    (0..STEPS)
-        .map(|_| {
-            let mut dw = vec![0.0; l * stride];
-            for (p, source) in sources.iter_mut().enumerate() {
-                source.next_increment(h, &mut one);
-                for (j, x) in one.iter().enumerate() {
-                    dw[j * stride + p] = *x;
-                }
-            }
-            dw
-        })
-        .collect()
-}
-
-/// Steps an ensemble through [`increments`]; every path's (r, v, mu) as bits (a stopped
-/// path's state where it stopped) and its failure.
+/// Steps an ensemble through [`lane_increments`]; every path's bits and failure
+/// ([`ensemble_bits`]).
 fn run<E: PathEnsemble + ?Sized>(ensemble: &mut E, h: f64) -> Vec<(Vec<u64>, Option<String>)> {
-    let l = ensemble.system().noise_dim();
-    for dw in increments(l, ensemble.stride(), h) {
-        ensemble.step(h, &dw).unwrap();
-    }
-    let n = ensemble.system().constraint().dim();
-    let m = ensemble.system().constraint().n_constraints();
-    (0..PATHS)
-        .map(|p| {
-            let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
-            ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
-            let bits = r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect();
-            let failure = ensemble.failure(p).unwrap().map(|f| f.to_string());
-            (bits, failure)
-        })
-        .collect()
+    ensemble_bits(ensemble, STEPS, 17, h)
 }
 
 /// The kernel scheme in lanes at every width and path by path (W = 1 of the per-path loop is
@@ -127,12 +74,7 @@ fn check_against_the_stepper<S: System + Clone + Send + Sync + 'static>(
         sdae_model::PathLoop::new(Kernelized::new(scheme.clone()).unwrap(), PATHS, r0, v0).unwrap();
     assert_eq!(run(&mut path_loop, h), expected, "{what}, path by path");
     let mut left = 0;
-    for width in [
-        LaneWidth::One,
-        LaneWidth::Four,
-        LaneWidth::Eight,
-        LaneWidth::Best,
-    ] {
+    for width in LaneWidth::ALL {
         let kernelized = Kernelized::new(scheme.clone()).unwrap();
         let mut lanes = LaneEnsemble::new(kernelized, PATHS, r0, v0)
             .unwrap()

@@ -1,7 +1,8 @@
 //! Builders shared by the integration tests.
 
-use sdae_manifold::{BeadChain, IdentityMass, TheoryBound};
-use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, System};
+use sdae_manifold::{BeadChain, Constraint, IdentityMass, TheoryBound};
+use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, System};
+use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::StepperConfig;
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
@@ -70,4 +71,51 @@ where
         ("local", practical.local()),
         ("theory", StepperConfig::for_system(system).unwrap()),
     ]
+}
+
+/// Increments of `paths` paths (streams (`seed`, p), l components) for `steps` steps of size
+/// h, each step's in the layout of an ensemble of `stride` (component j of path p at
+/// `j * stride + p`).
+pub fn lane_increments(
+    paths: usize, steps: usize, seed: u64, l: usize, stride: usize, h: f64,
+) -> Vec<Vec<f64>> {
+    let mut sources: Vec<_> = (0..paths)
+        .map(|p| GaussianIncrements::for_path(seed, p as u64, l))
+        .collect();
+    let mut one = vec![0.0; l];
+    (0..steps)
+        .map(|_| {
+            let mut dw = vec![0.0; l * stride];
+            for (p, source) in sources.iter_mut().enumerate() {
+                source.next_increment(h, &mut one);
+                for (j, x) in one.iter().enumerate() {
+                    dw[j * stride + p] = *x;
+                }
+            }
+            dw
+        })
+        .collect()
+}
+
+/// Steps every path of `ensemble` `steps` times through [`lane_increments`] (streams (`seed`,
+/// p)) and reads every path's final (r, v, mu) as bits (a stopped path's where it stopped)
+/// with its failure.
+pub fn ensemble_bits<E: PathEnsemble + ?Sized>(
+    ensemble: &mut E, steps: usize, seed: u64, h: f64,
+) -> Vec<(Vec<u64>, Option<String>)> {
+    let (paths, l) = (ensemble.paths(), ensemble.system().noise_dim());
+    for dw in lane_increments(paths, steps, seed, l, ensemble.stride(), h) {
+        ensemble.step(h, &dw).unwrap();
+    }
+    let c = ensemble.system().constraint();
+    let (n, m) = (c.dim(), c.n_constraints());
+    (0..paths)
+        .map(|p| {
+            let (mut r, mut v, mut mu) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
+            ensemble.state(p, &mut r, &mut v, &mut mu).unwrap();
+            let bits = r.iter().chain(&v).chain(&mu).map(|x| x.to_bits()).collect();
+            let failure = ensemble.failure(p).unwrap().map(|f| f.to_string());
+            (bits, failure)
+        })
+        .collect()
 }

@@ -120,12 +120,8 @@ impl Scene for ChainMolecule {
     fn start(&self) -> (Vec<f64>, Vec<f64>) {
         self.initial_state()
     }
-    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs.
     fn stepper_config(&self) -> StepperConfig {
-        StepperConfig::for_system(self)
-            .and_then(|c| c.with_c_eta(1.0))
-            .and_then(|c| c.with_c_kappa(f64::INFINITY))
-            .expect("stepper config")
+        molecule_config(self)
     }
 }
 
@@ -138,13 +134,18 @@ impl Scene for RigidTriatomic {
     fn start(&self) -> (Vec<f64>, Vec<f64>) {
         self.initial_state()
     }
-    /// C_eta = 1 and no ball (C_kappa = inf), as benches/molecule.rs.
     fn stepper_config(&self) -> StepperConfig {
-        StepperConfig::for_system(self)
-            .and_then(|c| c.with_c_eta(1.0))
-            .and_then(|c| c.with_c_kappa(f64::INFINITY))
-            .expect("stepper config")
+        molecule_config(self)
     }
+}
+
+/// The half-explicit scheme's settings for a molecule: C_eta = 1 and no ball (C_kappa = inf),
+/// as benches/molecule.rs.
+fn molecule_config<S: System<Constraint: TheoryBound>>(system: &S) -> StepperConfig {
+    StepperConfig::for_system(system)
+        .and_then(|c| c.with_c_eta(1.0))
+        .and_then(|c| c.with_c_kappa(f64::INFINITY))
+        .expect("stepper config")
 }
 
 fn half_explicit<S: Scene>(system: S) -> Stepper<S> {
@@ -327,76 +328,85 @@ impl<Sch: LaneScheme> ManyPaths<Sch> {
     }
 }
 
+/// How a scheme is benchmarked: one path through the scalar step, or many paths in lanes.
+trait Kind {
+    /// The first part of the benchmark IDs.
+    const GROUP: &'static str;
+    /// Adds the benchmark `<GROUP>/<scene>/<scheme_name>` of `scheme` to `group`.
+    fn bench<Sch: Scheme + LaneScheme>(
+        group: &mut BenchmarkGroup<'_, WallTime>, scene: &str, scheme_name: &str, scheme: Sch,
+        paths: usize, start: (Vec<f64>, Vec<f64>),
+    );
+}
+
 /// `splitting_step/<scene>/<scheme>`: an iteration is `paths` steps of one path.
-fn bench_one_path<Sch: Scheme>(
-    group: &mut BenchmarkGroup<'_, WallTime>, scene: &str, scheme_name: &str, scheme: Sch,
-    paths: usize, start: (Vec<f64>, Vec<f64>),
-) {
-    let name = format!("splitting_step/{scene}/{scheme_name}");
-    let mut bench = OnePath::new(name, scheme, start);
-    group.bench_function(scheme_name, |b| {
-        bench.verify();
-        b.iter(|| black_box(bench.steps(paths)))
-    });
+struct StepBench;
+
+impl Kind for StepBench {
+    const GROUP: &'static str = "splitting_step";
+    fn bench<Sch: Scheme + LaneScheme>(
+        group: &mut BenchmarkGroup<'_, WallTime>, scene: &str, scheme_name: &str, scheme: Sch,
+        paths: usize, start: (Vec<f64>, Vec<f64>),
+    ) {
+        let name = format!("{}/{scene}/{scheme_name}", Self::GROUP);
+        let mut bench = OnePath::new(name, scheme, start);
+        group.bench_function(scheme_name, |b| {
+            bench.verify();
+            b.iter(|| black_box(bench.steps(paths)))
+        });
+    }
 }
 
 /// `splitting_ensemble/<scene>/<scheme>`: an iteration is one step of `paths` paths.
-fn bench_many_paths<Sch: LaneScheme>(
-    group: &mut BenchmarkGroup<'_, WallTime>, scene: &str, scheme_name: &str, scheme: Sch,
-    paths: usize, start: (Vec<f64>, Vec<f64>),
-) {
-    let name = format!("splitting_ensemble/{scene}/{scheme_name}");
-    let mut bench = ManyPaths::new(name, scheme, paths, start);
-    group.bench_function(scheme_name, |b| {
-        bench.verify();
-        b.iter(|| black_box(bench.step()))
-    });
-    bench.check();
+struct EnsembleBench;
+
+impl Kind for EnsembleBench {
+    const GROUP: &'static str = "splitting_ensemble";
+    fn bench<Sch: Scheme + LaneScheme>(
+        group: &mut BenchmarkGroup<'_, WallTime>, scene: &str, scheme_name: &str, scheme: Sch,
+        paths: usize, start: (Vec<f64>, Vec<f64>),
+    ) {
+        let name = format!("{}/{scene}/{scheme_name}", Self::GROUP);
+        let mut bench = ManyPaths::new(name, scheme, paths, start);
+        group.bench_function(scheme_name, |b| {
+            bench.verify();
+            b.iter(|| black_box(bench.step()))
+        });
+        bench.check();
+    }
+}
+
+/// The group `<K::GROUP>/<scene>`: the three schemes of the scene `system`, benchmarked as `K`
+/// does, from `start`.
+fn bench_group<S: Scene, K: Kind>(c: &mut Criterion, system: &S, start: &(Vec<f64>, Vec<f64>)) {
+    let paths = S::PATHS;
+    let mut group = c.benchmark_group(format!("{}/{}", K::GROUP, S::NAME));
+    group.throughput(Throughput::Elements(paths as u64));
+    let scheme = half_explicit(system.clone());
+    K::bench(
+        &mut group,
+        S::NAME,
+        "half-explicit",
+        scheme,
+        paths,
+        start.clone(),
+    );
+    for (name, config) in [
+        ("baoab", SplittingConfig::baoab()),
+        ("g-baoab", SplittingConfig::g_baoab()),
+    ] {
+        let scheme = splitting(system.clone(), config);
+        K::bench(&mut group, S::NAME, name, scheme, paths, start.clone());
+    }
+    group.finish();
 }
 
 /// The three schemes of a scene, one path and many.
 fn bench_scene<S: Scene>(c: &mut Criterion) {
     let system = S::build();
     let start = system.start();
-    let schemes = [
-        ("baoab", SplittingConfig::baoab()),
-        ("g-baoab", SplittingConfig::g_baoab()),
-    ];
-
-    let paths = S::PATHS;
-    let mut group = c.benchmark_group(format!("splitting_step/{}", S::NAME));
-    group.throughput(Throughput::Elements(paths as u64));
-    let scheme = half_explicit(system.clone());
-    bench_one_path(
-        &mut group,
-        S::NAME,
-        "half-explicit",
-        scheme,
-        paths,
-        start.clone(),
-    );
-    for (name, config) in schemes {
-        let scheme = splitting(system.clone(), config);
-        bench_one_path(&mut group, S::NAME, name, scheme, paths, start.clone());
-    }
-    group.finish();
-
-    let mut group = c.benchmark_group(format!("splitting_ensemble/{}", S::NAME));
-    group.throughput(Throughput::Elements(paths as u64));
-    let scheme = half_explicit(system.clone());
-    bench_many_paths(
-        &mut group,
-        S::NAME,
-        "half-explicit",
-        scheme,
-        paths,
-        start.clone(),
-    );
-    for (name, config) in schemes {
-        let scheme = splitting(system.clone(), config);
-        bench_many_paths(&mut group, S::NAME, name, scheme, paths, start.clone());
-    }
-    group.finish();
+    bench_group::<S, StepBench>(c, &system, &start);
+    bench_group::<S, EnsembleBench>(c, &system, &start);
 }
 
 fn bench_scenes(c: &mut Criterion) {

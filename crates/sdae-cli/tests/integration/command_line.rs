@@ -5,7 +5,7 @@ use crate::cli;
 
 use std::path::{Path, PathBuf};
 
-use cli::{study, text, usage_error};
+use cli::{ran, study, text, usage_error};
 
 /// The built-in pendulum scene under another name (so that its results get their own folder).
 fn scene() -> String {
@@ -94,7 +94,7 @@ fn a_good_run_exits_0_and_t_end_has_its_old_spelling() {
     let file = dir.join("scene.toml");
     std::fs::write(&file, scene()).unwrap();
     for t in ["--t-end", "--T"] {
-        let out = study(&[
+        let out = ran(&[
             "--scene-file",
             path(&file),
             "--quick",
@@ -107,7 +107,6 @@ fn a_good_run_exits_0_and_t_end_has_its_old_spelling() {
             "--out",
             path(&dir),
         ]);
-        assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
         assert!(
             text(&out.stderr).contains("T = 0.5"),
             "{}",
@@ -276,8 +275,7 @@ fn an_absurd_paths_count_in_a_shard_file_is_refused_by_merge() {
         "--levels",
         "2..3",
     ];
-    let out = study(&[&args[..], &["--shard", "0/2", "--out", path(&dir)]].concat());
-    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    ran(&[&args[..], &["--shard", "0/2", "--out", path(&dir)]].concat());
     let shard = dir.join("test").join("shard-0-of-2.json");
     // Sealed again, with a checksum that fits: the setting itself is refused.
     let mut run = sdae_cli::shards::read_convergence(&shard).unwrap();
@@ -301,7 +299,7 @@ fn threads_are_capped_at_1024_and_not_started_beyond_the_paths() {
     usage_error(&["--threads", "1025"], &["--threads", "at most 1024"]);
     let dir = folder("threads");
     let file = scene_file(&dir, &scene());
-    let out = study(&[
+    let out = ran(&[
         "--scene-file",
         path(&file),
         "--quick",
@@ -315,7 +313,6 @@ fn threads_are_capped_at_1024_and_not_started_beyond_the_paths() {
         path(&dir),
     ]);
     let stderr = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.contains(", 3 threads"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -425,8 +422,7 @@ fn equipartition_exits_1_when_a_setting_lost_every_path_and_counts_the_failures(
         "--out",
         path(&dir),
     ];
-    let out = study(&args);
-    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let out = ran(&args);
     assert!(
         text(&out.stdout).contains(" paths failed"),
         "{}",
@@ -563,13 +559,11 @@ fn compare_finds_runs_equal_across_thread_counts_and_names_the_first_difference(
             "--out",
             path(&out_dir),
         ];
-        let done = study(&args);
-        assert_eq!(done.status.code(), Some(0), "{}", text(&done.stderr));
+        ran(&args);
         out_dir.join("pendulum").join("report.json")
     };
     let (one, two) = (run("1", "one"), run("2", "two"));
-    let same = study(&["compare", path(&one), path(&two)]);
-    assert_eq!(same.status.code(), Some(0), "{}", text(&same.stderr));
+    let same = ran(&["compare", path(&one), path(&two)]);
     assert!(text(&same.stdout).contains("hold the same numbers"));
 
     // One number changed in its ninth digit: exit 1, the number named by its JSON pointer.
@@ -713,7 +707,7 @@ fn final_times_whose_errors_would_underflow_are_refused_before_running() {
 fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
     let dir = folder("extreme-distance");
     let shards = dir.join("shards");
-    let ran = study(&[
+    ran(&[
         "--quick",
         "--paths",
         "4",
@@ -724,7 +718,6 @@ fn distances_a_plot_cannot_draw_are_left_out_and_the_plots_are_written() {
         "--out",
         path(&shards),
     ]);
-    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     let file = shards.join("pendulum").join("shard-0-of-1.json");
     let shard = sdae_cli::shards::read_convergence(&file).unwrap();
     for value in [1e308, 1e-310] {
@@ -774,7 +767,7 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
     // At T = 1e-100 a step moves the state by less than its rounding: the velocity errors of
     // the half-explicit schemes are exactly 0.
     let dir = folder("zero-errors");
-    let ran = study(&[
+    let output = ran(&[
         "--quick",
         "--paths",
         "8",
@@ -787,8 +780,7 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
         "--out",
         path(&dir),
     ]);
-    let stderr = text(&ran.stderr);
-    assert_eq!(ran.status.code(), Some(0), "{stderr}");
+    let stderr = text(&output.stderr);
     assert!(stderr.contains("underflowed"), "{stderr}");
     let md = std::fs::read_to_string(dir.join("pendulum").join("report.md")).unwrap();
     assert!(
@@ -810,7 +802,7 @@ fn weak_errors_that_underflow_give_no_order() {
     // At T = 1e-140 every weak error is exactly 0: no order is fitted to them.
     let dir = folder("zero-weak-errors");
     let file = pendulum_file(&dir, "T = 1.0", "T = 1e-140");
-    let ran = study(&[
+    ran(&[
         "weak",
         "--quick",
         "--paths",
@@ -822,7 +814,6 @@ fn weak_errors_that_underflow_give_no_order() {
         "--out",
         path(&dir),
     ]);
-    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("test").join("weak.json")).unwrap())
             .unwrap();

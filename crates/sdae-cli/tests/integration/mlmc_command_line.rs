@@ -6,7 +6,7 @@ use crate::cli;
 
 use std::path::Path;
 
-use cli::{study, text, usage_error};
+use cli::{ran, study, text, usage_error};
 
 fn scratch(name: &str) -> std::path::PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -67,7 +67,7 @@ fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
     let dir = scratch("mlmc-quick");
     let out = dir.to_str().unwrap();
     let plan = dir.join("plan.json");
-    let ran = study(&[
+    ran(&[
         "mlmc",
         "--test-samples",
         "512",
@@ -80,7 +80,6 @@ fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
         "--write-plan",
         plan.to_str().unwrap(),
     ]);
-    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     let report = dir.join("mlmc/pendulum");
     for file in [
         "report.json",
@@ -95,12 +94,11 @@ fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();
     assert!(md.contains("alpha = ") && md.contains("| eps |"), "{md}");
     // The plan at once, and in two shards merged.
-    let whole = study(&["mlmc", "--plan", plan.to_str().unwrap(), "--out", out]);
-    assert_eq!(whole.status.code(), Some(0), "{}", text(&whole.stderr));
+    ran(&["mlmc", "--plan", plan.to_str().unwrap(), "--out", out]);
     let unsharded = std::fs::read_to_string(report.join("plan-report.json")).unwrap();
     let shards = dir.join("shards");
     for shard in ["0/2", "1/2"] {
-        let ran = study(&[
+        ran(&[
             "mlmc",
             "--plan",
             plan.to_str().unwrap(),
@@ -111,16 +109,14 @@ fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
             "--out",
             shards.to_str().unwrap(),
         ]);
-        assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     }
     let merged_out = dir.join("merged");
-    let merged = study(&[
+    ran(&[
         "mlmc-merge",
         shards.join("mlmc/pendulum").to_str().unwrap(),
         "--out",
         merged_out.to_str().unwrap(),
     ]);
-    assert_eq!(merged.status.code(), Some(0), "{}", text(&merged.stderr));
     let merged =
         std::fs::read_to_string(merged_out.join("mlmc/pendulum/plan-report.json")).unwrap();
     // Everything but the measured times is the same.
@@ -317,7 +313,7 @@ fn plans_and_plan_files_are_checked_before_anything_runs() {
 fn a_quasi_monte_carlo_run_writes_its_part_of_the_report() {
     let dir = scratch("mlmc-qmc");
     let out = dir.to_str().unwrap();
-    let ran = study(&[
+    let output = ran(&[
         "mlmc",
         "--scene",
         "rotor",
@@ -330,11 +326,10 @@ fn a_quasi_monte_carlo_run_writes_its_part_of_the_report() {
         "--out",
         out,
     ]);
-    assert_eq!(ran.status.code(), Some(0), "{}", text(&ran.stderr));
     assert!(
-        text(&ran.stdout).contains("MLQMC eps"),
+        text(&output.stdout).contains("MLQMC eps"),
         "{}",
-        text(&ran.stdout)
+        text(&output.stdout)
     );
     let report = dir.join("mlmc/rotor");
     assert!(report.join("mlqmc.svg").exists());

@@ -58,6 +58,17 @@ impl QuasiLevel {
         }
     }
 
+    /// Whether the level has the same points and, randomization by randomization, bit-identical
+    /// sums of its samples (not the run time).
+    pub fn same_samples(&self, other: &QuasiLevel) -> bool {
+        self.points == other.points
+            && self
+                .randomizations
+                .iter()
+                .zip(&other.randomizations)
+                .all(|(x, y)| x.same_samples(y))
+    }
+
     /// Runs points n_l..`points` of every randomization (the next points of the same
     /// sequences: the first n_l are kept), adds their sums and updates the statistics.
     pub fn extend_to<Q: QuasiSampler>(

@@ -14,6 +14,19 @@ pub fn study(args: &[&str]) -> Output {
         .expect("the study binary starts")
 }
 
+/// Runs the study binary with `args`, asserts exit code 0 (naming the arguments and stderr if
+/// not) and returns its output.
+pub fn ran(args: &[&str]) -> Output {
+    let out = study(args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        text(&out.stderr)
+    );
+    out
+}
+
 /// Bytes the program wrote, as text.
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()

@@ -1,9 +1,12 @@
-//! Newton's iteration from gamma = 0 with a convergence mask per path, and the root's
-//! certificate, written once over [`Real`]: for one path (`f64`, [`BallSolver`]'s path for one
-//! unknown) and for W paths in SIMD lanes (the ensemble's kappa root in `sdae-model`). Lane i of
-//! the lane form computes exactly what the `f64` form computes for path i. The root is that of
-//! R(gamma) = g(y + M^-1 grad g(r) gamma) = 0 (seed eq. 3.1 upper part) connected to 0; the
-//! certificate is that of Thm 3.4 (the ball, the plausibility bound, the contraction estimate).
+//! Newton's iteration with a convergence mask per path, and the root's certificate, written
+//! once over [`Real`]: the one Newton loop of the workspace ([`newton_iterate`]), for one path
+//! (`f64`: [`BallSolver`]'s path for one unknown, its general corrector for any m and the
+//! homotopy's corrector) and for W paths in SIMD lanes (the ensemble's kappa root in
+//! `sdae-model`). Lane i of the lane form computes exactly what the `f64` form computes for
+//! path i. The root is that of R(gamma) = g(y + M^-1 grad g(r) gamma) = 0 (seed eq. 3.1 upper
+//! part) connected to 0, or of the homotopy's F(tau, gamma) = R(gamma) + (tau - 1) R(0)
+//! (eq. 3.10); the certificate is that of Thm 3.4 (the ball, the plausibility bound, the
+//! contraction estimate).
 //!
 //! A path the iteration does not decide (no convergence within the iteration limit, a
 //! factorization that fails, a root outside the ball, implausible or not contracting, a
@@ -18,20 +21,51 @@ use sdae_manifold::vector::sum_squares;
 use crate::criteria::{ProbeMap, power_iteration};
 use crate::settings::SolverSettings;
 
-/// A system R(gamma) = 0 of m equations that [`newton_from_zero`] solves: its evaluations with
-/// their factored Jacobians, and (as a [`ProbeMap`]) the map J(0)^-1 J(gamma) of its last
-/// evaluation for the certificate. A trait rather than closures: its methods are inlined into
-/// a lane kernel compiled for an instruction set, which a closure would not inherit.
+/// A system R(gamma) = 0 of m equations that [`newton_from_zero`] and [`newton_iterate`]
+/// solve: its evaluations with their factored Jacobians, and (as a [`ProbeMap`]) the map
+/// J(0)^-1 J(gamma) of its last evaluation for the certificate. A trait rather than closures:
+/// its methods are inlined into a lane kernel compiled for an instruction set, which a closure
+/// would not inherit.
+///
+/// A system factors J either in the pass that evaluates R ([`NewtonSystem::evaluate_and_factor`],
+/// the lanes' fused form) or once the iteration knows what the factorization is for
+/// ([`NewtonSystem::factor`], one path: the last Newton step is not solved, and at the root the
+/// factorization also solves the companion system and the certificate's first probe).
 pub trait NewtonSystem<T: Real>: ProbeMap<T> {
     /// R(gamma) and J(gamma) at `gamma` (`None`: at gamma = 0, where the system may evaluate
-    /// at its base point directly), J factored (J(0)'s factors kept apart from the
-    /// iterations'), and the first half of J^-1 R(gamma) into `step` (R itself where the
-    /// factorization solves in one half). Returns max_i |R_i(gamma)| and the paths where
-    /// R(gamma) is finite and the factorization passed.
+    /// at its base point directly). A system that factors in this pass factors J (J(0)'s
+    /// factors kept apart from the iterations') and leaves the first half of J^-1 R(gamma) in
+    /// `step` (R itself where the factorization solves in one half). Returns max_i |R_i(gamma)|
+    /// and the paths where R(gamma) is finite (and the factorization passed).
     fn evaluate_and_factor(&mut self, gamma: Option<&[T]>, step: &mut [T]) -> (T, T::Mask);
-    /// step <- J^-1 R from the first half that the last evaluation left in `step`, with its
-    /// factors.
+    /// Factors J of the last evaluation at `gamma`, for what `pass` says the iteration does
+    /// next, where [`NewtonSystem::evaluate_and_factor`] did not; the paths where the
+    /// factorization passed. Called only where some path's R is finite. The default: nothing
+    /// left to do.
+    #[inline(always)]
+    fn factor(&mut self, gamma: &[T], pass: FactorPass<T>, step: &mut [T]) -> T::Mask {
+        let _ = (gamma, pass);
+        step[0].mask_like(true)
+    }
+    /// step <- J^-1 R from what the last factorization left in `step`, with its factors.
     fn back_substitute(&mut self, step: &mut [T]);
+    /// The paths whose Newton step `step` (J^-1 R, about to be taken) shows that the iteration
+    /// will not converge. The default: none.
+    #[inline(always)]
+    fn diverging(&mut self, step: &[T]) -> T::Mask {
+        step[0].mask_like(false)
+    }
+}
+
+/// What a factorization of J(gamma) is for ([`NewtonSystem::factor`]).
+#[derive(Debug, Clone, Copy)]
+pub struct FactorPass<T: Real> {
+    /// The paths that converged at gamma (J(gamma) is the root's).
+    pub converged: T::Mask,
+    /// Whether this is the last iteration allowed (no Newton step follows).
+    pub last: bool,
+    /// Whether gamma = 0 (iteration 0: the factors are J(0)'s, kept apart).
+    pub at_zero: bool,
 }
 
 /// What Newton's iteration from 0 found, per path ([`newton_from_zero`]).
@@ -40,8 +74,11 @@ pub struct NewtonIterates<T: Real> {
     /// The paths that converged with finite residuals and factorizations passed.
     pub ok: T::Mask,
     /// Whether any iteration ran (then the system's last evaluation, in every path, is at that
-    /// path's root; else at 0).
+    /// path's root; else at the start).
     pub iterated: bool,
+    /// The last iteration that ran (the start's, 0, where none did): on one path, the
+    /// iteration at which it converged or failed.
+    pub last_iteration: usize,
     /// The iteration at which a path converged (0 at a root of 0, R(0) within the tolerance).
     pub iterations: T,
     /// max_i |R_i(gamma*)|.
@@ -50,18 +87,39 @@ pub struct NewtonIterates<T: Real> {
     pub first_step: T,
 }
 
-/// The paths not failed so far, those still iterating, and what the finished ones converged
-/// with.
-struct Iterates<T: Real> {
+/// Where Newton's iteration starts ([`start_from_zero`], [`start_at`]): the paths not failed
+/// so far, those still iterating, what the finished ones converged with, and the first
+/// iteration to run.
+#[derive(Debug, Clone, Copy)]
+pub struct NewtonStart<T: Real> {
     ok: T::Mask,
     active: T::Mask,
     iterations: T,
     residual: T,
-    /// The residual of the last iteration of the paths still iterating.
+    /// The residual of the last iteration of the paths still iterating (the stagnation test's
+    /// reference; infinite before the first).
     previous: T,
+    /// |J(0)^-1 R(0)| (NaN where iteration 0 did not run).
+    first_step: T,
+    first: usize,
 }
 
-impl<T: Real> Iterates<T> {
+impl<T: Real> NewtonStart<T> {
+    /// The paths that failed at the start (R(0) not finite, J(0) singular).
+    pub fn failed(&self) -> T::Mask {
+        !self.ok
+    }
+
+    /// max_i |R_i| at the start (R(0) after [`start_from_zero`]).
+    pub fn residual(&self) -> T {
+        self.residual
+    }
+
+    /// |J(0)^-1 R(0)|, the first Newton step's length (NaN after [`start_at`]).
+    pub fn first_step(&self) -> T {
+        self.first_step
+    }
+
     /// Iteration k with residual `r_k`: the active paths that `fails` drop out of `ok`, those
     /// `converged` (and not failed) record k and r_k, the rest go on.
     #[inline(always)]
@@ -75,62 +133,127 @@ impl<T: Real> Iterates<T> {
     }
 }
 
-/// Newton's iteration on `system` from gamma = 0 to `tolerance` (per path: the settings' or
-/// the residual floor of g), at most `settings.max_iterations` steps, with the stagnation test
-/// of [`SolverSettings::converged`]: iteration 0 is R(0) with J(0) factored and the first step
-/// J(0)^-1 R(0); a path whose |R(0)| is within the tolerance has the root 0; the others take
-/// gamma <- gamma - J(gamma)^-1 R(gamma) while they iterate. The root is left in `gamma`;
-/// `step` is scratch of m entries.
+/// Iteration 0 of Newton's method from gamma = 0: R(0) with J(0) factored and the first step
+/// J(0)^-1 R(0); a path whose |R(0)| is within `tolerance` has the root 0 (left in `gamma`),
+/// the others start [`newton_iterate`] at iteration 1 from gamma = -J(0)^-1 R(0).
 #[inline(always)]
-pub fn newton_from_zero<T: Real, P: NewtonSystem<T>>(
-    system: &mut P, settings: &SolverSettings, tolerance: T, gamma: &mut [T], step: &mut [T],
-) -> NewtonIterates<T> {
+pub fn start_from_zero<T: Real, P: NewtonSystem<T>>(
+    system: &mut P, tolerance: T, gamma: &mut [T], step: &mut [T],
+) -> NewtonStart<T> {
     let zero = tolerance.splat_like(0.0);
-    let (residual_at_zero, ok) = system.evaluate_and_factor(None, step);
+    let (residual_at_zero, mut ok) = system.evaluate_and_factor(None, step);
+    if ok.any() {
+        let pass = FactorPass {
+            converged: zero.mask_like(false),
+            last: false,
+            at_zero: true,
+        };
+        ok = ok.and(system.factor(gamma, pass, step));
+    }
     system.back_substitute(step);
     let first_step = sum_squares(step).sqrt();
     let at_zero = residual_at_zero.at_most(tolerance);
     for (g, s) in gamma.iter_mut().zip(step.iter()) {
         *g = T::select(at_zero, zero, zero - *s);
     }
-    let mut paths = Iterates {
+    NewtonStart {
         ok,
         active: ok.and(!at_zero),
         iterations: zero,
         residual: residual_at_zero,
         previous: residual_at_zero,
-    };
-    let mut iterated = false;
+        first_step,
+        first: 1,
+    }
+}
+
+/// Newton's method from the `gamma` at hand (the homotopy's corrector, a warm start):
+/// [`newton_iterate`] runs from iteration 0 at gamma, whose residual is never taken as
+/// stagnating (the previous one is infinite).
+#[inline(always)]
+pub fn start_at<T: Real>(like: T) -> NewtonStart<T> {
+    NewtonStart {
+        ok: like.mask_like(true),
+        active: like.mask_like(true),
+        iterations: like.splat_like(0.0),
+        residual: like.splat_like(f64::INFINITY),
+        previous: like.splat_like(f64::INFINITY),
+        first_step: like.splat_like(f64::NAN),
+        first: 0,
+    }
+}
+
+/// Newton's iteration on `system` from gamma = 0 to `tolerance` (per path: the settings' or
+/// the residual floor of g): [`start_from_zero`], then [`newton_iterate`]. The root is left in
+/// `gamma`; `step` is scratch of m entries.
+#[inline(always)]
+pub fn newton_from_zero<T: Real, P: NewtonSystem<T>>(
+    system: &mut P, settings: &SolverSettings, tolerance: T, gamma: &mut [T], step: &mut [T],
+) -> NewtonIterates<T> {
+    let start = start_from_zero(system, tolerance, gamma, step);
+    newton_iterate(system, settings, tolerance, gamma, step, start)
+}
+
+/// Newton's iteration gamma <- gamma - J(gamma)^-1 R(gamma) from `start` to `tolerance`, at
+/// most up to iteration `settings.max_iterations`, with the stagnation test of
+/// [`SolverSettings::converged`]: the one Newton loop of the workspace, for one path and for
+/// lanes, at tau = 1 and on the homotopy's F(tau, .) (seed eq. 3.10). Each iteration evaluates
+/// R with J, tests convergence, factors J for what comes next ([`FactorPass`]), and solves the
+/// next step only where a path goes on. A path fails where R is not finite, the
+/// factorization fails, its step is [`NewtonSystem::diverging`], or the last iteration does
+/// not converge; the general path decides it (one path: with the typed errors and the
+/// homotopy). The root is left in `gamma`; `step` is scratch of m entries.
+#[inline(always)]
+pub fn newton_iterate<T: Real, P: NewtonSystem<T>>(
+    system: &mut P, settings: &SolverSettings, tolerance: T, gamma: &mut [T], step: &mut [T],
+    mut paths: NewtonStart<T>,
+) -> NewtonIterates<T> {
+    let zero = tolerance.splat_like(0.0);
+    let (mut iterated, mut last_iteration) = (false, paths.first.saturating_sub(1));
     let max_iterations = settings.max_iterations;
-    for k in 1..=max_iterations {
+    for k in paths.first..=max_iterations {
         if !paths.active.any() {
             break;
         }
-        iterated = true;
+        (iterated, last_iteration) = (true, k);
         let last = k == max_iterations;
         let (r_k, evaluated) = system.evaluate_and_factor(Some(gamma), step);
         let converged = settings.converged(r_k, paths.previous, tolerance, last);
+        let factored = if evaluated.any() {
+            let pass = FactorPass {
+                converged,
+                last,
+                at_zero: false,
+            };
+            evaluated.and(system.factor(gamma, pass, step))
+        } else {
+            evaluated
+        };
         // The next Newton step only if a path goes on (most often none does: one iteration
         // converges); the factors at the root are kept either way.
-        if paths.active.and(!converged).any() {
+        let goes_on = paths.active.and(!converged);
+        let mut fails = !factored;
+        if goes_on.any() {
             system.back_substitute(step);
+            if !last {
+                fails = fails.or(goes_on.and(system.diverging(step)));
+            }
         }
-        // A path that fails now (no finite residual, a failed factorization, the last
-        // iteration without convergence) is left to the general path.
-        let fails = (!evaluated).or(if last {
-            !converged
-        } else {
-            zero.mask_like(false)
-        });
+        // A path that fails now (no finite residual, a failed factorization, a diverging
+        // step, the last iteration without convergence) is left to the general path.
+        if last {
+            fails = fails.or(!converged);
+        }
         paths.record(zero.splat_like(k as f64), r_k, converged, fails);
         newton_update(paths.active, gamma, step);
     }
     NewtonIterates {
-        ok: paths.ok,
+        ok: paths.ok.and(!paths.active),
         iterated,
+        last_iteration,
         iterations: paths.iterations,
         residual: paths.residual,
-        first_step,
+        first_step: paths.first_step,
     }
 }
 

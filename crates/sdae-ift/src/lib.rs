@@ -41,7 +41,10 @@ mod solver;
 
 pub use criteria::{ProbeMap, QuadraticRoot, power_iteration, quadratic_root};
 pub use error::IftError;
-pub use iteration::{NewtonIterates, NewtonSystem, certify, newton_from_zero};
+pub use iteration::{
+    FactorPass, NewtonIterates, NewtonStart, NewtonSystem, certify, newton_from_zero,
+    newton_iterate, start_at, start_from_zero,
+};
 pub use problem::BallProblem;
 pub use settings::SolverSettings;
 pub use solver::{BallSolver, Certificate, Method};

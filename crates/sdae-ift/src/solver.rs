@@ -4,7 +4,10 @@
 
 use crate::criteria::{ProbeMap, power_iteration, quadratic_root};
 use crate::error::IftError;
-use crate::iteration::{NewtonSystem, certify, newton_from_zero};
+use crate::iteration::{
+    FactorPass, NewtonStart, NewtonSystem, certify, newton_from_zero, newton_iterate, start_at,
+    start_from_zero,
+};
 use crate::problem::BallProblem;
 use crate::settings::SolverSettings;
 use sdae_manifold::GramStructure;
@@ -204,8 +207,7 @@ impl<A: Factorize> BallSolver<A> {
             return outcome;
         }
         // Not decided in closed form: Newton and the homotopy decide.
-        self.gamma.fill(0.0);
-        self.solve_from_current(problem, radius)
+        self.solve_newton(problem, radius, None)
     }
 
     /// Like [`BallSolver::solve`] but starts Newton from `start` (the homotopy fallback still
@@ -213,46 +215,50 @@ impl<A: Factorize> BallSolver<A> {
     pub fn solve_from<P: BallProblem<Matrix = A>>(
         &mut self, problem: &mut P, radius: f64, start: &[f64],
     ) -> Result<Certificate, IftError> {
-        self.gamma.copy_from_slice(start);
-        self.solve_from_current(problem, radius)
+        self.solve_newton(problem, radius, Some(start))
     }
 
+    /// Newton from 0 (`start` `None`, or all zeros) or from `start`, then the homotopy where
+    /// Newton fails and the settings allow it.
     #[inline(never)]
-    fn solve_from_current<P: BallProblem<Matrix = A>>(
-        &mut self, problem: &mut P, radius: f64,
+    fn solve_newton<P: BallProblem<Matrix = A>>(
+        &mut self, problem: &mut P, radius: f64, start: Option<&[f64]>,
     ) -> Result<Certificate, IftError> {
-        // R(0), J(0) and the first Newton step from 0: the scale of the right root.
-        let start_is_zero = self.gamma.iter().all(|&g| g == 0.0);
+        let start = start.filter(|start| start.iter().any(|&g| g != 0.0));
         self.probe_image_ready = false;
         self.companion_ready = false;
-        if A::STRUCTURE == GramStructure::Scalar && start_is_zero {
-            if let Some(certificate) = self.solve_scalar(problem, radius) {
-                return Ok(certificate);
-            }
-            // Not certified on the fast path: the general path below repeats the solve and
-            // reports the failure or falls back to the homotopy.
-            self.gamma.fill(0.0);
+        // Not certified on the scalar fast path: the general path below repeats the solve and
+        // reports the failure or falls back to the homotopy.
+        if A::STRUCTURE == GramStructure::Scalar
+            && start.is_none()
+            && let Some(certificate) = self.solve_scalar(problem, radius)
+        {
+            return Ok(certificate);
         }
-        let (r0, first_step) = self.evaluate_at_zero(problem)?;
         self.tolerance = self.settings.tolerance.max(problem.residual_floor());
-
         self.history.clear();
-        let newton = if start_is_zero {
-            // Iteration 0 is gamma = 0 with R(0), J(0) and its Newton step already at hand.
-            self.history.push(r0);
-            self.root_in_factor = false;
-            if r0 <= self.tolerance {
-                Corrector::Converged(0)
-            } else {
-                for (g, s) in self.gamma.iter_mut().zip(&self.step) {
-                    *g -= s;
-                }
-                self.newton(problem, 1.0, self.settings.max_iterations, 0.0, 1, r0)
+        // R(0), J(0) and the first Newton step from 0: the scale of the right root.
+        let (mut corrector, gamma, step) = self.corrector(problem, 1.0);
+        let tolerance = corrector.tolerance;
+        let at_zero = start_from_zero(&mut corrector, tolerance, gamma, step);
+        if at_zero.failed() {
+            return Err(corrector.failure_at_zero(at_zero.residual()));
+        }
+        let first_step = at_zero.first_step();
+        let paths = match start {
+            None => {
+                // Iteration 0 is gamma = 0 with R(0), J(0) and its Newton step already at hand.
+                corrector.history.push(at_zero.residual());
+                *corrector.root_in_factor = false;
+                at_zero
             }
-        } else {
-            let max = self.settings.max_iterations;
-            self.newton(problem, 1.0, max, 0.0, 0, f64::INFINITY)
+            Some(start) => {
+                gamma.copy_from_slice(start);
+                start_at(0.0)
+            }
         };
+        let settings = self.settings;
+        let newton = self.run_corrector(problem, 1.0, &settings, 0.0, paths);
         let newton_outcome = match newton {
             Corrector::Converged(k) => self.accept(radius, first_step, k, 0, Method::Newton),
             Corrector::Failed(k) => Err(self.no_convergence(k)),
@@ -275,38 +281,6 @@ impl<A: Factorize> BallSolver<A> {
             Err(_) if matches!(newton, Corrector::Converged(_)) => Err(newton_error),
             Err(homotopy_error) => Err(homotopy_error),
         }
-    }
-
-    /// R(0) and J(0) (J(0) factored in `factor_at_zero`) and the first Newton step from 0 in
-    /// `step`, the scale of the right root: max |R(0)| (the convergence test's measure, not
-    /// finite with any entry) and the step's length.
-    fn evaluate_at_zero<P: BallProblem<Matrix = A>>(
-        &mut self, problem: &mut P,
-    ) -> Result<(f64, f64), IftError> {
-        self.probe.fill(0.0);
-        problem.evaluate(
-            &self.probe,
-            &mut self.residual_at_zero,
-            Some(&mut self.matrix),
-        );
-        let r0 = norm_max(&self.residual_at_zero);
-        if !r0.is_finite() {
-            return Err(IftError::NonFinite {
-                what: "residual",
-                iteration: 0,
-            });
-        }
-        self.matrix
-            .factor_and_solve(
-                &mut self.factor_at_zero,
-                &self.residual_at_zero,
-                &mut self.step,
-            )
-            .map_err(|source| IftError::Singular {
-                iteration: 0,
-                source,
-            })?;
-        Ok((r0, norm2(&self.step)))
     }
 
     /// The root of R(gamma) = c0 + c1 gamma + c2 gamma^2 (m = 1) connected to 0, with the checks
@@ -397,7 +371,8 @@ impl<A: Factorize> BallSolver<A> {
 
     /// Newton from gamma = 0 for m = 1 on scalars: the iteration and certificate written once
     /// for one path and for lanes ([`newton_from_zero`], [`certify`]), with the tolerances and
-    /// checks of the general path (`newton` at tau = 1, `accept`, `contraction_estimate`) and
+    /// checks of the general path (`GeneralCorrector` at tau = 1, `accept`,
+    /// `contraction_estimate`) and
     /// its floating-point operations, without the per-call overhead of slices of length 1.
     /// `None` when the general path must decide (no convergence, a singular or non-finite
     /// Jacobian, a root outside the ball, implausible or not contracting): it repeats the
@@ -529,109 +504,53 @@ impl<A: Factorize> BallSolver<A> {
         }
     }
 
-    /// Newton on F(tau, gamma) = R(gamma) + (tau - 1) R(0) from `self.gamma`, iterations
-    /// `first..=max_iterations` to `tolerance` (0 means the solver's effective tolerance). At
-    /// tau = 1 this is plain Newton on R. On success the factored Jacobian at the root is in
-    /// `root_factor` and the problem's last evaluation was at the root.
-    fn newton<P: BallProblem<Matrix = A>>(
-        &mut self, problem: &mut P, tau: f64, max_iterations: usize, tolerance: f64, first: usize,
-        mut previous_residual: f64,
+    /// The general path's [`NewtonSystem`] at homotopy parameter `tau`, with the buffers it
+    /// works on, and gamma and the step buffer apart.
+    fn corrector<'s, P: BallProblem<Matrix = A>>(
+        &'s mut self, problem: &'s mut P, tau: f64,
+    ) -> (GeneralCorrector<'s, P, A>, &'s mut [f64], &'s mut [f64]) {
+        let corrector = GeneralCorrector {
+            problem,
+            tau,
+            tolerance: self.tolerance,
+            contraction_probes: self.settings.contraction_probes,
+            previous_step: f64::INFINITY,
+            singular_at_zero: None,
+            residual: &mut self.residual,
+            residual_at_zero: &mut self.residual_at_zero,
+            probe: &mut self.probe,
+            companion_rhs: &mut self.companion_rhs,
+            companion: &mut self.companion,
+            matrix: &mut self.matrix,
+            factor: &mut self.factor,
+            factor_at_zero: &mut self.factor_at_zero,
+            root_in_factor: &mut self.root_in_factor,
+            probe_image_ready: &mut self.probe_image_ready,
+            companion_ready: &mut self.companion_ready,
+            history: &mut self.history,
+        };
+        (corrector, &mut self.gamma, &mut self.step)
+    }
+
+    /// Newton on F(tau, gamma) = R(gamma) + (tau - 1) R(0) from `paths` ([`newton_iterate`],
+    /// with `settings`' iteration limit) to `tolerance` (0 means the solver's effective
+    /// tolerance). At tau = 1 this is plain Newton on R. On success the factored Jacobian at the
+    /// root is in `root_factor` and the problem's last evaluation was at the root.
+    fn run_corrector<P: BallProblem<Matrix = A>>(
+        &mut self, problem: &mut P, tau: f64, settings: &SolverSettings, tolerance: f64,
+        paths: NewtonStart<f64>,
     ) -> Corrector {
+        let (mut corrector, gamma, step) = self.corrector(problem, tau);
         let tolerance = if tolerance > 0.0 {
             tolerance
         } else {
-            self.tolerance
+            corrector.tolerance
         };
-        let mut previous_step = f64::INFINITY;
-        for k in first..=max_iterations {
-            problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
-            if tau != 1.0 {
-                for (r, r0) in self.residual.iter_mut().zip(&self.residual_at_zero) {
-                    *r += (tau - 1.0) * r0;
-                }
-            }
-            let r = norm_max(&self.residual);
-            self.history.push(r);
-            if !r.is_finite() {
-                return Corrector::Failed(k);
-            }
-            // At the tolerance, or at the roundoff floor (iteration 0 comes after an infinite
-            // residual: it never stagnates).
-            let last =
-                if self
-                    .settings
-                    .converged(r, previous_residual, tolerance, k == max_iterations)
-                {
-                    Some(Corrector::Converged(k))
-                } else if k == max_iterations {
-                    Some(Corrector::Failed(k))
-                } else {
-                    None
-                };
-            // The Jacobian is factored in every iteration (the last one's is the root's); the
-            // Newton step is solved only where the iteration goes on, in the same pass. At a
-            // root of R (tau = 1) the contraction estimate's first image J(0)^-1 J(gamma) p
-            // and the companion system are solved in the factorization's pass as well.
-            self.probe_image_ready = false;
-            self.companion_ready = false;
-            let factored = match last {
-                Some(Corrector::Converged(_)) if tau == 1.0 => self.factor_root(problem),
-                Some(_) => self.matrix.factor_into(&mut self.factor),
-                None => {
-                    self.matrix
-                        .factor_and_solve(&mut self.factor, &self.residual, &mut self.step)
-                }
-            };
-            if factored.is_err() {
-                return Corrector::Failed(k);
-            }
-            self.root_in_factor = true;
-            if let Some(outcome) = last {
-                return outcome;
-            }
-            previous_residual = r;
-            // A corrector that stops contracting will not converge: fail fast.
-            if tau != 1.0 {
-                let step = norm2(&self.step);
-                if step > 0.5 * previous_step {
-                    return Corrector::Failed(k);
-                }
-                previous_step = step;
-            }
-            for (g, s) in self.gamma.iter_mut().zip(&self.step) {
-                *g -= s;
-            }
-        }
-        Corrector::Failed(max_iterations)
-    }
-
-    /// Factors J(gamma) at a root into `factor` and in the same pass solves the problem's
-    /// companion system into `companion` (where it has one) and, where the contraction
-    /// estimate will take a probe from a nonzero gamma, forms its first image J(0)^-1 J(gamma)
-    /// p (p = gamma / |gamma|) in `step` ([`Factorize::factor_with`]).
-    fn factor_root<P: BallProblem<Matrix = A>>(
-        &mut self, problem: &mut P,
-    ) -> Result<(), sdae_manifold::LinearError> {
-        let companion = problem.companion_rhs(&mut self.companion_rhs);
-        let norm = norm2(&self.gamma);
-        let probe = self.settings.contraction_probes > 0 && norm != 0.0 && norm.is_finite();
-        if probe {
-            self.unit_probe(norm);
-        }
-        self.matrix.factor_with(
-            &mut self.factor,
-            companion.then_some((&self.companion_rhs[..], &mut self.companion[..])),
-            probe.then_some((&self.factor_at_zero, &self.probe[..], &mut self.step[..])),
-        )?;
-        self.probe_image_ready = probe;
-        self.companion_ready = companion;
-        Ok(())
-    }
-
-    /// probe = gamma / `norm`, the contraction estimate's start.
-    fn unit_probe(&mut self, norm: f64) {
-        for (p, g) in self.probe.iter_mut().zip(&self.gamma) {
-            *p = g / norm;
+        let root = newton_iterate(&mut corrector, settings, tolerance, gamma, step, paths);
+        if root.ok {
+            Corrector::Converged(root.last_iteration)
+        } else {
+            Corrector::Failed(root.last_iteration)
         }
     }
 
@@ -663,7 +582,11 @@ impl<A: Factorize> BallSolver<A> {
                 // Loose along the path, but never below the floor of g's evaluation.
                 (8, self.tolerance.max(1e-9))
             };
-            match self.newton(problem, next, max_it, tol, 0, f64::INFINITY) {
+            let settings = SolverSettings {
+                max_iterations: max_it,
+                ..self.settings
+            };
+            match self.run_corrector(problem, next, &settings, tol, start_at(0.0)) {
                 Corrector::Converged(k) => {
                     iterations += k;
                     accepted += 1;
@@ -710,7 +633,7 @@ impl<A: Factorize> BallSolver<A> {
     fn contraction_estimate(&mut self, radius: f64, norm: f64) -> f64 {
         let image_ready = std::mem::take(&mut self.probe_image_ready);
         if !image_ready {
-            self.unit_probe(norm);
+            unit_probe(&mut self.probe, &self.gamma, norm);
         }
         let Self {
             matrix,
@@ -790,6 +713,154 @@ impl<P: BallProblem<Matrix = A>, A: Factorize> NewtonSystem<f64> for OnePath<'_,
 
 impl<P, A: Factorize> ProbeMap<f64> for OnePath<'_, P, A> {
     #[inline(always)]
+    fn apply(&mut self, probe: &[f64], image: &mut [f64]) {
+        let mut map = AtZero {
+            matrix: &*self.matrix,
+            factor_at_zero: &*self.factor_at_zero,
+        };
+        map.apply(probe, image);
+    }
+}
+
+/// probe = gamma / `norm`, the contraction estimate's start.
+fn unit_probe(probe: &mut [f64], gamma: &[f64], norm: f64) {
+    for (p, g) in probe.iter_mut().zip(gamma) {
+        *p = g / norm;
+    }
+}
+
+/// The general path's [`NewtonSystem`]: F(tau, gamma) = R(gamma) + (tau - 1) R(0) of a
+/// problem of any m with the solver's buffers (seed eq. 3.10; R itself at tau = 1). R(0) is
+/// evaluated at iteration 0 into `residual_at_zero` and J(0) factored into `factor_at_zero`;
+/// J(gamma) is factored once the iteration knows what for: with the next Newton step in one
+/// pass where it goes on, alone at the last iteration, and at a root of R with the companion
+/// system and the contraction estimate's first image in the same pass
+/// ([`Factorize::factor_with`]). Each residual goes to `history` for the typed errors.
+struct GeneralCorrector<'a, P, A: Factorize> {
+    problem: &'a mut P,
+    tau: f64,
+    /// The solver's effective tolerance.
+    tolerance: f64,
+    contraction_probes: usize,
+    /// |J^-1 F| of the last step off tau = 1 (the homotopy corrector's fail-fast test).
+    previous_step: f64,
+    /// Why J(0) could not be factored.
+    singular_at_zero: Option<sdae_manifold::LinearError>,
+    residual: &'a mut [f64],
+    residual_at_zero: &'a mut [f64],
+    /// gamma = 0 for the evaluation at 0, then the contraction estimate's start.
+    probe: &'a mut [f64],
+    companion_rhs: &'a mut [f64],
+    companion: &'a mut [f64],
+    matrix: &'a mut A,
+    factor: &'a mut A::Factor,
+    factor_at_zero: &'a mut A::Factor,
+    root_in_factor: &'a mut bool,
+    probe_image_ready: &'a mut bool,
+    companion_ready: &'a mut bool,
+    history: &'a mut Vec<f64>,
+}
+
+impl<P: BallProblem<Matrix = A>, A: Factorize> GeneralCorrector<'_, P, A> {
+    /// The typed error of an iteration 0 that failed with max |R(0)| = `r0`.
+    fn failure_at_zero(&mut self, r0: f64) -> IftError {
+        match self.singular_at_zero.take() {
+            Some(source) if r0.is_finite() => IftError::Singular {
+                iteration: 0,
+                source,
+            },
+            _ => IftError::NonFinite {
+                what: "residual",
+                iteration: 0,
+            },
+        }
+    }
+
+    /// Factors J(gamma) at a root into `factor` and in the same pass solves the problem's
+    /// companion system into `companion` (where it has one) and, where the contraction
+    /// estimate will take a probe from a nonzero gamma, forms its first image J(0)^-1 J(gamma)
+    /// p (p = gamma / |gamma|) in `step` ([`Factorize::factor_with`]).
+    fn factor_root(
+        &mut self, gamma: &[f64], step: &mut [f64],
+    ) -> Result<(), sdae_manifold::LinearError> {
+        let companion = self.problem.companion_rhs(self.companion_rhs);
+        let norm = norm2(gamma);
+        let probe = self.contraction_probes > 0 && norm != 0.0 && norm.is_finite();
+        if probe {
+            unit_probe(self.probe, gamma, norm);
+        }
+        self.matrix.factor_with(
+            self.factor,
+            companion.then_some((&self.companion_rhs[..], &mut self.companion[..])),
+            probe.then_some((&*self.factor_at_zero, &self.probe[..], step)),
+        )?;
+        *self.probe_image_ready = probe;
+        *self.companion_ready = companion;
+        Ok(())
+    }
+}
+
+impl<P: BallProblem<Matrix = A>, A: Factorize> NewtonSystem<f64> for GeneralCorrector<'_, P, A> {
+    fn evaluate_and_factor(&mut self, gamma: Option<&[f64]>, _step: &mut [f64]) -> (f64, bool) {
+        let Some(gamma) = gamma else {
+            self.probe.fill(0.0);
+            let matrix = Some(&mut *self.matrix);
+            self.problem
+                .evaluate(self.probe, self.residual_at_zero, matrix);
+            let r0 = norm_max(self.residual_at_zero);
+            return (r0, r0.is_finite());
+        };
+        self.problem
+            .evaluate(gamma, self.residual, Some(&mut *self.matrix));
+        if self.tau != 1.0 {
+            for (r, r0) in self.residual.iter_mut().zip(self.residual_at_zero.iter()) {
+                *r += (self.tau - 1.0) * r0;
+            }
+        }
+        let r = norm_max(self.residual);
+        self.history.push(r);
+        (r, r.is_finite())
+    }
+
+    fn factor(&mut self, gamma: &[f64], pass: FactorPass<f64>, step: &mut [f64]) -> bool {
+        if pass.at_zero {
+            let factored =
+                self.matrix
+                    .factor_and_solve(self.factor_at_zero, self.residual_at_zero, step);
+            self.singular_at_zero = factored.err();
+            return self.singular_at_zero.is_none();
+        }
+        *self.probe_image_ready = false;
+        *self.companion_ready = false;
+        let factored = if pass.converged && self.tau == 1.0 {
+            self.factor_root(gamma, step)
+        } else if pass.converged || pass.last {
+            self.matrix.factor_into(self.factor)
+        } else {
+            self.matrix
+                .factor_and_solve(self.factor, self.residual, step)
+        };
+        *self.root_in_factor |= factored.is_ok();
+        factored.is_ok()
+    }
+
+    /// Nothing left: [`NewtonSystem::factor`] solved the step in its pass.
+    fn back_substitute(&mut self, _step: &mut [f64]) {}
+
+    /// Off tau = 1, a step longer than half the last one: a corrector that stops contracting
+    /// will not converge, so it fails fast.
+    fn diverging(&mut self, step: &[f64]) -> bool {
+        if self.tau == 1.0 {
+            return false;
+        }
+        let length = norm2(step);
+        let diverging = length > 0.5 * self.previous_step;
+        self.previous_step = length;
+        diverging
+    }
+}
+
+impl<P, A: Factorize> ProbeMap<f64> for GeneralCorrector<'_, P, A> {
     fn apply(&mut self, probe: &[f64], image: &mut [f64]) {
         let mut map = AtZero {
             matrix: &*self.matrix,

@@ -311,7 +311,7 @@ impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
             *l = -*l;
         }
         if <C::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar {
-            lambda[0] = lambda[0] / work.gram.entry(0, 0);
+            lambda[0] /= work.gram.entry(0, 0);
         } else {
             work.factor.solve_in_place(lambda);
         }

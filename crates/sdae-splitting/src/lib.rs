@@ -40,6 +40,7 @@
 
 mod config;
 mod error;
+mod kernel;
 mod newton;
 mod ou;
 mod scheme;

@@ -5,8 +5,8 @@
 //! G_M(r) lambda = -Dg(r) v with G_M(r) = Dg(r) M^-1 grad g(r) (the Newton matrix at x = r,
 //! factored by the constraint's lane factorization), the O step per coordinate.
 //!
-//! Each formula takes the floating-point operations of [`Splitting`]'s general path in the
-//! same order, so that a decided lane is the scalar step of its path. A lane the step does not
+//! The step is the body of `kernel.rs` ([`NewtonLanes`] its kernel), the general path's, so
+//! that a decided lane is the scalar step of its path. A lane the step does not
 //! decide (a SHAKE iteration that does not converge, a pivot the factorization rejects, a
 //! non-finite value) goes through the scalar step from (r_k, v_k), which reports the failure
 //! as for one path.
@@ -16,13 +16,14 @@ use sdae_ift::SolverSettings;
 use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
-use sdae_manifold::{MatrixFactor, SquareMatrix};
+use sdae_manifold::{GramShape, GramStructure, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot, WideKernel,
 };
 use sdae_model::{Scheme, System};
 
 use crate::config::{SplittingConfig, StepSizes};
+use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel, drift_and_thermostat};
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
@@ -34,7 +35,7 @@ impl<S: System> NewtonKernels for Splitting<S> {
         Kernel::new(simd, constraint)
     }
     fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
-        kernel.constants = Constants::new(self, h);
+        kernel.lanes.constants = Constants::new(self, h);
     }
     fn lane_store(&mut self) -> &mut LaneStore {
         &mut self.lanes
@@ -65,8 +66,21 @@ impl Constants {
     }
 }
 
-/// The constraint's lane form, the step's constants and the buffers of one group's step.
+/// The step body's kernel over a group's lanes ([`NewtonLanes`]), a projection's multiplier
+/// and the groups' end points.
 pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
+    lanes: NewtonLanes<Sd, C>,
+    /// A projection's multiplier (m rows).
+    lambda: Vec<Lanes<Sd>>,
+    /// Each group's last end point, up to [`END_POINTS_BYTES`].
+    ends: Vec<EndPoint<Sd, C>>,
+    /// How many groups' end points are kept.
+    kept_groups: usize,
+}
+
+/// The step body's kernel over W lanes for a constraint's lane form: its constants, the SHAKE
+/// root and the buffers of one group's step.
+struct NewtonLanes<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     constants: Constants,
     constraint: LaneForm<C>,
@@ -78,18 +92,18 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     gram_factor: Factor<Sd, C>,
     values: Vec<Lanes<Sd>>,
     solved: Vec<Lanes<Sd>>,
-    /// A projection's multiplier (m rows).
-    lambda: Vec<Lanes<Sd>>,
     /// F(r), the zero velocity of F(r) = a(r, 0) and the next velocity (n rows each).
     force: Vec<Lanes<Sd>>,
     zero: Vec<Lanes<Sd>>,
     u: Vec<Lanes<Sd>>,
     /// Path-by-path buffers of a system without lane forms of this size.
     scratch: Vec<f64>,
-    /// Each group's last end point, up to [`END_POINTS_BYTES`].
-    ends: Vec<EndPoint<Sd, C>>,
-    /// How many groups' end points are kept.
-    kept_groups: usize,
+}
+
+/// Whether C's G_M is 1 x 1: the RATTLE multiplier is then the quotient by G_M itself, which
+/// an end point keeps with its factors.
+const fn scalar<C: ConstraintLanes>() -> bool {
+    matches!(<C::Shape as GramShape>::STRUCTURE, GramStructure::Scalar)
 }
 
 /// The memory the end points of an ensemble's groups may take (beyond it, the groups past the
@@ -97,26 +111,14 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
 const END_POINTS_BYTES: usize = 64 << 20;
 
 /// What a group's last step left at its end point r_{k+1}: F(r_{k+1}) and the factors of
-/// G_M(r_{k+1}), the first things its next step needs (the kick and RATTLE at r_k). The
-/// scalar step keeps the same for one path.
+/// G_M(r_{k+1}) (with G_M(r_{k+1}) itself where it is 1 x 1), the first things its next step
+/// needs (the kick and RATTLE at r_k). The scalar step keeps the same for one path.
 struct EndPoint<Sd: Simd, C: ConstraintLanes> {
     /// r_{k+1}, row by row (W values per coordinate); empty until the group's first step.
     r: Vec<f64>,
     force: Vec<Lanes<Sd>>,
     gram_factor: Factor<Sd, C>,
-}
-
-/// The lanes of a group inside a step: (r, v), mu's increment (the sum of the step's
-/// constraint impulses), and what the step reports.
-struct Motion<'a, Sd: Simd> {
-    r: &'a mut Vec<Lanes<Sd>>,
-    v: &'a mut Vec<Lanes<Sd>>,
-    impulse: &'a mut [Lanes<Sd>],
-    /// The lanes decided so far.
-    ok: LaneMask<Sd>,
-    /// Newton iterations of the SHAKE projections so far, and max |g| after the last one.
-    iterations: Lanes<Sd>,
-    residual: Lanes<Sd>,
+    gram: Option<Jacobian<Sd, C>>,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
@@ -124,24 +126,26 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         let (n, m) = constraint.dims();
         let zero = Lanes::splat(simd, 0.0);
         Self {
-            simd,
-            constants: Constants {
-                sizes: StepSizes::new(&SplittingConfig::baoab(), f64::NAN),
-                settings: SolverSettings::default(),
-                ou: Vec::new(),
-                monitor_velocity: false,
+            lanes: NewtonLanes {
+                simd,
+                constants: Constants {
+                    sizes: StepSizes::new(&SplittingConfig::baoab(), f64::NAN),
+                    settings: SolverSettings::default(),
+                    ou: Vec::new(),
+                    monitor_velocity: false,
+                },
+                root: NewtonRoot::new(simd, &constraint),
+                constraint,
+                gram: SquareMatrix::zeros_like(zero, m),
+                gram_factor: MatrixFactor::zeros_like(zero, m),
+                values: vec![zero; m],
+                solved: vec![zero; m],
+                force: vec![zero; n],
+                zero: vec![zero; n],
+                u: vec![zero; n],
+                scratch: Vec::new(),
             },
-            root: NewtonRoot::new(simd, &constraint),
-            constraint,
-            gram: SquareMatrix::zeros_like(zero, m),
-            gram_factor: MatrixFactor::zeros_like(zero, m),
-            values: vec![zero; m],
-            solved: vec![zero; m],
             lambda: vec![zero; m],
-            force: vec![zero; n],
-            zero: vec![zero; n],
-            u: vec![zero; n],
-            scratch: Vec::new(),
             ends: Vec::new(),
             kept_groups: END_POINTS_BYTES / end_point_bytes::<Sd>(n, m),
         }
@@ -168,8 +172,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 }
             }
         }
-        std::mem::swap(&mut self.force, &mut end.force);
-        std::mem::swap(&mut self.gram_factor, &mut end.gram_factor);
+        swap_end_point(&mut self.lanes, end);
         true
     }
 
@@ -180,13 +183,12 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             return;
         }
         while self.ends.len() <= group {
+            let (zero, m) = (Lanes::splat(self.lanes.simd, 0.0), self.lambda.len());
             self.ends.push(EndPoint {
                 r: Vec::new(),
-                force: self.force.clone(),
-                gram_factor: MatrixFactor::zeros_like(
-                    Lanes::splat(self.simd, 0.0),
-                    self.lambda.len(),
-                ),
+                force: self.lanes.force.clone(),
+                gram_factor: MatrixFactor::zeros_like(zero, m),
+                gram: scalar::<C>().then(|| SquareMatrix::zeros_like(zero, m)),
             });
         }
         let end = &mut self.ends[group];
@@ -195,13 +197,44 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         for (k, rk) in r.iter().enumerate() {
             rk.store(&mut end.r[k * width..(k + 1) * width]);
         }
-        std::mem::swap(&mut self.force, &mut end.force);
-        std::mem::swap(&mut self.gram_factor, &mut end.gram_factor);
+        swap_end_point(&mut self.lanes, end);
     }
+}
 
-    /// F(r) = a(r, 0) into `force`; the lanes where it is finite.
+/// Swaps F(r), G_M(r)'s factors (and G_M(r) where kept) between the kernel and an end point.
+#[inline(always)]
+fn swap_end_point<Sd: Simd, C: ConstraintLanes>(
+    lanes: &mut NewtonLanes<Sd, C>, end: &mut EndPoint<Sd, C>,
+) {
+    std::mem::swap(&mut lanes.force, &mut end.force);
+    std::mem::swap(&mut lanes.gram_factor, &mut end.gram_factor);
+    if let Some(gram) = &mut end.gram {
+        std::mem::swap(&mut lanes.gram, gram);
+    }
+}
+
+impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd, C> {
+    type Rows = Vec<Lanes<Sd>>;
+    type Failure = NoLaneForm;
     #[inline(always)]
-    fn evaluate_force<S: System>(&mut self, system: &S, r: &[Lanes<Sd>]) -> LaneMask<Sd> {
+    fn sizes(&self) -> &StepSizes {
+        &self.constants.sizes
+    }
+    #[inline(always)]
+    fn ou(&self) -> &[OuFactors] {
+        &self.constants.ou
+    }
+    #[inline(always)]
+    fn inverse_mass(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
+        self.constraint.inverse_mass().apply(k, x)
+    }
+    #[inline(always)]
+    fn monitors_velocity(&self) -> bool {
+        self.constants.monitor_velocity
+    }
+    /// The system's lane form of F(r), else path by path.
+    #[inline(always)]
+    fn evaluate_force<S: System>(&mut self, system: &S, r: &[Lanes<Sd>]) -> Result<(), NoLaneForm> {
         if !system.drift_lanes(r, &self.zero, &mut self.force) {
             per_path(
                 [r, &self.zero],
@@ -210,54 +243,60 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 |[r, v], out| system.drift(r, v, out),
             );
         }
-        sum_squares(&self.force).is_finite()
+        Ok(())
     }
-
-    /// B: v <- v + (h/2) M^-1 F(r).
     #[inline(always)]
-    fn kick(&self, v: &mut [Lanes<Sd>]) {
-        let half_h = 0.5 * self.constants.sizes.h;
-        let inverse_mass = self.constraint.inverse_mass();
-        for (k, (vi, &fi)) in v.iter_mut().zip(&self.force).enumerate() {
-            *vi = *vi + inverse_mass.apply(k, fi) * half_h;
-        }
+    fn force(&self) -> &[Lanes<Sd>] {
+        &self.force
     }
-
-    /// RATTLE at r: v <- v + M^-1 grad g(r) lambda with G_M(r) lambda = -Dg(r) v, factoring
-    /// G_M(r) if `refactor` (else it is factored at this r).
     #[inline(always)]
-    fn project_velocity(&mut self, m: &mut Motion<'_, Sd>, refactor: bool) {
+    fn check_finite(
+        &self, _what: &'static str, x: &[Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
+        Ok(sum_squares(x).is_finite())
+    }
+    /// G_M(r) and its factors by the constraint's lane form; lambda by the factors, or as the
+    /// quotient where G_M(r) is a scalar.
+    #[inline(always)]
+    fn rattle_multiplier(
+        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, refactor: bool, lambda: &mut [Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
         let c = &self.constraint;
+        let mut regular = self.zero[0].eq(self.zero[0]);
         if refactor {
             let at_r = c.evaluate_and_factor(
-                &m.r[..],
-                m.r,
+                &r[..],
+                r,
                 &mut self.values,
                 &mut self.gram,
                 &mut self.gram_factor,
                 &mut self.solved,
             );
-            m.ok = m.ok.and(at_r.ok);
+            regular = at_r.ok;
         }
-        c.negated_jacobian_mul(m.r, m.v, &mut self.lambda);
-        self.gram_factor.solve_in_place(&mut self.lambda);
-        for (i, l) in m.impulse.iter_mut().zip(&self.lambda) {
-            *i = *i + *l;
+        c.negated_jacobian_mul(r, v, lambda);
+        if scalar::<C>() {
+            // G_M itself: the 1 x 1 product G_M 1 is exact.
+            let mut gram = [lambda[0]];
+            self.gram.product(&[lambda[0].splat_like(1.0)], &mut gram);
+            lambda[0] = lambda[0] / gram[0];
+        } else {
+            self.gram_factor.solve_in_place(lambda);
         }
-        c.displace(m.r, &self.lambda, Some(&m.v[..]), &mut self.u);
-        std::mem::swap(m.v, &mut self.u);
+        Ok(regular)
     }
-
-    /// A geodesic substep of length tau: SHAKE onto g = 0 (Newton from kappa = 0, no ball),
-    /// the velocity v + M^-1 grad g(r) kappa / tau, RATTLE at the new point.
     #[inline(always)]
-    fn geodesic_drift(&mut self, m: &mut Motion<'_, Sd>) {
+    fn displace(&mut self, r: &Vec<Lanes<Sd>>, z: &[Lanes<Sd>], v: &mut Vec<Lanes<Sd>>) {
+        self.constraint.displace(r, z, Some(&v[..]), &mut self.u);
+        std::mem::swap(v, &mut self.u);
+    }
+    /// Newton from kappa = 0 at y = r + tau v, no ball ([`NewtonRoot`]).
+    #[inline(always)]
+    fn shake(
+        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, kappa: &mut [Lanes<Sd>],
+    ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
         let tau = Lanes::splat(self.simd, self.constants.sizes.tau);
-        let y = Drifted {
-            r: m.r,
-            v: m.v,
-            tau,
-        };
+        let y = Drifted { r, v, tau };
         let root = self.root.solve(
             &self.constraint,
             &self.constants.settings,
@@ -267,107 +306,66 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             y.max_abs(),
         );
         self.root.point(&root, &y);
-        m.ok = m.ok.and(root.ok);
-        m.iterations = m.iterations + root.iterations;
-        m.residual = root.residual;
         // gamma* is kept: no contraction probes without a ball.
-        let inverse_tau = self.constants.sizes.inverse_tau;
-        for (l, k) in self.lambda.iter_mut().zip(&self.root.gamma) {
-            *l = *k * inverse_tau;
-        }
-        for (i, l) in m.impulse.iter_mut().zip(&self.lambda) {
-            *i = *i + *l;
-        }
-        self.constraint
-            .displace(m.r, &self.lambda, Some(&m.v[..]), &mut self.u);
-        std::mem::swap(m.v, &mut self.u);
-        std::mem::swap(m.r, &mut self.root.x);
-        self.project_velocity(m, true);
+        kappa.copy_from_slice(&self.root.gamma);
+        Ok(Shaken {
+            ok: root.ok,
+            iterations: root.iterations,
+            residual: root.residual,
+        })
     }
-
-    /// RATTLE after the first kick (factoring G_M(r) unless it is `factored`), A, O with its
-    /// RATTLE, A: the part of the step between the force's evaluations, which does not depend
-    /// on the system.
     #[inline(always)]
-    fn drift_and_thermostat(&mut self, m: &mut Motion<'_, Sd>, dw: &[Lanes<Sd>], factored: bool) {
-        self.project_velocity(m, !factored);
-        for _ in 0..self.constants.sizes.substeps {
-            self.geodesic_drift(m);
-        }
-        for (vi, ou) in m.v.iter_mut().zip(&self.constants.ou) {
-            *vi = *vi * ou.decay;
-        }
-        for ((vi, ou), &w) in m.v.iter_mut().zip(&self.constants.ou).zip(dw) {
-            *vi = *vi + w * ou.noise;
-        }
-        self.project_velocity(m, false);
-        for _ in 0..self.constants.sizes.substeps {
-            self.geodesic_drift(m);
-        }
+    fn move_to_root(&mut self, r: &mut Vec<Lanes<Sd>>) {
+        std::mem::swap(r, &mut self.root.x);
     }
-
-    /// [`Kernel::drift_and_thermostat`] compiled once per instruction set and constraint, not
-    /// once per system.
+    /// max_i |-(Dg(r) v)_i| = max_i |(Dg(r) v)_i|.
+    #[inline(always)]
+    fn velocity_residual(
+        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, scratch: &mut [Lanes<Sd>],
+    ) -> Lanes<Sd> {
+        self.constraint.negated_jacobian_mul(r, v, scratch);
+        max_abs(scratch)
+    }
+    /// [`drift_and_thermostat`] compiled once per instruction set and constraint, not once
+    /// per system.
     #[inline(never)]
-    fn middle(&mut self, m: &mut Motion<'_, Sd>, dw: &[Lanes<Sd>], factored: bool) {
+    fn middle(
+        &mut self, m: &mut Motion<'_, Lanes<Sd>, Vec<Lanes<Sd>>>, dw: &[Lanes<Sd>], factored: bool,
+    ) -> Result<(), NoLaneForm> {
         let simd = self.simd;
         simd.vectorize(Middle {
-            kernel: self,
+            lanes: self,
             motion: m,
             dw,
             factored,
-        });
-    }
-
-    /// The last RATTLE, the lanes whose v is finite, and what the step reports.
-    #[inline(always)]
-    fn finish(&mut self, m: &mut Motion<'_, Sd>) -> LaneRecord<Sd> {
-        self.project_velocity(m, false);
-        m.ok = m.ok.and(sum_squares(m.v).is_finite());
-        // Written out, not `then`: a closure would not inherit the instruction set.
-        let velocity_residual = if self.constants.monitor_velocity {
-            // max_i |-(Dg(r) v)_i| = max_i |(Dg(r) v)_i|.
-            self.constraint
-                .negated_jacobian_mul(m.r, m.v, &mut self.lambda);
-            Some(max_abs(&self.lambda))
-        } else {
-            None
-        };
-        LaneRecord {
-            eta: Lanes::splat(self.simd, 1.0),
-            newton_iterations: m.iterations,
-            position_residual: Some(m.residual),
-            velocity_residual,
-            certificate: None,
-        }
+        })
     }
 }
 
-/// [`Kernel::drift_and_thermostat`] as an operation `Simd::vectorize` compiles as a function
-/// of its own with the caller's instruction set (a closure would not inherit it).
+/// [`drift_and_thermostat`] as an operation `Simd::vectorize` compiles as a function of its
+/// own with the caller's instruction set (a closure would not inherit it).
 struct Middle<'a, 'm, Sd: Simd, C: ConstraintLanes> {
-    kernel: &'a mut Kernel<Sd, C>,
-    motion: &'a mut Motion<'m, Sd>,
+    lanes: &'a mut NewtonLanes<Sd, C>,
+    motion: &'a mut Motion<'m, Lanes<Sd>, Vec<Lanes<Sd>>>,
     dw: &'a [Lanes<Sd>],
     factored: bool,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> WithSimd for Middle<'_, '_, Sd, C> {
-    type Output = ();
+    type Output = Result<(), NoLaneForm>;
     #[inline(always)]
-    fn with_simd<S: Simd>(self, _simd: S) {
-        self.kernel
-            .drift_and_thermostat(self.motion, self.dw, self.factored);
+    fn with_simd<S: Simd>(self, _simd: S) -> Result<(), NoLaneForm> {
+        drift_and_thermostat(self.lanes, self.motion, self.dw, self.factored)
     }
 }
 
 impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Splitting<S>, Sd> for Kernel<Sd, C> {
-    /// [`Splitting`]'s B A O A B for W lanes from `state` = (r_k, v_k) into `rows`.
+    /// [`Splitting`]'s B A O A B ([`kernel::step`]) for W lanes from `state` = (r_k, v_k) into
+    /// `rows`.
     #[inline(always)]
     fn step(
         &mut self, scheme: &Splitting<S>, state: GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
-        let system = scheme.system();
         let GroupState {
             r,
             v,
@@ -383,34 +381,28 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Splitting<S>, Sd> for K
         } = rows;
         r_next.copy_from_slice(r);
         v_next.copy_from_slice(v);
-        let zero = Lanes::splat(self.simd, 0.0);
-        dmu.fill(zero);
-        let mut m = Motion {
-            r: r_next,
-            v: v_next,
-            impulse: dmu,
-            ok: zero.eq(zero),
-            iterations: zero,
-            residual: zero,
-        };
         // F(r_k) and G_M(r_k) as the group's last step left them, else anew (a path of the
         // group that the scalar step took, a restart, the first step).
-        let resumed = self.resume(group, m.r, alive);
-        if !resumed {
-            m.ok = m.ok.and(self.evaluate_force(system, m.r));
-        }
-        self.kick(m.v);
-        self.middle(&mut m, dw, resumed);
-        m.ok = m.ok.and(self.evaluate_force(system, m.r));
-        self.kick(m.v);
-        let record = self.finish(&mut m);
-        self.keep(group, m.r);
-        Some((m.ok, record))
+        let resumed = self.resume(group, r_next, alive);
+        let zero = Lanes::splat(self.lanes.simd, 0.0);
+        let mut m = Motion::new(r_next, v_next, dmu, &mut self.lambda, zero);
+        let velocity_residual =
+            kernel::step(scheme.system(), &mut self.lanes, &mut m, dw, resumed).ok()?;
+        let record = LaneRecord {
+            eta: zero.splat_like(1.0),
+            newton_iterations: m.iterations,
+            position_residual: Some(m.residual),
+            velocity_residual,
+            certificate: None,
+        };
+        let ok = m.ok;
+        self.keep(group, r_next);
+        Some((ok, record))
     }
 }
 
 /// What one group's [`EndPoint`] takes, about: r and F(r) (n rows each) and the factors of
-/// an m x m matrix (at most m^2 + 3 m rows).
+/// an m x m matrix (at most m^2 + 3 m rows; with the matrix where m = 1).
 fn end_point_bytes<Sd: Simd>(n: usize, m: usize) -> usize {
     (2 * n + m * m + 3 * m) * Lanes::<Sd>::WIDTH * std::mem::size_of::<f64>()
 }

@@ -1,14 +1,16 @@
-//! The splitting step for a sphere constraint with a diagonal mass over W lanes: the SHAKE
-//! projection's root in closed form ([`SphereRoot`], the root of the quadratic kappa system
-//! connected to 0), the RATTLE projection's multiplier -Dg(x) v / G_M(x) with G_M(x) =
-//! x^T M^-1 x / rho^4. The ensemble runs it W paths at a time; [`Splitting`]'s own step of one
-//! path runs the same code at W = 1 ([`step_one_lane`]), so a lane computes its path's numbers.
-//! A lane it does not decide (no real root: tau |v| beyond the radius; a non-finite value)
-//! goes through the scalar step, which reports the failure as for one path.
+//! The splitting step for a sphere constraint with a diagonal mass over W lanes: the step body
+//! of `kernel.rs` with the SHAKE projection's root in closed form ([`SphereRoot`], the root of
+//! the quadratic kappa system connected to 0) and the RATTLE projection's multiplier
+//! -Dg(x) v / G_M(x) with G_M(x) = x^T M^-1 x / rho^4 ([`SphereLanes`]). The ensemble runs it W
+//! paths at a time; [`Splitting`]'s own step of one path runs the same code at W = 1
+//! ([`step_one_lane`]), so a lane computes its path's numbers. A lane it does not decide (no
+//! real root: tau |v| beyond the radius; a non-finite value) goes through the scalar step,
+//! which reports the failure as for one path.
 
 use pulp::Simd;
-use sdae_lanes::{LaneMask, LaneWidth, Lanes, dot};
+use sdae_lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_manifold::Sphere;
+use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_offered_newton_lanes, step_sphere_lanes,
@@ -16,6 +18,7 @@ use sdae_model::engine::{
 use sdae_model::{LaneScheme, StepOutcome, System};
 
 use crate::config::StepSizes;
+use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel};
 use crate::ou::OuFactors;
 use crate::splitting::Splitting;
 
@@ -74,125 +77,136 @@ impl<const N: usize> Kernel<N> {
     }
 }
 
-/// The state of W lanes inside a step.
-struct Motion<Sd: Simd, const N: usize> {
-    r: [Lanes<Sd>; N],
-    v: [Lanes<Sd>; N],
-    /// The sum of the step's constraint impulses (mu's increment).
-    impulse: Lanes<Sd>,
-    /// The lanes decided so far.
-    ok: LaneMask<Sd>,
-    /// |g| after the last SHAKE projection.
-    residual: Lanes<Sd>,
-}
-
 impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
-    /// The step of W lanes ([`Splitting`]'s B A O A B); `None` if the system's force has no
-    /// lane form.
+    /// The step of W lanes ([`Splitting`]'s B A O A B, [`kernel::step`]); `None` if the
+    /// system's force has no lane form.
     #[inline(always)]
     fn step<Sd: Simd>(
         &self, scheme: &Splitting<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
-        let system = &scheme.system;
         let zero = r[0].splat_like(0.0);
-        let mut m = Motion {
-            r: *r,
-            v: *v,
-            impulse: zero,
-            ok: zero.eq(zero),
-            residual: zero,
+        let (mut r, mut v, mut dmu, mut lambda) = (*r, *v, [zero], [zero]);
+        let mut lanes = SphereLanes {
+            kernel: self,
+            force: [zero; N],
+            root: [zero; N],
         };
-        self.kick(system, &mut m)?;
-        for _ in 0..self.sizes.substeps {
-            self.geodesic_drift(&mut m);
-        }
-        for (vi, ou) in m.v.iter_mut().zip(&self.ou) {
-            *vi = *vi * ou.decay;
-        }
-        for ((vi, ou), &w) in m.v.iter_mut().zip(&self.ou).zip(dw) {
-            *vi = *vi + w * ou.noise;
-        }
-        self.project_velocity(&mut m);
-        for _ in 0..self.sizes.substeps {
-            self.geodesic_drift(&mut m);
-        }
-        self.kick(system, &mut m)?;
-        m.ok = m.ok.and(dot(&m.v, &m.v).is_finite());
-        // Written out, not `then`: a closure would not inherit the instruction set.
-        let velocity_residual = if self.monitor_velocity {
-            Some(self.sphere.normal_rate(&m.r, &m.v).abs())
-        } else {
-            None
+        let mut m = Motion::new(&mut r, &mut v, &mut dmu, &mut lambda, zero);
+        let velocity_residual = kernel::step(&scheme.system, &mut lanes, &mut m, dw, false).ok()?;
+        let record = LaneRecord {
+            eta: zero.splat_like(1.0),
+            newton_iterations: m.iterations,
+            position_residual: Some(m.residual),
+            velocity_residual,
+            certificate: None,
         };
+        let ok = m.ok;
         Some(LaneStep {
-            ok: m.ok,
-            r: m.r,
-            v: m.v,
-            dmu: m.impulse,
-            record: LaneRecord {
-                eta: zero.splat_like(1.0),
-                newton_iterations: zero,
-                position_residual: Some(m.residual),
-                velocity_residual,
-                certificate: None,
-            },
+            ok,
+            r,
+            v,
+            dmu: dmu[0],
+            record,
         })
     }
 }
 
-impl<const N: usize> Kernel<N> {
-    /// B: v <- v + (h/2) M^-1 F(r), then RATTLE; `None` without a lane form of the force.
-    #[inline(always)]
-    fn kick<S: System, Sd: Simd>(&self, system: &S, m: &mut Motion<Sd, N>) -> Option<()> {
-        let zero = m.r[0].splat_like(0.0);
-        let mut force = [zero; N];
-        if !system.drift_lanes(&m.r, &[zero; N], &mut force) {
-            return None;
-        }
-        m.ok = m.ok.and(dot(&force, &force).is_finite());
-        let half_h = 0.5 * self.sizes.h;
-        for ((vi, &fi), &wi) in m.v.iter_mut().zip(&force).zip(&self.inverse_mass) {
-            *vi = *vi + fi * wi * half_h;
-        }
-        self.project_velocity(m);
-        Some(())
-    }
+/// The step body's kernel on a sphere of N coordinates over W lanes: the closed forms, F(r)
+/// and the last SHAKE's point.
+struct SphereLanes<'a, Sd: Simd, const N: usize> {
+    kernel: &'a Kernel<N>,
+    force: [Lanes<Sd>; N],
+    /// The point of the last SHAKE projection.
+    root: [Lanes<Sd>; N],
+}
 
-    /// RATTLE at r: v <- v + M^-1 grad g(r) lambda, lambda = -Dg(r) v / G_M(r).
+impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd, N> {
+    type Rows = [Lanes<Sd>; N];
+    type Failure = NoLaneForm;
     #[inline(always)]
-    fn project_velocity<Sd: Simd>(&self, m: &mut Motion<Sd, N>) {
-        let [_, gram] = self
+    fn sizes(&self) -> &StepSizes {
+        &self.kernel.sizes
+    }
+    #[inline(always)]
+    fn ou(&self) -> &[OuFactors] {
+        &self.kernel.ou
+    }
+    #[inline(always)]
+    fn inverse_mass(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
+        x * self.kernel.inverse_mass[k]
+    }
+    #[inline(always)]
+    fn monitors_velocity(&self) -> bool {
+        self.kernel.monitor_velocity
+    }
+    /// The system's lane form of F(r); [`NoLaneForm`] without one.
+    #[inline(always)]
+    fn evaluate_force<S: System>(&mut self, system: &S, r: &[Lanes<Sd>]) -> Result<(), NoLaneForm> {
+        let zero = [r[0].splat_like(0.0); N];
+        if system.drift_lanes(r, &zero, &mut self.force) {
+            Ok(())
+        } else {
+            Err(NoLaneForm)
+        }
+    }
+    #[inline(always)]
+    fn force(&self) -> &[Lanes<Sd>] {
+        &self.force
+    }
+    #[inline(always)]
+    fn check_finite(
+        &self, _what: &'static str, x: &[Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
+        Ok(sum_squares(x).is_finite())
+    }
+    /// lambda = -Dg(r) v / G_M(r) with G_M(r) = r^T M^-1 r / rho^4, which is evaluated at
+    /// every call (`refactor` changes nothing).
+    #[inline(always)]
+    fn rattle_multiplier(
+        &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _refactor: bool,
+        lambda: &mut [Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
+        let (sphere, w) = (&self.kernel.sphere, &self.kernel.inverse_mass);
+        let [_, gram] = sphere.value_and_gram(r, r, |k| w[k]);
+        lambda[0] = -sphere.normal_rate(r, v) / gram;
+        Ok(gram.is_finite().and(!gram.eq(gram.splat_like(0.0))))
+    }
+    #[inline(always)]
+    fn displace(&mut self, r: &[Lanes<Sd>; N], z: &[Lanes<Sd>], v: &mut [Lanes<Sd>; N]) {
+        let w = &self.kernel.inverse_mass;
+        let mut displaced = *v;
+        self.kernel
             .sphere
-            .value_and_gram(&m.r, &m.r, |k| self.inverse_mass[k]);
-        let zero = gram.splat_like(0.0);
-        m.ok = m.ok.and(gram.is_finite()).and(!gram.eq(zero));
-        let lambda = -self.sphere.normal_rate(&m.r, &m.v) / gram;
-        m.impulse = m.impulse + lambda;
-        let mut v = [zero; N];
-        self.sphere
-            .displace_diagonal(&m.r, lambda, |k| self.inverse_mass[k], &m.v, &mut v);
-        m.v = v;
+            .displace_diagonal(r, z[0], |k| w[k], v, &mut displaced);
+        *v = displaced;
     }
-
-    /// A geodesic substep of length tau: SHAKE (the closed-form root), the velocity
-    /// v + M^-1 grad g(r) kappa / tau, RATTLE at the new point.
+    /// The closed-form root at y = r + tau v ([`SphereRoot`]).
     #[inline(always)]
-    fn geodesic_drift<Sd: Simd>(&self, m: &mut Motion<Sd, N>) {
-        let mut y = m.r;
-        for (yi, &vi) in y.iter_mut().zip(&m.v) {
-            *yi = *yi + vi * self.sizes.tau;
+    fn shake(
+        &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], kappa: &mut [Lanes<Sd>],
+    ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
+        let mut y = *r;
+        for (yi, &vi) in y.iter_mut().zip(v) {
+            *yi = *yi + vi * self.kernel.sizes.tau;
         }
-        let root = self.root.solve(&m.r, &y);
-        m.ok = m.ok.and(root.ok);
-        m.residual = root.residual;
-        let lambda = root.gamma * self.sizes.inverse_tau;
-        m.impulse = m.impulse + lambda;
-        let mut v = m.v;
-        self.sphere
-            .displace_diagonal(&m.r, lambda, |k| self.inverse_mass[k], &m.v, &mut v);
-        m.v = v;
-        m.r = root.x;
-        self.project_velocity(m);
+        let root = self.kernel.root.solve(r, &y);
+        self.root = root.x;
+        kappa[0] = root.gamma;
+        Ok(Shaken {
+            ok: root.ok,
+            iterations: root.residual.splat_like(0.0),
+            residual: root.residual,
+        })
+    }
+    #[inline(always)]
+    fn move_to_root(&mut self, r: &mut [Lanes<Sd>; N]) {
+        *r = self.root;
+    }
+    #[inline(always)]
+    fn velocity_residual(
+        &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _scratch: &mut [Lanes<Sd>],
+    ) -> Lanes<Sd> {
+        self.kernel.sphere.normal_rate(r, v).abs()
     }
 }
 

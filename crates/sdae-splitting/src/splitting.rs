@@ -1,17 +1,19 @@
 //! The splitting scheme BAOAB with SHAKE/RATTLE projections, and its geodesic form g-BAOAB:
-//! the general path, which every Langevin system can take (the constraint, the mass, the
-//! force and the noise as traits).
+//! the scheme, and its general path, which every Langevin system can take (the constraint,
+//! the mass, the force and the noise as traits): the step body of `kernel.rs` over one path's
+//! f64 with the ball solver and the Gram matrix's factors ([`OnePath`]).
 
 use sdae_ift::BallSolver;
 use sdae_manifold::vector::{max_abs, norm2_squared};
-use sdae_manifold::{Constraint, Factorize, Mass, Solve, scratch_len};
+use sdae_manifold::{Constraint, Factorize, GramMatrix, GramStructure, Mass, Solve, scratch_len};
 use sdae_model::engine::LaneStore;
 use sdae_model::{
     KappaProblem, LangevinForm, StepFailure, StepOutcome, StepResult, System, check_dimensions,
 };
 
-use crate::config::SplittingConfig;
+use crate::config::{SplittingConfig, StepSizes};
 use crate::error::SplittingError;
+use crate::kernel::{self, Motion, Shaken, SplittingKernel};
 use crate::ou::OuFactors;
 
 /// The Gram matrix storage of a system's constraint.
@@ -59,7 +61,13 @@ type Gram<S> = <<S as System>::Constraint as Constraint>::Gram;
 ///
 /// **The multiplier.** mu's increment over a step ([`Scheme::multiplier_increment`]) is the sum
 /// of the step's constraint impulses: kappa / tau of each SHAKE and the multiplier of each
-/// RATTLE projection.
+/// RATTLE projection. Where G_M is 1 x 1 (one constraint), the RATTLE multiplier is the
+/// quotient -Dg(r) v / G_M(r) on every path, one path's and the lanes' alike.
+///
+/// **One step body.** The step is written once over the number type (`kernel.rs`): the
+/// general path runs it over one path's f64, the ensemble's lanes over W paths (the sphere's
+/// closed forms, Newton over a constraint's lane form), with each path's operations in the
+/// same order, so that a lane is its path's step bit for bit.
 ///
 /// [`Scheme::multiplier_increment`]: sdae_model::Scheme::multiplier_increment
 #[derive(Debug, Clone)]
@@ -72,36 +80,33 @@ pub struct Splitting<S: System> {
     /// The O step's factors for the step size `ou_h`.
     pub(crate) ou: Vec<OuFactors>,
     ou_h: f64,
-    solver: BallSolver<Gram<S>>,
-    /// G_M(r) and its factors for the velocity projections, valid at `factored_at`.
-    gram: Gram<S>,
-    factor: <Gram<S> as Factorize>::Factor,
-    /// F(r) at `cached_at`.
-    force: Vec<f64>,
-    /// The point of the cached force and factors (the last step's end), valid if `cached`.
-    cached_at: Vec<f64>,
-    cached: bool,
-    factored: bool,
+    /// The general path's solver, factors and buffers.
+    work: Workspace<Gram<S>>,
     r: Vec<f64>,
     v: Vec<f64>,
-    y: Vec<f64>,
-    x: Vec<f64>,
-    u: Vec<f64>,
-    zero: Vec<f64>,
-    scratch: Vec<f64>,
     lambda: Vec<f64>,
     pub(crate) impulse: Vec<f64>,
     /// The buffers of the lane form of a constraint solved by Newton, kept between steps.
     pub(crate) lanes: LaneStore,
 }
 
-/// What the position projections of a step add up to.
-#[derive(Debug, Clone, Copy, Default)]
-struct Projections {
-    /// Newton iterations of all SHAKE projections.
-    iterations: usize,
-    /// max |g| after the last one.
-    residual: f64,
+/// The general path's SHAKE solver, G_M(r) with its factors, F(r), and buffers.
+#[derive(Debug, Clone)]
+struct Workspace<G: Factorize> {
+    solver: BallSolver<G>,
+    /// G_M(r) and its factors for the velocity projections.
+    gram: G,
+    factor: G::Factor,
+    /// F(r) at `cached_at`.
+    force: Vec<f64>,
+    /// The point of the cached force and factors (the last step's end), valid if `cached`.
+    cached_at: Vec<f64>,
+    cached: bool,
+    y: Vec<f64>,
+    x: Vec<f64>,
+    u: Vec<f64>,
+    zero: Vec<f64>,
+    scratch: Vec<f64>,
 }
 
 impl<S: System> Splitting<S> {
@@ -131,10 +136,21 @@ impl<S: System> Splitting<S> {
         }
         let c = system.constraint();
         let gram = c.new_gram();
-        Ok(Self {
+        let work = Workspace {
             solver: BallSolver::new(c.new_gram(), config.solver),
             factor: gram.new_factor(),
             gram,
+            force: vec![0.0; n],
+            cached_at: vec![0.0; n],
+            cached: false,
+            y: vec![0.0; n],
+            x: vec![0.0; n],
+            u: vec![0.0; n],
+            zero: vec![0.0; n],
+            scratch: vec![0.0; scratch_len(n, m)],
+        };
+        Ok(Self {
+            work,
             form,
             inverse_mass,
             ou: vec![
@@ -145,17 +161,8 @@ impl<S: System> Splitting<S> {
                 n
             ],
             ou_h: f64::NAN,
-            force: vec![0.0; n],
-            cached_at: vec![0.0; n],
-            cached: false,
-            factored: false,
             r: vec![0.0; n],
             v: vec![0.0; n],
-            y: vec![0.0; n],
-            x: vec![0.0; n],
-            u: vec![0.0; n],
-            zero: vec![0.0; n],
-            scratch: vec![0.0; scratch_len(n, m)],
             lambda: vec![0.0; m],
             impulse: vec![0.0; m],
             lanes: LaneStore::default(),
@@ -182,80 +189,48 @@ impl<S: System> Splitting<S> {
         self.general_step(r, v, h, dw)
     }
 
-    /// The general path after the input checks.
+    /// The general path after the input checks: the step body over one path ([`OnePath`]),
+    /// from F(r) and G_M(r)'s factors of the last step where it ended at r.
     pub(crate) fn general_step(
         &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
-        let reuse = self.cached && self.cached_at == r;
-        self.cached = false;
-        self.factored = reuse;
+        self.refresh_ou(h);
+        let work = &mut self.work;
+        let resumed = work.cached && work.cached_at == r;
+        work.cached = false;
         self.r.copy_from_slice(r);
         self.v.copy_from_slice(v);
-        self.impulse.fill(0.0);
-        let tau = h / (2 * self.config.substeps) as f64;
-        let mut projections = Projections::default();
-
-        if !reuse {
-            self.evaluate_force()?;
-        }
-        self.kick(0.5 * h);
-        self.project_velocity()?;
-        for _ in 0..self.config.substeps {
-            self.geodesic_drift(tau, &mut projections)?;
-        }
-        self.ornstein_uhlenbeck(h, dw);
-        self.project_velocity()?;
-        for _ in 0..self.config.substeps {
-            self.geodesic_drift(tau, &mut projections)?;
-        }
-        self.evaluate_force()?;
-        self.kick(0.5 * h);
-        self.project_velocity()?;
-
-        let v_norm2 = norm2_squared(&self.v);
-        if !v_norm2.is_finite() {
-            return Err(StepFailure::NonFinite {
-                what: "velocity after the step",
-                size: v_norm2.sqrt(),
-            });
-        }
+        let mut one_path = OnePath {
+            constraint: self.system.constraint(),
+            mass: self.system.mass(),
+            inverse_mass: &self.inverse_mass,
+            ou: &self.ou,
+            sizes: StepSizes::new(&self.config, h),
+            monitor_velocity: self.config.monitor_velocity_constraint,
+            work,
+            at_y: false,
+        };
+        let mut m = Motion::new(
+            &mut self.r,
+            &mut self.v,
+            &mut self.impulse,
+            &mut self.lambda,
+            0.0,
+        );
+        let velocity_residual = kernel::step(&self.system, &mut one_path, &mut m, dw, resumed)?;
+        let outcome = StepOutcome {
+            eta: 1.0,
+            // A sum of iteration counts, exact in f64.
+            newton_iterations: m.iterations as usize,
+            certificate: None,
+            position_residual: Some(m.residual),
+            velocity_residual,
+        };
         r.copy_from_slice(&self.r);
         v.copy_from_slice(&self.v);
-        self.cached_at.copy_from_slice(&self.r);
-        self.cached = true;
-        let velocity_residual = self.config.monitor_velocity_constraint.then(|| {
-            self.system
-                .constraint()
-                .jacobian_mul(&self.r, &self.v, &mut self.lambda);
-            max_abs(&self.lambda)
-        });
-        Ok(StepOutcome {
-            eta: 1.0,
-            newton_iterations: projections.iterations,
-            certificate: None,
-            position_residual: Some(projections.residual),
-            velocity_residual,
-        })
-    }
-
-    /// F(r) = a(r, 0) at the current r; a failure if it is not finite.
-    fn evaluate_force(&mut self) -> Result<(), StepFailure> {
-        self.system.drift(&self.r, &self.zero, &mut self.force);
-        let size = norm2_squared(&self.force);
-        if !size.is_finite() {
-            return Err(StepFailure::NonFinite {
-                what: "force F(r)",
-                size: size.sqrt(),
-            });
-        }
-        Ok(())
-    }
-
-    /// B: v <- v + dt M^-1 F(r).
-    fn kick(&mut self, dt: f64) {
-        for ((vi, fi), wi) in self.v.iter_mut().zip(&self.force).zip(&self.inverse_mass) {
-            *vi += dt * (wi * fi);
-        }
+        self.work.cached_at.copy_from_slice(&self.r);
+        self.work.cached = true;
+        Ok(outcome)
     }
 
     /// The O step's factors for h, computed when h changes.
@@ -267,86 +242,130 @@ impl<S: System> Splitting<S> {
             self.ou_h = h;
         }
     }
+}
 
-    /// O: the exact Ornstein-Uhlenbeck update of v over h ([`OuFactors`]).
-    fn ornstein_uhlenbeck(&mut self, h: f64, dw: &[f64]) {
-        self.refresh_ou(h);
-        for (vi, f) in self.v.iter_mut().zip(&self.ou) {
-            *vi *= f.decay;
-        }
-        for ((vi, f), w) in self.v.iter_mut().zip(&self.ou).zip(dw) {
-            *vi += f.noise * w;
-        }
+/// The step body's kernel for one path: the constraint and the mass as traits, SHAKE by the
+/// ball solver without a ball, G_M(r) by the factors of its storage, typed failures.
+struct OnePath<'a, C: Constraint, M: Mass> {
+    constraint: &'a C,
+    mass: &'a M,
+    inverse_mass: &'a [f64],
+    ou: &'a [OuFactors],
+    sizes: StepSizes,
+    monitor_velocity: bool,
+    work: &'a mut Workspace<C::Gram>,
+    /// Whether the last SHAKE's root is y itself (kappa = 0), else x.
+    at_y: bool,
+}
+
+impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
+    type Rows = Vec<f64>;
+    type Failure = StepFailure;
+    fn sizes(&self) -> &StepSizes {
+        &self.sizes
     }
-
-    /// RATTLE: v <- P_M(r) v = v + M^-1 grad g(r) lambda with G_M(r) lambda = -Dg(r) v,
-    /// factoring G_M(r) unless it is factored at this r.
-    fn project_velocity(&mut self) -> Result<(), StepFailure> {
-        let (c, mass) = (self.system.constraint(), self.system.mass());
-        if !self.factored {
-            c.cross_gram(&self.r, &self.r, mass, &mut self.scratch, &mut self.gram);
-            self.gram
-                .factor_into(&mut self.factor)
+    fn ou(&self) -> &[OuFactors] {
+        self.ou
+    }
+    #[inline(always)]
+    fn inverse_mass(&self, k: usize, x: f64) -> f64 {
+        self.inverse_mass[k] * x
+    }
+    fn monitors_velocity(&self) -> bool {
+        self.monitor_velocity
+    }
+    fn evaluate_force<S: System>(&mut self, system: &S, r: &[f64]) -> Result<(), StepFailure> {
+        system.drift(r, &self.work.zero, &mut self.work.force);
+        Ok(())
+    }
+    fn force(&self) -> &[f64] {
+        &self.work.force
+    }
+    fn check_finite(&self, what: &'static str, x: &[f64]) -> Result<bool, StepFailure> {
+        let size = norm2_squared(x);
+        if !size.is_finite() {
+            return Err(StepFailure::NonFinite {
+                what,
+                size: size.sqrt(),
+            });
+        }
+        Ok(true)
+    }
+    /// G_M(r)'s factors, a typed failure where it is singular; lambda by the factors, or as
+    /// the quotient where G_M(r) is a scalar.
+    fn rattle_multiplier(
+        &mut self, r: &Vec<f64>, v: &Vec<f64>, refactor: bool, lambda: &mut [f64],
+    ) -> Result<bool, StepFailure> {
+        let (c, work) = (self.constraint, &mut *self.work);
+        if refactor {
+            c.cross_gram(r, r, self.mass, &mut work.scratch, &mut work.gram);
+            work.gram
+                .factor_into(&mut work.factor)
                 .map_err(|source| StepFailure::Singular {
                     what: "G_M(r) of the RATTLE velocity projection",
                     source,
                 })?;
-            self.factored = true;
         }
-        c.jacobian_mul(&self.r, &self.v, &mut self.lambda);
-        for l in self.lambda.iter_mut() {
+        c.jacobian_mul(r, v, lambda);
+        for l in lambda.iter_mut() {
             *l = -*l;
         }
-        self.factor.solve_in_place(&mut self.lambda);
-        for (i, l) in self.impulse.iter_mut().zip(&self.lambda) {
-            *i += l;
+        if <C::Gram as GramMatrix>::STRUCTURE == GramStructure::Scalar {
+            lambda[0] /= work.gram.entry(0, 0);
+        } else {
+            work.factor.solve_in_place(lambda);
         }
-        c.displace(&self.r, &self.lambda, mass, &self.v, &mut self.u);
-        std::mem::swap(&mut self.v, &mut self.u);
-        Ok(())
+        Ok(true)
     }
-
-    /// A geodesic substep of length tau: SHAKE onto g = 0, the velocity (r' - r) / tau, RATTLE.
-    fn geodesic_drift(
-        &mut self, tau: f64, projections: &mut Projections,
-    ) -> Result<(), StepFailure> {
-        let (c, mass) = (self.system.constraint(), self.system.mass());
-        for ((yi, ri), vi) in self.y.iter_mut().zip(&self.r).zip(&self.v) {
+    fn displace(&mut self, r: &Vec<f64>, z: &[f64], v: &mut Vec<f64>) {
+        let u = &mut self.work.u;
+        self.constraint.displace(r, z, self.mass, v, u);
+        std::mem::swap(v, u);
+    }
+    /// The ball solver from kappa = 0 in an unbounded ball; a failure where it finds no root.
+    fn shake(
+        &mut self, r: &Vec<f64>, v: &Vec<f64>, kappa: &mut [f64],
+    ) -> Result<Shaken<f64>, StepFailure> {
+        let (c, work, tau) = (self.constraint, &mut *self.work, self.sizes.tau);
+        for ((yi, ri), vi) in work.y.iter_mut().zip(r).zip(v) {
             *yi = ri + tau * vi;
         }
         let mut problem = KappaProblem {
             constraint: c,
-            mass,
-            r: &self.r,
-            y: &self.y,
-            x: &mut self.x,
-            scratch: &mut self.scratch,
-            floor: c.roundoff().floor(max_abs(&self.y)),
+            mass: self.mass,
+            r,
+            y: &work.y,
+            x: &mut work.x,
+            scratch: &mut work.scratch,
+            floor: c.roundoff().floor(max_abs(&work.y)),
             at_y: false,
             velocity: None,
         };
-        let certificate = self
+        let certificate = work
             .solver
             .solve(&mut problem, f64::INFINITY)
             .map_err(|source| StepFailure::Root {
                 what: "SHAKE projection onto g = 0",
                 source,
             })?;
-        let at_y = problem.at_y;
-        projections.iterations += certificate.iterations;
-        projections.residual = certificate.residual;
-        let inverse_tau = 1.0 / tau;
-        for (l, k) in self.lambda.iter_mut().zip(self.solver.root()) {
-            *l = k * inverse_tau;
-        }
-        for (i, l) in self.impulse.iter_mut().zip(&self.lambda) {
-            *i += l;
-        }
-        c.displace(&self.r, &self.lambda, mass, &self.v, &mut self.u);
-        std::mem::swap(&mut self.v, &mut self.u);
-        let r_new = if at_y { &mut self.y } else { &mut self.x };
-        std::mem::swap(&mut self.r, r_new);
-        self.factored = false;
-        self.project_velocity()
+        self.at_y = problem.at_y;
+        kappa.copy_from_slice(work.solver.root());
+        Ok(Shaken {
+            ok: true,
+            iterations: certificate.iterations as f64,
+            residual: certificate.residual,
+        })
+    }
+    fn move_to_root(&mut self, r: &mut Vec<f64>) {
+        let root = if self.at_y {
+            &mut self.work.y
+        } else {
+            &mut self.work.x
+        };
+        std::mem::swap(r, root);
+    }
+    fn velocity_residual(&mut self, r: &Vec<f64>, v: &Vec<f64>, scratch: &mut [f64]) -> f64 {
+        self.constraint.jacobian_mul(r, v, scratch);
+        max_abs(scratch)
     }
 }

@@ -1,7 +1,6 @@
 //! The half-explicit step's own formulas (seed eq. 3.1, 3.2), written once over [`Real`]: the
-//! stepper's step of one path (`f64`) and the ensemble's lane kernels (`ensemble/sphere.rs`,
-//! `ensemble/newton.rs`) call them, so that lane i computes what the scalar step computes for
-//! path i. The kappa root's tests and certificate are `sdae_ift::criteria`'s; a constraint's
+//! step written once (`step.rs`) calls them for one path (`f64`) and in lanes, so that lane i
+//! computes what the scalar step computes for path i. The kappa root's tests and certificate are `sdae_ift::criteria`'s; a constraint's
 //! formulas are its own (`sdae_manifold`).
 
 use sdae_lanes::{PathMask, Real};

@@ -40,6 +40,7 @@ mod error;
 mod formulas;
 mod one_path;
 mod runaway;
+mod step;
 mod stepper;
 
 pub use config::StepperConfig;

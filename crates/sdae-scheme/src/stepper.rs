@@ -1,6 +1,7 @@
 //! One step of the half-explicit drift-truncated Euler scheme (seed eq. 3.1, 3.2).
 
-use sdae_ift::BallSolver;
+use crate::step::{HalfExplicitKernel, Update, half_explicit_step};
+use sdae_ift::{BallSolver, Certificate};
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, GramMatrix, GramStructure, Mass, scratch_len};
 use sdae_model::{
@@ -12,7 +13,7 @@ use sdae_model::engine::LaneStore;
 
 use crate::config::StepperConfig;
 use crate::error::SchemeError;
-use crate::formulas::{self, ForceScale};
+use crate::formulas;
 
 /// The stepper: a system, the scheme's constants and all buffers of one path.
 #[derive(Debug, Clone)]
@@ -121,7 +122,7 @@ impl<S: System> Stepper<S> {
                     tangency,
                     scratch,
                 };
-                half_explicit_step(system, config, solver, buffers, r, v, h, dw)
+                one_path_step(system, config, solver, buffers, r, v, h, dw)
             }
         }?;
         // The solver holds this step's root.
@@ -151,7 +152,7 @@ impl<S: System> Stepper<S> {
             scratch: &mut scratch[..scratch_len(N, 1)],
         };
         let (r, v) = (&mut r[..N], &mut v[..N]);
-        let outcome = half_explicit_step(
+        let outcome = one_path_step(
             &self.system,
             &self.config,
             &mut self.solver,
@@ -180,13 +181,13 @@ struct Buffers<'a> {
     scratch: &'a mut [f64],
 }
 
-/// The body of [`Scheme::step`](sdae_model::Scheme::step) of [`Stepper`] after the input checks, inlined into each caller so that
-/// fixed-size buffers give fixed-size loops. Seed eq. 3.1: y = r + eta h v, the kappa root
-/// r' = y + M^-1 grad g(r) kappa on g = 0, v' = v~ + M^-1 grad g(r) lambda with
-/// Dg(r') v' = 0.
+/// The body of [`Scheme::step`](sdae_model::Scheme::step) of [`Stepper`] after the input checks,
+/// inlined into each caller so that fixed-size buffers give fixed-size loops: the step of seed
+/// eq. 3.1-3.2 written once ([`half_explicit_step`]) on [`OnePath`], then
+/// (r, v) <- (r_{k+1}, v_{k+1}).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn half_explicit_step<S: System>(
+fn one_path_step<S: System>(
     system: &S, config: &StepperConfig,
     solver: &mut BallSolver<<S::Constraint as Constraint>::Gram>, buffers: Buffers<'_>,
     r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
@@ -200,97 +201,129 @@ fn half_explicit_step<S: System>(
         tangency,
         scratch,
     } = buffers;
-    let constraint = system.constraint();
-    let mass = system.mass();
-
-    let (v_norm2, a_norm2) = checked_motion(system, r, v, drift)?;
-    let local = if config.local_size {
-        constraint.local_motion(r, v, drift)
-    } else {
-        None
-    };
-    let eta = formulas::eta(config.c_eta, h, v_norm2.sqrt(), a_norm2.sqrt(), local);
-    let eta_h = eta * h;
-    for ((yi, ri), vi) in y.iter_mut().zip(r.iter()).zip(v.iter()) {
-        *yi = formulas::drifted(*ri, *vi, eta_h);
-    }
-    // v~ is formed before the root (it does not depend on it) so that the solver can solve
-    // the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~, whose matrix is the Newton
-    // matrix at the root, in the pass that factors that matrix.
-    let scale = ForceScale::new(config.rescale_noise, eta, h);
-    free_velocity(system, &scale, r, v, dw, drift, force);
-
-    // v' into the drift buffer (a is no longer needed).
-    let (certificate, at_y) = constrained_update(
-        constraint,
-        mass,
+    let mut kernel = OnePath {
+        system,
         solver,
-        config.c_kappa,
-        r,
+        c_kappa: config.c_kappa,
         y,
-        force,
-        UpdateBuffers {
-            x,
-            scratch,
-            lambda,
-            new_v: drift,
-        },
-    )?;
-    let r_new: &[f64] = if at_y { y } else { x };
+        x,
+        new_v: drift,
+        tangency,
+        scratch,
+        certificate: None,
+        at_y: false,
+    };
+    let step = half_explicit_step(&mut kernel, config, h, [r, v, dw], force, lambda)?;
+    let certificate = kernel
+        .certificate
+        .expect("a decided step has the root's certificate");
+    let r_new: &[f64] = if kernel.at_y { kernel.y } else { kernel.x };
     r.copy_from_slice(r_new);
-    v.copy_from_slice(drift);
-    let velocity_residual = config.monitor_velocity_constraint.then(|| {
-        constraint.jacobian_mul(r, v, tangency);
-        max_abs(tangency)
-    });
+    v.copy_from_slice(kernel.new_v);
     Ok(StepOutcome {
-        eta,
+        eta: step.eta,
         newton_iterations: certificate.iterations,
         position_residual: Some(certificate.residual),
         certificate: Some(certificate),
-        velocity_residual,
+        velocity_residual: step.update.velocity_residual,
     })
 }
 
-/// |v|^2 and |a|^2 with the drift a(r, v) written into `drift`; a failure if either is not
-/// finite.
-#[inline(always)]
-fn checked_motion<S: System>(
-    system: &S, r: &[f64], v: &[f64], drift: &mut [f64],
-) -> Result<(f64, f64), StepFailure> {
-    let v_norm2 = norm2_squared(v);
-    if !v_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "velocity v_k",
-            size: v_norm2.sqrt(),
-        });
-    }
-    system.drift(r, v, drift);
-    let a_norm2 = norm2_squared(drift);
-    if !a_norm2.is_finite() {
-        return Err(StepFailure::NonFinite {
-            what: "drift a(r, v)",
-            size: a_norm2.sqrt(),
-        });
-    }
-    Ok((v_norm2, a_norm2))
+/// The step's [`HalfExplicitKernel`] for one path: the system's drift, noise and constraint as
+/// traits, the kappa root by the ball solver (closed form, Newton, the homotopy fallback) with
+/// typed failures.
+struct OnePath<'a, S: System> {
+    system: &'a S,
+    solver: &'a mut BallSolver<<S::Constraint as Constraint>::Gram>,
+    c_kappa: f64,
+    /// y = r + eta h v.
+    y: &'a mut [f64],
+    /// The root's point, r_{k+1} unless it is y ([`OnePath::at_y`]).
+    x: &'a mut [f64],
+    /// v_{k+1}.
+    new_v: &'a mut [f64],
+    /// Dg(r') v' when monitored.
+    tangency: &'a mut [f64],
+    scratch: &'a mut [f64],
+    /// The kappa root's certificate.
+    certificate: Option<Certificate>,
+    /// Whether r_{k+1} is y (a root of 0).
+    at_y: bool,
 }
 
-/// The velocity before the constraint force, v~ = v + M^-1 (eta h a + B dw) (seed eq. 3.1),
-/// written into `force`; with rescaled noise and eta < 1, v + M^-1 (eta h a + sqrt(eta) B dw),
-/// in law a step of eta h ([`ForceScale`]).
-#[inline(always)]
-fn free_velocity<S: System>(
-    system: &S, scale: &ForceScale<f64>, r: &[f64], v: &[f64], dw: &[f64], drift: &[f64],
-    force: &mut [f64],
-) {
-    for (f, a) in force.iter_mut().zip(drift.iter()) {
-        *f = scale.drift_h * a;
+impl<S: System> HalfExplicitKernel<f64> for OnePath<'_, S> {
+    type Stop = StepFailure;
+    #[inline(always)]
+    fn norm2(&self, what: &'static str, x: &[f64]) -> Result<f64, StepFailure> {
+        let norm2 = norm2_squared(x);
+        if !norm2.is_finite() {
+            return Err(StepFailure::NonFinite {
+                what,
+                size: norm2.sqrt(),
+            });
+        }
+        Ok(norm2)
     }
-    system.add_noise(r, v, dw, force);
-    scale.rescale(force);
-    system.mass().apply_inverse(force);
-    for (f, vi) in force.iter_mut().zip(v.iter()) {
-        *f += vi;
+    #[inline(always)]
+    fn drift(&mut self, r: &[f64], v: &[f64], out: &mut [f64]) -> Result<(), StepFailure> {
+        self.system.drift(r, v, out);
+        Ok(())
+    }
+    #[inline(always)]
+    fn add_noise(
+        &mut self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64],
+    ) -> Result<(), StepFailure> {
+        self.system.add_noise(r, v, dw, out);
+        Ok(())
+    }
+    #[inline(always)]
+    fn local_motion(&self, r: &[f64], v: &[f64], a: &[f64], _: f64, _: f64) -> Option<f64> {
+        self.system.constraint().local_motion(r, v, a)
+    }
+    /// v~ = v + M^-1 force, then [`constrained_update`] (the lambda system solved with the
+    /// root's factors in the pass that factors them, where the solver can).
+    #[inline(always)]
+    fn constrain(
+        &mut self, r: &[f64], v: &[f64], eta_h: f64, force: &mut [f64], dmu: &mut [f64],
+        monitor: bool,
+    ) -> Result<Update<f64>, StepFailure> {
+        for ((yi, ri), vi) in self.y.iter_mut().zip(r).zip(v) {
+            *yi = formulas::drifted(*ri, *vi, eta_h);
+        }
+        let (constraint, mass) = (self.system.constraint(), self.system.mass());
+        mass.apply_inverse(force);
+        for (f, vi) in force.iter_mut().zip(v) {
+            *f += vi;
+        }
+        let (certificate, at_y) = constrained_update(
+            constraint,
+            mass,
+            self.solver,
+            self.c_kappa,
+            r,
+            self.y,
+            force,
+            UpdateBuffers {
+                x: self.x,
+                scratch: self.scratch,
+                lambda: dmu,
+                new_v: self.new_v,
+            },
+        )?;
+        self.certificate = Some(certificate);
+        self.at_y = at_y;
+        let velocity_residual = monitor.then(|| {
+            let r_new: &[f64] = if at_y { self.y } else { self.x };
+            constraint.jacobian_mul(r_new, self.new_v, self.tangency);
+            max_abs(self.tangency)
+        });
+        Ok(Update {
+            ok: true,
+            newton_iterations: certificate.iterations as f64,
+            position_residual: certificate.residual,
+            velocity_residual,
+            contraction: certificate.contraction,
+            kappa_norm: certificate.norm,
+        })
     }
 }

@@ -1,9 +1,10 @@
 //! The step of [`Stepper`](crate::Stepper) over W lanes for a constraint whose kappa system is
-//! solved by Newton's method, with a diagonal mass: eq. 3.2 for eta, Newton from kappa = 0 for
-//! the kappa system (seed eq. 3.1 upper part) with a convergence mask per lane, the solver's
-//! certificate (ball, plausibility, contraction probes), and the velocity update with lambda
-//! from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower part), whose matrix is the
-//! Newton matrix at the root. The step is written once here; a constraint brings its formulas
+//! solved by Newton's method, with a diagonal mass: the step written once (`step.rs`) on
+//! [`OnRows`], whose hooks are Newton from kappa = 0 for the kappa system (seed eq. 3.1 upper
+//! part) with a convergence mask per lane, the solver's certificate (ball, plausibility,
+//! contraction probes), and the velocity update with lambda from Dg(r') M^-1 grad g(r)
+//! lambda = -Dg(r') v~ (eq. 3.1 lower part), whose matrix is the Newton matrix at the root.
+//! The kernel is written once for every such constraint; a constraint brings its formulas
 //! over lanes ([`ConstraintLanes`] through [`Constraint::lane_form`]: g, the Newton matrix, the
 //! displacement, Dg u, the local measure of the motion) and the factorization of its Newton
 //! matrix ([`MatrixFactor`]): `sdae_manifold::lane_form` has the bead chain's and rigid bonds'.
@@ -18,6 +19,8 @@
 //! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
 //! scalar functions path by path ([`per_path`]).
 
+use std::convert::Infallible;
+
 use pulp::{Simd, WithSimd};
 use sdae_lanes::{LaneMask, Lanes, per_path};
 use sdae_manifold::MatrixFactor;
@@ -30,7 +33,7 @@ use sdae_model::engine::{
 use sdae_model::{Scheme, System};
 
 use crate::config::StepperConfig;
-use crate::formulas::{self, ForceScale};
+use crate::step::{HalfExplicitKernel, Update, half_explicit_step, lane_record};
 use crate::stepper::Stepper;
 
 impl<S: System> NewtonKernels for Stepper<S> {
@@ -70,40 +73,18 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
         }
     }
 
-    /// eta of eq. 3.2 from v, a and their squared norms, or with the constraint's local
-    /// measure of the motion.
-    #[inline(always)]
-    fn eta(
-        &self, config: &StepperConfig, v: &[Lanes<Sd>], a: &[Lanes<Sd>], v_norm2: Lanes<Sd>,
-        a_norm2: Lanes<Sd>,
-    ) -> Lanes<Sd> {
-        let local = if config.local_size && config.c_eta.is_some() {
-            self.constraint.local_motion(v, a)
-        } else {
-            None
-        };
-        formulas::eta(config.c_eta, self.h, v_norm2.sqrt(), a_norm2.sqrt(), local)
-    }
-
-    /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw, which
-    /// `v_next` holds on entry (rescaled by sqrt(eta) where asked) and which becomes v~, then
-    /// v_{k+1} in place; and the group's outcomes.
+    /// The velocity update of eq. 3.1 (lower part) from the force eta a h + B dw (rescaled by
+    /// sqrt(eta) where asked), which `force` holds on entry and which becomes v~, then
+    /// v_{k+1} in place, with lambda into `dmu`: the lambda system solved with the Newton
+    /// matrix at the root, M^-1 and v fused into its right-hand side.
     #[inline(always)]
     fn velocity_lanes(
-        &mut self, config: &StepperConfig,
-        Velocity {
-            mut ok,
-            eta,
-            scale,
-            root,
-        }: Velocity<Sd>,
-        GroupRows { r, v, v_next, dmu }: GroupRows<'_, Sd>,
-    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
-        let force = v_next;
-        scale.rescale(force);
+        &mut self, monitor: bool, root: &NewtonLanes<Sd>,
+        GroupRows { r, v, force, dmu }: GroupRows<'_, Sd>,
+    ) -> Update<Lanes<Sd>> {
         // lambda = -Dg(r') v~ solved with the Newton matrix at the root. Lanes whose root is 0
         // were evaluated again at 0 if any lane iterated: then `factor` holds every lane's.
-        let factor = self.root.root_factor(&root);
+        let factor = self.root.root_factor(root);
         self.constraint
             .velocity_right_hand_side(&self.root.x, force, v, factor, dmu);
         factor.back_substitute(dmu);
@@ -113,23 +94,18 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             r,
             dmu,
             &self.root.x,
-            config.monitor_velocity_constraint,
+            monitor,
             force,
             &mut self.root.gamma,
         );
-        ok = ok.and(finite);
-        Some((
-            ok,
-            LaneRecord {
-                eta,
-                newton_iterations: root.iterations,
-                position_residual: Some(root.residual),
-                velocity_residual: config
-                    .monitor_velocity_constraint
-                    .then_some(velocity_residual),
-                certificate: Some((root.contraction, kappa_ratio(root.norm, config.c_kappa))),
-            },
-        ))
+        Update {
+            ok: root.ok.and(finite),
+            newton_iterations: root.iterations,
+            position_residual: root.residual,
+            velocity_residual: monitor.then_some(velocity_residual),
+            contraction: root.contraction,
+            kappa_norm: root.norm,
+        }
     }
 
     /// The kappa root ([`NewtonRoot::solve`] in the ball of radius C_kappa) compiled once per
@@ -151,13 +127,13 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
     /// per system.
     #[inline(never)]
     fn velocity(
-        &mut self, config: &StepperConfig, state: Velocity<Sd>, rows: GroupRows<'_, Sd>,
-    ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
+        &mut self, monitor: bool, root: &NewtonLanes<Sd>, rows: GroupRows<'_, Sd>,
+    ) -> Update<Lanes<Sd>> {
         let simd = self.simd;
         simd.vectorize(VelocityOp {
             kernel: self,
-            config,
-            state,
+            monitor,
+            root,
             rows,
         })
     }
@@ -194,48 +170,38 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
 /// [`Kernel::velocity_lanes`] as an operation of its own ([`KappaRootOp`]).
 struct VelocityOp<'a, Sd: Simd, C: ConstraintLanes> {
     kernel: &'a mut Kernel<Sd, C>,
-    config: &'a StepperConfig,
-    state: Velocity<Sd>,
+    monitor: bool,
+    root: &'a NewtonLanes<Sd>,
     rows: GroupRows<'a, Sd>,
 }
 
 impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
-    type Output = Option<(LaneMask<Sd>, LaneRecord<Sd>)>;
+    type Output = Update<Lanes<Sd>>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> Self::Output {
         self.kernel
-            .velocity_lanes(self.config, self.state, self.rows)
+            .velocity_lanes(self.monitor, self.root, self.rows)
     }
 }
 
-/// r_k, v_k, v_{k+1} and the increment of mu of a group ([`LaneRows`]).
+/// r_k, v_k, the force (v_{k+1} on return) and the increment of mu of a group.
 struct GroupRows<'a, Sd: Simd> {
     r: &'a [Lanes<Sd>],
     v: &'a [Lanes<Sd>],
     /// The force on entry, v_{k+1} on return.
-    v_next: &'a mut [Lanes<Sd>],
+    force: &'a mut [Lanes<Sd>],
     dmu: &'a mut [Lanes<Sd>],
 }
 
-/// What the velocity update needs of the step so far, per lane.
-struct Velocity<Sd: Simd> {
-    ok: LaneMask<Sd>,
-    eta: Lanes<Sd>,
-    /// The lanes whose noise is rescaled, and the factor sqrt(eta) (1 elsewhere).
-    scale: ForceScale<Lanes<Sd>>,
-    root: NewtonLanes<Sd>,
-}
-
 impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
-    /// Seed eq. 3.1-3.2 for W lanes from `state` = (r_k, v_k) into `rows` (module
-    /// documentation).
+    /// Seed eq. 3.1-3.2 for W lanes from `state` = (r_k, v_k) into `rows`: the step written
+    /// once ([`half_explicit_step`]) on [`OnRows`].
     #[inline(always)]
     fn step(
         &mut self, stepper: &Stepper<S>, state: GroupState<'_, Sd>, rows: &mut LaneRows<Sd>,
     ) -> Option<(LaneMask<Sd>, LaneRecord<Sd>)> {
-        let system = stepper.system();
         let config = stepper.config();
-        let h = self.h;
+        let (h, zero) = (self.h, Lanes::splat(self.simd, 0.0));
         let GroupState { r, v, dw, .. } = state;
         let LaneRows {
             r: r_next,
@@ -243,54 +209,96 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
             dmu,
             ..
         } = rows;
-        let v_norm2 = sum_squares(v);
-        // a(r_k, v_k) into `force` (v_{k+1}'s rows), which becomes the force in the pass that
-        // forms y, then v~ and v_{k+1} in the velocity update.
-        let force = v_next;
-        if !system.drift_lanes(r, v, force) {
-            per_path([r, v], force, &mut self.scratch, |[r, v], out| {
-                system.drift(r, v, out)
-            });
-        }
-        let a_norm2 = sum_squares(force);
-        let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
-
-        let eta = self.eta(config, v, force, v_norm2, a_norm2);
-        let eta_h = eta * h;
-        // v~ = v + M^-1 (eta a h + B dw), or sqrt(eta) (sqrt(eta) h a + B dw) when rescaled:
-        // the force here, v~ in the velocity update.
-        let scale = ForceScale::new(config.rescale_noise, eta, h);
-        let y = Drifted { r, v, tau: eta_h };
-        let max_abs_y = scale_and_max_abs(&y, scale.drift_h, force);
-        if !system.add_noise_lanes(r, v, dw, force) {
-            per_path([r, v, dw], force, &mut self.scratch, |[r, v, dw], out| {
-                system.add_noise(r, v, dw, out)
-            });
-        }
-        let root = self.kappa_root(config, &y, max_abs_y);
-        ok = ok.and(root.ok);
-        // r_{k+1}: y where the root is 0, else x.
-        self.root.point(&root, &y);
-
-        let outcomes = self.velocity(
+        let mut on_rows = OnRows {
+            kernel: self,
+            system: stepper.system(),
             config,
-            Velocity {
-                ok,
-                eta,
-                scale,
-                root,
-            },
-            GroupRows {
-                r,
-                v,
-                v_next: force,
-                dmu,
-            },
-        );
+            max_abs_y: zero,
+        };
+        // a(r_k, v_k) into v_{k+1}'s rows, which become the force, then v~ and v_{k+1}.
+        let Ok(step) = half_explicit_step(&mut on_rows, config, h, [r, v, dw], v_next, dmu);
         // r_{k+1} is in `x`: the rows take it, `x` takes the rows' old buffer (overwritten
         // next step).
         std::mem::swap(r_next, &mut self.root.x);
-        outcomes
+        Some((step.ok, lane_record(&step, config.c_kappa)))
+    }
+}
+
+/// The step's [`HalfExplicitKernel`] over rows of W lanes: the system's drift and noise in
+/// lanes (path by path where it has no lane form of this size), the constraint's local measure
+/// of the motion, and Newton for the kappa root over the constraint's lane formulas.
+struct OnRows<'a, S: System, Sd: Simd, C: ConstraintLanes> {
+    kernel: &'a mut Kernel<Sd, C>,
+    system: &'a S,
+    config: &'a StepperConfig,
+    /// max_k |y_k|, from [`HalfExplicitKernel::scale_drift`].
+    max_abs_y: Lanes<Sd>,
+}
+
+impl<S: System, Sd: Simd, C: ConstraintLanes> HalfExplicitKernel<Lanes<Sd>>
+    for OnRows<'_, S, Sd, C>
+{
+    type Stop = Infallible;
+    #[inline(always)]
+    fn norm2(&self, _: &'static str, x: &[Lanes<Sd>]) -> Result<Lanes<Sd>, Infallible> {
+        Ok(sum_squares(x))
+    }
+    #[inline(always)]
+    fn drift(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) -> Result<(), Infallible> {
+        let system = self.system;
+        if !system.drift_lanes(r, v, out) {
+            per_path([r, v], out, &mut self.kernel.scratch, |[r, v], out| {
+                system.drift(r, v, out)
+            });
+        }
+        Ok(())
+    }
+    #[inline(always)]
+    fn add_noise(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) -> Result<(), Infallible> {
+        let system = self.system;
+        if !system.add_noise_lanes(r, v, dw, out) {
+            per_path(
+                [r, v, dw],
+                out,
+                &mut self.kernel.scratch,
+                |[r, v, dw], out| system.add_noise(r, v, dw, out),
+            );
+        }
+        Ok(())
+    }
+    #[inline(always)]
+    fn local_motion(
+        &self, _: &[Lanes<Sd>], v: &[Lanes<Sd>], a: &[Lanes<Sd>], _: Lanes<Sd>, _: Lanes<Sd>,
+    ) -> Option<Lanes<Sd>> {
+        self.kernel.constraint.local_motion(v, a)
+    }
+    /// force <- drift_h force with max_k |y_k| for the root's residual floor in the same pass
+    /// ([`scale_and_max_abs`]).
+    #[inline(always)]
+    fn scale_drift(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, drift_h: Lanes<Sd>,
+        force: &mut [Lanes<Sd>],
+    ) {
+        let y = Drifted { r, v, tau: eta_h };
+        self.max_abs_y = scale_and_max_abs(&y, drift_h, force);
+    }
+    /// The Newton root at y ([`Kernel::kappa_root`]), r_{k+1} into the root's `x`, then the
+    /// velocity update ([`Kernel::velocity`]).
+    #[inline(always)]
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, force: &mut [Lanes<Sd>],
+        dmu: &mut [Lanes<Sd>], monitor: bool,
+    ) -> Result<Update<Lanes<Sd>>, Infallible> {
+        let y = Drifted { r, v, tau: eta_h };
+        let root = self.kernel.kappa_root(self.config, &y, self.max_abs_y);
+        // r_{k+1}: y where the root is 0, else x.
+        self.kernel.root.point(&root, &y);
+        let rows = GroupRows { r, v, force, dmu };
+        Ok(self.kernel.velocity(monitor, &root, rows))
     }
 }
 
@@ -315,11 +323,4 @@ fn scale_and_max_abs<Sd: Simd>(
         *f = drift_h * *f;
     }
     largest[0].max(largest[1]).max(largest[2].max(largest[3]))
-}
-
-/// |kappa| / C_kappa of the certificate where the ball's radius C_kappa is finite
-/// (`PathDiagnostics::max_kappa_ratio`).
-#[inline(always)]
-pub(super) fn kappa_ratio<Sd: Simd>(norm: Lanes<Sd>, radius: f64) -> Option<Lanes<Sd>> {
-    radius.is_finite().then(|| norm / radius)
 }

@@ -1,9 +1,10 @@
 //! The step of [`Stepper`](crate::Stepper) for a sphere constraint with a diagonal mass, over W
-//! lanes: eq. 3.2 for eta, the closed-form kappa root of the quadratic kappa system (seed eq.
-//! 3.1 upper part, the root connected to 0 of Appendix B), and the velocity update with lambda
-//! from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower part). Each formula is the
-//! general path's (the ball solver's closed form), with the same floating-point operations in
-//! the same order.
+//! lanes: the step written once (`step.rs`) on [`OnSphere`], whose hooks are the sphere's: the
+//! local measure of eq. 3.2 from the radius, the untruncated shortcut, the closed-form kappa
+//! root of the quadratic kappa system (seed eq. 3.1 upper part, the root connected to 0 of
+//! Appendix B), and lambda from Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (eq. 3.1 lower
+//! part). Each formula is the general path's (the ball solver's closed form), with the same
+//! floating-point operations in the same order.
 //!
 //! The ensemble runs it W paths at a time; [`Stepper`]'s own step of one path runs the same
 //! code at W = 1, in plain f64 ([`step_one_lane`]).
@@ -13,13 +14,13 @@ use sdae_ift::{Certificate, Method};
 use sdae_lanes::{LaneWidth, Lanes, dot};
 use sdae_manifold::{Mass, Sphere, motion_measure};
 use sdae_model::engine::{
-    self, LaneKernel, LanePaths, LaneRecord, LaneStep, RootLanes, SphereKernels, SphereRoot,
-    StepInput, step_sphere_lanes,
+    self, LaneKernel, LanePaths, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
+    step_sphere_lanes,
 };
 use sdae_model::{Scheme, StepOutcome, System};
 
-use super::newton::kappa_ratio;
-use crate::formulas::{self, ForceScale};
+use crate::formulas;
+use crate::step::{HalfExplicitKernel, Update, half_explicit_step, lane_record};
 use crate::stepper::Stepper;
 
 /// One step of every path of an ensemble whose constraint is a sphere ([`step_sphere_lanes`]);
@@ -54,13 +55,9 @@ impl<S: System> SphereKernels<Stepper<S>> for Kernels {
     }
 }
 
-/// The constants of one step: the scheme's and the sphere's.
+/// The constants of one step on the sphere.
 struct Kernel<const N: usize> {
     h: f64,
-    c_eta: Option<f64>,
-    local_size: bool,
-    rescale_noise: bool,
-    monitor_velocity: bool,
     /// The kappa root in the ball of radius C_kappa.
     root: SphereRoot<N>,
     sphere: Sphere,
@@ -82,10 +79,6 @@ impl<const N: usize> Kernel<N> {
         let config = stepper.config();
         Some(Self {
             h,
-            c_eta: config.c_eta,
-            local_size: config.local_size,
-            rescale_noise: config.rescale_noise,
-            monitor_velocity: config.monitor_velocity_constraint,
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, config.c_kappa),
             sphere: *sphere,
             inverse_mass,
@@ -105,6 +98,99 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
 }
 
 impl<const N: usize> Kernel<N> {
+    /// [`LaneKernel::step`], with the kappa root: the step written once
+    /// ([`half_explicit_step`]) on [`OnSphere`].
+    #[inline(always)]
+    fn step_with_root<S: System, Sd: Simd>(
+        &self, stepper: &Stepper<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
+    ) -> Option<(LaneStep<Sd, N>, RootLanes<Sd, N>)> {
+        let config = stepper.config();
+        let mut on_sphere = OnSphere {
+            kernel: self,
+            system: stepper.system(),
+            local_size: config.local_size,
+            next: None,
+        };
+        let (mut force, mut dmu) = ([r[0].splat_like(0.0); N], [r[0].splat_like(0.0)]);
+        let step = half_explicit_step(
+            &mut on_sphere,
+            config,
+            self.h,
+            [r, v, dw],
+            &mut force,
+            &mut dmu,
+        )
+        .ok()?;
+        let (root, v_new) = on_sphere.next?;
+        let step = LaneStep {
+            ok: step.ok,
+            r: root.x,
+            v: v_new,
+            dmu: dmu[0],
+            record: lane_record(&step, config.c_kappa),
+        };
+        Some((step, root))
+    }
+}
+
+/// The step's [`HalfExplicitKernel`] on a sphere with a diagonal mass, over W lanes: the
+/// system's lane forms of its drift and noise, the sphere's local measure w = |v| / rho,
+/// alpha = |a| / rho, and the closed-form kappa root.
+struct OnSphere<'a, S: System, Sd: Simd, const N: usize> {
+    kernel: &'a Kernel<N>,
+    system: &'a S,
+    /// Whether eq. 3.2 takes the local measure ([`StepperConfig::local_size`](crate::StepperConfig)).
+    local_size: bool,
+    /// The kappa root (with r_{k+1}) and v_{k+1}, once constrained.
+    next: Option<(RootLanes<Sd, N>, [Lanes<Sd>; N])>,
+}
+
+/// The first N rows of `x`.
+#[inline(always)]
+fn coordinates<Sd: Simd, const N: usize>(x: &[Lanes<Sd>]) -> &[Lanes<Sd>; N] {
+    x.first_chunk::<N>()
+        .expect("a sphere kernel's rows have N coordinates")
+}
+
+/// A system without the lane form of its drift or noise: its paths take the one-path step.
+struct NoLaneForm;
+
+impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSphere<'_, S, Sd, N> {
+    type Stop = NoLaneForm;
+    #[inline(always)]
+    fn norm2(&self, _: &'static str, x: &[Lanes<Sd>]) -> Result<Lanes<Sd>, NoLaneForm> {
+        let x = coordinates::<Sd, N>(x);
+        Ok(dot(x, x))
+    }
+    #[inline(always)]
+    fn drift(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) -> Result<(), NoLaneForm> {
+        if self.system.drift_lanes(r, v, out) {
+            Ok(())
+        } else {
+            Err(NoLaneForm)
+        }
+    }
+    #[inline(always)]
+    fn add_noise(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) -> Result<(), NoLaneForm> {
+        if self.system.add_noise_lanes(r, v, dw, out) {
+            Ok(())
+        } else {
+            Err(NoLaneForm)
+        }
+    }
+    /// w = |v| / rho and alpha = |a| / rho in eq. 3.2's measure.
+    #[inline(always)]
+    fn local_motion(
+        &self, _: &[Lanes<Sd>], _: &[Lanes<Sd>], _: &[Lanes<Sd>], speed: Lanes<Sd>,
+        acceleration: Lanes<Sd>,
+    ) -> Option<Lanes<Sd>> {
+        let rho = self.kernel.sphere.radius();
+        Some(motion_measure(speed / rho, acceleration / rho))
+    }
     /// Whether eq. 3.2 leaves every lane's step untruncated (eta = 1), decided without the
     /// square roots and divisions of the motion's measure: with B = |v|^2 + |a|^2 (divided
     /// by rho^2 for the local measure), the measure max(w, w^2, alpha) is at most max(sqrt(B),
@@ -112,111 +198,60 @@ impl<const N: usize> Kernel<N> {
     /// C_eta / 2 whatever the rounding, where the full formula gives eta = 1 exactly. Not
     /// finite B, or any lane beyond the bound, leaves it to the full formula.
     #[inline(always)]
-    fn surely_untruncated<Sd: Simd>(&self, norms2: Lanes<Sd>, c_eta: f64) -> bool {
+    fn surely_untruncated(&self, norms2: Lanes<Sd>, c_eta: f64, h: f64) -> bool {
         let b = if self.local_size {
-            norms2 * self.sphere.inverse_radius_squared()
+            norms2 * self.kernel.sphere.inverse_radius_squared()
         } else {
             norms2
         };
-        let half_step = 0.5 * c_eta / self.h;
+        let half_step = 0.5 * c_eta / h;
         b.le(b.splat_like(half_step.min(half_step * half_step)))
             .all()
     }
-
-    /// eta of eq. 3.2 from |v|^2 and |a|^2 (or the sphere's local measure w = |v|/rho, alpha =
-    /// |a|/rho).
+    /// The closed-form root, v~ = v + M^-1 force, lambda = -Dg(r') v~ / (Dg(r') M^-1 grad
+    /// g(r)) and v' = v~ + M^-1 grad g(r) lambda.
     #[inline(always)]
-    fn eta<Sd: Simd>(&self, v_norm2: Lanes<Sd>, a_norm2: Lanes<Sd>, c_eta: f64) -> Lanes<Sd> {
-        let (speed, acceleration) = (v_norm2.sqrt(), a_norm2.sqrt());
-        let local = if self.local_size {
-            let rho = self.sphere.radius();
-            Some(motion_measure(speed / rho, acceleration / rho))
-        } else {
-            None
-        };
-        formulas::eta(Some(c_eta), self.h, speed, acceleration, local)
-    }
-
-    /// v~ = v + M^-1 (eta a h + B dw) of eq. 3.1, or v + M^-1 sqrt(eta) (sqrt(eta) h a + B dw)
-    /// when the noise is rescaled; `None` where the system has no lane form of its noise.
-    #[inline(always)]
-    fn free_velocity<S: System, Sd: Simd>(
-        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
-        a: &[Lanes<Sd>; N], eta: Lanes<Sd>,
-    ) -> Option<[Lanes<Sd>; N]> {
-        let scale = ForceScale::new(self.rescale_noise, eta, self.h);
-        let mut force = [eta.splat_like(0.0); N];
-        for i in 0..N {
-            force[i] = scale.drift_h * a[i];
-        }
-        if !system.add_noise_lanes(r, v, dw, &mut force) {
-            return None;
-        }
-        scale.rescale(&mut force);
-        for i in 0..N {
-            force[i] = force[i] * self.inverse_mass[i] + v[i];
-        }
-        Some(force)
-    }
-
-    /// [`LaneKernel::step`], with the kappa root.
-    #[inline(always)]
-    fn step_with_root<S: System, Sd: Simd>(
-        &self, stepper: &Stepper<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
-    ) -> Option<(LaneStep<Sd, N>, RootLanes<Sd, N>)> {
-        let system = stepper.system();
-        let zero = r[0].splat_like(0.0);
-        let one = zero.splat_like(1.0);
-        let mut a = [zero; N];
-        if !system.drift_lanes(r, v, &mut a) {
-            return None;
-        }
-        let v_norm2 = dot(v, v);
-        let a_norm2 = dot(&a, &a);
-        let mut ok = v_norm2.is_finite().and(a_norm2.is_finite());
-
-        // eta of eq. 3.2 (or the sphere's local measure w = |v|/rho, alpha = |a|/rho).
-        let eta = match self.c_eta {
-            None => one,
-            Some(c_eta) if self.surely_untruncated(v_norm2 + a_norm2, c_eta) => one,
-            Some(c_eta) => self.eta(v_norm2, a_norm2, c_eta),
-        };
-        let eta_h = eta * self.h;
+    fn constrain(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, force: &mut [Lanes<Sd>],
+        dmu: &mut [Lanes<Sd>], monitor: bool,
+    ) -> Result<Update<Lanes<Sd>>, NoLaneForm> {
+        let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
+        let Kernel {
+            root: solver,
+            sphere,
+            inverse_mass,
+            ..
+        } = self.kernel;
+        let zero = eta_h.splat_like(0.0);
         let mut y = [zero; N];
         for i in 0..N {
             y[i] = formulas::drifted(r[i], v[i], eta_h);
         }
-        let root = self.root.solve(r, &y);
-        ok = ok.and(root.ok);
-        let x = root.x;
-
-        let force = self.free_velocity(system, r, v, dw, &a, eta)?;
-        // lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)), v' = v~ + M^-1 grad g(r) lambda.
-        let lambda = -self.sphere.normal_rate(&x, &force) * (one / root.gram);
+        let root = solver.solve(r, &y);
+        for i in 0..N {
+            force[i] = force[i] * inverse_mass[i] + v[i];
+        }
+        let lambda = -sphere.normal_rate(&root.x, force) * (zero.splat_like(1.0) / root.gram);
         let mut v_new = [zero; N];
-        self.sphere
-            .displace_diagonal(r, lambda, |k| self.inverse_mass[k], &force, &mut v_new);
-        ok = ok.and(dot(&v_new, &v_new).is_finite());
+        sphere.displace_diagonal(r, lambda, |k| inverse_mass[k], force, &mut v_new);
+        let finite = dot(&v_new, &v_new).is_finite();
         // Written out, not `then`: a closure would not inherit the instruction set.
-        let velocity_residual = if self.monitor_velocity {
-            Some(self.sphere.normal_rate(&x, &v_new).abs())
+        let velocity_residual = if monitor {
+            Some(sphere.normal_rate(&root.x, &v_new).abs())
         } else {
             None
         };
-        let step = LaneStep {
-            ok,
-            r: x,
-            v: v_new,
-            dmu: lambda,
-            record: LaneRecord {
-                eta,
-                newton_iterations: zero,
-                position_residual: Some(root.residual),
-                velocity_residual,
-                certificate: Some((root.contraction, kappa_ratio(root.norm, self.root.radius()))),
-            },
+        dmu[0] = lambda;
+        let update = Update {
+            ok: root.ok.and(finite),
+            newton_iterations: zero,
+            position_residual: root.residual,
+            velocity_residual,
+            contraction: root.contraction,
+            kappa_norm: root.norm,
         };
-        Some((step, root))
+        self.next = Some((root, v_new));
+        Ok(update)
     }
 }
 
@@ -268,17 +303,16 @@ pub(crate) fn step_one_lane<S: System>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::StepperConfig;
+    use crate::step;
     use sdae_ift::SolverSettings;
+    use sdae_systems::{PendulumParams, pendulum};
 
     /// The kernel's constants for a sphere of radius `rho` and unit masses.
-    fn kernel(rho: f64, h: f64, c_eta: f64, local_size: bool) -> Kernel<2> {
+    fn kernel(rho: f64, h: f64) -> Kernel<2> {
         let sphere = Sphere::new(2, rho).unwrap();
         Kernel {
             h,
-            c_eta: Some(c_eta),
-            local_size,
-            rescale_noise: false,
-            monitor_velocity: false,
             root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
             sphere,
             inverse_mass: [1.0; 2],
@@ -294,15 +328,24 @@ mod tests {
         let (mut passed, mut truncated) = (0, 0);
         for local_size in [false, true] {
             for (rho, h, c_eta) in [(1.0, 1e-3, 1.0), (0.3, 0.1, 0.05), (2.5, 0.02, 3.0)] {
-                let k = kernel(rho, h, c_eta, local_size);
+                let k = kernel(rho, h);
+                let system = pendulum(PendulumParams::default()).unwrap();
+                let k = OnSphere::<_, Scalar, 2> {
+                    kernel: &k,
+                    system: &system,
+                    local_size,
+                    next: None,
+                };
+                let mut config = StepperConfig::new(c_eta, f64::INFINITY).unwrap();
+                config.local_size = local_size;
                 let half = 0.5 * c_eta / h;
                 let limit = half.min(half * half) * if local_size { rho * rho } else { 1.0 };
                 for i in 0..=4000 {
                     let b = limit * (0.25 + i as f64 / 1000.0);
                     for share in [0.0, 0.3, 0.5, 0.9, 1.0] {
                         let (v2, a2) = (lane(b * share), lane(b * (1.0 - share)));
-                        let eta = k.eta(v2, a2, c_eta).lane(0);
-                        if k.surely_untruncated(v2 + a2, c_eta) {
+                        let eta = step::eta(&k, &config, h, [&[], &[], &[]], [v2, a2]).lane(0);
+                        if k.surely_untruncated(v2 + a2, c_eta, h) {
                             assert_eq!(eta, 1.0, "b = {b:e}, share {share}");
                             passed += 1;
                         }

@@ -1,87 +1,76 @@
 //! Euler-Maruyama on the inherent SDE (seed eq. 2.4), and the pieces of an Euler step that the
 //! other solvers share.
 
-use crate::error::{ReferenceError, check_finite};
+use sdae_lanes::{PathMask, Real};
+use sdae_model::{KernelState, StepOutcome, StepResult};
+
+use crate::error::ReferenceError;
 use crate::inherent::{CurvedSystem, InherentSde};
+use crate::kernel::{EulerParts, InherentKernel, Next, OnePath, Parts, Stepped};
 use crate::updates;
-use sdae_model::{StepOutcome, StepResult};
 
-/// The coefficients of one Euler step at (r, v): drift and noise parts of dv and dmu.
-#[derive(Debug, Clone)]
-pub(crate) struct EulerParts {
-    /// Velocity drift of eq. 2.4 (Lemma 4.2, second block).
-    pub accel: Vec<f64>,
-    /// Drift of mu, eq. 2.3.
-    pub mu_rate: Vec<f64>,
-    /// M^-1 P_M B dw (eq. 2.4).
-    pub noise_v: Vec<f64>,
-    /// -G_M^-1 Dg M^-1 B dw (eq. 2.3).
-    pub noise_mu: Vec<f64>,
+/// One (possibly truncated) Euler-Maruyama step of the inherent SDE (seed eq. 2.4, multiplier
+/// eq. 2.3), written once over [`Real`]: the parts at (r, v) ([`InherentKernel::parts`]),
+/// the factor theta = min(1, c / (|f(r, v)| h)) of Remark 3.3 with `scale` = `Some(c)` (1
+/// with `None`), |f|^2 = |v|^2 + |accel|^2, and
+///
+/// ```text
+/// r' = r + theta h v,   v' = v + (theta h accel + noise_v),   dmu = theta h mu_rate + noise_mu
+/// ```
+///
+/// into `next`. The paths where the parts were defined and the result is finite are decided.
+#[inline(always)]
+pub(crate) fn euler_step<T: Real, K: InherentKernel<T>>(
+    kernel: &mut K, state: KernelState<'_, T>, h: f64, scale: Option<f64>,
+    parts: &mut Parts<'_, T>, next: &mut Next<'_, T>,
+) -> Result<Stepped<T>, K::Error> {
+    let KernelState { r, v, dw } = state;
+    let ok = kernel.parts(r, v, dw, parts)?;
+    let theta = match scale {
+        None => v[0].splat_like(1.0),
+        Some(c) => updates::truncation(c, h, updates::drift_norm(v, parts.accel)),
+    };
+    let dt = theta * h;
+    let state = r.iter().zip(v);
+    let rates = parts.accel.iter().zip(parts.noise_v.iter());
+    let out = next.r.iter_mut().zip(next.v.iter_mut());
+    for ((nr, nv), ((ri, vi), (a, noise))) in out.zip(state.zip(rates)) {
+        *nr = updates::euler_position(*ri, *vi, dt);
+        *nv = updates::euler_velocity(*vi, *a, *noise, dt);
+    }
+    let rates = parts.mu_rate.iter().zip(parts.noise_mu.iter());
+    for (d, (rate, noise)) in next.dmu.iter_mut().zip(rates) {
+        *d = updates::euler_multiplier(*rate, *noise, dt);
+    }
+    let ok = ok.and(finished(kernel, next)?);
+    Ok(Stepped {
+        ok,
+        eta: theta,
+        newton_iterations: theta.splat_like(0.0),
+    })
 }
 
-impl EulerParts {
-    pub fn new(n: usize, m: usize) -> Self {
-        Self {
-            accel: vec![0.0; n],
-            mu_rate: vec![0.0; m],
-            noise_v: vec![0.0; n],
-            noise_mu: vec![0.0; m],
-        }
-    }
-
-    /// Factors G_M(r) and evaluates the drift parts, and the noise parts if `dw` is given and
-    /// the system has noise (a scene without noise pays nothing for it).
-    pub fn evaluate<S: CurvedSystem>(
-        &mut self, sde: &mut InherentSde<S>, r: &[f64], v: &[f64], dw: Option<&[f64]>,
-    ) -> Result<(), ReferenceError> {
-        sde.prepare(r)?;
-        sde.drift_prepared(r, v, &mut self.accel, &mut self.mu_rate);
-        check_finite("inherent drift", &self.accel)?;
-        match dw {
-            Some(dw) if !dw.is_empty() => {
-                sde.noise_prepared(r, v, dw, &mut self.noise_v, &mut self.noise_mu);
-                check_finite("inherent diffusion", &self.noise_v)
-            }
-            _ => {
-                self.noise_v.fill(0.0);
-                self.noise_mu.fill(0.0);
-                Ok(())
-            }
-        }
-    }
-
-    /// |f(r, v)| for the R^{2n} drift f = (v, accel) of Lemma 4.2 (Euclidean norm).
-    pub fn drift_norm(&self, v: &[f64]) -> f64 {
-        updates::drift_norm(v, &self.accel)
-    }
-
-    /// dmu = dt mu_rate + noise_mu.
-    pub fn multiplier(&self, dt: f64, dmu: &mut [f64]) {
-        for ((d, rate), noise) in dmu.iter_mut().zip(&self.mu_rate).zip(&self.noise_mu) {
-            *d = updates::euler_multiplier(*rate, *noise, dt);
-        }
-    }
-
-    /// The Euler update with drift time dt: r += dt v, v += dt accel + noise_v; dmu likewise.
-    pub fn apply(&self, r: &mut [f64], v: &mut [f64], dt: f64, dmu: &mut [f64]) {
-        for ((ri, vi), (a, n)) in r
-            .iter_mut()
-            .zip(v.iter_mut())
-            .zip(self.accel.iter().zip(&self.noise_v))
-        {
-            *ri = updates::euler_position(*ri, *vi, dt);
-            *vi = updates::euler_velocity(*vi, *a, *n, dt);
-        }
-        self.multiplier(dt, dmu);
-    }
+/// The paths whose r_{k+1}, v_{k+1} and dmu are finite; one path: a failure naming the first
+/// that is not (v', then r', then dmu).
+#[inline(always)]
+pub(crate) fn finished<T: Real, K: InherentKernel<T>>(
+    kernel: &K, next: &Next<'_, T>,
+) -> Result<T::Mask, K::Error> {
+    let velocity = kernel.finite("velocity after the step", next.v)?;
+    let position = kernel.finite("position after the step", next.r)?;
+    let multiplier = kernel.finite("multiplier increment", next.dmu)?;
+    Ok(velocity.and(position).and(multiplier))
 }
+
+/// What a one-path step body works on: the kernel, the parts at (r, v) and the proposal.
+pub(crate) type OnePathStep<'a, S> = (OnePath<'a, S>, Parts<'a, f64>, Next<'a, f64>);
 
 /// What all Euler-type solvers hold: the inherent SDE, the step's parts, the proposed state
 /// and the last dmu.
 #[derive(Debug, Clone)]
 pub(crate) struct EulerCore<S: CurvedSystem> {
     pub sde: InherentSde<S>,
-    pub parts: EulerParts,
+    pub parts: EulerParts<Vec<f64>>,
     pub dmu: Vec<f64>,
     /// The proposed r_{k+1}, written back only once it is known to be finite.
     pub next_r: Vec<f64>,
@@ -102,28 +91,18 @@ impl<S: CurvedSystem> EulerCore<S> {
         })
     }
 
-    /// One (possibly truncated) Euler-Maruyama step into `next_r`, `next_v`, `dmu`: checks the
-    /// inputs, evaluates the parts at (r, v), asks `truncation(h, |f|)` for the factor
-    /// theta in (0, 1] and applies X' = X + theta h f(X) + sigma(X) dw. Returns theta.
-    pub fn propose(
-        &mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64], truncation: impl Fn(f64, f64) -> f64,
-    ) -> Result<f64, ReferenceError> {
+    /// Checks a step's inputs and gives what a step body works on: the one-path kernel, the
+    /// parts at (r, v) and the proposal (`next_r`, `next_v`, `dmu`).
+    pub fn checked(
+        &mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64],
+    ) -> Result<OnePathStep<'_, S>, ReferenceError> {
         self.sde.check_step_input(r, v, h, dw)?;
-        self.parts.evaluate(&mut self.sde, r, v, Some(dw))?;
-        let theta = truncation(h, self.parts.drift_norm(v));
-        self.next_r.copy_from_slice(r);
-        self.next_v.copy_from_slice(v);
-        self.parts
-            .apply(&mut self.next_r, &mut self.next_v, theta * h, &mut self.dmu);
-        self.check_proposal()?;
-        Ok(theta)
-    }
-
-    /// Fails with [`ReferenceError::NonFinite`] unless the proposed state and dmu are finite.
-    pub fn check_proposal(&self) -> Result<(), ReferenceError> {
-        check_finite("velocity after the step", &self.next_v)?;
-        check_finite("position after the step", &self.next_r)?;
-        check_finite("multiplier increment", &self.dmu)
+        let next = Next {
+            r: &mut self.next_r,
+            v: &mut self.next_v,
+            dmu: &mut self.dmu,
+        };
+        Ok((OnePath(&mut self.sde), self.parts.view(), next))
     }
 
     /// Writes the proposed state to (r, v).
@@ -162,7 +141,9 @@ impl<S: CurvedSystem> EulerMaruyama<S> {
 impl<S: CurvedSystem> EulerMaruyama<S> {
     /// One Euler-Maruyama step of eq. 2.4 (see the type's documentation), proposed.
     fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
-        self.core.propose(r, v, h, dw, |_, _| 1.0)?;
+        let (mut kernel, mut parts, mut next) = self.core.checked(r, v, h, dw)?;
+        let state = KernelState { r, v, dw };
+        euler_step(&mut kernel, state, h, None, &mut parts, &mut next)?;
         Ok(StepOutcome::PLAIN)
     }
 }

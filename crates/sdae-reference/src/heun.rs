@@ -1,10 +1,53 @@
 //! Stochastic Heun: trapezoidal drift with an Euler-Maruyama predictor on the same increment.
 
+use sdae_lanes::{PathMask, Real};
+use sdae_model::{KernelState, StepOutcome, StepResult};
+
 use crate::error::ReferenceError;
-use crate::euler::{EulerCore, EulerParts};
+use crate::euler::{EulerCore, euler_step, finished};
 use crate::inherent::{CurvedSystem, InherentSde};
+use crate::kernel::{EulerParts, InherentKernel, Next, Parts, Stepped};
 use crate::updates;
-use sdae_model::{StepOutcome, StepResult};
+
+/// One stochastic Heun step (see [`StochasticHeun`]), written once over [`Real`]: the
+/// Euler-Maruyama predictor X~ = (r~, v~) into `next` ([`euler_step`], with the parts at
+/// (r, v) in `parts`), the drift parts at X~ into `predictor`, then in place of X~
+///
+/// ```text
+/// r' = r + h/2 (v + v~),   v' = v + h/2 (accel + accel~) + noise_v,
+/// dmu = h/2 (mu_rate + mu_rate~) + noise_mu
+/// ```
+///
+/// The paths where the predictor, the parts at it and the result are defined and finite are
+/// decided.
+#[inline(always)]
+pub(crate) fn heun_step<T: Real, K: InherentKernel<T>>(
+    kernel: &mut K, state: KernelState<'_, T>, h: f64, parts: &mut Parts<'_, T>,
+    predictor: &mut Parts<'_, T>, next: &mut Next<'_, T>,
+) -> Result<Stepped<T>, K::Error> {
+    let predicted = euler_step(kernel, state, h, None, parts, next)?;
+    let at_predictor = kernel.parts(next.r, next.v, &[], predictor)?;
+    let KernelState { r, v, .. } = state;
+    let half = v[0].splat_like(0.5 * h);
+    let state = r.iter().zip(v);
+    let accel = parts.accel.iter().zip(predictor.accel.iter());
+    let out = next.r.iter_mut().zip(next.v.iter_mut());
+    for (((nr, nv), (ri, vi)), ((a, a_tilde), noise)) in
+        out.zip(state).zip(accel.zip(parts.noise_v.iter()))
+    {
+        let v_tilde = *nv;
+        *nr = updates::heun_position(*ri, *vi, v_tilde, half);
+        *nv = updates::heun_velocity(*vi, *a, *a_tilde, *noise, half);
+    }
+    let rates = parts.mu_rate.iter().zip(predictor.mu_rate.iter());
+    for (d, ((rate, rate_tilde), noise)) in
+        next.dmu.iter_mut().zip(rates.zip(parts.noise_mu.iter()))
+    {
+        *d = updates::heun_multiplier(*rate, *rate_tilde, *noise, half);
+    }
+    let ok = predicted.ok.and(at_predictor).and(finished(kernel, next)?);
+    Ok(Stepped { ok, ..predicted })
+}
 
 /// Stochastic Heun for the inherent SDE (seed eq. 2.4) as an SDE in R^{2n},
 /// dX = f(X) dt + sigma(X) dw with f, sigma of Lemma 4.2:
@@ -33,7 +76,7 @@ use sdae_model::{StepOutcome, StepResult};
 pub struct StochasticHeun<S: CurvedSystem> {
     core: EulerCore<S>,
     /// The drift parts at the predictor X~.
-    predictor: EulerParts,
+    predictor: EulerParts<Vec<f64>>,
 }
 
 impl<S: CurvedSystem> StochasticHeun<S> {
@@ -51,35 +94,10 @@ impl<S: CurvedSystem> StochasticHeun<S> {
 impl<S: CurvedSystem> StochasticHeun<S> {
     /// One stochastic Heun step (see the type's documentation), proposed.
     fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
-        let core = &mut self.core;
-        // Predictor X~ = X + f(X) h + sigma(X) dw into core.next_r, core.next_v.
-        core.propose(r, v, h, dw, |_, _| 1.0)?;
-        self.predictor
-            .evaluate(&mut core.sde, &core.next_r, &core.next_v, None)?;
-        // Corrector, element by element over the predictor's buffers.
-        let half = 0.5 * h;
-        let parts = &core.parts;
-        for i in 0..r.len() {
-            let v_tilde = core.next_v[i];
-            core.next_r[i] = updates::heun_position(r[i], v[i], v_tilde, half);
-            core.next_v[i] = updates::heun_velocity(
-                v[i],
-                parts.accel[i],
-                self.predictor.accel[i],
-                parts.noise_v[i],
-                half,
-            );
-        }
-        for (((d, rate0), rate1), noise) in core
-            .dmu
-            .iter_mut()
-            .zip(&parts.mu_rate)
-            .zip(&self.predictor.mu_rate)
-            .zip(&parts.noise_mu)
-        {
-            *d = updates::heun_multiplier(*rate0, *rate1, *noise, half);
-        }
-        core.check_proposal()?;
+        let (mut kernel, mut parts, mut next) = self.core.checked(r, v, h, dw)?;
+        let mut predictor = self.predictor.view();
+        let state = KernelState { r, v, dw };
+        heun_step(&mut kernel, state, h, &mut parts, &mut predictor, &mut next)?;
         Ok(StepOutcome::PLAIN)
     }
 }

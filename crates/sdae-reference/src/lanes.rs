@@ -1,8 +1,9 @@
 //! The Euler-type solvers of the inherent SDE (seed eq. 2.4, multiplier eq. 2.3) for a sphere
 //! constraint with a diagonal mass, W paths at once ([`LaneScheme`]): Euler-Maruyama, its
 //! drift-truncated form (Remark 3.3), projected Euler-Maruyama (the projection's root in closed
-//! form, [`SphereRoot`]) and stochastic Heun, each with the scalar solver's
-//! floating-point operations in the same order, so that a lane computes exactly what the
+//! form, [`SphereRoot`]) and stochastic Heun. Each runs the step its solver runs for one path
+//! (`euler_step`, `heun_step`, `projected_step`, written once over [`Real`]) with the
+//! lanes' [`InherentKernel`] ([`SphereLanes`]), so that a lane computes exactly what the
 //! solver computes for that path alone. A lane whose step the formulas do not decide (a
 //! singular or non-finite Gram value, a non-finite result) finishes its step through the
 //! scalar solver, which reports the failure as for one path.
@@ -12,6 +13,7 @@
 //! G_M(r) = r^T M^-1 r / rho^4 and M^-1 grad g(r) z = -z M^-1 r / rho^2.
 //!
 //! [`InherentSde`]: crate::InherentSde
+//! [`Real`]: sdae_lanes::Real
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
@@ -21,14 +23,14 @@ use sdae_model::engine::{
     LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
 };
-use sdae_model::{LaneScheme, Scheme, System};
+use sdae_model::{KernelState, LaneScheme, Scheme, System};
 
-use crate::euler::EulerMaruyama;
-use crate::heun::StochasticHeun;
+use crate::euler::{EulerMaruyama, euler_step};
+use crate::heun::{StochasticHeun, heun_step};
 use crate::inherent::CurvedSystem;
-use crate::projected::ProjectedEulerMaruyama;
+use crate::kernel::{EulerParts, InherentKernel, Next, Parts, Projecting, ProjectionKernel};
+use crate::projected::{ProjectedEulerMaruyama, projected_step};
 use crate::truncated::TruncatedEulerMaruyama;
-use crate::updates;
 
 /// Which solver's step the lanes take.
 #[derive(Debug, Clone, Copy)]
@@ -115,20 +117,71 @@ struct Kernel<const N: usize> {
 }
 
 impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
+    /// The solver's step body over W lanes with the sphere's [`SphereLanes`] kernel.
     #[inline(always)]
     fn step<Sd: Simd>(
         &self, scheme: &Sch, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<LaneStep<Sd, N>> {
-        let (system, h) = (scheme.system(), self.h);
-        match self.method {
-            Method::Euler => self.sde.euler(system, r, v, h, dw, None),
-            Method::Truncated(scale) => self.sde.euler(system, r, v, h, dw, Some(scale)),
-            Method::Heun => self.sde.heun(system, r, v, h, dw),
+        let zero = r[0].splat_like(0.0);
+        let mut kernel = SphereLanes {
+            sde: &self.sde,
+            system: scheme.system(),
+        };
+        let (state, h) = (KernelState { r, v, dw }, self.h);
+        let mut parts = lane_parts::<Sd, N>(zero);
+        let (mut next_r, mut next_v, mut dmu) = ([zero; N], [zero; N], [zero]);
+        let mut next = Next {
+            r: &mut next_r,
+            v: &mut next_v,
+            dmu: &mut dmu,
+        };
+        let stepped = match self.method {
+            Method::Euler => euler_step(&mut kernel, state, h, None, &mut parts.view(), &mut next),
+            Method::Truncated(c) => {
+                euler_step(&mut kernel, state, h, Some(c), &mut parts.view(), &mut next)
+            }
+            Method::Heun => {
+                let mut predictor = lane_parts::<Sd, N>(zero);
+                let predictor = &mut predictor.view();
+                heun_step(
+                    &mut kernel,
+                    state,
+                    h,
+                    &mut parts.view(),
+                    predictor,
+                    &mut next,
+                )
+            }
             Method::Projected(_) => {
-                let step = self.sde.euler(system, r, v, h, dw, None)?;
-                self.projection.map(|root| self.sde.project(&root, step))
+                let projection = self.projection.as_ref()?;
+                let mut kernel = Projecting { kernel, projection };
+                projected_step(&mut kernel, state, h, &mut parts.view(), &mut next)
             }
         }
+        .ok()?;
+        Some(LaneStep {
+            ok: stepped.ok,
+            r: next_r,
+            v: next_v,
+            dmu: dmu[0],
+            record: LaneRecord {
+                newton_iterations: stepped.newton_iterations,
+                ..LaneRecord::plain(stepped.eta)
+            },
+        })
+    }
+}
+
+/// [`EulerParts`] of W lanes, zero.
+#[inline(always)]
+fn lane_parts<Sd: Simd, const N: usize>(
+    zero: Lanes<Sd>,
+) -> EulerParts<[Lanes<Sd>; N], [Lanes<Sd>; 1]> {
+    EulerParts {
+        accel: [zero; N],
+        mu_rate: [zero],
+        noise_v: [zero; N],
+        noise_mu: [zero],
     }
 }
 
@@ -136,20 +189,6 @@ impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
 struct SphereSde<const N: usize> {
     sphere: Sphere,
     inverse_mass: [f64; N],
-}
-
-/// `EulerParts` over W lanes: the coefficients of one Euler step at (r, v), and the lanes
-/// where they are defined and finite.
-struct Parts<Sd: Simd, const N: usize> {
-    ok: LaneMask<Sd>,
-    /// Velocity drift of eq. 2.4.
-    accel: [Lanes<Sd>; N],
-    /// Drift of mu, eq. 2.3.
-    mu_rate: Lanes<Sd>,
-    /// M^-1 P_M B dw.
-    noise_v: [Lanes<Sd>; N],
-    /// -G_M^-1 Dg M^-1 B dw.
-    noise_mu: Lanes<Sd>,
 }
 
 impl<const N: usize> SphereSde<N> {
@@ -162,13 +201,14 @@ impl<const N: usize> SphereSde<N> {
     }
 
     /// `InherentSde::constrain_force` with the factor 1 / G_M(r) (`inverse_gram`) and the
-    /// force f: returns dv = M^-1 [f + grad g dmu] and dmu = -G_M^-1 { Dg M^-1 f + D^2 g(v, v) }
-    /// (the curvature term only with `curvature`, which is the drift's dt = 1).
+    /// force f: dv = M^-1 [f + grad g dmu] into `dv`, and returns
+    /// dmu = -G_M^-1 { Dg M^-1 f + D^2 g(v, v) } (the curvature term only with `curvature`,
+    /// which is the drift's dt = 1).
     #[inline(always)]
     fn constrain<Sd: Simd>(
-        &self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], inverse_gram: Lanes<Sd>,
-        mut force: [Lanes<Sd>; N], curvature: bool,
-    ) -> ([Lanes<Sd>; N], Lanes<Sd>) {
+        &self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], inverse_gram: Lanes<Sd>,
+        mut force: [Lanes<Sd>; N], curvature: bool, dv: &mut [Lanes<Sd>],
+    ) -> Lanes<Sd> {
         for (f, w) in force.iter_mut().zip(self.inverse_mass) {
             *f = *f * w;
         }
@@ -177,169 +217,108 @@ impl<const N: usize> SphereSde<N> {
             dmu = dmu + self.sphere.curvature_rate(v, v) * 1.0;
         }
         let dmu = -(dmu * inverse_gram);
-        let mut dv = force;
         self.sphere
-            .displace_diagonal(r, dmu, |k| self.inverse_mass[k], &force, &mut dv);
-        (dv, dmu)
+            .displace_diagonal(r, dmu, |k| self.inverse_mass[k], &force, dv);
+        dmu
     }
 
-    /// `EulerParts::evaluate` at (r, v) (with the noise parts for l > 0 increments); `None` if
-    /// the system has no lane form.
-    #[inline(always)]
-    fn parts<S: System, Sd: Simd>(
-        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
-    ) -> Option<Parts<Sd, N>> {
-        let zero = r[0].splat_like(0.0);
-        // G_M(r) = r^T M^-1 r / rho^4, factored as 1 / G_M(r) where finite and nonzero.
-        let gram = self.gram(r);
-        let mut ok = gram.is_finite().and(!gram.eq(zero));
-        let inverse_gram = zero.splat_like(1.0) / gram;
-        let mut force = [zero; N];
-        if !system.drift_lanes(r, v, &mut force) {
-            return None;
-        }
-        let (accel, mu_rate) = self.constrain(r, v, inverse_gram, force, true);
-        ok = ok.and(all_finite(&accel));
-        let (mut noise_v, mut noise_mu) = ([zero; N], zero);
-        if !dw.is_empty() {
-            let mut force = [zero; N];
-            if !system.add_noise_lanes(r, v, dw, &mut force) {
-                return None;
-            }
-            (noise_v, noise_mu) = self.constrain(r, v, inverse_gram, force, false);
-            ok = ok.and(all_finite(&noise_v));
-        }
-        Some(Parts {
-            ok,
-            accel,
-            mu_rate,
-            noise_v,
-            noise_mu,
-        })
-    }
-
-    /// One (truncated, with `Some(c)`) Euler-Maruyama step, `EulerCore::propose`: theta =
-    /// min(1, c / (|f| h)) with |f|^2 = |v|^2 + |accel|^2, r' = r + theta h v,
-    /// v' = v + theta h accel + noise_v, dmu = theta h mu_rate + noise_mu.
-    #[inline(always)]
-    fn euler<S: System, Sd: Simd>(
-        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, dw: &[Lanes<Sd>],
-        scale: Option<f64>,
-    ) -> Option<LaneStep<Sd, N>> {
-        let parts = self.parts(system, r, v, dw)?;
-        Some(Self::euler_with(&parts, r, v, h, scale))
-    }
-
-    /// [`SphereSde::euler`] with the parts at (r, v) evaluated.
-    #[inline(always)]
-    fn euler_with<Sd: Simd>(
-        parts: &Parts<Sd, N>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, scale: Option<f64>,
-    ) -> LaneStep<Sd, N> {
-        let theta = match scale {
-            None => r[0].splat_like(1.0),
-            Some(c) => updates::truncation(c, h, updates::drift_norm(v, &parts.accel)),
-        };
-        let dt = theta * h;
-        let (mut next_r, mut next_v) = (*r, *v);
-        for i in 0..N {
-            next_r[i] = updates::euler_position(r[i], v[i], dt);
-            next_v[i] = updates::euler_velocity(v[i], parts.accel[i], parts.noise_v[i], dt);
-        }
-        let dmu = updates::euler_multiplier(parts.mu_rate, parts.noise_mu, dt);
-        let ok = parts
-            .ok
-            .and(all_finite(&next_v))
-            .and(all_finite(&next_r))
-            .and(dmu.is_finite());
-        // A plain step, with the truncation factor theta where truncated (`StepOutcome::eta`).
-        LaneStep {
-            ok,
-            r: next_r,
-            v: next_v,
-            dmu,
-            record: LaneRecord::plain(theta),
-        }
-    }
-
-    /// One stochastic Heun step (`StochasticHeun`): the Euler-Maruyama predictor X~, then
-    /// r' = r + h/2 (v + v~), v' = v + h/2 (accel + accel~) + noise_v,
-    /// dmu = h/2 (mu_rate + mu_rate~) + noise_mu.
-    #[inline(always)]
-    fn heun<S: System, Sd: Simd>(
-        &self, system: &S, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], h: f64, dw: &[Lanes<Sd>],
-    ) -> Option<LaneStep<Sd, N>> {
-        let parts = self.parts(system, r, v, dw)?;
-        let predictor = Self::euler_with(&parts, r, v, h, None);
-        let at_predictor = self.parts(system, &predictor.r, &predictor.v, &[])?;
-        let half = r[0].splat_like(0.5 * h);
-        let (mut next_r, mut next_v) = (*r, *v);
-        for i in 0..N {
-            next_r[i] = updates::heun_position(r[i], v[i], predictor.v[i], half);
-            next_v[i] = updates::heun_velocity(
-                v[i],
-                parts.accel[i],
-                at_predictor.accel[i],
-                parts.noise_v[i],
-                half,
-            );
-        }
-        let dmu =
-            updates::heun_multiplier(parts.mu_rate, at_predictor.mu_rate, parts.noise_mu, half);
-        let ok = predictor
-            .ok
-            .and(at_predictor.ok)
-            .and(all_finite(&next_v))
-            .and(all_finite(&next_r))
-            .and(dmu.is_finite());
-        Some(LaneStep {
-            ok,
-            r: next_r,
-            v: next_v,
-            dmu,
-            record: LaneRecord::plain(r[0].splat_like(1.0)),
-        })
-    }
-}
-
-impl<const N: usize> SphereSde<N> {
     /// G_M(r) = r^T M^-1 r / rho^4 ([`Sphere::value_and_gram`] at x = r).
     #[inline(always)]
-    fn gram<Sd: Simd>(&self, r: &[Lanes<Sd>; N]) -> Lanes<Sd> {
+    fn gram<Sd: Simd>(&self, r: &[Lanes<Sd>]) -> Lanes<Sd> {
         let [_, gram] = self.sphere.value_and_gram(r, r, |k| self.inverse_mass[k]);
         gram
     }
+}
 
-    /// `ProjectedEulerMaruyama::project_proposal` of an Euler-Maruyama step to (y, u): r' = the
-    /// root's point of the projection of y along its normal (`root`, with r = y; y itself
-    /// where gamma = 0), then v' = u - M^-1 grad g(r') G_M(r')^-1 Dg(r') u.
+/// The lanes' [`InherentKernel`]: the sphere's closed forms with a diagonal mass and the
+/// system's lane formulas.
+struct SphereLanes<'a, S, const N: usize> {
+    sde: &'a SphereSde<N>,
+    system: &'a S,
+}
+
+/// A system without a lane form: its group steps through the scalar solver.
+struct NoLaneForm;
+
+impl<S: System, Sd: Simd, const N: usize> InherentKernel<Lanes<Sd>> for SphereLanes<'_, S, N> {
+    type Error = NoLaneForm;
+
+    /// `OnePath::parts` in closed form: G_M(r) factored as 1 / G_M(r) where finite and
+    /// nonzero.
     #[inline(always)]
-    fn project<Sd: Simd>(&self, root: &SphereRoot<N>, step: LaneStep<Sd, N>) -> LaneStep<Sd, N> {
-        let (y, u) = (step.r, step.v);
-        let position = root.solve(&y, &y);
+    fn parts(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>],
+        parts: &mut Parts<'_, Lanes<Sd>>,
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
+        let (sde, zero) = (self.sde, r[0].splat_like(0.0));
+        let gram = sde.gram(r);
+        let mut ok = gram.is_finite().and(!gram.eq(zero));
+        let inverse_gram = zero.splat_like(1.0) / gram;
+        let mut force = [zero; N];
+        if !self.system.drift_lanes(r, v, &mut force) {
+            return Err(NoLaneForm);
+        }
+        parts.mu_rate[0] = sde.constrain(r, v, inverse_gram, force, true, parts.accel);
+        ok = ok.and(all_finite(parts.accel));
+        if dw.is_empty() {
+            parts.noise_v.fill(zero);
+            parts.noise_mu.fill(zero);
+        } else {
+            let mut force = [zero; N];
+            if !self.system.add_noise_lanes(r, v, dw, &mut force) {
+                return Err(NoLaneForm);
+            }
+            parts.noise_mu[0] = sde.constrain(r, v, inverse_gram, force, false, parts.noise_v);
+            ok = ok.and(all_finite(parts.noise_v));
+        }
+        Ok(ok)
+    }
+
+    #[inline(always)]
+    fn finite(&self, _what: &'static str, x: &[Lanes<Sd>]) -> Result<LaneMask<Sd>, NoLaneForm> {
+        Ok(all_finite(x))
+    }
+}
+
+impl<S: System, Sd: Simd, const N: usize> ProjectionKernel<Lanes<Sd>>
+    for Projecting<SphereLanes<'_, S, N>, &SphereRoot<N>>
+{
+    /// The root's point of the projection of y = r along its normal ([`SphereRoot`], in closed
+    /// form: no Newton iterations; y itself where gamma = 0).
+    #[inline(always)]
+    fn project_position(
+        &mut self, r: &mut [Lanes<Sd>],
+    ) -> Result<(LaneMask<Sd>, Lanes<Sd>), NoLaneForm> {
+        let y: [Lanes<Sd>; N] = std::array::from_fn(|i| r[i]);
+        let position = self.projection.solve(&y, &y);
         let zero = y[0].splat_like(0.0);
         let at_y = position.gamma.eq(zero);
-        let r: [Lanes<Sd>; N] = std::array::from_fn(|i| Lanes::select(at_y, y[i], position.x[i]));
-        // G_M(r') = r'^T M^-1 r' / rho^4, lambda = G_M^-1 Dg(r') u, then
-        // v' = u + M^-1 grad g(r') (-lambda).
-        let gram = self.gram(&r);
-        let lambda = self.sphere.normal_rate(&r, &u) * (zero.splat_like(1.0) / gram);
-        let mut v = u;
-        self.sphere
-            .displace_diagonal(&r, -lambda, |k| self.inverse_mass[k], &u, &mut v);
-        let ok = step
-            .ok
-            .and(position.ok)
-            .and(all_finite(&r))
-            .and(gram.is_finite())
-            .and(!gram.eq(zero))
-            .and(all_finite(&v));
-        LaneStep { ok, r, v, ..step }
+        for (ri, (yi, xi)) in r.iter_mut().zip(y.iter().zip(&position.x)) {
+            *ri = Lanes::select(at_y, *yi, *xi);
+        }
+        Ok((position.ok, zero))
+    }
+
+    /// G_M(r) = r^T M^-1 r / rho^4, lambda = G_M^-1 Dg(r) u, then v = u + M^-1 grad g(r)
+    /// (-lambda), for u the v given.
+    #[inline(always)]
+    fn project_velocity(
+        &mut self, r: &[Lanes<Sd>], v: &mut [Lanes<Sd>],
+    ) -> Result<LaneMask<Sd>, NoLaneForm> {
+        let sde = self.kernel.sde;
+        let u: [Lanes<Sd>; N] = std::array::from_fn(|i| v[i]);
+        let zero = u[0].splat_like(0.0);
+        let gram = sde.gram(r);
+        let lambda = sde.sphere.normal_rate(r, &u) * (zero.splat_like(1.0) / gram);
+        sde.sphere
+            .displace_diagonal(r, -lambda, |k| sde.inverse_mass[k], &u, v);
+        Ok(gram.is_finite().and(!gram.eq(zero)))
     }
 }
 
 /// The lanes where every coordinate is finite.
 #[inline(always)]
-fn all_finite<Sd: Simd, const N: usize>(x: &[Lanes<Sd>; N]) -> LaneMask<Sd> {
+fn all_finite<Sd: Simd>(x: &[Lanes<Sd>]) -> LaneMask<Sd> {
     let mut ok = x[0].is_finite();
     for xi in &x[1..] {
         ok = ok.and(xi.is_finite());

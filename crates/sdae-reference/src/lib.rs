@@ -9,10 +9,12 @@
 //!   [`TruncatedEulerMaruyama`] (Remark 3.3, drift of Lemma 4.2), [`ProjectedEulerMaruyama`]
 //!   (Euler-Maruyama followed by projection onto the tangent bundle) and [`StochasticHeun`]
 //!   (trapezoidal drift, diffusion at the left point: an Ito scheme).
-//! - Lane forms ([`sdae_model::LaneScheme`]) of [`EulerMaruyama`], [`TruncatedEulerMaruyama`]
-//!   and [`StochasticHeun`] for a sphere constraint (the pendulums) with a diagonal mass: a
-//!   [`sdae_model::LaneEnsemble`] of them steps W paths at once in SIMD lanes with the same
-//!   numbers as each path alone (any other system steps path by path).
+//! - Lane forms ([`sdae_model::LaneScheme`]) of the four solvers for a sphere constraint (the
+//!   pendulums) with a diagonal mass: a [`sdae_model::LaneEnsemble`] of them steps W paths at
+//!   once in SIMD lanes with the same numbers as each path alone (any other system steps path
+//!   by path). Each solver's step is written once over [`sdae_lanes::Real`] and runs for one
+//!   path (`f64`, the coefficients from [`InherentSde`], any constraint) and for W lanes
+//!   (`Lanes`, the sphere's closed forms).
 //!
 //! ```
 //! use sdae_model::{NoObserver, TimeGrid, run_path};
@@ -67,6 +69,7 @@ mod error;
 mod euler;
 mod heun;
 mod inherent;
+mod kernel;
 mod lanes;
 mod projected;
 mod truncated;

@@ -2,10 +2,10 @@
 //! Hutzenthaler-Jentzen, with the drift of Lemma 4.2).
 
 use crate::error::ReferenceError;
-use crate::euler::EulerCore;
+use crate::euler::{EulerCore, euler_step};
 use crate::inherent::{CurvedSystem, InherentSde};
 use crate::updates;
-use sdae_model::{ModelError, StepOutcome, StepResult};
+use sdae_model::{KernelState, ModelError, StepOutcome, StepResult};
 
 /// Truncated Euler-Maruyama on the inherent SDE written as an R^{2n} SDE
 /// dX = f(X) dt + sigma(X) dw (seed Section 4.1, `eq:SDEstrongsetting`, with the coefficients of Lemma 4.2):
@@ -70,12 +70,12 @@ impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
 impl<S: CurvedSystem> TruncatedEulerMaruyama<S> {
     /// One truncated Euler-Maruyama step (see the type's documentation), proposed.
     fn propose(&mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64]) -> StepResult {
-        let scale = self.scale;
-        let theta = self
-            .core
-            .propose(r, v, h, dw, |h, f| Self::truncation(scale, h, f))?;
+        let scale = Some(self.scale);
+        let (mut kernel, mut parts, mut next) = self.core.checked(r, v, h, dw)?;
+        let state = KernelState { r, v, dw };
+        let stepped = euler_step(&mut kernel, state, h, scale, &mut parts, &mut next)?;
         Ok(StepOutcome {
-            eta: theta,
+            eta: stepped.eta,
             ..StepOutcome::PLAIN
         })
     }

@@ -1,7 +1,6 @@
 //! The updates of the Euler-type solvers of the inherent SDE (seed eq. 2.4, multiplier eq.
-//! 2.3), one coordinate at a time, written once over [`Real`]: the solvers' steps of one path
-//! (`euler.rs`, `heun.rs`, `truncated.rs`) and their lanes (`lanes.rs`) call them, so that a
-//! lane computes what the solver computes for its path.
+//! 2.3), one coordinate at a time, written once over [`Real`]: the solvers' step bodies
+//! (`euler_step`, `heun_step`, themselves written once over [`Real`]) call them.
 
 use sdae_lanes::Real;
 use sdae_manifold::vector::sum_squares;

@@ -3,10 +3,10 @@
 //! every width; where g is quadratic the kappa root is the closed form in lanes as on one path
 //! (no Newton iteration, the one-path certificate's method `ClosedForm`), elsewhere Newton.
 
-use crate::common::ensemble_bits;
+use crate::common::{Ellipse, ensemble_bits};
 use sdae_ift::Method;
-use sdae_lanes::{LaneWidth, Real};
-use sdae_manifold::{Hypersurface, IdentityMass, Roundoff, Surface};
+use sdae_lanes::LaneWidth;
+use sdae_manifold::{Hypersurface, IdentityMass};
 use sdae_model::{AdditiveNoise, MechanicalSystem, PathLoop, PathState, Scheme, System};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 
@@ -14,25 +14,6 @@ const PATHS: usize = 19;
 const STEPS: usize = 200;
 const H: f64 = 0.01;
 
-/// The ellipse x^2 / 4 + y^2 = 1 as g = (x^2 / 4 + y^2 - 1) / 2; `QUADRATIC` says whether it
-/// declares its constant second derivative (closed-form root) or not (Newton).
-#[derive(Debug, Clone, Copy)]
-struct Ellipse<const QUADRATIC: bool>;
-
-impl<const QUADRATIC: bool> Surface<2> for Ellipse<QUADRATIC> {
-    fn value<T: Real>(&self, x: &[T; 2]) -> T {
-        (x[0] * x[0] * 0.25 + x[1] * x[1] - 1.0) * 0.5
-    }
-    fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
-        [x[0] * 0.25, x[1]]
-    }
-    fn roundoff(&self) -> Roundoff {
-        Roundoff::Length(1.0)
-    }
-    fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
-        QUADRATIC.then(|| u[0] * w[0] * 0.25 + u[1] * w[1])
-    }
-}
 
 fn gravity(_r: &[f64], _v: &[f64], out: &mut [f64]) {
     out[0] = 0.0;

@@ -4,10 +4,10 @@
 //! compute each path's own numbers, the projection's typed failure where the half-explicit
 //! step goes on, and the systems the schemes refuse.
 
-use crate::common::noisy_pendulum;
-use sdae_lanes::{LaneWidth, Real};
+use crate::common::{Ellipse, noisy_pendulum};
+use sdae_lanes::LaneWidth;
 use sdae_manifold::Constraint;
-use sdae_manifold::{DenseMass, DiagonalMass, Hypersurface, Roundoff, Sphere, Surface};
+use sdae_manifold::{DenseMass, DiagonalMass, Hypersurface, Sphere};
 use sdae_model::{
     AdditiveNoise, ClosureNoise, FailureKind, LaneEnsemble, MechanicalSystem, NoObserver, Observer,
     PathEnsemble, Scheme, StepFailure, StepOutcome, System, TimeGrid, ZeroDrift, project_state,
@@ -280,25 +280,6 @@ fn lanes_and_widths_give_each_path_its_own_numbers() {
     }
 }
 
-/// The ellipse x^2 / 4 + y^2 = 1 as g = (x^2 / 4 + y^2 - 1) / 2; `QUADRATIC` says whether it
-/// declares its constant second derivative (SHAKE's root in closed form) or not (Newton).
-#[derive(Debug, Clone, Copy)]
-struct Ellipse<const QUADRATIC: bool>;
-
-impl<const QUADRATIC: bool> Surface<2> for Ellipse<QUADRATIC> {
-    fn value<T: Real>(&self, x: &[T; 2]) -> T {
-        (x[0] * x[0] * 0.25 + x[1] * x[1] - 1.0) * 0.5
-    }
-    fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
-        [x[0] * 0.25, x[1]]
-    }
-    fn roundoff(&self) -> Roundoff {
-        Roundoff::Length(1.0)
-    }
-    fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
-        QUADRATIC.then(|| u[0] * w[0] * 0.25 + u[1] * w[1])
-    }
-}
 
 /// The thermal ellipse: gravity, friction 0.5, noise 1.5, masses diag(2, 0.5).
 fn thermal_ellipse<const QUADRATIC: bool>() -> impl System + Clone {

@@ -1,6 +1,7 @@
 //! Builders shared by the integration tests.
 
-use sdae_manifold::{BeadChain, Constraint, IdentityMass, TheoryBound};
+use sdae_lanes::Real;
+use sdae_manifold::{BeadChain, Constraint, IdentityMass, Roundoff, Surface, TheoryBound};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, System};
 use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::StepperConfig;
@@ -118,4 +119,24 @@ pub fn ensemble_bits<E: PathEnsemble + ?Sized>(
             (bits, failure)
         })
         .collect()
+}
+
+/// The ellipse x^2 / 4 + y^2 = 1 as g = (x^2 / 4 + y^2 - 1) / 2; `QUADRATIC` says whether it
+/// declares its constant second derivative (the kappa root in closed form) or not (Newton).
+#[derive(Debug, Clone, Copy)]
+pub struct Ellipse<const QUADRATIC: bool>;
+
+impl<const QUADRATIC: bool> Surface<2> for Ellipse<QUADRATIC> {
+    fn value<T: Real>(&self, x: &[T; 2]) -> T {
+        (x[0] * x[0] * 0.25 + x[1] * x[1] - 1.0) * 0.5
+    }
+    fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
+        [x[0] * 0.25, x[1]]
+    }
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Length(1.0)
+    }
+    fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
+        QUADRATIC.then(|| u[0] * w[0] * 0.25 + u[1] * w[1])
+    }
 }

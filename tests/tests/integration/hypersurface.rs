@@ -14,7 +14,6 @@ const PATHS: usize = 19;
 const STEPS: usize = 200;
 const H: f64 = 0.01;
 
-
 fn gravity(_r: &[f64], _v: &[f64], out: &mut [f64]) {
     out[0] = 0.0;
     out[1] = -1.0;

@@ -280,7 +280,6 @@ fn lanes_and_widths_give_each_path_its_own_numbers() {
     }
 }
 
-
 /// The thermal ellipse: gravity, friction 0.5, noise 1.5, masses diag(2, 0.5).
 fn thermal_ellipse<const QUADRATIC: bool>() -> impl System + Clone {
     MechanicalSystem::new(

@@ -93,6 +93,7 @@ impl<S: CurvedSystem> EulerCore<S> {
 
     /// Checks a step's inputs and gives what a step body works on: the one-path kernel, the
     /// parts at (r, v) and the proposal (`next_r`, `next_v`, `dmu`).
+    #[inline]
     pub fn checked(
         &mut self, r: &[f64], v: &[f64], h: f64, dw: &[f64],
     ) -> Result<OnePathStep<'_, S>, ReferenceError> {
@@ -106,6 +107,7 @@ impl<S: CurvedSystem> EulerCore<S> {
     }
 
     /// Writes the proposed state to (r, v).
+    #[inline]
     pub fn commit(&self, r: &mut [f64], v: &mut [f64]) {
         r.copy_from_slice(&self.next_r);
         v.copy_from_slice(&self.next_v);

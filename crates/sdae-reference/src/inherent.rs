@@ -86,6 +86,7 @@ impl<S: CurvedSystem> InherentSde<S> {
 
     /// Builds G_M(r) = Dg(r) M^-1 grad g(r) (seed Section 2.1) with
     /// [`Constraint::cross_gram`] and factors it for the evaluations at r that follow.
+    #[inline]
     pub fn prepare(&mut self, r: &[f64]) -> Result<(), ReferenceError> {
         check_dim("position r", self.dim(), r.len())?;
         self.prepared = false;
@@ -107,6 +108,7 @@ impl<S: CurvedSystem> InherentSde<S> {
 
     /// With `self.force` = f: dmu = -G_M^-1 { Dg M^-1 f + D^2 g(v, v) dt } and
     /// dv = M^-1 [f + grad g dmu] (the common core of eq. 2.3 and eq. 2.4).
+    #[inline(always)]
     fn constrain_force(&mut self, r: &[f64], v: &[f64], dt: f64, dv: &mut [f64], dmu: &mut [f64]) {
         let c = self.system.constraint();
         let mass = self.system.mass();
@@ -130,6 +132,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// `accel = M^-1 [P_M(r) a(r, v) - grad g(r) G_M(r)^-1 D^2 g(r)(v, v)]`, and the drift
     /// part of the multiplier, eq. 2.3:
     /// `mu_rate = -G_M(r)^-1 { Dg(r) M^-1 a(r, v) + D^2 g(r)(v, v) }`.
+    #[inline]
     pub fn drift_prepared(&mut self, r: &[f64], v: &[f64], accel: &mut [f64], mu_rate: &mut [f64]) {
         self.assert_prepared(r);
         self.system.drift(r, v, &mut self.force);
@@ -139,6 +142,7 @@ impl<S: CurvedSystem> InherentSde<S> {
     /// With G_M(r) prepared: the diffusion of the inherent SDE, seed eq. 2.4, applied to an
     /// increment, `dv = M^-1 P_M(r) B(r, v) dw`, and the noise part of the multiplier
     /// increment, eq. 2.3: `dmu = -G_M(r)^-1 Dg(r) M^-1 B(r, v) dw`.
+    #[inline]
     pub fn noise_prepared(
         &mut self, r: &[f64], v: &[f64], dw: &[f64], dv: &mut [f64], dmu: &mut [f64],
     ) {

@@ -20,6 +20,7 @@ pub(crate) mod saves;
 pub(crate) mod segments;
 
 use std::io::Write;
+use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -106,11 +107,67 @@ struct Header {
     shard: (usize, usize),
 }
 
-/// The checkpoint file of one run (one scene, one shard of one study).
+/// A checkpoint file and how often a run saves to it; `R` is the kind of run whose results it
+/// holds ([`Checkpoint`], [`MlmcCheckpoint`](crate::mlmc_checkpoint::MlmcCheckpoint)).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Checkpoint {
-    path: PathBuf,
-    every: Duration,
+pub struct CheckpointFile<R> {
+    pub(crate) path: PathBuf,
+    pub(crate) every: Duration,
+    run: PhantomData<R>,
+}
+
+/// The checkpoint file of one convergence run (one scene, one shard of one study).
+pub type Checkpoint = CheckpointFile<ConvergenceRun>;
+
+impl<R> CheckpointFile<R> {
+    /// A checkpoint kept at `path`, saved every [`DEFAULT_INTERVAL`] while a run goes on.
+    pub fn new(path: impl Into<PathBuf>) -> Self {
+        CheckpointFile {
+            path: path.into(),
+            every: DEFAULT_INTERVAL,
+            run: PhantomData,
+        }
+    }
+
+    /// The same checkpoint saved every `every` while a run goes on (at the end of the block
+    /// that finishes after the interval; `Duration::ZERO`: after every block).
+    pub fn every(self, every: Duration) -> Self {
+        CheckpointFile { every, ..self }
+    }
+
+    /// Where the run's results are kept.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Removes the checkpoint file (once the results it holds are in a report); one that is
+    /// not there is no error.
+    pub fn remove(&self) -> Result<(), StudyError> {
+        match std::fs::remove_file(&self.path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                Err(StudyError::write(&self.path, e))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Takes the lock of this checkpoint (and so of the run's results): see [`RunLock`].
+    pub fn lock(&self) -> Result<RunLock, StudyError> {
+        RunLock::beside(&self.path)
+    }
+
+    /// The [`StudyError::Resume`] refusing to resume from this checkpoint, saying why.
+    pub(crate) fn refuse(&self, reason: String) -> StudyError {
+        StudyError::Resume {
+            path: self.path.clone(),
+            reason,
+        }
+    }
+
+    /// The refusal of a checkpoint saved by a run with another `what` (scene, shard, ...).
+    pub(crate) fn saved_by_another(&self, what: &str) -> StudyError {
+        self.refuse(format!("it was saved by a run with another {what}"))
+    }
 }
 
 /// The paths of shard `shard` = (index, count) of `paths` paths.
@@ -155,25 +212,6 @@ fn read_payloads<T>(
 }
 
 impl Checkpoint {
-    /// A checkpoint kept at `path`, saved every [`DEFAULT_INTERVAL`] while a run goes on.
-    pub fn new(path: impl Into<PathBuf>) -> Self {
-        Checkpoint {
-            path: path.into(),
-            every: DEFAULT_INTERVAL,
-        }
-    }
-
-    /// The same checkpoint saved every `every` while a run goes on (at the end of the block of
-    /// paths that finishes after the interval; `Duration::ZERO`: after every block).
-    pub fn every(self, every: Duration) -> Self {
-        Checkpoint { every, ..self }
-    }
-
-    /// Where the finished paths are kept.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The header, the records and the bytes of a torn last segment of the checkpoint file
     /// holding `bytes`: checksums verified, records read, nothing checked against a run.
     fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<PathRecord>, usize), StudyError> {
@@ -200,21 +238,16 @@ impl Checkpoint {
             return Ok(None);
         };
         let (header, records, torn) = self.parse(&bytes)?;
-        let refuse = |reason: String| StudyError::Resume {
-            path: self.path.clone(),
-            reason,
-        };
-        let differs = |what: &str| refuse(format!("it was saved by a run with another {what}"));
         if header.scene != *scene {
-            return Err(differs("scene"));
+            return Err(self.saved_by_another("scene"));
         }
         if !header.settings.same_numbers(settings) {
-            return Err(differs("setting (paths, levels, seed, T, p or schemes)"));
+            return Err(self.saved_by_another("setting (paths, levels, seed, T, p or schemes)"));
         }
         if header.shard != shard {
-            return Err(differs("shard"));
+            return Err(self.saved_by_another("shard"));
         }
-        check_records(&records, settings, shard, None).map_err(refuse)?;
+        check_records(&records, settings, shard, None).map_err(|reason| self.refuse(reason))?;
         Ok(Some(SavedPaths { records, torn }))
     }
 
@@ -264,10 +297,7 @@ impl Checkpoint {
         let mut run = run_convergence(scene, settings, shard, control)?;
         run.records.extend(saved);
         run.records.sort_by_key(|r| r.index);
-        run.check_records().map_err(|reason| StudyError::Resume {
-            path: self.path.clone(),
-            reason,
-        })?;
+        run.check_records().map_err(|reason| self.refuse(reason))?;
         // Whole or not, the run's paths are saved: a report that follows may be stopped or
         // fail to be written, and --resume writes it from them without running again.
         if saves.added() == run.records.len() {
@@ -295,24 +325,6 @@ impl Checkpoint {
         let body = batches(&run.records, write_record::<Vec<u8>>)
             .map_err(|e| StudyError::write(&self.path, e))?;
         Appender::create(&self.path, MAGIC, &header, &body).map(|_| ())
-    }
-
-    /// Removes the checkpoint file (once the results it holds are in a report).
-    pub fn remove(&self) -> Result<(), StudyError> {
-        remove_checkpoint(&self.path)
-    }
-
-    /// Takes the lock of this checkpoint (and so of the run's results): see [`RunLock`].
-    pub fn lock(&self) -> Result<RunLock, StudyError> {
-        RunLock::beside(&self.path)
-    }
-}
-
-/// Removes a checkpoint file; one that is not there is no error.
-pub(crate) fn remove_checkpoint(path: &Path) -> Result<(), StudyError> {
-    match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(StudyError::write(path, e)),
-        _ => Ok(()),
     }
 }
 

@@ -22,9 +22,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
-use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
-use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
@@ -32,8 +30,7 @@ use crate::checkpoint::saves::Saves;
 #[cfg(test)]
 use crate::checkpoint::segments::{Appender, batches};
 use crate::checkpoint::{
-    DEFAULT_INTERVAL, Reader, RunLock, parse_file, read_bytes, remove_checkpoint, torn_note,
-    write_f64, write_varint,
+    CheckpointFile, Reader, parse_file, read_bytes, torn_note, write_f64, write_varint,
 };
 use sdae_mlmc::algorithm::Plan;
 use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
@@ -90,32 +87,9 @@ impl SavedBlocks {
 }
 
 /// The checkpoint file of one MLMC run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MlmcCheckpoint {
-    path: PathBuf,
-    every: Duration,
-}
+pub type MlmcCheckpoint = CheckpointFile<MlmcRun>;
 
 impl MlmcCheckpoint {
-    /// A checkpoint kept at `path`, saved every [`DEFAULT_INTERVAL`] while a run goes on.
-    pub fn new(path: impl Into<PathBuf>) -> Self {
-        MlmcCheckpoint {
-            path: path.into(),
-            every: DEFAULT_INTERVAL,
-        }
-    }
-
-    /// The same checkpoint saved every `every` while a run goes on (when the first block that
-    /// finishes after the interval finishes; `Duration::ZERO`: after every block).
-    pub fn every(self, every: Duration) -> Self {
-        MlmcCheckpoint { every, ..self }
-    }
-
-    /// Where the blocks are kept.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The header, the blocks and the bytes of a torn last segment of the checkpoint file
     /// holding `bytes`: checksums verified, blocks read, nothing checked against a run.
     fn parse(&self, bytes: &[u8]) -> Result<(Header, Vec<Block>, usize), StudyError> {
@@ -140,20 +114,16 @@ impl MlmcCheckpoint {
             return Ok(None);
         };
         let (header, records, torn) = self.parse(&bytes)?;
-        let refuse = |reason: String| StudyError::Resume {
-            path: self.path.clone(),
-            reason,
-        };
         if let Some(what) = difference(&header.run, run) {
-            return Err(refuse(format!("it was saved by a run with another {what}")));
+            return Err(self.saved_by_another(what));
         }
         let mut blocks = BTreeMap::new();
         for (key, sums) in records {
             if let Some(reason) = out_of_range(run, key, &sums) {
-                return Err(refuse(reason));
+                return Err(self.refuse(reason));
             }
             if blocks.insert(key, sums).is_some() {
-                return Err(refuse(format!(
+                return Err(self.refuse(format!(
                     "block {} of level {} appears twice",
                     key.block, key.level
                 )));
@@ -191,16 +161,6 @@ impl MlmcCheckpoint {
             .map_err(|e| StudyError::write(&self.path, e))?;
         let body = batches(blocks, write_record).map_err(|e| StudyError::write(&self.path, e))?;
         Appender::create(&self.path, MAGIC, &header, &body).map(|_| ())
-    }
-
-    /// Removes the checkpoint file (once the results it holds are in a report).
-    pub fn remove(&self) -> Result<(), StudyError> {
-        remove_checkpoint(&self.path)
-    }
-
-    /// Takes the lock of this checkpoint (and so of the run's results): see [`RunLock`].
-    pub fn lock(&self) -> Result<RunLock, StudyError> {
-        RunLock::beside(&self.path)
     }
 }
 
@@ -361,6 +321,8 @@ impl BlockStore for Journal<'_> {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use super::*;
 
     #[test]

@@ -380,32 +380,23 @@ fn checked<'p>(
 
 /// The convergence study of each scene, or one shard of it.
 pub fn convergence(args: &ConvergenceArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    let e = &args.ensemble;
-    let scenes = e.scenes.load(|s| s.name == "pendulum")?;
-    let settings: Vec<_> = scenes.iter().map(|s| args.settings(s)).collect();
     let study = SceneStudy {
         prefix: "",
         outputs: &REPORT_FILES,
         table: "study",
     };
-    run_scenes(
-        e,
-        &scenes,
-        &settings,
-        args.shard,
-        study,
-        stop,
-        |run, dir| {
-            let report = build_report(run);
-            print_summary(&report);
-            write_report(&report, dir)?;
-            say!(
-                "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
-                dir.display()
-            );
-            Ok(uncompared_in(&report))
-        },
-    )
+    let settings = |scene: &Scene| Ok(args.settings(scene));
+    let report = |run: ConvergenceRun, dir: &Path| {
+        let report = build_report(run);
+        print_summary(&report);
+        write_report(&report, dir)?;
+        say!(
+            "wrote {0}/report.json, report.csv, report.md, error_vs_h.svg, error_vs_time.svg",
+            dir.display()
+        );
+        Ok(uncompared_in(&report))
+    };
+    run_scenes(&args.ensemble, args.shard, study, stop, settings, report)
 }
 
 /// The files of a study that writes one report per scene (the convergence or the weak-error
@@ -419,17 +410,33 @@ struct SceneStudy<'a> {
     table: &'a str,
 }
 
-/// Runs `study` on each scene with its settings (checked first), or shard `shard` of it: a
-/// shard's paths are written as `<prefix>shard-I-of-N.json` for `merge`; an unsharded run goes
-/// to `report(run, scene's folder)`, which writes the report and returns what could not be
+/// The scenes named (default: the pendulum) and their settings from `settings_of`, checked
+/// against the scene table `table`.
+fn scenes_and_settings(
+    e: &EnsembleArgs, table: &str,
+    settings_of: impl Fn(&Scene) -> Result<ConvergenceSettings, Failure>,
+) -> Result<(Vec<Scene>, Vec<ConvergenceSettings>), Failure> {
+    let scenes = e.scenes.load(|s| s.name == "pendulum")?;
+    let settings = scenes
+        .iter()
+        .map(settings_of)
+        .collect::<Result<Vec<_>, _>>()?;
+    distinct(&scenes)?;
+    checked(&scenes, &settings, table, |k| e.scenes.file_of(k))?;
+    Ok((scenes, settings))
+}
+
+/// Runs `study` on each scene named (default: the pendulum) with its settings from
+/// `settings_of` (checked first), or shard `shard` of it: a shard's paths are written as
+/// `<prefix>shard-I-of-N.json` for `merge`; an unsharded run goes to
+/// `report(run, scene's folder)`, which writes the report and returns what could not be
 /// compared. A report that cannot be written leaves the paths in the checkpoint.
 fn run_scenes(
-    e: &EnsembleArgs, scenes: &[Scene], settings: &[ConvergenceSettings], shard: Option<ShardArg>,
-    study: SceneStudy<'_>, stop: &AtomicBool,
+    e: &EnsembleArgs, shard: Option<ShardArg>, study: SceneStudy<'_>, stop: &AtomicBool,
+    settings_of: impl Fn(&Scene) -> Result<ConvergenceSettings, Failure>,
     mut report: impl FnMut(ConvergenceRun, &Path) -> Result<Vec<String>, StudyError>,
 ) -> Result<(), Failure> {
-    distinct(scenes)?;
-    checked(scenes, settings, study.table, |k| e.scenes.file_of(k))?;
+    let (scenes, settings) = scenes_and_settings(e, study.table, settings_of)?;
     let shard = shard
         .map(|s| s.resolve(|name| std::env::var(name).ok()))
         .transpose()
@@ -444,7 +451,7 @@ fn run_scenes(
     };
     let jobs = scenes
         .iter()
-        .zip(settings)
+        .zip(&settings)
         .map(|(scene, settings)| {
             let dir = e.out.out.join(&scene.name);
             let file = dir.join(format!("{prefix}checkpoint-{index}-of-{count}.bin"));
@@ -712,34 +719,22 @@ const WEAK_FILES: [&str; 5] = [
 /// The weak-error study of each scene named (default: the pendulum), from its [weak] table, or
 /// one shard of it.
 pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    let e = &args.ensemble;
-    let scenes = e.scenes.load(|s| s.name == "pendulum")?;
-    let settings = scenes
-        .iter()
-        .map(|scene| {
-            weak::weak_settings(scene, e.quick)
-                .map(|s| args.apply(s))
-                .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     let study = SceneStudy {
         prefix: "weak-",
         outputs: &WEAK_FILES,
         table: "weak",
     };
-    run_scenes(
-        e,
-        &scenes,
-        &settings,
-        args.shard,
-        study,
-        stop,
-        |run, dir| {
-            let report = weak::build_weak_report(run)?;
-            write_weak(&report, dir)?;
-            Ok(weak_uncompared(&report))
-        },
-    )
+    let settings = |scene: &Scene| {
+        weak::weak_settings(scene, args.ensemble.quick)
+            .map(|s| args.apply(s))
+            .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
+    };
+    let report = |run: ConvergenceRun, dir: &Path| {
+        let report = weak::build_weak_report(run)?;
+        write_weak(&report, dir)?;
+        Ok(weak_uncompared(&report))
+    };
+    run_scenes(&args.ensemble, args.shard, study, stop, settings, report)
 }
 
 /// Prints the summary of a weak-error report and writes its files to `dir`.

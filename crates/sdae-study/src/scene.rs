@@ -167,23 +167,47 @@ impl Default for SchemeSpec {
     }
 }
 
-/// Default study settings of the scene (the command line overrides them).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StudyDefaults {
-    /// Monte Carlo paths.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub paths: Option<usize>,
-    /// Level exponents [A, B]: N = 2^A .. 2^B.
-    #[serde(
-        default,
-        skip_serializing_if = "Option::is_none",
-        deserialize_with = "sdae_systems::exact::option_array"
-    )]
-    pub levels: Option<[u32; 2]>,
-    /// Reference level R (2^R steps).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reference: Option<u32>,
+/// Declares a settings struct whose last fields are the optional study defaults `paths`,
+/// `levels` and `reference`, after the fields written out. The fields are declared in place
+/// (not flattened) so that `deny_unknown_fields` keeps working.
+macro_rules! with_study_defaults {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $(
+                $(#[$field_meta:meta])*
+                pub $field:ident: $ty:ty,
+            )*
+        }
+    ) => {
+        $(#[$meta])*
+        pub struct $name {
+            $(
+                $(#[$field_meta])*
+                pub $field: $ty,
+            )*
+            /// Monte Carlo paths.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub paths: Option<usize>,
+            /// Level exponents [A, B]: N = 2^A .. 2^B.
+            #[serde(
+                default,
+                skip_serializing_if = "Option::is_none",
+                deserialize_with = "sdae_systems::exact::option_array"
+            )]
+            pub levels: Option<[u32; 2]>,
+            /// Reference level R (2^R steps).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub reference: Option<u32>,
+        }
+    };
+}
+
+with_study_defaults! {
+    /// Default study settings of the scene (the command line overrides them).
+    #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub struct StudyDefaults {}
 }
 
 /// Settings of the stability study for a stiff or extreme scene.
@@ -242,31 +266,20 @@ pub struct EquipartitionSpec {
     pub configurational: Option<String>,
 }
 
-/// Settings of the weak-error study: the observables f whose expectations E[f(X_T)] it
-/// measures, exact values of some of them, and the study's defaults.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct WeakSpec {
-    /// Built-in observables of the scene's system (see
-    /// [`observable::names_for`](crate::observable::names_for)).
-    pub observables: Vec<String>,
-    /// Exact values of E[f(X_T)] for some of the observables, by name: the weak error is then
-    /// measured against them, otherwise against the reference on the same paths.
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub exact: BTreeMap<String, f64>,
-    /// Monte Carlo paths.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub paths: Option<usize>,
-    /// Level exponents [A, B]: N = 2^A .. 2^B.
-    #[serde(
-        default,
-        skip_serializing_if = "Option::is_none",
-        deserialize_with = "sdae_systems::exact::option_array"
-    )]
-    pub levels: Option<[u32; 2]>,
-    /// Reference level R (2^R steps).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reference: Option<u32>,
+with_study_defaults! {
+    /// Settings of the weak-error study: the observables f whose expectations E[f(X_T)] it
+    /// measures, exact values of some of them, and the study's defaults.
+    #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    pub struct WeakSpec {
+        /// Built-in observables of the scene's system (see
+        /// [`observable::names_for`](crate::observable::names_for)).
+        pub observables: Vec<String>,
+        /// Exact values of E[f(X_T)] for some of the observables, by name: the weak error is
+        /// then measured against them, otherwise against the reference on the same paths.
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        pub exact: BTreeMap<String, f64>,
+    }
 }
 
 /// A scene.

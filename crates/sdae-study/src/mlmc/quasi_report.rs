@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 
 use super::quasi::{QmcReport, QuasiStandardRun};
+use super::report::{csv_interval, interval};
 use sdae_stats::Interval;
 
 /// "c [low, high]", "c (no interval from two eps)", or "-" (fewer than two eps).
@@ -38,11 +39,9 @@ pub fn section(qmc: &QmcReport) -> String {
         let e = &row.run;
         let _ = writeln!(
             s,
-            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
+            "| {:.0e} | {} | {:.2e} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
             e.eps,
-            e.estimate.estimate,
-            e.estimate.ci_low,
-            e.estimate.ci_high,
+            interval(&e.estimate),
             e.variance,
             e.bias,
             e.bias_alpha,
@@ -122,15 +121,13 @@ pub fn coordinates_line(qmc: &QmcReport) -> String {
 pub fn standard_line(d: &QuasiStandardRun) -> String {
     format!(
         "Direct single-level randomized QMC on level {} ({} randomizations of {} points, {} \
-         failed): {:.6} [{:.6}, {:.6}] at eps = {:.2e} (asked {:.0e}) in {:.3e} steps, {:.3} s; \
+         failed): {} at eps = {:.2e} (asked {:.0e}) in {:.3e} steps, {:.3} s; \
          standard Monte Carlo needs {:.3e} steps for that accuracy: {:.1}x.",
         d.level.level,
         d.level.randomizations.len(),
         d.level.points,
         d.level.failed,
-        d.estimate.estimate,
-        d.estimate.ci_low,
-        d.estimate.ci_high,
+        interval(&d.estimate),
         d.eps,
         d.target_eps,
         d.work,
@@ -148,12 +145,10 @@ pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
         .map(|row| {
             let e = &row.run;
             format!(
-                "MLQMC eps {:.0e}: {:.6} [{:.6}, {:.6}], L = {}, n_l = [{}] x R = {}, work {:.3e} \
+                "MLQMC eps {:.0e}: {}, L = {}, n_l = [{}] x R = {}, work {:.3e} \
                  steps (MLMC's over it: {:.1}x), {:.3} s",
                 e.eps,
-                e.estimate.estimate,
-                e.estimate.ci_low,
-                e.estimate.ci_high,
+                interval(&e.estimate),
                 e.levels.len() - 1,
                 points(row),
                 e.randomizations,
@@ -183,11 +178,9 @@ pub fn csv(qmc: &QmcReport) -> String {
         let failed: Vec<String> = e.levels.iter().map(|q| q.failed.to_string()).collect();
         let _ = writeln!(
             s,
-            "{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{},{:e},{:e},{:e},{:e}",
+            "{:e},{},{:e},{:e},{:e},{},{},{},{},{},{:e},{:e},{:e},{:e}",
             e.eps,
-            e.estimate.estimate,
-            e.estimate.ci_low,
-            e.estimate.ci_high,
+            csv_interval(&e.estimate),
             e.variance,
             e.bias,
             e.bias_alpha,

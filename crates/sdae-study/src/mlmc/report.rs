@@ -10,6 +10,7 @@ use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::readable;
 use sdae_mlmc::fit::Rates;
+use sdae_mlmc::sums::LevelStats;
 use sdae_stats::Interval;
 
 /// "estimate [low, high]", or "-".
@@ -17,6 +18,94 @@ pub fn describe(i: Option<&Interval>) -> String {
     i.map_or("-".into(), |i| {
         format!("{:.3} [{:.3}, {:.3}]", i.estimate, i.ci_low, i.ci_high)
     })
+}
+
+/// An estimate with its interval to six decimals, "estimate [low, high]".
+pub fn interval(i: &Interval) -> String {
+    format!("{:.6} [{:.6}, {:.6}]", i.estimate, i.ci_low, i.ci_high)
+}
+
+/// An estimate with its interval as three CSV fields, "estimate,low,high".
+pub fn csv_interval(i: &Interval) -> String {
+    format!("{:e},{:e},{:e}", i.estimate, i.ci_low, i.ci_high)
+}
+
+/// A column of a Markdown table of levels ([`level_table`]).
+#[derive(Debug, Clone, Copy)]
+pub enum LevelColumn {
+    /// l.
+    Level,
+    /// Steps of the fine path.
+    Steps,
+    /// Samples with a value.
+    Samples,
+    /// mean Y_l.
+    MeanY,
+    /// var Y_l.
+    VarY,
+    /// mean P_l.
+    MeanP,
+    /// var P_l.
+    VarP,
+    /// Kurtosis of Y_l.
+    Kurtosis,
+    /// The consistency check.
+    Check,
+    /// Work per sample in steps.
+    Work,
+    /// Measured seconds per sample.
+    Seconds,
+    /// Failed fine and coarse paths.
+    Failed,
+}
+
+impl LevelColumn {
+    /// The column's header.
+    fn header(self) -> &'static str {
+        match self {
+            Self::Level => "l",
+            Self::Steps => "steps",
+            Self::Samples => "samples",
+            Self::MeanY => "mean Y_l",
+            Self::VarY => "var Y_l",
+            Self::MeanP => "mean P_l",
+            Self::VarP => "var P_l",
+            Self::Kurtosis => "kurtosis",
+            Self::Check => "check",
+            Self::Work => "work/sample (steps)",
+            Self::Seconds => "seconds/sample",
+            Self::Failed => "failed (fine/coarse)",
+        }
+    }
+
+    /// The cell of level `l`.
+    fn cell(self, l: &LevelStats) -> String {
+        match self {
+            Self::Level => l.level.to_string(),
+            Self::Steps => l.steps.to_string(),
+            Self::Samples => l.samples.to_string(),
+            Self::MeanY => format!("{:.4e}", l.mean_y),
+            Self::VarY => format!("{:.4e}", l.var_y),
+            Self::MeanP => format!("{:.6}", l.mean_p),
+            Self::VarP => format!("{:.4e}", l.var_p),
+            Self::Kurtosis => format!("{:.2}", l.kurtosis),
+            Self::Check => format!("{:.2}", l.consistency),
+            Self::Work => l.work_per_sample.to_string(),
+            Self::Seconds => format!("{:.3e}", l.seconds_per_sample),
+            Self::Failed => format!("{}/{}", l.failed_fine, l.failed_coarse),
+        }
+    }
+}
+
+/// A Markdown table of `levels`, one row per level, with `columns`.
+pub fn level_table(columns: &[LevelColumn], levels: &[LevelStats]) -> String {
+    let row = |cells: Vec<String>| format!("| {} |\n", cells.join(" | "));
+    let mut s = row(columns.iter().map(|c| c.header().to_string()).collect());
+    s += &format!("|{}\n", "---|".repeat(columns.len()));
+    for l in levels {
+        s += &row(columns.iter().map(|c| c.cell(l)).collect());
+    }
+    s
 }
 
 /// The convergence test (`table,level,...`) and the complexity table (`complexity,eps,...`).
@@ -49,11 +138,9 @@ pub fn csv(report: &MlmcReport) -> String {
         let joined = |v: Vec<u64>| v.iter().map(u64::to_string).collect::<Vec<_>>().join(" ");
         let _ = writeln!(
             s,
-            "{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
+            "{:e},{},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
             r.eps,
-            r.estimate.estimate,
-            r.estimate.ci_low,
-            r.estimate.ci_high,
+            csv_interval(&r.estimate),
             r.bias,
             r.bias_alpha,
             r.converged,
@@ -118,25 +205,11 @@ fn test_section(report: &MlmcReport) -> String {
         "{} samples per level; Y_l = P_l - P_l-1 (Y_0 = P_0).\n",
         st.spec.test_samples
     );
-    s.push_str("| l | steps | mean Y_l | var Y_l | mean P_l | var P_l | kurtosis | check | work/sample (steps) | seconds/sample | failed (fine/coarse) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
-    for l in &report.test {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.4e} | {:.4e} | {:.6} | {:.4e} | {:.2} | {:.2} | {} | {:.3e} | {}/{} |",
-            l.level,
-            l.steps,
-            l.mean_y,
-            l.var_y,
-            l.mean_p,
-            l.var_p,
-            l.kurtosis,
-            l.consistency,
-            l.work_per_sample,
-            l.seconds_per_sample,
-            l.failed_fine,
-            l.failed_coarse
-        );
-    }
+    use LevelColumn::*;
+    let columns = [
+        Level, Steps, MeanY, VarY, MeanP, VarP, Kurtosis, Check, Work, Seconds, Failed,
+    ];
+    s += &level_table(&columns, &report.test);
     s.push('\n');
     for line in rates_lines(&report.rates) {
         let _ = writeln!(s, "{line}");
@@ -203,11 +276,9 @@ fn complexity_section(report: &MlmcReport) -> String {
         let n: Vec<String> = row.samples.iter().map(u64::to_string).collect();
         let _ = writeln!(
             s,
-            "| {:.0e} | {:.6} [{:.6}, {:.6}] | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
+            "| {:.0e} | {} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
             e.eps,
-            e.estimate.estimate,
-            e.estimate.ci_low,
-            e.estimate.ci_high,
+            interval(&e.estimate),
             e.bias,
             e.bias_alpha,
             if e.converged { "" } else { " (not converged)" },
@@ -255,7 +326,7 @@ pub fn standard_line(d: &StandardRun) -> String {
     };
     format!(
         "Direct standard Monte Carlo (cap: the MLMC part's work, {:.3e} steps, predicted {:.1} s): \
-         {accuracy} on level {} ({} paths, {} failed): {:.6} [{:.6}, {:.6}] in {:.3} s{scaled}, \
+         {accuracy} on level {} ({} paths, {} failed): {} in {:.3} s{scaled}, \
          against {:.3} s for MLMC (seconds of all threads together, which bound the wall-clock \
          time): {:.1}x.",
         d.cap_work,
@@ -263,9 +334,7 @@ pub fn standard_line(d: &StandardRun) -> String {
         d.level,
         d.samples,
         d.failed,
-        d.estimate.estimate,
-        d.estimate.ci_low,
-        d.estimate.ci_high,
+        interval(&d.estimate),
         d.seconds,
         d.mlmc_seconds,
         d.speedup
@@ -304,12 +373,10 @@ pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std:
         let e = &row.run;
         writeln!(
             out,
-            "  eps {:.0e}: {:.6} [{:.6}, {:.6}], bias est. {:.2e} (alpha {:.2}), L = {}, N_l = {:?}, \
+            "  eps {:.0e}: {}, bias est. {:.2e} (alpha {:.2}), L = {}, N_l = {:?}, \
              work {:.3e} steps, savings {:.1}x, {:.3} s",
             e.eps,
-            e.estimate.estimate,
-            e.estimate.ci_low,
-            e.estimate.ci_high,
+            interval(&e.estimate),
             e.bias,
             e.bias_alpha,
             row.samples.len() - 1,

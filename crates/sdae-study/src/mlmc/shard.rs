@@ -2,10 +2,9 @@
 //! observable and seed), their shards ([`sdae_mlmc::shard`], which runs and merges them into
 //! exactly the unsharded sums) and their report.
 
-use std::fmt::Write as _;
-
 use serde::{Deserialize, Serialize};
 
+use super::report::{LevelColumn, interval, level_table};
 use super::study::MlmcSettings;
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::{MlmcEstimate, Plan, estimate_of_plan};
@@ -82,9 +81,9 @@ pub fn plan_report<L: LevelSampler>(
 /// The Markdown summary of a plan's run.
 pub fn plan_markdown(report: &PlanReport) -> String {
     let (id, e) = (&report.identity, &report.estimate);
-    let mut s = format!(
+    let s = format!(
         "# MLMC plan run: {} ({}, E[{}(X_T)])\n\nSeed {}, level 0 on 2^{} steps, {}antithetic, \
-         eps = {:.0e}.\n\nEstimate {:.6} [{:.6}, {:.6}] (95%), bias estimate {:.2e}{}.\n\n",
+         eps = {:.0e}.\n\nEstimate {} (95%), bias estimate {:.2e}{}.\n\n",
         id.scene,
         id.scheme,
         id.observable,
@@ -92,9 +91,7 @@ pub fn plan_markdown(report: &PlanReport) -> String {
         id.coarsest,
         if id.antithetic { "" } else { "not " },
         e.eps,
-        e.estimate.estimate,
-        e.estimate.ci_low,
-        e.estimate.ci_high,
+        interval(&e.estimate),
         e.bias,
         if e.converged {
             ""
@@ -102,21 +99,7 @@ pub fn plan_markdown(report: &PlanReport) -> String {
             " (above eps / sqrt(2))"
         }
     );
-    s.push_str("| l | samples | mean Y_l | var Y_l | mean P_l | kurtosis | check | failed (fine/coarse) |\n|---|---|---|---|---|---|---|---|\n");
-    for l in &report.levels {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.4e} | {:.4e} | {:.6} | {:.2} | {:.2} | {}/{} |",
-            l.level,
-            l.samples,
-            l.mean_y,
-            l.var_y,
-            l.mean_p,
-            l.kurtosis,
-            l.consistency,
-            l.failed_fine,
-            l.failed_coarse
-        );
-    }
-    s
+    use LevelColumn::*;
+    let columns = [Level, Samples, MeanY, VarY, MeanP, Kurtosis, Check, Failed];
+    s + &level_table(&columns, &report.levels)
 }

@@ -7,6 +7,7 @@
 //! the body in the same order whatever T, so a lane computes its path's numbers.
 
 use sdae_lanes::{PathMask, Real};
+use sdae_manifold::vector::sum_squares;
 use sdae_model::System;
 
 use crate::config::StepSizes;
@@ -16,6 +17,17 @@ use crate::ou::OuFactors;
 /// then go through the scalar step).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct NoLaneForm;
+
+/// What a step of size h holds the same for every path: h, tau = h / (2 K_r), 1 / tau and
+/// K_r, the O step's factors per coordinate, and whether the step reports max |Dg(r) v|.
+#[derive(Debug, Clone)]
+pub(crate) struct StepNumbers {
+    pub(crate) sizes: StepSizes,
+    /// The O step's factors for h, per coordinate.
+    pub(crate) ou: Vec<OuFactors>,
+    /// Whether the step reports max |Dg(r) v| ([`SplittingKernel::velocity_residual`]).
+    pub(crate) monitor_velocity: bool,
+}
 
 /// What a SHAKE projection found, per path.
 #[derive(Debug, Clone, Copy)]
@@ -34,20 +46,20 @@ pub(crate) trait SplittingKernel<T: Real> {
     type Rows: AsRef<[T]> + AsMut<[T]>;
     /// A failure that ends the step: typed for one path; for lanes, a step they cannot take.
     type Failure;
-    /// h, tau = h / (2 K_r), 1 / tau, K_r.
-    fn sizes(&self) -> &StepSizes;
-    /// The O step's factors for h, per coordinate.
-    fn ou(&self) -> &[OuFactors];
+    /// The step's sizes, O factors and monitor.
+    fn numbers(&self) -> &StepNumbers;
     /// (M^-1)_kk x.
     fn inverse_mass(&self, k: usize, x: T) -> T;
-    /// Whether the step reports max |Dg(r) v| ([`SplittingKernel::velocity_residual`]).
-    fn monitors_velocity(&self) -> bool;
     /// F(r) = a(r, 0) into [`SplittingKernel::force`].
     fn evaluate_force<S: System>(&mut self, system: &S, r: &[T]) -> Result<(), Self::Failure>;
     /// F(r) of the last evaluation (or the one a step resumed from).
     fn force(&self) -> &[T];
-    /// The paths whose `x` is finite; one path: a failure naming `what` where it is not.
-    fn check_finite(&self, what: &'static str, x: &[T]) -> Result<T::Mask, Self::Failure>;
+    /// The paths whose `x` is finite; one path overrides it with a failure naming `what`
+    /// where `x` is not.
+    #[inline(always)]
+    fn check_finite(&self, _what: &'static str, x: &[T]) -> Result<T::Mask, Self::Failure> {
+        Ok(sum_squares(x).finite())
+    }
     /// lambda = G_M(r)^-1 (-Dg(r) v), G_M(r) = Dg(r) M^-1 grad g(r) factored anew if `refactor`
     /// (else as the last call left it, at this r); where G_M is 1 x 1, lambda = -Dg(r) v / G_M
     /// (a division, not a product with 1 / G_M). The paths where G_M(r) is finite and regular.
@@ -131,7 +143,7 @@ pub(crate) fn step<T: Real, S: System, K: SplittingKernel<T>>(
     let finite = kernel.check_finite("velocity after the step", m.v.as_ref())?;
     m.ok = m.ok.and(finite);
     // Written out, not `then`: a closure would not inherit the instruction set.
-    Ok(if kernel.monitors_velocity() {
+    Ok(if kernel.numbers().monitor_velocity {
         Some(kernel.velocity_residual(m.r, m.v, m.lambda))
     } else {
         None
@@ -145,12 +157,12 @@ pub(crate) fn drift_and_thermostat<T: Real, K: SplittingKernel<T>>(
     kernel: &mut K, m: &mut Motion<'_, T, K::Rows>, dw: &[T], factored: bool,
 ) -> Result<(), K::Failure> {
     rattle(kernel, m, !factored)?;
-    for _ in 0..kernel.sizes().substeps {
+    for _ in 0..kernel.numbers().sizes.substeps {
         geodesic_drift(kernel, m)?;
     }
     ornstein_uhlenbeck(kernel, m.v.as_mut(), dw);
     rattle(kernel, m, false)?;
-    for _ in 0..kernel.sizes().substeps {
+    for _ in 0..kernel.numbers().sizes.substeps {
         geodesic_drift(kernel, m)?;
     }
     Ok(())
@@ -170,7 +182,7 @@ fn checked_force<T: Real, S: System, K: SplittingKernel<T>>(
 /// B: v <- v + (h/2) M^-1 F(r).
 #[inline(always)]
 fn kick<T: Real, K: SplittingKernel<T>>(kernel: &K, m: &mut Motion<'_, T, K::Rows>) {
-    let half_h = 0.5 * kernel.sizes().h;
+    let half_h = 0.5 * kernel.numbers().sizes.h;
     for (k, (vi, &fi)) in m.v.as_mut().iter_mut().zip(kernel.force()).enumerate() {
         *vi = *vi + kernel.inverse_mass(k, fi) * half_h;
     }
@@ -200,7 +212,7 @@ fn geodesic_drift<T: Real, K: SplittingKernel<T>>(
     m.ok = m.ok.and(shaken.ok);
     m.iterations = m.iterations + shaken.iterations;
     m.residual = shaken.residual;
-    let inverse_tau = kernel.sizes().inverse_tau;
+    let inverse_tau = kernel.numbers().sizes.inverse_tau;
     for l in m.lambda.iter_mut() {
         *l = *l * inverse_tau;
     }
@@ -214,10 +226,10 @@ fn geodesic_drift<T: Real, K: SplittingKernel<T>>(
 /// h)) dw_i ([`OuFactors`]; no noise term without increments).
 #[inline(always)]
 fn ornstein_uhlenbeck<T: Real, K: SplittingKernel<T>>(kernel: &K, v: &mut [T], dw: &[T]) {
-    for (vi, ou) in v.iter_mut().zip(kernel.ou()) {
+    for (vi, ou) in v.iter_mut().zip(&kernel.numbers().ou) {
         *vi = *vi * ou.decay;
     }
-    for ((vi, ou), &w) in v.iter_mut().zip(kernel.ou()).zip(dw) {
+    for ((vi, ou), &w) in v.iter_mut().zip(&kernel.numbers().ou).zip(dw) {
         *vi = *vi + w * ou.noise;
     }
 }

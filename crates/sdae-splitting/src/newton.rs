@@ -15,7 +15,6 @@ use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
-use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{GramShape, GramStructure, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot, WideKernel,
@@ -23,8 +22,9 @@ use sdae_model::engine::{
 use sdae_model::{Scheme, System};
 
 use crate::config::{SplittingConfig, StepSizes};
-use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel, drift_and_thermostat};
-use crate::ou::OuFactors;
+use crate::kernel::{
+    self, Motion, NoLaneForm, Shaken, SplittingKernel, StepNumbers, drift_and_thermostat,
+};
 use crate::splitting::Splitting;
 
 impl<S: System> NewtonKernels for Splitting<S> {
@@ -45,23 +45,18 @@ impl<S: System> NewtonKernels for Splitting<S> {
 /// The scheme's numbers for one step size.
 #[derive(Clone)]
 struct Constants {
-    sizes: StepSizes,
+    numbers: StepNumbers,
     settings: SolverSettings,
-    /// The O step's factors for h.
-    ou: Vec<OuFactors>,
-    monitor_velocity: bool,
 }
 
 impl Constants {
     /// The constants for h; the scheme's O factors must be those of h
-    /// ([`Splitting::refresh_ou`]).
+    /// ([`Splitting::refresh_numbers`]).
     fn new<S: System>(scheme: &Splitting<S>, h: f64) -> Self {
-        let config = scheme.config();
+        debug_assert_eq!(scheme.numbers.sizes.h.to_bits(), h.to_bits());
         Self {
-            sizes: StepSizes::new(config, h),
-            settings: config.solver,
-            ou: scheme.ou.clone(),
-            monitor_velocity: config.monitor_velocity_constraint,
+            numbers: scheme.numbers.clone(),
+            settings: scheme.config().solver,
         }
     }
 }
@@ -129,10 +124,12 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
             lanes: NewtonLanes {
                 simd,
                 constants: Constants {
-                    sizes: StepSizes::new(&SplittingConfig::baoab(), f64::NAN),
+                    numbers: StepNumbers {
+                        sizes: StepSizes::new(&SplittingConfig::baoab(), f64::NAN),
+                        ou: Vec::new(),
+                        monitor_velocity: false,
+                    },
                     settings: SolverSettings::default(),
-                    ou: Vec::new(),
-                    monitor_velocity: false,
                 },
                 root: NewtonRoot::new(simd, &constraint),
                 constraint,
@@ -217,20 +214,12 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     type Rows = Vec<Lanes<Sd>>;
     type Failure = NoLaneForm;
     #[inline(always)]
-    fn sizes(&self) -> &StepSizes {
-        &self.constants.sizes
-    }
-    #[inline(always)]
-    fn ou(&self) -> &[OuFactors] {
-        &self.constants.ou
+    fn numbers(&self) -> &StepNumbers {
+        &self.constants.numbers
     }
     #[inline(always)]
     fn inverse_mass(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
         self.constraint.inverse_mass().apply(k, x)
-    }
-    #[inline(always)]
-    fn monitors_velocity(&self) -> bool {
-        self.constants.monitor_velocity
     }
     /// The system's lane form of F(r), else path by path.
     #[inline(always)]
@@ -248,12 +237,6 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     #[inline(always)]
     fn force(&self) -> &[Lanes<Sd>] {
         &self.force
-    }
-    #[inline(always)]
-    fn check_finite(
-        &self, _what: &'static str, x: &[Lanes<Sd>],
-    ) -> Result<LaneMask<Sd>, NoLaneForm> {
-        Ok(sum_squares(x).is_finite())
     }
     /// G_M(r) and its factors by the constraint's lane form; lambda by the factors, or as the
     /// quotient where G_M(r) is a scalar.
@@ -295,7 +278,7 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     fn shake(
         &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, kappa: &mut [Lanes<Sd>],
     ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
-        let tau = Lanes::splat(self.simd, self.constants.sizes.tau);
+        let tau = Lanes::splat(self.simd, self.constants.numbers.sizes.tau);
         let y = Drifted { r, v, tau };
         let root = self.root.solve(
             &self.constraint,

@@ -16,7 +16,7 @@ impl<S: System> Scheme for Splitting<S> {
     /// One step B A O A B ([`Splitting`]); (r, v) are unchanged on failure.
     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         check_step_input(&self.system, r, v, h, dw)?;
-        self.refresh_ou(h);
+        self.refresh_numbers(h);
         if let Some((outcome, impulse)) = sphere::step_one_lane(self, r, v, h, dw) {
             self.impulse[0] = impulse;
             return Ok(outcome);

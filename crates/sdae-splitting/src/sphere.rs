@@ -10,16 +10,13 @@
 use pulp::Simd;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_manifold::Sphere;
-use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_offered_newton_lanes, step_sphere_lanes,
 };
 use sdae_model::{LaneScheme, StepOutcome, System};
 
-use crate::config::StepSizes;
-use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel};
-use crate::ou::OuFactors;
+use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel, StepNumbers};
 use crate::splitting::Splitting;
 
 impl<S: System> LaneScheme for Splitting<S> {
@@ -27,7 +24,7 @@ impl<S: System> LaneScheme for Splitting<S> {
     /// with a diagonal mass, Newton's SHAKE in lanes where it offers formulas over lanes
     /// (`newton.rs`); `false` (every path through the scalar step) otherwise.
     fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        self.refresh_ou(h);
+        self.refresh_numbers(h);
         let input = StepInput { h, dw };
         step_sphere_lanes(self, Kernels, paths, width, input)
             || step_offered_newton_lanes(self, paths, width, input)
@@ -49,30 +46,28 @@ impl<S: System> SphereKernels<Splitting<S>> for Kernels {
 
 /// The constants of one step: the scheme's and the sphere's.
 struct Kernel<const N: usize> {
-    sizes: StepSizes,
+    numbers: StepNumbers,
     /// The SHAKE root (an unbounded ball: no certificate is claimed).
     root: SphereRoot<N>,
     sphere: Sphere,
     /// (M^-1)_ii.
     inverse_mass: [f64; N],
-    /// The O step's factors for h.
-    ou: [OuFactors; N],
-    monitor_velocity: bool,
 }
 
 impl<const N: usize> Kernel<N> {
     /// The constants for h; the scheme's O factors must be those of h
-    /// ([`Splitting::refresh_ou`]).
+    /// ([`Splitting::refresh_numbers`]).
     fn new<S: System>(scheme: &Splitting<S>, sphere: &Sphere, h: f64) -> Self {
         let inverse_mass: [f64; N] = std::array::from_fn(|k| scheme.inverse_mass[k]);
         let config = scheme.config();
         Self {
-            sizes: StepSizes::new(config, h),
+            numbers: {
+                debug_assert_eq!(scheme.numbers.sizes.h.to_bits(), h.to_bits());
+                scheme.numbers.clone()
+            },
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, f64::INFINITY),
             sphere: *sphere,
-            ou: std::array::from_fn(|k| scheme.ou[k]),
             inverse_mass,
-            monitor_velocity: config.monitor_velocity_constraint,
         }
     }
 }
@@ -124,20 +119,12 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     type Rows = [Lanes<Sd>; N];
     type Failure = NoLaneForm;
     #[inline(always)]
-    fn sizes(&self) -> &StepSizes {
-        &self.kernel.sizes
-    }
-    #[inline(always)]
-    fn ou(&self) -> &[OuFactors] {
-        &self.kernel.ou
+    fn numbers(&self) -> &StepNumbers {
+        &self.kernel.numbers
     }
     #[inline(always)]
     fn inverse_mass(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
         x * self.kernel.inverse_mass[k]
-    }
-    #[inline(always)]
-    fn monitors_velocity(&self) -> bool {
-        self.kernel.monitor_velocity
     }
     /// The system's lane form of F(r); [`NoLaneForm`] without one.
     #[inline(always)]
@@ -152,12 +139,6 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     #[inline(always)]
     fn force(&self) -> &[Lanes<Sd>] {
         &self.force
-    }
-    #[inline(always)]
-    fn check_finite(
-        &self, _what: &'static str, x: &[Lanes<Sd>],
-    ) -> Result<LaneMask<Sd>, NoLaneForm> {
-        Ok(sum_squares(x).is_finite())
     }
     /// lambda = -Dg(r) v / G_M(r) with G_M(r) = r^T M^-1 r / rho^4, which is evaluated at
     /// every call (`refactor` changes nothing).
@@ -187,7 +168,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
         let mut y = *r;
         for (yi, &vi) in y.iter_mut().zip(v) {
-            *yi = *yi + vi * self.kernel.sizes.tau;
+            *yi = *yi + vi * self.kernel.numbers.sizes.tau;
         }
         let root = self.kernel.root.solve(r, &y);
         self.root = root.x;

@@ -13,7 +13,7 @@ use sdae_model::{
 
 use crate::config::{SplittingConfig, StepSizes};
 use crate::error::SplittingError;
-use crate::kernel::{self, Motion, Shaken, SplittingKernel};
+use crate::kernel::{self, Motion, Shaken, SplittingKernel, StepNumbers};
 use crate::ou::OuFactors;
 
 /// The Gram matrix storage of a system's constraint.
@@ -77,9 +77,8 @@ pub struct Splitting<S: System> {
     pub(crate) form: LangevinForm,
     /// (M^-1)_ii.
     pub(crate) inverse_mass: Vec<f64>,
-    /// The O step's factors for the step size `ou_h`.
-    pub(crate) ou: Vec<OuFactors>,
-    ou_h: f64,
+    /// The sizes and the O step's factors of a step of size `numbers.sizes.h`.
+    pub(crate) numbers: StepNumbers,
     /// The general path's solver, factors and buffers.
     work: Workspace<Gram<S>>,
     r: Vec<f64>,
@@ -153,14 +152,17 @@ impl<S: System> Splitting<S> {
             work,
             form,
             inverse_mass,
-            ou: vec![
-                OuFactors {
-                    decay: 1.0,
-                    noise: 0.0
-                };
-                n
-            ],
-            ou_h: f64::NAN,
+            numbers: StepNumbers {
+                sizes: StepSizes::new(&config, f64::NAN),
+                ou: vec![
+                    OuFactors {
+                        decay: 1.0,
+                        noise: 0.0
+                    };
+                    n
+                ],
+                monitor_velocity: config.monitor_velocity_constraint,
+            },
             r: vec![0.0; n],
             v: vec![0.0; n],
             lambda: vec![0.0; m],
@@ -194,7 +196,7 @@ impl<S: System> Splitting<S> {
     pub(crate) fn general_step(
         &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {
-        self.refresh_ou(h);
+        self.refresh_numbers(h);
         let work = &mut self.work;
         let resumed = work.cached && work.cached_at == r;
         work.cached = false;
@@ -204,9 +206,7 @@ impl<S: System> Splitting<S> {
             constraint: self.system.constraint(),
             mass: self.system.mass(),
             inverse_mass: &self.inverse_mass,
-            ou: &self.ou,
-            sizes: StepSizes::new(&self.config, h),
-            monitor_velocity: self.config.monitor_velocity_constraint,
+            numbers: &self.numbers,
             work,
             at_y: false,
         };
@@ -233,13 +233,14 @@ impl<S: System> Splitting<S> {
         Ok(outcome)
     }
 
-    /// The O step's factors for h, computed when h changes.
-    pub(crate) fn refresh_ou(&mut self, h: f64) {
-        if self.ou_h != h {
-            for (f, &w) in self.ou.iter_mut().zip(&self.inverse_mass) {
+    /// The sizes and the O step's factors of a step of size h, computed when h changes.
+    pub(crate) fn refresh_numbers(&mut self, h: f64) {
+        let numbers = &mut self.numbers;
+        if numbers.sizes.h != h {
+            for (f, &w) in numbers.ou.iter_mut().zip(&self.inverse_mass) {
                 *f = OuFactors::new(&self.form, w, h);
             }
-            self.ou_h = h;
+            numbers.sizes = StepSizes::new(&self.config, h);
         }
     }
 }
@@ -250,9 +251,7 @@ struct OnePath<'a, C: Constraint, M: Mass> {
     constraint: &'a C,
     mass: &'a M,
     inverse_mass: &'a [f64],
-    ou: &'a [OuFactors],
-    sizes: StepSizes,
-    monitor_velocity: bool,
+    numbers: &'a StepNumbers,
     work: &'a mut Workspace<C::Gram>,
     /// Whether the last SHAKE's root is y itself (kappa = 0), else x.
     at_y: bool,
@@ -261,18 +260,12 @@ struct OnePath<'a, C: Constraint, M: Mass> {
 impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
     type Rows = Vec<f64>;
     type Failure = StepFailure;
-    fn sizes(&self) -> &StepSizes {
-        &self.sizes
-    }
-    fn ou(&self) -> &[OuFactors] {
-        self.ou
+    fn numbers(&self) -> &StepNumbers {
+        self.numbers
     }
     #[inline(always)]
     fn inverse_mass(&self, k: usize, x: f64) -> f64 {
         self.inverse_mass[k] * x
-    }
-    fn monitors_velocity(&self) -> bool {
-        self.monitor_velocity
     }
     fn evaluate_force<S: System>(&mut self, system: &S, r: &[f64]) -> Result<(), StepFailure> {
         system.drift(r, &self.work.zero, &mut self.work.force);
@@ -326,7 +319,7 @@ impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
     fn shake(
         &mut self, r: &Vec<f64>, v: &Vec<f64>, kappa: &mut [f64],
     ) -> Result<Shaken<f64>, StepFailure> {
-        let (c, work, tau) = (self.constraint, &mut *self.work, self.sizes.tau);
+        let (c, work, tau) = (self.constraint, &mut *self.work, self.numbers.sizes.tau);
         for ((yi, ri), vi) in work.y.iter_mut().zip(r).zip(v) {
             *yi = ri + tau * vi;
         }

@@ -190,44 +190,12 @@ pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {
 
 #[cfg(test)]
 mod tests {
-    use std::sync::atomic::AtomicUsize;
-
     use super::*;
-
-    /// A sampler that counts the workers it builds (each sample is 1).
-    struct Counting {
-        workers: AtomicUsize,
-    }
-
-    impl LevelSampler for Counting {
-        type Worker = ();
-        fn worker(&self) -> Result<(), MlmcError> {
-            self.workers.fetch_add(1, Ordering::SeqCst);
-            Ok(())
-        }
-        fn run_block(
-            &self, _: &mut (), _: u32, indices: Range<u64>, _: bool,
-        ) -> Result<Vec<Sample>, MlmcError> {
-            Ok(indices
-                .map(|_| Sample::Value {
-                    fine: 1.0,
-                    coarse: 0.0,
-                })
-                .collect())
-        }
-        fn path_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-        fn pair_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-    }
+    use crate::test_sampler::ValueSampler;
 
     #[test]
     fn after_a_stop_the_blocks_left_end_without_building_a_worker() {
-        let sampler = Counting {
-            workers: AtomicUsize::new(0),
-        };
+        let sampler = ValueSampler::new(|_| 1.0);
         let stop = AtomicBool::new(false);
         let mut control = RunControl::new(2).unwrap();
         control.stop = Some(&stop);
@@ -236,13 +204,13 @@ mod tests {
             .extend(&sampler, 3, &mut sums, 0, 64 * BLOCK, false)
             .unwrap();
         assert_eq!(sums.attempted(), 64 * BLOCK);
-        let built = sampler.workers.load(Ordering::SeqCst);
+        let built = sampler.workers();
         assert!(built >= 1);
         // A direct standard run of a million blocks, stopped: no block runs, no worker is
         // built (each used to build one before it looked at the stop flag).
         stop.store(true, Ordering::SeqCst);
         let stopped = control.extend(&sampler, 3, &mut sums, 0, 1 << 25, false);
         assert_eq!(stopped, Err(MlmcError::Interrupted));
-        assert_eq!(sampler.workers.load(Ordering::SeqCst), built);
+        assert_eq!(sampler.workers(), built);
     }
 }

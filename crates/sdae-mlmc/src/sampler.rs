@@ -104,6 +104,23 @@ impl<'a> RunControl<'a> {
         self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
     }
 
+    /// The worker of a pool thread, built by `build` for the thread's first task (a failed
+    /// build fails each of its tasks); [`MlmcError::Interrupted`] instead once the stop flag
+    /// is set. The flag is checked before a worker is built: after a stop, each task left ends
+    /// at once.
+    pub(crate) fn thread_worker<'w, W>(
+        &self, worker: &'w mut Option<Result<W, MlmcError>>,
+        build: impl FnOnce() -> Result<W, MlmcError>,
+    ) -> Result<&'w mut W, MlmcError> {
+        if self.stopped() {
+            return Err(MlmcError::Interrupted);
+        }
+        worker
+            .get_or_insert_with(build)
+            .as_mut()
+            .map_err(|e| e.clone())
+    }
+
     /// The thread pool, for the drivers of other samplers (the quasi-Monte Carlo one).
     pub(crate) fn pool(&self) -> &rayon::ThreadPool {
         &self.pool
@@ -133,15 +150,9 @@ impl<'a> RunControl<'a> {
                             }
                             return Ok(saved);
                         }
-                        // Checked before a worker is built: after a stop, each of the blocks
-                        // left (millions in a direct standard run) ends at once.
-                        if self.stopped() {
-                            return Err(MlmcError::Interrupted);
-                        }
-                        let worker = worker
-                            .get_or_insert_with(|| sampler.worker())
-                            .as_mut()
-                            .map_err(|e| e.clone())?;
+                        // After a stop, each of the blocks left (millions in a direct
+                        // standard run) ends at once.
+                        let worker = self.thread_worker(worker, || sampler.worker())?;
                         let start = Instant::now();
                         let samples = sampler.run_block(
                             worker,

@@ -127,13 +127,7 @@ impl RunControl<'_> {
         &self, sampler: &Q, worker: &mut Option<Result<Q::Worker, MlmcError>>, level: u32,
         randomization: u32, points: Range<u64>, coupled: bool,
     ) -> Result<LevelSums, MlmcError> {
-        if self.stopped() {
-            return Err(MlmcError::Interrupted);
-        }
-        let worker = worker
-            .get_or_insert_with(|| sampler.worker())
-            .as_mut()
-            .map_err(|e| e.clone())?;
+        let worker = self.thread_worker(worker, || sampler.worker())?;
         let start = Instant::now();
         let count = points.end - points.start;
         let samples = sampler.run_points(worker, level, randomization, points.clone(), coupled)?;

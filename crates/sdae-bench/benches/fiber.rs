@@ -85,10 +85,7 @@ fn fiber(beads: usize) -> Fiber {
         masses: Masses::Uniform(0.01),
         bending_stiffness: 1e-5,
         gravity: [0.0, 0.0, -9.81],
-        air: AirFlow {
-            wind: [1.0, 0.0, 0.0],
-            shear: [[0.0, 0.0, 0.5], [0.0; 3], [0.0; 3]],
-        },
+        air: AirFlow::sheared([1.0, 0.0, 0.0], 0.5),
         linear_drag: 0.01,
         quadratic_drag: 0.01,
         turbulence: 0.002,

@@ -64,6 +64,14 @@ impl MlmcError {
             _ => None,
         }
     }
+
+    /// The setting a [`MlmcError::Setting`] names, if this is one.
+    pub fn setting_key(&self) -> Option<&'static str> {
+        match self {
+            MlmcError::Setting { key, .. } => Some(key),
+            _ => None,
+        }
+    }
 }
 
 /// Equal when of the same kind with the same values; two sampler errors are equal when they

@@ -35,6 +35,9 @@ pub mod sampler;
 pub mod shard;
 pub mod sums;
 
+#[cfg(test)]
+mod test_sampler;
+
 pub use algorithm::{
     AdaptiveSettings, MlmcEstimate, Plan, adaptive, run_plan, standard_monte_carlo,
 };

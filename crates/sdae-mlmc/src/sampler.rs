@@ -104,6 +104,23 @@ impl<'a> RunControl<'a> {
         self.stop.is_some_and(|s| s.load(Ordering::Relaxed))
     }
 
+    /// The worker of a pool thread, built by `build` for the thread's first task (a failed
+    /// build fails each of its tasks); [`MlmcError::Interrupted`] instead once the stop flag
+    /// is set. The flag is checked before a worker is built: after a stop, each task left ends
+    /// at once.
+    pub(crate) fn thread_worker<'w, W>(
+        &self, worker: &'w mut Option<Result<W, MlmcError>>,
+        build: impl FnOnce() -> Result<W, MlmcError>,
+    ) -> Result<&'w mut W, MlmcError> {
+        if self.stopped() {
+            return Err(MlmcError::Interrupted);
+        }
+        worker
+            .get_or_insert_with(build)
+            .as_mut()
+            .map_err(|e| e.clone())
+    }
+
     /// The thread pool, for the drivers of other samplers (the quasi-Monte Carlo one).
     pub(crate) fn pool(&self) -> &rayon::ThreadPool {
         &self.pool
@@ -133,15 +150,9 @@ impl<'a> RunControl<'a> {
                             }
                             return Ok(saved);
                         }
-                        // Checked before a worker is built: after a stop, each of the blocks
-                        // left (millions in a direct standard run) ends at once.
-                        if self.stopped() {
-                            return Err(MlmcError::Interrupted);
-                        }
-                        let worker = worker
-                            .get_or_insert_with(|| sampler.worker())
-                            .as_mut()
-                            .map_err(|e| e.clone())?;
+                        // After a stop, each of the blocks left (millions in a direct
+                        // standard run) ends at once.
+                        let worker = self.thread_worker(worker, || sampler.worker())?;
                         let start = Instant::now();
                         let samples = sampler.run_block(
                             worker,
@@ -190,44 +201,12 @@ pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {
 
 #[cfg(test)]
 mod tests {
-    use std::sync::atomic::AtomicUsize;
-
     use super::*;
-
-    /// A sampler that counts the workers it builds (each sample is 1).
-    struct Counting {
-        workers: AtomicUsize,
-    }
-
-    impl LevelSampler for Counting {
-        type Worker = ();
-        fn worker(&self) -> Result<(), MlmcError> {
-            self.workers.fetch_add(1, Ordering::SeqCst);
-            Ok(())
-        }
-        fn run_block(
-            &self, _: &mut (), _: u32, indices: Range<u64>, _: bool,
-        ) -> Result<Vec<Sample>, MlmcError> {
-            Ok(indices
-                .map(|_| Sample::Value {
-                    fine: 1.0,
-                    coarse: 0.0,
-                })
-                .collect())
-        }
-        fn path_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-        fn pair_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-    }
+    use crate::test_sampler::ValueSampler;
 
     #[test]
     fn after_a_stop_the_blocks_left_end_without_building_a_worker() {
-        let sampler = Counting {
-            workers: AtomicUsize::new(0),
-        };
+        let sampler = ValueSampler::new(|_| 1.0);
         let stop = AtomicBool::new(false);
         let mut control = RunControl::new(2).unwrap();
         control.stop = Some(&stop);
@@ -236,13 +215,13 @@ mod tests {
             .extend(&sampler, 3, &mut sums, 0, 64 * BLOCK, false)
             .unwrap();
         assert_eq!(sums.attempted(), 64 * BLOCK);
-        let built = sampler.workers.load(Ordering::SeqCst);
+        let built = sampler.workers();
         assert!(built >= 1);
         // A direct standard run of a million blocks, stopped: no block runs, no worker is
         // built (each used to build one before it looked at the stop flag).
         stop.store(true, Ordering::SeqCst);
         let stopped = control.extend(&sampler, 3, &mut sums, 0, 1 << 25, false);
         assert_eq!(stopped, Err(MlmcError::Interrupted));
-        assert_eq!(sampler.workers.load(Ordering::SeqCst), built);
+        assert_eq!(sampler.workers(), built);
     }
 }

@@ -104,6 +104,15 @@ impl AirFlow {
         u
     }
 
+    /// The wind `wind` plus a simple shear flow along x varying with height z: u(x) = wind +
+    /// (`rate` z, 0, 0), the gradient S zero but for `shear[0][2]` = `rate`.
+    pub fn sheared(wind: [f64; 3], rate: f64) -> Self {
+        Self {
+            wind,
+            shear: [[0.0, 0.0, rate], [0.0; 3], [0.0; 3]],
+        }
+    }
+
     /// The velocity v - u(x) relative to the air.
     #[inline(always)]
     fn relative_velocity<T: Real>(&self, x: Vec3<T>, v: Vec3<T>) -> Vec3<T> {
@@ -470,10 +479,7 @@ mod tests {
         let params = FiberParams {
             bending_stiffness: 0.0,
             gravity: [0.0; 3],
-            air: AirFlow {
-                wind: [1.0, 0.0, 0.0],
-                shear: [[0.0, 0.0, 2.0], [0.0; 3], [0.0; 3]],
-            },
+            air: AirFlow::sheared([1.0, 0.0, 0.0], 2.0),
             linear_drag: 0.3,
             quadratic_drag: 0.2,
             turbulence: 0.5,

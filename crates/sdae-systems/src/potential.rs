@@ -126,6 +126,14 @@ fn check_term<const K: usize>(
     Ok(dim)
 }
 
+/// The terms (i, i + 1, ..., i + K - 1) of K consecutive atoms of a linear chain of `atoms`
+/// atoms.
+fn chain_terms<const K: usize>(atoms: usize) -> Vec<[usize; K]> {
+    (0..atoms.saturating_sub(K - 1))
+        .map(|i| std::array::from_fn(|k| i + k))
+        .collect()
+}
+
 /// Parameters of a harmonic bond-angle potential (serde: `stiffness`, `equilibrium`; missing
 /// fields take their defaults, unknown ones are an error).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -184,12 +192,7 @@ impl BondAngles {
 
     /// The angles (i, i+1, i+2) of a linear chain of `atoms` atoms.
     pub fn chain(atoms: usize, params: AngleParams) -> Result<Self, SystemError> {
-        Self::new(
-            (0..atoms.saturating_sub(2))
-                .map(|i| [i, i + 1, i + 2])
-                .collect(),
-            params,
-        )
+        Self::new(chain_terms(atoms), params)
     }
 
     /// The triples (a, b, c), b the vertex.
@@ -330,12 +333,7 @@ impl Torsions {
 
     /// The dihedrals (i, i+1, i+2, i+3) of a linear chain of `atoms` atoms.
     pub fn chain(atoms: usize, params: TorsionParams) -> Result<Self, SystemError> {
-        Self::new(
-            (0..atoms.saturating_sub(3))
-                .map(|i| [i, i + 1, i + 2, i + 3])
-                .collect(),
-            params,
-        )
+        Self::new(chain_terms(atoms), params)
     }
 
     /// The quadruples (a, b, c, d).

@@ -175,12 +175,68 @@ impl Factorize for DenseGram {
         }
     }
 }
+
+/// The check that a factorization over lanes is one path's in each lane, written once for the
+/// test matrices of every structure.
+#[cfg(test)]
+pub(super) mod lanes_case {
+    use pulp::{Simd, WithSimd};
+    use sdae_lanes::Lanes;
+
+    use crate::error::LinearError;
+    use crate::factor::lanes_check::{assert_lanes_are_one_path, at_every_width};
+    use crate::factor::{Factorize, MatrixFactor};
+
+    /// A one-path storage, with its factorization over lanes.
+    pub(in crate::factor) trait LanesCase: Factorize + Sized {
+        /// The factorization over W lanes.
+        type LaneFactor<S: Simd>: MatrixFactor<Lanes<S>>;
+        /// The storage over lanes whose lane i holds `one_path[i]`.
+        fn lanes_matrix<S: Simd>(simd: S, one_path: &[Self]) -> LaneMatrix<Self, S>;
+        /// Whether the lane of one path's factorization (its factor and result) is accepted.
+        fn accepted(factor: &Self::Factor, result: Result<(), LinearError>) -> bool;
+    }
+
+    /// The matrix over lanes that G's factorization over lanes factors.
+    pub(in crate::factor) type LaneMatrix<G, S> =
+        <<G as LanesCase>::LaneFactor<S> as MatrixFactor<Lanes<S>>>::Matrix;
+
+    /// Each lane's factor, solve and product against one path's storage G and its
+    /// factorization, bit for bit, on the test matrices `matrix(m, lane)`.
+    struct Check<G> {
+        m: usize,
+        matrix: fn(usize, usize) -> G,
+    }
+
+    impl<G: LanesCase> WithSimd for Check<G> {
+        type Output = ();
+        fn with_simd<S: Simd>(self, simd: S) {
+            let one_path: Vec<G> = (0..Lanes::<S>::WIDTH)
+                .map(|lane| (self.matrix)(self.m, lane))
+                .collect();
+            let a = G::lanes_matrix(simd, &one_path);
+            assert_lanes_are_one_path::<S, G::LaneFactor<S>, _>(simd, &a, &one_path, G::accepted);
+        }
+    }
+
+    /// The check at every lane width for each order in `orders`, on the test matrices
+    /// `matrix(m, lane)` of order m, one per lane.
+    pub(in crate::factor) fn check_orders<G: LanesCase>(
+        orders: impl IntoIterator<Item = usize>, matrix: fn(usize, usize) -> G,
+    ) {
+        for m in orders {
+            at_every_width(|| Check { m, matrix });
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::lanes_case::{LaneMatrix, LanesCase, check_orders};
     use super::*;
     use crate::SquareMatrix;
-    use crate::factor::lanes_check::{assert_lanes_are_one_path, at_every_width, lanes_of};
-    use pulp::{Simd, WithSimd};
+    use crate::factor::lanes_check::lanes_of;
+    use pulp::Simd;
     use sdae_lanes::Lanes;
 
     /// Matrices of order `m`, one per lane, whose pivot rows differ from lane to lane (a
@@ -197,35 +253,30 @@ mod tests {
         a
     }
 
-    /// Each lane's factor, solve and product against one path's `DenseGram` and `DenseFactor`,
-    /// bit for bit, and the lanes one path's factorization rejects.
-    struct Check {
-        m: usize,
-    }
+    /// The lanes of the LU factorization; one path's factorization rejects the lanes it
+    /// reports.
+    impl LanesCase for DenseGram {
+        type LaneFactor<S: Simd> = LuFactor<Lanes<S>>;
 
-    impl WithSimd for Check {
-        type Output = ();
-        fn with_simd<S: Simd>(self, simd: S) {
-            let m = self.m;
-            let one_path: Vec<DenseGram> =
-                (0..Lanes::<S>::WIDTH).map(|lane| matrix(m, lane)).collect();
+        fn lanes_matrix<S: Simd>(simd: S, one_path: &[Self]) -> LaneMatrix<Self, S> {
+            let m = one_path[0].order();
             let mut a = DenseGram::zeros_like(Lanes::splat(simd, 0.0), m);
             for i in 0..m {
                 for j in 0..m {
                     a.set(i, j, lanes_of(simd, |lane| one_path[lane].entry(i, j)));
                 }
             }
-            assert_lanes_are_one_path::<S, LuFactor<_>, _>(simd, &a, &one_path, |_, result| {
-                result.is_ok()
-            });
+            a
+        }
+
+        fn accepted(_: &DenseFactor, result: Result<(), LinearError>) -> bool {
+            result.is_ok()
         }
     }
 
     #[test]
     fn lanes_factor_and_solve_as_the_scalar_lu_bit_for_bit() {
-        for m in 1..=6 {
-            at_every_width(|| Check { m });
-        }
+        check_orders(1..=6, matrix);
     }
 
     #[test]

@@ -420,9 +420,10 @@ impl TridiagonalGram {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::SquareMatrix;
-    use crate::factor::lanes_check::{assert_lanes_are_one_path, at_every_width, lanes_of};
-    use pulp::{Simd, WithSimd};
+    use crate::factor::dense::lanes_case::{LaneMatrix, LanesCase, check_orders};
+    use crate::factor::lanes_check::lanes_of;
+    use crate::{GramMatrix, SquareMatrix};
+    use pulp::Simd;
     use sdae_lanes::Lanes;
 
     /// Matrices of order `m`, one per lane: diagonally dominant ones of different entries, and
@@ -442,19 +443,13 @@ mod tests {
         a
     }
 
-    /// Each lane's factor, solve and product against one path's `TridiagonalGram` and
-    /// `TridiagonalFactor`, bit for bit, and the lanes whose pivots Thomas' algorithm rejects
-    /// (where one path pivots).
-    struct Check {
-        m: usize,
-    }
+    /// The lanes of Thomas' algorithm; it rejects the lanes whose pivots one path's
+    /// factorization rejects too (where one path pivots).
+    impl LanesCase for TridiagonalGram {
+        type LaneFactor<S: Simd> = ThomasFactor<Lanes<S>>;
 
-    impl WithSimd for Check {
-        type Output = ();
-        fn with_simd<S: Simd>(self, simd: S) {
-            let m = self.m;
-            let one_path: Vec<TridiagonalGram> =
-                (0..Lanes::<S>::WIDTH).map(|lane| matrix(m, lane)).collect();
+        fn lanes_matrix<S: Simd>(simd: S, one_path: &[Self]) -> LaneMatrix<Self, S> {
+            let m = one_path[0].order();
             let mut a = TridiagonalGram::zeros_like(Lanes::splat(simd, 0.0), m);
             for i in 0..m {
                 a.diag[i] = lanes_of(simd, |lane| one_path[lane].diag[i]);
@@ -463,19 +458,16 @@ mod tests {
                 a.lower[i] = lanes_of(simd, |lane| one_path[lane].lower[i]);
                 a.upper[i] = lanes_of(simd, |lane| one_path[lane].upper[i]);
             }
-            assert_lanes_are_one_path::<S, ThomasFactor<_>, _>(
-                simd,
-                &a,
-                &one_path,
-                |factor, result| result.is_ok() && !factor.is_pivoted(),
-            );
+            a
+        }
+
+        fn accepted(factor: &TridiagonalFactor, result: Result<(), LinearError>) -> bool {
+            result.is_ok() && !factor.is_pivoted()
         }
     }
 
     #[test]
     fn lanes_factor_and_solve_as_one_path_bit_for_bit() {
-        for m in [2, 3, 7, 16] {
-            at_every_width(|| Check { m });
-        }
+        check_orders([2, 3, 7, 16], matrix);
     }
 }

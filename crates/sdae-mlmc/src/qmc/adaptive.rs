@@ -273,16 +273,7 @@ mod tests {
         assert_eq!(doubled(4, 32, 1 << 32, 1, 1e-3), Ok(8));
         for (n, limit) in [(1u64 << 63, u64::MAX), (64, 64)] {
             let err = doubled(n, 32, limit, 3, 1e-3).unwrap_err();
-            assert!(
-                matches!(
-                    err,
-                    MlmcError::Setting {
-                        key: "mlqmc.eps",
-                        ..
-                    }
-                ),
-                "{err}"
-            );
+            assert_eq!(err.setting_key(), Some("mlqmc.eps"), "{err}");
             assert!(err.to_string().contains("level 3"), "{err}");
         }
     }

@@ -127,13 +127,7 @@ impl RunControl<'_> {
         &self, sampler: &Q, worker: &mut Option<Result<Q::Worker, MlmcError>>, level: u32,
         randomization: u32, points: Range<u64>, coupled: bool,
     ) -> Result<LevelSums, MlmcError> {
-        if self.stopped() {
-            return Err(MlmcError::Interrupted);
-        }
-        let worker = worker
-            .get_or_insert_with(|| sampler.worker())
-            .as_mut()
-            .map_err(|e| e.clone())?;
+        let worker = self.thread_worker(worker, || sampler.worker())?;
         let start = Instant::now();
         let count = points.end - points.start;
         let samples = sampler.run_points(worker, level, randomization, points.clone(), coupled)?;
@@ -188,6 +182,7 @@ pub(crate) mod interval_serde {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_sampler::ValueSampler;
 
     #[test]
     fn blocks_are_cut_at_multiples_of_the_block_size() {
@@ -200,35 +195,10 @@ mod tests {
         assert!(point_blocks(5..5).is_empty());
     }
 
-    /// Each sample is the point's index.
-    struct Index;
-
-    impl QuasiSampler for Index {
-        type Worker = ();
-        fn worker(&self) -> Result<(), MlmcError> {
-            Ok(())
-        }
-        fn run_points(
-            &self, _: &mut (), _: u32, _: u32, points: Range<u64>, _: bool,
-        ) -> Result<Vec<Sample>, MlmcError> {
-            Ok(points
-                .map(|i| Sample::Value {
-                    fine: i as f64,
-                    coarse: 0.0,
-                })
-                .collect())
-        }
-        fn path_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-        fn pair_steps(&self, level: u32) -> u64 {
-            1 << level
-        }
-    }
-
     #[test]
     fn points_are_summed_per_randomization_with_progress_and_stop() {
         use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+        let index = ValueSampler::new(|i| i as f64);
         let done = AtomicU64::new(0);
         let progress = |n: u64| {
             done.fetch_add(n, Ordering::SeqCst);
@@ -237,7 +207,7 @@ mod tests {
         let mut control = RunControl::new(2).unwrap();
         control.progress = Some(&progress);
         control.stop = Some(&stop);
-        let sums = control.sample_points(&Index, 2, 3, 10..100, true).unwrap();
+        let sums = control.sample_points(&index, 2, 3, 10..100, true).unwrap();
         assert_eq!(sums.len(), 3);
         for s in &sums {
             assert_eq!(s.samples, 90);
@@ -245,7 +215,7 @@ mod tests {
         }
         assert_eq!(done.load(Ordering::SeqCst), 3 * 90);
         stop.store(true, Ordering::SeqCst);
-        let stopped = control.sample_points(&Index, 2, 3, 0..64, true);
+        let stopped = control.sample_points(&index, 2, 3, 0..64, true);
         assert_eq!(stopped, Err(MlmcError::Interrupted));
     }
 }

@@ -154,7 +154,7 @@ pub struct Kernelized<K: KernelScheme> {
     solver: BallSolver<<<K::System as System>::Constraint as Constraint>::Gram>,
     radius: f64,
     /// One path's buffers, one after the other: r_{k+1}, v_{k+1}, v' and the step's scratch
-    /// (n each), the increment of mu (m), the constraint's workspace ([`OnePathBuffers`]).
+    /// (n each), the increment of mu (m), the constraint's workspace ([`split_buffers`]).
     buffers: Vec<f64>,
     /// (n, m).
     dims: (usize, usize),
@@ -199,14 +199,8 @@ impl<K: KernelScheme> Scheme for Kernelized<K> {
             dims: (n, m),
             ..
         } = self;
-        let OnePathBuffers {
-            next_r,
-            next_v,
-            new_v,
-            work,
-            dmu,
-            scratch,
-        } = OnePathBuffers::split(buffers, *n, *m);
+        let ([next_r, next_v, new_v, work, dmu], scratch) =
+            split_buffers(buffers, [*n, *n, *n, *n, *m]);
         let mut kernel = OnePath {
             system: scheme.system(),
             solver,
@@ -257,33 +251,19 @@ impl<K: KernelScheme> LaneScheme for Kernelized<K> {
     }
 }
 
-/// One path's buffers of [`Kernelized`], split from one allocation.
-struct OnePathBuffers<'a> {
-    next_r: &'a mut [f64],
-    next_v: &'a mut [f64],
-    new_v: &'a mut [f64],
-    work: &'a mut [f64],
-    dmu: &'a mut [f64],
-    scratch: &'a mut [f64],
-}
-
-impl<'a> OnePathBuffers<'a> {
-    /// The buffers for n coordinates and m constraints, in the order of `Kernelized::buffers`.
-    fn split(buffers: &'a mut [f64], n: usize, m: usize) -> Self {
-        let (next_r, rest) = buffers.split_at_mut(n);
-        let (next_v, rest) = rest.split_at_mut(n);
-        let (new_v, rest) = rest.split_at_mut(n);
-        let (work, rest) = rest.split_at_mut(n);
-        let (dmu, scratch) = rest.split_at_mut(m);
-        Self {
-            next_r,
-            next_v,
-            new_v,
-            work,
-            dmu,
-            scratch,
-        }
-    }
+/// One path's buffers of [`Kernelized`], split from one allocation: pieces of the lengths
+/// `lens` one after the other (r_{k+1}, v_{k+1}, v', the step's scratch and the increment of
+/// mu), and the rest (the constraint's workspace).
+fn split_buffers<const K: usize>(
+    buffers: &mut [f64], lens: [usize; K],
+) -> ([&mut [f64]; K], &mut [f64]) {
+    let mut rest = buffers;
+    let pieces = lens.map(|len| {
+        let (piece, tail) = std::mem::take(&mut rest).split_at_mut(len);
+        rest = tail;
+        piece
+    });
+    (pieces, rest)
 }
 
 /// The one-path [`StepKernel`]: the system's own functions and the ball solver.

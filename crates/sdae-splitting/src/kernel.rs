@@ -6,9 +6,11 @@
 //! constraint's lane form (`newton.rs`). Each path's floating-point operations are those of
 //! the body in the same order whatever T, so a lane computes its path's numbers.
 
-use sdae_lanes::{PathMask, Real};
+use pulp::Simd;
+use sdae_lanes::{Lanes, PathMask, Real};
 use sdae_manifold::vector::sum_squares;
 use sdae_model::System;
+use sdae_model::engine::LaneRecord;
 
 use crate::config::StepSizes;
 use crate::ou::OuFactors;
@@ -120,6 +122,22 @@ impl<'a, T: Real, R> Motion<'a, T, R> {
             ok: zero.mask_like(true),
             iterations: zero,
             residual: zero,
+        }
+    }
+}
+
+impl<Sd: Simd, R> Motion<'_, Lanes<Sd>, R> {
+    /// What a step over lanes records once [`step`] returned `velocity_residual`: no
+    /// truncation (eta = 1), the SHAKE projections' Newton iterations and max |g|, no
+    /// certificate.
+    #[inline(always)]
+    pub(crate) fn record(&self, velocity_residual: Option<Lanes<Sd>>) -> LaneRecord<Sd> {
+        LaneRecord {
+            eta: self.iterations.splat_like(1.0),
+            newton_iterations: self.iterations,
+            position_residual: Some(self.residual),
+            velocity_residual,
+            certificate: None,
         }
     }
 }

@@ -371,14 +371,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Splitting<S>, Sd> for K
         let mut m = Motion::new(r_next, v_next, dmu, &mut self.lambda, zero);
         let velocity_residual =
             kernel::step(scheme.system(), &mut self.lanes, &mut m, dw, resumed).ok()?;
-        let record = LaneRecord {
-            eta: zero.splat_like(1.0),
-            newton_iterations: m.iterations,
-            position_residual: Some(m.residual),
-            velocity_residual,
-            certificate: None,
-        };
-        let ok = m.ok;
+        let (ok, record) = (m.ok, m.record(velocity_residual));
         self.keep(group, r_next);
         Some((ok, record))
     }

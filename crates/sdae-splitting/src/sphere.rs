@@ -11,7 +11,7 @@ use pulp::Simd;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes};
 use sdae_manifold::Sphere;
 use sdae_model::engine::{
-    self, LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
+    self, LaneKernel, LanePaths, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_offered_newton_lanes, step_sphere_lanes,
 };
 use sdae_model::{LaneScheme, StepOutcome, System};
@@ -88,14 +88,7 @@ impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
         };
         let mut m = Motion::new(&mut r, &mut v, &mut dmu, &mut lambda, zero);
         let velocity_residual = kernel::step(&scheme.system, &mut lanes, &mut m, dw, false).ok()?;
-        let record = LaneRecord {
-            eta: zero.splat_like(1.0),
-            newton_iterations: m.iterations,
-            position_residual: Some(m.residual),
-            velocity_residual,
-            certificate: None,
-        };
-        let ok = m.ok;
+        let (ok, record) = (m.ok, m.record(velocity_residual));
         Some(LaneStep {
             ok,
             r,

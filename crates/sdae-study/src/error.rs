@@ -148,6 +148,9 @@ pub enum StudyError {
         /// The output it reads, as a scene file spells it.
         output: &'static str,
     },
+    /// A run stopped on request (Ctrl-C) before it finished.
+    #[error("stopped before the run finished")]
+    Stopped,
     /// A time grid or path plan of a study is invalid.
     #[error(transparent)]
     Model(#[from] ModelError),

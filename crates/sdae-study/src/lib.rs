@@ -20,6 +20,7 @@
 //!   Richardson-Romberg extrapolation, against exact values or the reference on the same paths.
 //! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
 //!   whose expectations the weak study and MLMC measure.
+//! - [`simulate`]: many paths of a scene with one scheme, recorded every k-th step, as arrays.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`plots`], [`output`]: SVG plots and the report files (the statistics, intervals, orders
 //!   and the paired bootstrap over paths, are [`sdae_stats`]).
@@ -42,6 +43,7 @@ pub mod parallel;
 pub mod plots;
 pub mod scene;
 pub mod scene_load;
+pub mod simulate;
 pub mod stability;
 pub mod trace;
 pub mod weak;

@@ -41,6 +41,23 @@ impl Scene {
         Ok(scene)
     }
 
+    /// Reads a scene from JSON text with the keys of a scene file (a table of another
+    /// language, such as a Python dict, written as JSON).
+    pub fn from_json(text: &str) -> Result<Self, StudyError> {
+        let scene: Scene = serde_json::from_str(text).map_err(|e| StudyError::Format {
+            file: "<inline>".into(),
+            message: e.to_string(),
+        })?;
+        scene.validate().map_err(|e| match e {
+            StudyError::Invalid { scene, message } => StudyError::Invalid {
+                scene,
+                message: format!("{message} (scene file <inline>)"),
+            },
+            other => other,
+        })?;
+        Ok(scene)
+    }
+
     /// Reads a scene file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, StudyError> {
         let file = path.display().to_string();

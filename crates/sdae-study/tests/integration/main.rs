@@ -14,6 +14,7 @@ mod mlmc;
 mod qmc;
 mod quick_report;
 mod scenes;
+mod simulate;
 mod stability_report;
 mod truncated_levels;
 mod weak;

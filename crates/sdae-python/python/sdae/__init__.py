@@ -1,0 +1,68 @@
+"""Constrained stochastic mechanical systems from Python.
+
+Scenes (a system, its parameters, the initial state and T) come built in, from TOML files or
+from dicts with the keys of a scene file; ``simulate`` steps many paths of a scene with one of
+the library's schemes and returns numpy arrays.
+
+>>> import sdae
+>>> paths = sdae.simulate("pendulum", "half-explicit-practical", paths=8, steps=256, seed=1, every=64)
+>>> paths.positions.shape
+(8, 5, 2)
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping, Union
+
+from ._sdae import Paths, Scene, __version__, built_in_scenes, schemes
+from ._sdae import simulate as _simulate
+
+__all__ = ["Paths", "Scene", "__version__", "built_in_scenes", "scene", "schemes", "simulate"]
+
+SceneLike = Union[Scene, str, "os.PathLike[str]", Mapping[str, Any]]
+
+
+def scene(source: SceneLike) -> Scene:
+    """A scene from a built-in name, a path to a TOML scene file, a dict with the keys of a
+    scene file, or a Scene (returned as it is).
+
+    A name that is not built in but names a file is read as a file. Raises ValueError where the
+    scene's checks refuse it, with the message the command line prints.
+    """
+    if isinstance(source, Scene):
+        return source
+    if isinstance(source, Mapping):
+        return Scene.from_dict(dict(source))
+    if isinstance(source, str) and source in built_in_scenes():
+        return Scene.built_in(source)
+    if isinstance(source, (str, os.PathLike)) and os.path.exists(source):
+        return Scene.from_file(os.fspath(source))
+    if isinstance(source, str):
+        return Scene.built_in(source)
+    raise TypeError(f"a scene is a name, a path, a dict or a Scene, not {type(source).__name__}")
+
+
+def simulate(
+    source: SceneLike,
+    scheme: str = "half-explicit-practical",
+    *,
+    paths: int,
+    steps: int,
+    seed: int = 0,
+    every: int = 1,
+    threads: int = 1,
+) -> Paths:
+    """Simulates ``paths`` paths of a scene with ``scheme`` (see ``schemes()``) over ``steps``
+    steps of h = T / steps from the scene's initial state.
+
+    Path i draws its increments from the stream (seed, i): the numbers are the library's for the
+    same settings, whatever ``threads``. The states at t_0, every ``every``-th step and t_N come
+    back as arrays of shape (paths, times, n) (``positions``, ``velocities``) and (paths, times,
+    m) (``multipliers``), float64 and C-contiguous. A path that failed holds NaN after its last
+    completed step; ``failures`` says why. The interpreter's lock is released during the run, and
+    Ctrl-C raises KeyboardInterrupt.
+    """
+    return _simulate(
+        scene(source), scheme, paths, steps, seed=seed, every=every, threads=threads
+    )

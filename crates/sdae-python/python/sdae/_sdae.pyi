@@ -1,0 +1,79 @@
+"""Type stubs of the native module ``sdae._sdae``."""
+
+import os
+from typing import Any, Dict, List, Optional
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+def built_in_scenes() -> List[str]:
+    """The names of the built-in scenes."""
+
+def schemes() -> List[str]:
+    """The names of the built-in schemes."""
+
+class Scene:
+    """A scene: a system, its parameters, the initial state, T and the study defaults."""
+
+    @staticmethod
+    def built_in(name: str) -> "Scene":
+        """The built-in scene ``name``; ValueError if there is none."""
+    @staticmethod
+    def from_toml(text: str) -> "Scene":
+        """The scene written as TOML text; ValueError naming the key where it is refused."""
+    @staticmethod
+    def from_file(path: "str | os.PathLike[str]") -> "Scene":
+        """The scene of a TOML file; OSError if it cannot be read, ValueError if refused."""
+    @staticmethod
+    def from_dict(table: Dict[str, Any]) -> "Scene":
+        """The scene of a dict with the keys of a scene file; ValueError if refused."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def description(self) -> str: ...
+    @property
+    def t_end(self) -> float: ...
+    def to_toml(self) -> str:
+        """The scene as TOML text (reads back to an equal scene)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The scene as a dict with the keys of a scene file."""
+
+class Paths:
+    """Recorded paths: arrays over (paths, times, coordinates)."""
+
+    @property
+    def scheme(self) -> str: ...
+    @property
+    def h(self) -> float: ...
+    @property
+    def times(self) -> npt.NDArray[np.float64]:
+        """Recorded times, shape (T,)."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """r, shape (P, T, n); NaN after a failed path's last completed step."""
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]:
+        """v, shape (P, T, n)."""
+    @property
+    def multipliers(self) -> npt.NDArray[np.float64]:
+        """mu, shape (P, T, m); mu_0 = 0."""
+    @property
+    def failures(self) -> List[Optional[str]]:
+        """Why each path stopped, or None."""
+    @property
+    def diagnostics(self) -> Dict[str, npt.NDArray[Any]]:
+        """Per-path diagnostics, arrays of length P."""
+
+def simulate(
+    scene: Scene,
+    scheme: str,
+    paths: int,
+    steps: int,
+    *,
+    seed: int = 0,
+    every: int = 1,
+    threads: int = 1,
+) -> Paths:
+    """Simulates paths of a scene; see ``sdae.simulate``."""

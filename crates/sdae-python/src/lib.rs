@@ -1,0 +1,27 @@
+//! The Python package `sdae`: scenes and simulated paths of the library, numpy arrays in and
+//! out. Its native module `sdae._sdae` is built by maturin (`pip install crates/sdae-python`);
+//! the package's Python files (`python/sdae`) re-export it with docstrings and type stubs.
+//!
+//! Every run releases the interpreter's lock and checks for signals between blocks of work
+//! (`interrupt.rs`), so that Ctrl-C raises `KeyboardInterrupt` within a second. A setting or a
+//! scene the library refuses raises `ValueError` with the library's message, the one the
+//! command line prints.
+
+use pyo3::prelude::*;
+
+mod errors;
+mod interrupt;
+mod paths;
+mod scene;
+
+/// The native module `sdae._sdae`.
+#[pymodule]
+fn _sdae(module: &Bound<'_, PyModule>) -> PyResult<()> {
+    module.add_class::<scene::PyScene>()?;
+    module.add_class::<paths::PyPaths>()?;
+    module.add_function(wrap_pyfunction!(scene::built_in_scenes, module)?)?;
+    module.add_function(wrap_pyfunction!(paths::schemes, module)?)?;
+    module.add_function(wrap_pyfunction!(paths::simulate, module)?)?;
+    module.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

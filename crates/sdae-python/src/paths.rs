@@ -1,0 +1,178 @@
+//! Simulated paths from Python: P paths of a scene with a named scheme, recorded every k-th
+//! step, as numpy arrays (the library's [`sdae_study::simulate`]).
+
+use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use sdae_model::PathDiagnostics;
+use sdae_study::integrator::SchemeKind;
+use sdae_study::simulate::{SimulateSettings, SimulatedPaths, simulate as simulate_paths};
+
+use crate::errors::to_py;
+use crate::interrupt::run_interruptible;
+use crate::scene::PyScene;
+
+/// The names of the built-in schemes.
+#[pyfunction]
+pub fn schemes() -> Vec<&'static str> {
+    SchemeKind::ALL.iter().map(|k| k.name()).collect()
+}
+
+/// Simulates `paths` paths of `scene` with `scheme` over `steps` steps of h = T / steps from
+/// the scene's initial state; path i draws from the stream (seed, i). Records t_0, every
+/// `every`-th step and t_N. Releases the interpreter's lock; Ctrl-C raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (scene, scheme, paths, steps, *, seed = 0, every = 1, threads = 1))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate(
+    py: Python<'_>, scene: &PyScene, scheme: &str, paths: usize, steps: usize, seed: u64,
+    every: usize, threads: usize,
+) -> PyResult<PyPaths> {
+    let kind = SchemeKind::from_name(scheme).ok_or_else(|| {
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "scheme = {scheme:?}: not a built-in scheme (one of {})",
+            schemes().join(", ")
+        ))
+    })?;
+    let settings = SimulateSettings::new(kind, paths, steps, seed)
+        .and_then(|s| s.every(every))
+        .and_then(|s| s.threads(threads))
+        .map_err(to_py)?;
+    let scene = &scene.scene;
+    let simulated = run_interruptible(py, |stop| simulate_paths(scene, &settings, stop))?;
+    PyPaths::new(py, simulated.map_err(to_py)?)
+}
+
+/// P recorded paths: `times` (T,), `positions` and `velocities` (P, T, n), `multipliers`
+/// (P, T, m), `failures` (one message or None per path) and `diagnostics` (a dict of arrays
+/// of length P). A failed path holds NaN after its last completed step. The arrays are made
+/// once, without copying the run's numbers, and each property returns the same array.
+#[pyclass(name = "Paths", module = "sdae._sdae", frozen)]
+pub struct PyPaths {
+    scheme: String,
+    h: f64,
+    paths: usize,
+    records: usize,
+    dims: (usize, usize),
+    times: Py<PyArray1<f64>>,
+    positions: Py<PyArray3<f64>>,
+    velocities: Py<PyArray3<f64>>,
+    multipliers: Py<PyArray3<f64>>,
+    failures: Vec<Option<String>>,
+    diagnostics: Py<PyDict>,
+}
+
+impl PyPaths {
+    /// The run's numbers as numpy arrays (moved, not copied).
+    fn new(py: Python<'_>, run: SimulatedPaths) -> PyResult<Self> {
+        let (p, t) = (run.failures.len(), run.times.len());
+        let shaped = |values: Vec<f64>, width: usize| -> PyResult<Py<PyArray3<f64>>> {
+            Ok(values.into_pyarray(py).reshape([p, t, width])?.unbind())
+        };
+        Ok(Self {
+            scheme: run.scheme,
+            h: run.h,
+            paths: p,
+            records: t,
+            dims: (run.n, run.m),
+            positions: shaped(run.positions, run.n)?,
+            velocities: shaped(run.velocities, run.n)?,
+            multipliers: shaped(run.multipliers, run.m)?,
+            times: run.times.into_pyarray(py).unbind(),
+            diagnostics: diagnostics(py, &run.diagnostics)?.unbind(),
+            failures: run.failures,
+        })
+    }
+}
+
+/// Each path's diagnostics as arrays of length P.
+fn diagnostics<'py>(
+    py: Python<'py>, diagnostics: &[PathDiagnostics],
+) -> PyResult<Bound<'py, PyDict>> {
+    let column =
+        |f: fn(&PathDiagnostics) -> f64| -> Vec<f64> { diagnostics.iter().map(f).collect() };
+    let count = |f: fn(&PathDiagnostics) -> usize| -> Vec<u64> {
+        diagnostics.iter().map(|d| f(d) as u64).collect()
+    };
+    let dict = PyDict::new(py);
+    dict.set_item("steps", count(|d| d.steps).into_pyarray(py))?;
+    dict.set_item(
+        "truncated_steps",
+        count(|d| d.truncated_steps).into_pyarray(py),
+    )?;
+    dict.set_item("min_eta", column(|d| d.min_eta).into_pyarray(py))?;
+    dict.set_item(
+        "newton_iterations",
+        count(|d| d.newton_iterations).into_pyarray(py),
+    )?;
+    dict.set_item(
+        "max_position_residual",
+        column(|d| d.max_position_residual).into_pyarray(py),
+    )?;
+    dict.set_item(
+        "max_velocity_residual",
+        column(|d| d.max_velocity_residual).into_pyarray(py),
+    )?;
+    Ok(dict)
+}
+
+#[pymethods]
+impl PyPaths {
+    /// The scheme's name.
+    #[getter]
+    fn scheme(&self) -> &str {
+        &self.scheme
+    }
+
+    /// The step size h = T / N.
+    #[getter]
+    fn h(&self) -> f64 {
+        self.h
+    }
+
+    /// The recorded times, shape (T,).
+    #[getter]
+    fn times(&self, py: Python<'_>) -> Py<PyArray1<f64>> {
+        self.times.clone_ref(py)
+    }
+
+    /// r at the recorded times, shape (P, T, n).
+    #[getter]
+    fn positions(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
+        self.positions.clone_ref(py)
+    }
+
+    /// v at the recorded times, shape (P, T, n).
+    #[getter]
+    fn velocities(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
+        self.velocities.clone_ref(py)
+    }
+
+    /// mu at the recorded times (mu_0 = 0), shape (P, T, m).
+    #[getter]
+    fn multipliers(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
+        self.multipliers.clone_ref(py)
+    }
+
+    /// Why each path stopped, or None.
+    #[getter]
+    fn failures(&self) -> Vec<Option<String>> {
+        self.failures.clone()
+    }
+
+    /// Each path's diagnostics as arrays of length P: `steps`, `truncated_steps`, `min_eta`,
+    /// `newton_iterations`, `max_position_residual`, `max_velocity_residual`.
+    #[getter]
+    fn diagnostics(&self, py: Python<'_>) -> Py<PyDict> {
+        self.diagnostics.clone_ref(py)
+    }
+
+    fn __repr__(&self) -> String {
+        let (n, m) = self.dims;
+        let failed = self.failures.iter().filter(|f| f.is_some()).count();
+        format!(
+            "Paths({} paths x {} times, n = {n}, m = {m}, scheme {:?}, {failed} failed)",
+            self.paths, self.records, self.scheme,
+        )
+    }
+}

@@ -1,0 +1,95 @@
+//! Scenes from Python: a built-in one by name, a TOML file or text, or a dict with the keys of
+//! a scene file; checked as the command line checks them.
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use sdae_study::scene::{BUILT_IN, Scene};
+
+use crate::errors::to_py;
+
+/// The names of the built-in scenes.
+#[pyfunction]
+pub fn built_in_scenes() -> Vec<&'static str> {
+    BUILT_IN.iter().map(|(name, _)| *name).collect()
+}
+
+/// A scene: a system, its parameters, the initial state, T and the study defaults.
+#[pyclass(name = "Scene", module = "sdae._sdae", frozen)]
+#[derive(Clone)]
+pub struct PyScene {
+    pub scene: Scene,
+}
+
+#[pymethods]
+impl PyScene {
+    /// The built-in scene `name` (see `built_in_scenes()`).
+    #[staticmethod]
+    fn built_in(name: &str) -> PyResult<Self> {
+        Scene::built_in(name).map(Self::from).map_err(to_py)
+    }
+
+    /// The scene written as TOML text, in the format of a scene file.
+    #[staticmethod]
+    fn from_toml(text: &str) -> PyResult<Self> {
+        Scene::from_toml(text).map(Self::from).map_err(to_py)
+    }
+
+    /// The scene of a scene file.
+    #[staticmethod]
+    fn from_file(path: std::path::PathBuf) -> PyResult<Self> {
+        Scene::from_file(&path).map(Self::from).map_err(to_py)
+    }
+
+    /// The scene of a dict with the keys of a scene file (nested dicts for its tables).
+    #[staticmethod]
+    fn from_dict(py: Python<'_>, table: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let json = py.import("json")?.call_method1("dumps", (table,))?;
+        Scene::from_json(&json.extract::<String>()?)
+            .map(Self::from)
+            .map_err(to_py)
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.scene.name
+    }
+
+    /// One line on what the scene shows.
+    #[getter]
+    fn description(&self) -> &str {
+        &self.scene.description
+    }
+
+    /// The final time T.
+    #[getter]
+    fn t_end(&self) -> f64 {
+        self.scene.t_end
+    }
+
+    /// The scene as TOML text (reads back to an equal scene).
+    fn to_toml(&self) -> PyResult<String> {
+        self.scene.to_toml().map_err(to_py)
+    }
+
+    /// The scene as a dict with the keys of a scene file.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let json = serde_json::to_string(&self.scene)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+        py.import("json")?.call_method1("loads", (json,))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Scene({:?}, T={})", self.scene.name, self.scene.t_end)
+    }
+
+    fn __eq__(&self, other: &Self) -> bool {
+        self.scene == other.scene
+    }
+}
+
+impl From<Scene> for PyScene {
+    fn from(scene: Scene) -> Self {
+        Self { scene }
+    }
+}

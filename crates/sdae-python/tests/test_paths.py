@@ -1,0 +1,122 @@
+"""Simulated paths: the library's numbers for the seed, whatever the threads and the number of
+paths; documented shapes and dtypes; refused settings; Ctrl-C."""
+
+import _thread
+import csv
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import sdae
+
+
+def test_arrays_have_the_documented_shapes_and_dtypes():
+    paths = sdae.simulate("pendulum", paths=5, steps=100, seed=3, every=30)
+    assert paths.times.shape == (5,)
+    np.testing.assert_array_equal(paths.times, np.array([0, 30, 60, 90, 100]) * paths.h)
+    for array, width in ((paths.positions, 2), (paths.velocities, 2), (paths.multipliers, 1)):
+        assert array.shape == (5, 5, width)
+        assert array.dtype == np.float64
+        assert array.flags["C_CONTIGUOUS"]
+    assert paths.failures == [None] * 5
+    diagnostics = paths.diagnostics
+    assert set(diagnostics) >= {"steps", "min_eta", "max_position_residual"}
+    np.testing.assert_array_equal(diagnostics["steps"], [100] * 5)
+    # On the circle at every recorded time, with mu_0 = 0.
+    radius = np.linalg.norm(paths.positions, axis=2)
+    np.testing.assert_allclose(radius, 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(paths.multipliers[:, 0, :], 0.0)
+
+
+def test_a_path_does_not_depend_on_the_threads_or_the_other_paths():
+    one = sdae.simulate("pendulum", paths=3, steps=64, seed=11, every=8)
+    many = sdae.simulate("pendulum", paths=70, steps=64, seed=11, every=8, threads=2)
+    np.testing.assert_array_equal(one.positions, many.positions[:3])
+    np.testing.assert_array_equal(one.velocities, many.velocities[:3])
+    np.testing.assert_array_equal(one.multipliers, many.multipliers[:3])
+
+
+def test_path_zero_is_the_command_lines_trace_bit_for_bit(tmp_path, command_line):
+    # `trace` runs one path (stream seed, path 0) of the half-explicit scheme with the practical
+    # C_eta over 2^k steps, k the scene's finest study level, recording every (2^k // 400)-th
+    # step; its CSV holds t and r with every digit.
+    subprocess.run(
+        [command_line, "trace", "--scene", "pendulum", "--seed", "5", "--out", str(tmp_path)],
+        check=True,
+        capture_output=True,
+    )
+    with open(tmp_path / "trace" / "pendulum.csv") as f:
+        rows = [[float(x) for x in row] for row in list(csv.reader(f))[1:]]
+    scene = sdae.scene("pendulum")
+    steps = 2 ** scene.to_dict()["study"]["levels"][1]
+    every = max(steps // 400, 1)
+    paths = sdae.simulate(scene, "half-explicit-practical", paths=1, steps=steps, seed=5, every=every)
+    assert len(rows) >= 400
+    for j, (t, *r) in enumerate(rows):
+        assert t == pytest.approx(paths.times[j], rel=1e-12)
+        np.testing.assert_array_equal(paths.positions[0, j], r)
+
+
+@pytest.mark.parametrize(
+    "settings, name",
+    [
+        (dict(paths=0, steps=10), "paths"),
+        (dict(paths=1, steps=0), "steps"),
+        (dict(paths=1, steps=10, every=0), "every"),
+        (dict(paths=1, steps=10, threads=0), "threads"),
+    ],
+)
+def test_a_refused_setting_is_a_value_error_naming_it(settings, name):
+    with pytest.raises(ValueError, match=name):
+        sdae.simulate("pendulum", **settings)
+
+
+def test_a_refused_system_parameter_is_a_value_error_naming_it():
+    table = sdae.scene("pendulum").to_dict()
+    table["system"]["pendulum"]["length"] = 0.0
+    scene = sdae.Scene.from_dict(table)
+    with pytest.raises(ValueError, match="length = 0: must be finite and > 0"):
+        sdae.simulate(scene, paths=1, steps=4)
+
+
+def test_an_unknown_scheme_is_a_value_error_listing_the_schemes():
+    with pytest.raises(ValueError, match="g-baoab"):
+        sdae.simulate("pendulum", "leapfrog", paths=1, steps=10)
+
+
+def test_a_scheme_that_does_not_apply_is_a_value_error():
+    # BAOAB needs a Langevin system: the pendulum scene's noise is not sigma I with friction.
+    if "baoab-rattle" not in sdae.schemes():
+        pytest.fail("baoab-rattle is a built-in scheme")
+    with pytest.raises(ValueError, match="baoab"):
+        sdae.simulate("fiber", "baoab-rattle", paths=1, steps=10)
+
+
+def test_ctrl_c_stops_a_run_within_a_second_and_the_interpreter_goes_on():
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        sdae.simulate("pendulum", paths=2000, steps=1 << 22, seed=1, every=1 << 22)
+    elapsed = time.monotonic() - start
+    timer.cancel()
+    assert elapsed < 0.5 + 1.0
+    # The interpreter and the package still work.
+    assert sdae.simulate("pendulum", paths=1, steps=4).positions.shape == (1, 5, 2)
+
+
+def test_a_failed_path_holds_nan_after_its_last_completed_step():
+    # Untruncated steps of 1/16 on the noisy pendulum: the kappa system of some paths has no
+    # root connected to 0.
+    paths = sdae.simulate("noisy-pendulum", "half-explicit-untruncated", paths=64, steps=16, seed=1)
+    failed = [p for p, failure in enumerate(paths.failures) if failure]
+    assert 0 < len(failed) < 64
+    for p, failure in enumerate(paths.failures):
+        done = paths.diagnostics["steps"][p] if failure else 16
+        assert np.isfinite(paths.positions[p, : done + 1]).all()
+        assert np.isnan(paths.positions[p, done + 1 :]).all()
+        assert np.isnan(paths.multipliers[p, done + 1 :]).all()
+    assert all("kappa system" in paths.failures[p] for p in failed)

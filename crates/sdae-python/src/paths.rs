@@ -22,7 +22,6 @@ pub fn schemes() -> Vec<&'static str> {
 /// the scene's initial state; path i draws from the stream (seed, i). Records t_0, every
 /// `every`-th step and t_N. Releases the interpreter's lock; Ctrl-C raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (scene, scheme, paths, steps, *, seed = 0, every = 1, threads = 1))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>, scene: &PyScene, scheme: &str, paths: usize, steps: usize, seed: u64,
@@ -55,9 +54,8 @@ pub struct PyPaths {
     records: usize,
     dims: (usize, usize),
     times: Py<PyArray1<f64>>,
-    positions: Py<PyArray3<f64>>,
-    velocities: Py<PyArray3<f64>>,
-    multipliers: Py<PyArray3<f64>>,
+    /// r, v and mu.
+    states: [Py<PyArray3<f64>>; 3],
     failures: Vec<Option<String>>,
     diagnostics: Py<PyDict>,
 }
@@ -75,9 +73,11 @@ impl PyPaths {
             paths: p,
             records: t,
             dims: (run.n, run.m),
-            positions: shaped(run.positions, run.n)?,
-            velocities: shaped(run.velocities, run.n)?,
-            multipliers: shaped(run.multipliers, run.m)?,
+            states: [
+                shaped(run.positions, run.n)?,
+                shaped(run.velocities, run.n)?,
+                shaped(run.multipliers, run.m)?,
+            ],
             times: run.times.into_pyarray(py).unbind(),
             diagnostics: diagnostics(py, &run.diagnostics)?.unbind(),
             failures: run.failures,
@@ -139,19 +139,19 @@ impl PyPaths {
     /// r at the recorded times, shape (P, T, n).
     #[getter]
     fn positions(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
-        self.positions.clone_ref(py)
+        self.states[0].clone_ref(py)
     }
 
     /// v at the recorded times, shape (P, T, n).
     #[getter]
     fn velocities(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
-        self.velocities.clone_ref(py)
+        self.states[1].clone_ref(py)
     }
 
     /// mu at the recorded times (mu_0 = 0), shape (P, T, m).
     #[getter]
     fn multipliers(&self, py: Python<'_>) -> Py<PyArray3<f64>> {
-        self.multipliers.clone_ref(py)
+        self.states[2].clone_ref(py)
     }
 
     /// Why each path stopped, or None.

@@ -89,3 +89,11 @@ def _value(v):
     if isinstance(v, list):
         return "[" + ", ".join(_value(x) for x in v) + "]"
     return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def test_the_packages_docstring_examples_run():
+    import doctest
+
+    failures, tried = doctest.testmod(sdae)
+    assert tried > 0
+    assert failures == 0

@@ -27,31 +27,29 @@ impl Scene {
     }
 
     fn parse(text: &str, file: &str) -> Result<Self, StudyError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| StudyError::Format {
-            file: file.to_string(),
-            message: e.to_string(),
-        })?;
-        scene.validate().map_err(|e| match e {
-            StudyError::Invalid { scene, message } => StudyError::Invalid {
-                scene,
-                message: format!("{message} (scene file {file})"),
-            },
-            other => other,
-        })?;
-        Ok(scene)
+        Self::checked(toml::from_str(text).map_err(|e| e.to_string()), file)
     }
 
     /// Reads a scene from JSON text with the keys of a scene file (a table of another
     /// language, such as a Python dict, written as JSON).
     pub fn from_json(text: &str) -> Result<Self, StudyError> {
-        let scene: Scene = serde_json::from_str(text).map_err(|e| StudyError::Format {
-            file: "<inline>".into(),
-            message: e.to_string(),
+        Self::checked(
+            serde_json::from_str(text).map_err(|e| e.to_string()),
+            "<inline>",
+        )
+    }
+
+    /// The scene read from `file` (or why it could not be read), once its checks pass; a
+    /// refusal names the file.
+    fn checked(read: Result<Scene, String>, file: &str) -> Result<Self, StudyError> {
+        let scene = read.map_err(|message| StudyError::Format {
+            file: file.to_string(),
+            message,
         })?;
         scene.validate().map_err(|e| match e {
             StudyError::Invalid { scene, message } => StudyError::Invalid {
                 scene,
-                message: format!("{message} (scene file <inline>)"),
+                message: format!("{message} (scene file {file})"),
             },
             other => other,
         })?;

@@ -63,6 +63,4 @@ def simulate(
     completed step; ``failures`` says why. The interpreter's lock is released during the run, and
     Ctrl-C raises KeyboardInterrupt.
     """
-    return _simulate(
-        scene(source), scheme, paths, steps, seed=seed, every=every, threads=threads
-    )
+    return _simulate(scene(source), scheme, paths, steps, seed, every, threads)

@@ -66,14 +66,5 @@ class Paths:
     def diagnostics(self) -> Dict[str, npt.NDArray[Any]]:
         """Per-path diagnostics, arrays of length P."""
 
-def simulate(
-    scene: Scene,
-    scheme: str,
-    paths: int,
-    steps: int,
-    *,
-    seed: int = 0,
-    every: int = 1,
-    threads: int = 1,
-) -> Paths:
-    """Simulates paths of a scene; see ``sdae.simulate``."""
+def simulate(scene: Scene, scheme: str, paths: int, steps: int, seed: int, every: int, threads: int) -> Paths:
+    """Simulates paths of a scene; see ``sdae.simulate`` (every argument given)."""

@@ -1,5 +1,5 @@
 """What `sdae.simulate` costs from Python, against the same runs through the Rust API
-(`cargo bench -p sdae-study --bench simulate`): 10 000 paths of the `pendulum` scene, 1 024 steps
+(`cargo bench -p sdae-bench --bench simulate`): 10 000 paths of the `pendulum` scene, 1 024 steps
 of the half-explicit scheme (practical C_eta), the end state recorded or every step, one thread.
 Prints the best of `--repeat` runs (seconds) and writes them as JSON to `--out`.
 

@@ -4,7 +4,7 @@
 //! The Python package's `crates/sdae-python/benchmarks/simulate.py` times the same runs from
 //! Python.
 //!
-//! Run with `cargo bench -p sdae-study --bench simulate`.
+//! Run with `cargo bench -p sdae-bench --bench simulate`.
 
 use std::hint::black_box;
 

@@ -1,6 +1,7 @@
 //! Simulated paths from Python: P paths of a scene with a named scheme, recorded every k-th
 //! step, as numpy arrays (the library's [`sdae_study::simulate`]).
 
+use numpy::npyffi::NPY_ORDER;
 use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -21,12 +22,21 @@ pub fn schemes() -> Vec<&'static str> {
 /// Simulates `paths` paths of `scene` with `scheme` over `steps` steps of h = T / steps from
 /// the scene's initial state; path i draws from the stream (seed, i). Records t_0, every
 /// `every`-th step and t_N. Releases the interpreter's lock; Ctrl-C raises KeyboardInterrupt.
+/// The counts and the seed come as Python integers of any size: a negative one is a
+/// `ValueError` naming it, as is any setting the library refuses.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
-    py: Python<'_>, scene: &PyScene, scheme: &str, paths: usize, steps: usize, seed: u64,
-    every: usize, threads: usize,
+    py: Python<'_>, scene: &PyScene, scheme: &str, paths: i128, steps: i128, seed: i128,
+    every: i128, threads: i128,
 ) -> PyResult<PyPaths> {
+    let (paths, steps, every, threads) = (
+        whole("paths", paths)?,
+        whole("steps", steps)?,
+        whole("every", every)?,
+        whole("threads", threads)?,
+    );
+    let seed = whole("seed", seed)?;
     let kind = SchemeKind::from_name(scheme).ok_or_else(|| {
         pyo3::exceptions::PyValueError::new_err(format!(
             "scheme = {scheme:?}: not a built-in scheme (one of {})",
@@ -40,6 +50,16 @@ pub fn simulate(
     let scene = &scene.scene;
     let simulated = run_interruptible(py, |stop| simulate_paths(scene, &settings, stop))?;
     PyPaths::new(py, simulated.map_err(to_py)?)
+}
+
+/// `value` as a count or seed, or a `ValueError` naming `name` where it is negative or too large.
+fn whole<T: TryFrom<i128>>(name: &str, value: i128) -> PyResult<T> {
+    T::try_from(value).map_err(|_| {
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "{name} = {value}: must be a whole number from 0 to {}",
+            u64::MAX
+        ))
+    })
 }
 
 /// P recorded paths: `times` (T,), `positions` and `velocities` (P, T, n), `multipliers`
@@ -65,7 +85,11 @@ impl PyPaths {
     fn new(py: Python<'_>, run: SimulatedPaths) -> PyResult<Self> {
         let (p, t) = (run.failures.len(), run.times.len());
         let shaped = |values: Vec<f64>, width: usize| -> PyResult<Py<PyArray3<f64>>> {
-            Ok(values.into_pyarray(py).reshape([p, t, width])?.unbind())
+            let array = values
+                .into_pyarray(py)
+                .reshape_with_order([p, t, width], NPY_ORDER::NPY_CORDER)?;
+            read_only(array.as_any())?;
+            Ok(array.unbind())
         };
         Ok(Self {
             scheme: run.scheme,
@@ -78,11 +102,23 @@ impl PyPaths {
                 shaped(run.velocities, run.n)?,
                 shaped(run.multipliers, run.m)?,
             ],
-            times: run.times.into_pyarray(py).unbind(),
+            times: {
+                let times = run.times.into_pyarray(py);
+                read_only(times.as_any())?;
+                times.unbind()
+            },
             diagnostics: diagnostics(py, &run.diagnostics)?.unbind(),
             failures: run.failures,
         })
     }
+}
+
+/// Marks a numpy array read-only: a property hands out the same array each time.
+fn read_only(array: &Bound<'_, PyAny>) -> PyResult<()> {
+    let flags = PyDict::new(array.py());
+    flags.set_item("write", false)?;
+    array.call_method("setflags", (), Some(&flags))?;
+    Ok(())
 }
 
 /// Each path's diagnostics as arrays of length P.
@@ -113,6 +149,22 @@ fn diagnostics<'py>(
         "max_velocity_residual",
         column(|d| d.max_velocity_residual).into_pyarray(py),
     )?;
+    dict.set_item(
+        "homotopy_steps",
+        count(|d| d.homotopy_steps).into_pyarray(py),
+    )?;
+    dict.set_item(
+        "max_kappa_ratio",
+        column(|d| d.max_kappa_ratio).into_pyarray(py),
+    )?;
+    dict.set_item("clock_lag", column(|d| d.clock_lag).into_pyarray(py))?;
+    dict.set_item(
+        "rounding_certified_steps",
+        count(|d| d.rounding_certified_steps).into_pyarray(py),
+    )?;
+    for (_, column) in dict.iter() {
+        read_only(&column)?;
+    }
     Ok(dict)
 }
 
@@ -161,7 +213,9 @@ impl PyPaths {
     }
 
     /// Each path's diagnostics as arrays of length P: `steps`, `truncated_steps`, `min_eta`,
-    /// `newton_iterations`, `max_position_residual`, `max_velocity_residual`.
+    /// `newton_iterations`, `max_position_residual`, `max_velocity_residual`, `homotopy_steps`,
+    /// `max_kappa_ratio`, `clock_lag` (grid time minus the path's own clock, for the
+    /// time-changed scheme) and `rounding_certified_steps`.
     #[getter]
     fn diagnostics(&self, py: Python<'_>) -> Py<PyDict> {
         self.diagnostics.clone_ref(py)

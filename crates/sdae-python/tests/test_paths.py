@@ -23,7 +23,7 @@ def test_arrays_have_the_documented_shapes_and_dtypes():
         assert array.flags["C_CONTIGUOUS"]
     assert paths.failures == [None] * 5
     diagnostics = paths.diagnostics
-    assert set(diagnostics) >= {"steps", "min_eta", "max_position_residual"}
+    assert set(diagnostics) >= {"steps", "min_eta", "max_position_residual", "clock_lag"}
     np.testing.assert_array_equal(diagnostics["steps"], [100] * 5)
     # On the circle at every recorded time, with mu_0 = 0.
     radius = np.linalg.norm(paths.positions, axis=2)
@@ -32,11 +32,19 @@ def test_arrays_have_the_documented_shapes_and_dtypes():
 
 
 def test_a_path_does_not_depend_on_the_threads_or_the_other_paths():
-    one = sdae.simulate("pendulum", paths=3, steps=64, seed=11, every=8)
-    many = sdae.simulate("pendulum", paths=70, steps=64, seed=11, every=8, threads=2)
-    np.testing.assert_array_equal(one.positions, many.positions[:3])
-    np.testing.assert_array_equal(one.velocities, many.velocities[:3])
-    np.testing.assert_array_equal(one.multipliers, many.multipliers[:3])
+    # Blocks of 64 paths: paths 64..70 sit in a block of 6 on one thread and of 64 on two.
+    few = sdae.simulate("pendulum", paths=70, steps=64, seed=11, every=8)
+    many = sdae.simulate("pendulum", paths=128, steps=64, seed=11, every=8, threads=2)
+    np.testing.assert_array_equal(few.positions, many.positions[:70])
+    np.testing.assert_array_equal(few.velocities, many.velocities[:70])
+    np.testing.assert_array_equal(few.multipliers, many.multipliers[:70])
+
+
+def test_the_arrays_are_read_only():
+    paths = sdae.simulate("pendulum", paths=2, steps=8)
+    with pytest.raises(ValueError, match="read-only"):
+        paths.positions[0, 0, 0] = 1.0
+    assert paths.positions is paths.positions
 
 
 def test_path_zero_is_the_command_lines_trace_bit_for_bit(tmp_path, command_line):
@@ -67,6 +75,9 @@ def test_path_zero_is_the_command_lines_trace_bit_for_bit(tmp_path, command_line
         (dict(paths=1, steps=0), "steps"),
         (dict(paths=1, steps=10, every=0), "every"),
         (dict(paths=1, steps=10, threads=0), "threads"),
+        (dict(paths=-1, steps=10), "paths = -1"),
+        (dict(paths=1, steps=10, seed=-1), "seed = -1"),
+        (dict(paths=10**15, steps=10**6), "paths = 1000000000000000: the recorded states need"),
     ],
 )
 def test_a_refused_setting_is_a_value_error_naming_it(settings, name):
@@ -91,7 +102,7 @@ def test_a_scheme_that_does_not_apply_is_a_value_error():
     # BAOAB needs a Langevin system: the pendulum scene's noise is not sigma I with friction.
     if "baoab-rattle" not in sdae.schemes():
         pytest.fail("baoab-rattle is a built-in scheme")
-    with pytest.raises(ValueError, match="baoab"):
+    with pytest.raises(ValueError, match="baoab-rattle does not apply"):
         sdae.simulate("fiber", "baoab-rattle", paths=1, steps=10)
 
 
@@ -99,8 +110,10 @@ def test_ctrl_c_stops_a_run_within_a_second_and_the_interpreter_goes_on():
     timer = threading.Timer(0.5, _thread.interrupt_main)
     start = time.monotonic()
     timer.start()
+    # About 10^9 path-steps, some seconds: a run that ignored the signal would end, and fail
+    # this test, instead of hanging.
     with pytest.raises(KeyboardInterrupt):
-        sdae.simulate("pendulum", paths=2000, steps=1 << 22, seed=1, every=1 << 22)
+        sdae.simulate("pendulum", paths=20_000, steps=1 << 16, seed=1, every=1 << 16)
     elapsed = time.monotonic() - start
     timer.cancel()
     assert elapsed < 0.5 + 1.0

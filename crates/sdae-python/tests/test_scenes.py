@@ -31,6 +31,13 @@ def test_an_unknown_name_is_a_value_error_listing_the_built_in_ones():
         sdae.scene("nowhere")
 
 
+def test_a_missing_file_is_an_os_error_naming_it(tmp_path):
+    missing = tmp_path / "missing.toml"
+    for source in (missing, str(missing)):
+        with pytest.raises(OSError, match="missing.toml"):
+            sdae.scene(source)
+
+
 def test_a_scene_of_another_type_is_a_type_error():
     with pytest.raises(TypeError, match="not int"):
         sdae.scene(3)
@@ -49,10 +56,9 @@ def test_a_refused_dict_raises_the_command_lines_message(tmp_path, command_line,
     change(table)
     with pytest.raises(ValueError) as refused:
         sdae.Scene.from_dict(table)
-    message = str(refused.value)
-    assert key in message
-    # The same scene as a file, refused by the command line with the same words (the file's
-    # name aside: the dict is read as `<inline>`).
+    assert key in str(refused.value)
+    # The same scene as a file: refused with the message the command line prints for it, word for
+    # word, which names the same key.
     bad = tmp_path / "bad.toml"
     bad.write_text(_toml(table))
     with pytest.raises(ValueError) as from_file:
@@ -63,6 +69,7 @@ def test_a_refused_dict_raises_the_command_lines_message(tmp_path, command_line,
         text=True,
     )
     assert run.returncode != 0
+    assert key in str(from_file.value)
     assert str(from_file.value) in run.stderr
 
 

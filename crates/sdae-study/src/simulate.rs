@@ -23,6 +23,9 @@ use sdae_model::{PathDiagnostics, TimeGrid};
 use sdae_noise::EnsembleIncrements;
 use sdae_reference::CurvedSystem;
 
+use sdae_stats::memory;
+
+use crate::convergence::MAX_THREADS;
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::scene::{Prepared, Scene, SceneRunner};
@@ -57,28 +60,51 @@ impl SimulateSettings {
     pub fn new(
         scheme: SchemeKind, paths: usize, steps: usize, seed: u64,
     ) -> Result<Self, StudyError> {
-        positive("paths", paths)?;
-        positive("steps", steps)?;
-        Ok(Self {
+        Self {
             scheme,
             paths,
             steps,
             seed,
             every: 1,
             threads: 1,
-        })
+        }
+        .validated()
     }
 
     /// Records t_0, every k-th step and t_N; refuses k = 0.
     pub fn every(self, every: usize) -> Result<Self, StudyError> {
-        positive("every", every)?;
-        Ok(Self { every, ..self })
+        Self { every, ..self }.validated()
     }
 
-    /// Runs on `threads` worker threads; refuses 0.
+    /// Runs on `threads` worker threads; refuses 0 and more than [`MAX_THREADS`].
     pub fn threads(self, threads: usize) -> Result<Self, StudyError> {
-        positive("threads", threads)?;
-        Ok(Self { threads, ..self })
+        Self { threads, ..self }.validated()
+    }
+
+    /// Fails, naming the setting, unless P, N and k are at least 1 and the threads in
+    /// 1..=[`MAX_THREADS`] ([`simulate`] checks settings built field by field too).
+    pub fn validate(&self) -> Result<(), StudyError> {
+        positive("paths", self.paths)?;
+        positive("steps", self.steps)?;
+        positive("every", self.every)?;
+        if self.threads == 0 || self.threads > MAX_THREADS {
+            return Err(StudyError::Setting {
+                key: "threads",
+                value: self.threads.to_string(),
+                rule: format!("must be in 1..={MAX_THREADS}"),
+            });
+        }
+        Ok(())
+    }
+
+    fn validated(self) -> Result<Self, StudyError> {
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// T, the number of recorded steps.
+    pub fn records(&self) -> usize {
+        self.steps / self.every + 1 + usize::from(!self.steps.is_multiple_of(self.every))
     }
 
     /// The recorded steps: 0, k, 2k, ... and N.
@@ -137,6 +163,7 @@ pub struct SimulatedPaths {
 pub fn simulate(
     scene: &Scene, settings: &SimulateSettings, stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<SimulatedPaths, StudyError> {
+    settings.validate()?;
     scene.run(Simulator { settings, stop })?
 }
 
@@ -153,9 +180,9 @@ impl SceneRunner for Simulator<'_> {
     {
         let settings = self.settings;
         let grid = TimeGrid::new(scene.t_end, settings.steps).map_err(StudyError::from)?;
+        fits_in_memory(settings, &prepared)?;
         let scheme = StudyScheme::built_in(settings.scheme, &prepared.system, &prepared.constants);
         let recorded = settings.recorded_steps();
-        let indices: Vec<u64> = (0..settings.paths as u64).collect();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(settings.threads)
             .build()
@@ -164,14 +191,16 @@ impl SceneRunner for Simulator<'_> {
                 message: e.to_string(),
             })?;
         let blocks = pool.install(|| {
-            indices
-                .par_chunks(BLOCK_PATHS)
-                .map(|block| {
+            (0..settings.paths.div_ceil(BLOCK_PATHS))
+                .into_par_iter()
+                .map(|b| {
                     if (self.stop)() {
                         return Err(StudyError::Stopped);
                     }
+                    let end = settings.paths.min((b + 1) * BLOCK_PATHS);
+                    let indices: Vec<u64> = (b * BLOCK_PATHS..end).map(|i| i as u64).collect();
                     let block = Block {
-                        indices: block,
+                        indices: &indices,
                         seed: settings.seed,
                         stop: self.stop,
                     };
@@ -180,6 +209,27 @@ impl SceneRunner for Simulator<'_> {
                 .collect::<Result<Vec<_>, StudyError>>()
         })?;
         Ok(gather(settings, &prepared, &grid, &recorded, blocks))
+    }
+}
+
+/// Refuses, naming `paths`, a run whose recorded states (held twice: the blocks' rows and
+/// the arrays) would not fit in the available memory.
+fn fits_in_memory<S: CurvedSystem>(
+    settings: &SimulateSettings, prepared: &Prepared<S>,
+) -> Result<(), StudyError> {
+    let row = 2 * prepared.position.len() + prepared.system.constraint().n_constraints();
+    let needed = [settings.records(), row, 2 * std::mem::size_of::<f64>()]
+        .into_iter()
+        .fold(settings.paths as u64, |bytes, k| {
+            bytes.saturating_mul(k as u64)
+        });
+    match memory::exceeded(needed, "the recorded states") {
+        Some(rule) => Err(StudyError::Setting {
+            key: "paths",
+            value: settings.paths.to_string(),
+            rule,
+        }),
+        None => Ok(()),
     }
 }
 

@@ -27,18 +27,21 @@ def scene(source: SceneLike) -> Scene:
     """A scene from a built-in name, a path to a TOML scene file, a dict with the keys of a
     scene file, or a Scene (returned as it is).
 
-    A name that is not built in but names a file is read as a file. Raises ValueError where the
-    scene's checks refuse it, with the message the command line prints.
+    A path (an ``os.PathLike``, or a str that is not a built-in name and names a file, ends in
+    ``.toml`` or holds a path separator) is read as a file: OSError if it cannot be read. Raises
+    ValueError where the scene's checks refuse it, with the message the command line prints.
     """
     if isinstance(source, Scene):
         return source
     if isinstance(source, Mapping):
         return Scene.from_dict(dict(source))
-    if isinstance(source, str) and source in built_in_scenes():
-        return Scene.built_in(source)
-    if isinstance(source, (str, os.PathLike)) and os.path.exists(source):
+    if isinstance(source, os.PathLike):
         return Scene.from_file(os.fspath(source))
     if isinstance(source, str):
+        if source in built_in_scenes():
+            return Scene.built_in(source)
+        if os.path.exists(source) or source.endswith(".toml") or os.sep in source:
+            return Scene.from_file(source)
         return Scene.built_in(source)
     raise TypeError(f"a scene is a name, a path, a dict or a Scene, not {type(source).__name__}")
 
@@ -60,7 +63,9 @@ def simulate(
     same settings, whatever ``threads``. The states at t_0, every ``every``-th step and t_N come
     back as arrays of shape (paths, times, n) (``positions``, ``velocities``) and (paths, times,
     m) (``multipliers``), float64 and C-contiguous. A path that failed holds NaN after its last
-    completed step; ``failures`` says why. The interpreter's lock is released during the run, and
-    Ctrl-C raises KeyboardInterrupt.
+    completed step; ``failures`` says why. The arrays are read-only (copy one to change it). The
+    interpreter's lock is released during the run, and Ctrl-C raises KeyboardInterrupt (signals
+    reach Python's main thread only). A negative count or seed, or a setting the library refuses
+    (including states that would not fit in memory), raises ValueError naming it.
     """
     return _simulate(scene(source), scheme, paths, steps, seed, every, threads)

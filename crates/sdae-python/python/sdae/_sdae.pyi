@@ -64,7 +64,7 @@ class Paths:
         """Why each path stopped, or None."""
     @property
     def diagnostics(self) -> Dict[str, npt.NDArray[Any]]:
-        """Per-path diagnostics, arrays of length P."""
+        """Per-path diagnostics, read-only arrays of length P."""
 
 def simulate(scene: Scene, scheme: str, paths: int, steps: int, seed: int, every: int, threads: int) -> Paths:
     """Simulates paths of a scene; see ``sdae.simulate`` (every argument given)."""

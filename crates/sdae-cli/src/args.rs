@@ -6,6 +6,10 @@ use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use sdae_study::convergence::{ConvergenceSettings, MAX_THREADS};
 use sdae_study::integrator::SchemeKind;
+use sdae_study::options::{
+    ConvergenceOptions, EnsembleOptions, MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS,
+    WEAK_RANDOMIZATIONS, WeakOptions,
+};
 use sdae_study::scene::{BUILT_IN, Scene};
 
 use crate::shard::ShardArg;
@@ -182,7 +186,7 @@ pub struct WeakArgs {
     #[arg(long)]
     pub qmc: bool,
     /// With --qmc: randomizations R (at least 2; their spread gives the intervals).
-    #[arg(long, value_name = "R", default_value_t = 16, requires = "qmc")]
+    #[arg(long, value_name = "R", default_value_t = WEAK_RANDOMIZATIONS, requires = "qmc")]
     pub randomizations: usize,
 }
 
@@ -233,13 +237,6 @@ fn thread_count(value: &str) -> Result<usize, String> {
     }
 }
 
-/// The threads a study of `paths` paths starts when `threads` are asked for: at most one per
-/// path and 4 per available core.
-fn started_threads(threads: usize, paths: usize) -> usize {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    threads.min(paths.max(1)).min(4 * cores)
-}
-
 /// Whether the user typed `flag` on the command line (`--flag V` or `--flag=V`).
 pub fn typed(flag: &str) -> bool {
     std::env::args_os().skip(1).any(|arg| {
@@ -279,13 +276,20 @@ fn parse_levels(value: &str) -> Result<(u32, u32), String> {
 }
 
 impl EnsembleArgs {
-    /// Applies the paths, seed and threads given on the command line; the threads are capped
-    /// at the paths and at 4 per available core.
-    pub fn apply(&self, mut s: ConvergenceSettings) -> ConvergenceSettings {
-        s.paths = self.paths.unwrap_or(s.paths);
-        s.seed = self.seed.unwrap_or(s.seed);
-        s.threads = started_threads(self.threads.unwrap_or(s.threads), s.paths);
-        s
+    /// The paths, seed, threads and quick given on the command line.
+    pub fn options(&self) -> EnsembleOptions {
+        EnsembleOptions {
+            paths: self.paths,
+            seed: self.seed,
+            threads: self.threads,
+            quick: self.quick,
+        }
+    }
+
+    /// Applies the paths, seed and threads given on the command line
+    /// ([`EnsembleOptions::apply`]).
+    pub fn apply(&self, s: ConvergenceSettings) -> ConvergenceSettings {
+        self.options().apply(s)
     }
 }
 
@@ -342,48 +346,29 @@ impl SceneArgs {
 }
 
 impl WeakArgs {
-    /// The weak settings `s` of a scene with the command line's QMC design: with --qmc, R
-    /// randomizations and, unless --paths is given, the paths rounded down to R n with n the
-    /// largest power of two that fits (at least one point per randomization); then the
-    /// command line's paths, seed and threads ([`EnsembleArgs::apply`]).
-    pub fn apply(&self, mut s: ConvergenceSettings) -> ConvergenceSettings {
-        if self.qmc {
-            let r = self.randomizations;
-            s.randomizations = Some(r);
-            if self.ensemble.paths.is_none() && r > 0 {
-                let n = (s.paths / r).max(1);
-                s.paths = r * (1usize << n.ilog2());
-            }
+    /// The weak study's options: with --qmc, its randomizations.
+    pub fn options(&self) -> WeakOptions {
+        WeakOptions {
+            ensemble: self.ensemble.options(),
+            randomizations: self.qmc.then_some(self.randomizations),
         }
-        self.ensemble.apply(s)
     }
 }
 
 impl ConvergenceArgs {
-    /// The convergence settings of `scene`: its defaults, the levels given, then with `--quick`
-    /// at most 200 paths, five levels (unless given) and a reference 2^4 times finer than the
-    /// finest, then the command line's other values.
+    /// The convergence settings of `scene` with the command line's options
+    /// ([`ConvergenceOptions::settings`]).
     pub fn settings(&self, scene: &Scene) -> ConvergenceSettings {
-        let mut s = ConvergenceSettings::for_scene(scene);
-        if let Some((a, b)) = self.levels {
-            s.coarsest = a;
-            s.finest = b;
+        ConvergenceOptions {
+            ensemble: self.ensemble.options(),
+            schemes: self.schemes.clone(),
+            reference_scheme: self.reference_scheme,
+            levels: self.levels,
+            ref_level: self.ref_level,
+            t_end: self.t_end,
+            p: self.p,
         }
-        if self.ensemble.quick {
-            s.paths = s.paths.min(200);
-            if self.levels.is_none() {
-                s.finest = s.finest.min(s.coarsest + 4);
-            }
-            s.reference = Some(s.finest + 4);
-        }
-        if !self.schemes.is_empty() {
-            s.schemes = self.schemes.clone();
-        }
-        s.reference_scheme = self.reference_scheme.unwrap_or(s.reference_scheme);
-        s.reference = self.ref_level.or(s.reference);
-        s.t_end = self.t_end.unwrap_or(s.t_end);
-        s.p = self.p.unwrap_or(s.p);
-        self.ensemble.apply(s)
+        .settings(scene)
     }
 }
 
@@ -406,10 +391,6 @@ mod tests {
         assert!(thread_count("0").is_err());
         assert_eq!(thread_count("1024"), Ok(1024));
         assert!(thread_count("1025").is_err());
-        assert_eq!(started_threads(10_000, 8), 8);
-        assert_eq!(started_threads(1, 8), 1);
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        assert_eq!(started_threads(1024, 1 << 20), 1024.min(4 * cores));
     }
 
     #[test]
@@ -483,13 +464,13 @@ pub struct MlmcArgs {
     #[arg(long, conflicts_with = "plan")]
     pub qmc: bool,
     /// With --qmc: randomizations R per level (at least 2; their spread gives the interval).
-    #[arg(long, value_name = "R", default_value_t = 32, requires = "qmc")]
+    #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS, requires = "qmc")]
     pub randomizations: u32,
     /// With --qmc: points n_0 of each randomization when a level is first run (a power of two).
     #[arg(
         long = "initial-points",
         value_name = "N",
-        default_value_t = 32,
+        default_value_t = MLQMC_INITIAL_POINTS,
         requires = "qmc"
     )]
     pub initial_points: u64,

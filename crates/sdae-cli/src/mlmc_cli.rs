@@ -16,6 +16,7 @@ use sdae_study::mlmc::report::{print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
 use sdae_study::mlmc::study::{MlmcReport, MlmcSettings, run_mlmc};
 use sdae_study::mlmc::{caused_by_input, study_error};
+use sdae_study::options::MlmcOptions;
 
 use sdae_study::scene::Scene;
 
@@ -42,36 +43,28 @@ impl From<MlmcError> for Failure {
 }
 
 impl MlmcArgs {
-    /// The settings of `scene` with the command line's changes.
+    /// The settings of `scene` with the command line's changes ([`MlmcOptions::settings`]).
     fn settings(&self, scene: &Scene) -> MlmcSettings {
-        let mut s = MlmcSettings::for_scene(scene);
-        let spec = &mut s.spec;
-        if let Some(o) = &self.observable {
-            spec.observable = o.clone();
+        MlmcOptions {
+            observable: self.observable.clone(),
+            scheme: self.scheme.clone(),
+            eps: self.eps.clone(),
+            antithetic: self.antithetic,
+            coarsest: self.coarsest,
+            max_level: self.max_level,
+            test_levels: self.test_levels,
+            test_samples: self.test_samples,
+            t_end: self.t_end,
+            seed: self.seed,
+            threads: self.threads,
+            quick: self.quick,
+            standard_run: !self.no_standard,
+            qmc: self.qmc.then_some(QmcSettings {
+                randomizations: self.randomizations,
+                initial_points: self.initial_points,
+            }),
         }
-        if let Some(scheme) = &self.scheme {
-            spec.scheme = scheme.clone();
-        }
-        if !self.eps.is_empty() {
-            spec.eps = self.eps.clone();
-        }
-        spec.antithetic |= self.antithetic;
-        spec.coarsest = self.coarsest.unwrap_or(spec.coarsest);
-        spec.max_level = self.max_level.unwrap_or(spec.max_level);
-        spec.test_levels = self.test_levels.unwrap_or(spec.test_levels);
-        spec.test_samples = self.test_samples.unwrap_or(spec.test_samples);
-        s.t_end = self.t_end.unwrap_or(s.t_end);
-        s.seed = self.seed;
-        s.threads = self.threads.unwrap_or(s.threads);
-        s.standard_run = !self.no_standard;
-        s.qmc = self.qmc.then_some(QmcSettings {
-            randomizations: self.randomizations,
-            initial_points: self.initial_points,
-        });
-        if self.quick {
-            s = s.quick();
-        }
-        s
+        .settings(scene)
     }
 
     /// The settings of `scene` with the command line's changes, checked against the scene: a

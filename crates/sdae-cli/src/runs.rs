@@ -19,7 +19,7 @@ use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
 use sdae_study::scene::{BUILT_IN, Scene};
 use sdae_study::scene_load::key_in_table;
-use sdae_study::stability::{self, StabilityReport, StabilityScene, stability_settings};
+use sdae_study::stability::{self, StabilityReport, StabilityScene};
 use sdae_study::{equipartition, trace, weak};
 
 use crate::args::{CheckpointArgs, ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
@@ -604,13 +604,7 @@ pub fn stability(args: &EnsembleArgs, stop: &AtomicBool) -> Result<(), Failure> 
     distinct(&scenes)?;
     let settings = scenes
         .iter()
-        .map(|scene| {
-            stability_settings(scene, args.quick)
-                .map(|s| args.apply(s))
-                .ok_or_else(|| {
-                    Failure::Usage(format!("scene {} has no [stability] table", scene.name))
-                })
-        })
+        .map(|scene| args.options().stability_settings(scene).map_err(refused))
         .collect::<Result<Vec<_>, _>>()?;
     checked(&scenes, &settings, "stability", |k| args.scenes.file_of(k))?;
     let dir = args.out.out.join("stability");
@@ -724,11 +718,8 @@ pub fn weak(args: &WeakArgs, stop: &AtomicBool) -> Result<(), Failure> {
         outputs: &WEAK_FILES,
         table: "weak",
     };
-    let settings = |scene: &Scene| {
-        weak::weak_settings(scene, args.ensemble.quick)
-            .map(|s| args.apply(s))
-            .ok_or_else(|| Failure::Usage(format!("scene {} has no [weak] table", scene.name)))
-    };
+    let options = args.options();
+    let settings = |scene: &Scene| options.settings(scene).map_err(refused);
     let report = |run: ConvergenceRun, dir: &Path| {
         let report = weak::build_weak_report(run)?;
         write_weak(&report, dir)?;

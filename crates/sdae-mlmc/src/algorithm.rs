@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{MlmcError, check_eps, samples_exceed_memory};
 use crate::fit::{LogPoint, asymptotic_decay, fit_slope, resolved_mean};
 use crate::sampler::{BLOCK, LevelSampler, RunControl};
-use crate::sums::LevelSums;
+use crate::sums::{LevelStats, LevelSums};
 use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
 use sdae_stats::{Interval, t975};
 
@@ -328,6 +328,35 @@ pub fn estimate_of_plan<L: LevelSampler>(
     let bias = bias_estimate(&level_means(&levels));
     let converged = bias.0 <= plan.eps / 2f64.sqrt();
     Ok(finish(sampler, plan.eps, levels, bias, converged))
+}
+
+/// The plan for accuracy `eps` from a convergence test (a pilot run's): the fewest levels
+/// 0..=L (L >= 2) whose bias estimate ([`bias_estimate`]) is within eps / sqrt(2), and the
+/// optimal N_l from the test's variances and the work per sample. Fails if the test's levels
+/// do not reach that bias.
+pub fn plan_from_test<L: LevelSampler>(
+    sampler: &L, test: &[LevelStats], eps: f64,
+) -> Result<Plan, MlmcError> {
+    let eps = check_eps(eps)?;
+    let means: Vec<(f64, f64)> = test.iter().map(|s| (s.mean_y, s.se_y)).collect();
+    let top = (2..means.len())
+        .find(|&l| bias_estimate(&means[..=l]).0 <= eps / 2f64.sqrt())
+        .ok_or_else(|| MlmcError::Levels {
+            reason: format!(
+                "the convergence test's levels 0..={} do not bring the bias estimate below \
+                 eps / sqrt(2) = {:.3e}: test more levels",
+                means.len().saturating_sub(1),
+                eps / 2f64.sqrt()
+            ),
+        })?;
+    let variances: Vec<f64> = test[..=top].iter().map(|s| s.var_y).collect();
+    let costs: Vec<f64> = (0..=top)
+        .map(|l| sampler.pair_steps(l as u32) as f64)
+        .collect();
+    Ok(Plan {
+        eps,
+        samples: optimal_samples(&variances, &costs, eps),
+    })
 }
 
 /// Standard Monte Carlo on level `level`: `samples` single fine paths (rounded up to whole

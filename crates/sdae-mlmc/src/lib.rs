@@ -14,6 +14,8 @@
 //!   keeps finished blocks (a checkpoint: a resumed run folds exactly the uninterrupted sums).
 //! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
 //!   one level.
+//! - [`expectation`]: E[P] to a requested accuracy by whichever of MLMC and standard Monte
+//!   Carlo a short convergence test predicts cheaper.
 //! - [`shard`]: a plan's run split into shards (on the nodes of a cluster) and merged into
 //!   exactly the sums of the unsharded run.
 //! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
@@ -29,6 +31,7 @@ struct ReadmeExample;
 
 pub mod algorithm;
 pub mod error;
+pub mod expectation;
 pub mod fit;
 pub mod qmc;
 pub mod sampler;
@@ -42,6 +45,7 @@ pub use algorithm::{
     AdaptiveSettings, MlmcEstimate, Plan, adaptive, run_plan, standard_monte_carlo,
 };
 pub use error::MlmcError;
+pub use expectation::{Expectation, ExpectationSettings, Method, expectation};
 pub use fit::{Rates, fit_rates};
 pub use qmc::{
     MlqmcEstimate, QuasiEstimate, QuasiLevel, QuasiSampler, QuasiSettings, cost_exponent,

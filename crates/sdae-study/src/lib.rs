@@ -20,6 +20,8 @@
 //!   Richardson-Romberg extrapolation, against exact values or the reference on the same paths.
 //! - [`observable`]: scalar functions of the state (built-in per system, or a user's closure)
 //!   whose expectations the weak study and MLMC measure.
+//! - [`options`]: what a caller changes of a scene's study settings (the command line's flags,
+//!   the Python package's keywords), turned into settings by one piece of code.
 //! - [`simulate`]: many paths of a scene with one scheme, recorded every k-th step, as arrays.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`plots`], [`output`]: SVG plots and the report files (the statistics, intervals, orders
@@ -38,6 +40,7 @@ pub mod integrator;
 pub use sdae_lockstep as lockstep;
 pub mod mlmc;
 pub mod observable;
+pub mod options;
 pub mod output;
 pub mod parallel;
 pub mod plots;

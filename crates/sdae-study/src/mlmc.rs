@@ -13,9 +13,12 @@
 //! - [`study`], [`report`] (with [`quasi_report`]), [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums (the
 //!   command saves and reads the shards' files).
+//! - [`expectation`]: E[f(X_T)] to a requested accuracy by MLMC or standard Monte Carlo,
+//!   whichever the convergence test predicts cheaper.
 //! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
 
 pub mod coupled;
+pub mod expectation;
 pub mod plan_runs;
 pub mod plots;
 pub mod quasi;
@@ -26,6 +29,7 @@ pub mod shard;
 pub mod study;
 
 pub use coupled::CoupledSampler;
+pub use expectation::{SceneExpectation, scene_expectation};
 pub use quasi::{QmcReport, QmcSettings};
 pub use settings::{MlmcSpec, caused_by_input, study_error};
 pub use study::{

@@ -5,9 +5,10 @@
 //! compiled here once and not again in every program that calls them.
 
 use super::shard::{Identity, MlmcShard, PlanReport, plan_report, run_shard};
-use super::study::{MlmcReport, MlmcSettings, SamplerTask, plan_from_test, with_sampler};
+use super::study::{MlmcReport, MlmcSettings, SamplerTask, with_sampler};
 use crate::scene::Scene;
 use sdae_mlmc::MlmcError;
+use sdae_mlmc::algorithm::plan_from_test;
 use sdae_mlmc::algorithm::{Plan, run_plan};
 use sdae_mlmc::sampler::{LevelSampler, RunControl};
 use sdae_mlmc::sums::LevelSums;

@@ -14,8 +14,8 @@ use crate::integrator::{SchemeKind, StudyScheme};
 use crate::scene::{Prepared, Scene};
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::{
-    AdaptiveSettings, MlmcEstimate, Plan, adaptive, bias_estimate, check_counts, optimal_counts,
-    optimal_samples, run_plan, standard_monte_carlo,
+    AdaptiveSettings, MlmcEstimate, Plan, adaptive, check_counts, optimal_counts, run_plan,
+    standard_monte_carlo,
 };
 use sdae_mlmc::error::{check_eps, samples_exceed_memory};
 use sdae_mlmc::fit::{Rates, fit_rates};
@@ -645,35 +645,6 @@ fn standard_run<L: LevelSampler>(
         seconds: sums.seconds,
         mlmc_seconds: row.run.seconds,
         speedup: sums.seconds * (eps / target_eps).powi(2) / row.run.seconds,
-    })
-}
-
-/// The plan for accuracy `eps` from a convergence test (the cluster's pilot): the fewest
-/// levels 0..=L (L >= 2) whose bias estimate ([`bias_estimate`]) is within eps / sqrt(2), and the optimal N_l from
-/// the test's variances and the work per sample. Fails if the test's levels do not reach that
-/// bias.
-pub fn plan_from_test<L: LevelSampler>(
-    sampler: &L, test: &[LevelStats], eps: f64,
-) -> Result<Plan, MlmcError> {
-    let eps = check_eps(eps)?;
-    let means: Vec<(f64, f64)> = test.iter().map(|s| (s.mean_y, s.se_y)).collect();
-    let top = (2..means.len())
-        .find(|&l| bias_estimate(&means[..=l]).0 <= eps / 2f64.sqrt())
-        .ok_or_else(|| MlmcError::Levels {
-            reason: format!(
-                "the convergence test's levels 0..={} do not bring the bias estimate below \
-                 eps / sqrt(2) = {:.3e}: test more levels",
-                means.len().saturating_sub(1),
-                eps / 2f64.sqrt()
-            ),
-        })?;
-    let variances: Vec<f64> = test[..=top].iter().map(|s| s.var_y).collect();
-    let costs: Vec<f64> = (0..=top)
-        .map(|l| sampler.pair_steps(l as u32) as f64)
-        .collect();
-    Ok(Plan {
-        eps,
-        samples: optimal_samples(&variances, &costs, eps),
     })
 }
 

@@ -8,9 +8,9 @@ use sdae_mlmc::fit::fit_rates;
 use sdae_mlmc::sums::{LevelStats, level_stats};
 use sdae_mlmc::{LevelSampler, LevelSums, MlmcError, RunControl};
 use sdae_study::StudyError;
-use sdae_study::mlmc::MlmcSpec;
 use sdae_study::mlmc::shard::{Identity, merge, run_shard};
 use sdae_study::mlmc::study::{MlmcSettings, SamplerTask, run_study, with_sampler};
+use sdae_study::mlmc::{MlmcSpec, scene_expectation};
 use sdae_study::scene::Scene;
 use sdae_study::weak::circle_cos_turn;
 
@@ -340,4 +340,40 @@ fn the_direct_standard_run_is_capped_by_the_mlmc_work() {
         .map(|l| l.samples as f64 * l.work_per_sample as f64)
         .sum();
     assert!((d.cap_work - test_work - row.mlmc_work).abs() < 1e-6 * d.cap_work);
+}
+
+/// E[cos_angle] of the circle by the expectation helper: the estimator the convergence test
+/// predicts cheaper, its interval (widened by the bias estimate) covering the closed form.
+#[test]
+fn the_expectation_helper_covers_the_closed_form_of_the_circle() {
+    let (scene, exact) = circle(UNIT_CIRCLE);
+    let settings = circle_settings(&scene, 2026, 2);
+    let control = RunControl::new(2).unwrap();
+    let got = scene_expectation(&scene, &settings, 1e-2, &control).unwrap();
+    assert_eq!(
+        (got.scene.as_str(), got.observable.as_str()),
+        ("circle", "cos_angle")
+    );
+    let found = &got.found;
+    let predicted = found.predicted.expect("the test's levels reach the bias");
+    assert_eq!(found.method, predicted.cheaper());
+    let i = &found.estimate;
+    let bias = found.bias.abs();
+    assert!(
+        i.ci_low - bias <= exact && exact <= i.ci_high + bias,
+        "{i:?} (bias {bias:e}) against {exact}"
+    );
+    assert_eq!(found.failed, 0);
+    let json = serde_json::to_value(&got).unwrap();
+    assert_eq!(json["method"], found.method.to_string().as_str());
+}
+
+#[test]
+fn the_expectation_helper_refuses_an_unknown_observable_naming_it() {
+    let (scene, _) = circle(UNIT_CIRCLE);
+    let mut settings = circle_settings(&scene, 2026, 1);
+    settings.spec.observable = "cos_angel".into();
+    let control = RunControl::new(1).unwrap();
+    let e = scene_expectation(&scene, &settings, 1e-2, &control).unwrap_err();
+    assert!(e.to_string().contains("cos_angel"), "{e}");
 }

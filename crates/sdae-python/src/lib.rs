@@ -1,5 +1,5 @@
-//! The Python package `sdae`: scenes and simulated paths of the library, numpy arrays in and
-//! out. Its native module `sdae._sdae` is built by maturin (`pip install crates/sdae-python`);
+//! The Python package `sdae`: scenes, simulated paths and the studies of the library, numpy
+//! arrays in and out. Its native module `sdae._sdae` is built by maturin (`pip install crates/sdae-python`);
 //! the package's Python files (`python/sdae`) re-export it with docstrings and type stubs.
 //!
 //! Every run releases the interpreter's lock and checks for signals between blocks of work
@@ -9,19 +9,28 @@
 
 use pyo3::prelude::*;
 
+mod args;
 mod errors;
 mod interrupt;
 mod paths;
+mod report;
 mod scene;
+mod studies;
 
 /// The native module `sdae._sdae`.
 #[pymodule]
 fn _sdae(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_class::<scene::PyScene>()?;
     module.add_class::<paths::PyPaths>()?;
+    module.add_class::<report::PyReport>()?;
     module.add_function(wrap_pyfunction!(scene::built_in_scenes, module)?)?;
-    module.add_function(wrap_pyfunction!(paths::schemes, module)?)?;
+    module.add_function(wrap_pyfunction!(args::schemes, module)?)?;
     module.add_function(wrap_pyfunction!(paths::simulate, module)?)?;
+    module.add_function(wrap_pyfunction!(studies::convergence, module)?)?;
+    module.add_function(wrap_pyfunction!(studies::weak, module)?)?;
+    module.add_function(wrap_pyfunction!(studies::stability, module)?)?;
+    module.add_function(wrap_pyfunction!(studies::mlmc, module)?)?;
+    module.add_function(wrap_pyfunction!(studies::expectation, module)?)?;
     module.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -6,18 +6,12 @@ use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sdae_model::PathDiagnostics;
-use sdae_study::integrator::SchemeKind;
 use sdae_study::simulate::{SimulateSettings, SimulatedPaths, simulate as simulate_paths};
 
+use crate::args::{scheme_kind, whole};
 use crate::errors::to_py;
 use crate::interrupt::run_interruptible;
 use crate::scene::PyScene;
-
-/// The names of the built-in schemes.
-#[pyfunction]
-pub fn schemes() -> Vec<&'static str> {
-    SchemeKind::ALL.iter().map(|k| k.name()).collect()
-}
 
 /// Simulates `paths` paths of `scene` with `scheme` over `steps` steps of h = T / steps from
 /// the scene's initial state; path i draws from the stream (seed, i). Records t_0, every
@@ -37,29 +31,16 @@ pub fn simulate(
         whole("threads", threads)?,
     );
     let seed = whole("seed", seed)?;
-    let kind = SchemeKind::from_name(scheme).ok_or_else(|| {
-        pyo3::exceptions::PyValueError::new_err(format!(
-            "scheme = {scheme:?}: not a built-in scheme (one of {})",
-            schemes().join(", ")
-        ))
-    })?;
+    let kind = scheme_kind("scheme", scheme)?;
     let settings = SimulateSettings::new(kind, paths, steps, seed)
         .and_then(|s| s.every(every))
         .and_then(|s| s.threads(threads))
         .map_err(to_py)?;
     let scene = &scene.scene;
-    let simulated = run_interruptible(py, |stop| simulate_paths(scene, &settings, stop))?;
+    let simulated = run_interruptible(py, None, |run| {
+        simulate_paths(scene, &settings, &|| run.stopped())
+    })?;
     PyPaths::new(py, simulated.map_err(to_py)?)
-}
-
-/// `value` as a count or seed, or a `ValueError` naming `name` where it is negative or too large.
-fn whole<T: TryFrom<i128>>(name: &str, value: i128) -> PyResult<T> {
-    T::try_from(value).map_err(|_| {
-        pyo3::exceptions::PyValueError::new_err(format!(
-            "{name} = {value}: must be a whole number from 0 to {}",
-            u64::MAX
-        ))
-    })
 }
 
 /// P recorded paths: `times` (T,), `positions` and `velocities` (P, T, n), `multipliers`

@@ -1,7 +1,7 @@
 """Type stubs of the native module ``sdae._sdae``."""
 
 import os
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -68,3 +68,100 @@ class Paths:
 
 def simulate(scene: Scene, scheme: str, paths: int, steps: int, seed: int, every: int, threads: int) -> Paths:
     """Simulates paths of a scene; see ``sdae.simulate`` (every argument given)."""
+
+class Report:
+    """A finished study's report as the command line writes it."""
+
+    @property
+    def kind(self) -> str:
+        """"convergence", "weak", "stability", "mlmc" or "expectation"."""
+    def to_json(self) -> str:
+        """The report as the command line's JSON file."""
+    @property
+    def csv(self) -> str:
+        """The report's CSV tables, a blank line between two tables."""
+    @property
+    def markdown(self) -> str:
+        """The report in Markdown."""
+    def write(self, folder: "str | os.PathLike[str]") -> None:
+        """Writes the command line's files of the study into ``folder``."""
+
+def convergence(
+    scene: Scene,
+    *,
+    schemes: Optional[List[str]] = None,
+    reference_scheme: Optional[str] = None,
+    levels: Optional[Tuple[int, int]] = None,
+    ref_level: Optional[int] = None,
+    t_end: Optional[float] = None,
+    p: Optional[float] = None,
+    paths: Optional[int] = None,
+    seed: Optional[int] = None,
+    threads: Optional[int] = None,
+    quick: bool = False,
+    progress: Optional[float] = None,
+) -> Report:
+    """The convergence study; see ``sdae.convergence`` (``progress``: seconds before the line)."""
+
+def weak(
+    scene: Scene,
+    *,
+    randomizations: Optional[int] = None,
+    paths: Optional[int] = None,
+    seed: Optional[int] = None,
+    threads: Optional[int] = None,
+    quick: bool = False,
+    progress: Optional[float] = None,
+) -> Report:
+    """The weak-error study; see ``sdae.weak`` (randomizations given: QMC paths)."""
+
+def stability(
+    scene: Scene,
+    *,
+    paths: Optional[int] = None,
+    seed: Optional[int] = None,
+    threads: Optional[int] = None,
+    quick: bool = False,
+    progress: Optional[float] = None,
+) -> Report:
+    """The stability study; see ``sdae.stability``."""
+
+def mlmc(
+    scene: Scene,
+    *,
+    observable: Optional[str] = None,
+    scheme: Optional[str] = None,
+    eps: Optional[List[float]] = None,
+    antithetic: bool = False,
+    coarsest: Optional[int] = None,
+    max_level: Optional[int] = None,
+    test_levels: Optional[int] = None,
+    test_samples: Optional[int] = None,
+    t_end: Optional[float] = None,
+    seed: int = 2026,
+    threads: Optional[int] = None,
+    quick: bool = False,
+    standard: bool = True,
+    randomizations: Optional[int] = None,
+    initial_points: Optional[int] = None,
+    progress: Optional[float] = None,
+) -> Report:
+    """The MLMC study; see ``sdae.mlmc`` (randomizations or initial_points given: MLQMC too)."""
+
+def expectation(
+    scene: Scene,
+    *,
+    eps: float,
+    observable: Optional[str] = None,
+    scheme: Optional[str] = None,
+    antithetic: bool = False,
+    coarsest: Optional[int] = None,
+    max_level: Optional[int] = None,
+    test_levels: Optional[int] = None,
+    test_samples: Optional[int] = None,
+    t_end: Optional[float] = None,
+    seed: int = 2026,
+    threads: Optional[int] = None,
+    progress: Optional[float] = None,
+) -> Report:
+    """E[f(X_T)] to accuracy eps; see ``sdae.expectation``."""

@@ -1,0 +1,223 @@
+"""The studies from Python against the command line's reports, exact values and bad input."""
+
+import _thread
+import json
+import pathlib
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import sdae
+
+# The fields that differ between two runs of one study (timings and what is computed from
+# them, the thread count, checksums): the command line's `compare` leaves the same ones out.
+RUN_DEPENDENT = {
+    "seconds_per_path",
+    "steps_per_second",
+    "threads",
+    "seconds",
+    "seconds_per_sample",
+    "mlmc_seconds",
+    "speedup",
+    "mlmc_cost",
+    "standard_cost",
+    "gamma_seconds",
+    "predicted_seconds",
+    "cap_seconds",
+    "crc32",
+}
+
+# The CSV columns computed from timings.
+RUN_DEPENDENT_COLUMNS = RUN_DEPENDENT | {"seconds_per_sample"}
+
+
+def numbers_of(value):
+    """A report's JSON content without its run-dependent fields."""
+    if isinstance(value, dict):
+        return {k: numbers_of(v) for k, v in value.items() if k not in RUN_DEPENDENT}
+    if isinstance(value, list):
+        return [numbers_of(v) for v in value]
+    return value
+
+
+def cli_report(command_line, tmp_path, args, file):
+    """The JSON report the command line writes for `args` (its output folder under tmp_path)."""
+    out = tmp_path / "cli"
+    subprocess.run([command_line, *args, "--out", str(out)], check=True, capture_output=True)
+    return json.loads((out / file).read_text())
+
+
+# Each study from Python and from the command line with the same options.
+SAME_STUDIES = [
+    (
+        lambda: sdae.convergence("pendulum", paths=12, levels=(3, 5), ref_level=9, threads=2),
+        ["convergence", "--scene", "pendulum", "--paths", "12", "--levels", "3..5",
+         "--ref-level", "9", "--threads", "1"],
+        "pendulum/report.json",
+    ),
+    (
+        lambda: sdae.convergence("noisy-pendulum", quick=True, paths=10, schemes=["euler-maruyama", "half-explicit-practical"], p=1.0),
+        ["convergence", "--scene", "noisy-pendulum", "--quick", "--paths", "10",
+         "--schemes", "euler-maruyama,half-explicit-practical", "--p", "1"],
+        "noisy-pendulum/report.json",
+    ),
+    (
+        lambda: sdae.weak("rotor", quick=True, paths=96),
+        ["weak", "--scene", "rotor", "--quick", "--paths", "96"],
+        "rotor/weak.json",
+    ),
+    (
+        lambda: sdae.weak("pendulum", quick=True, qmc=True, randomizations=4, paths=64),
+        ["weak", "--scene", "pendulum", "--quick", "--qmc", "--randomizations", "4",
+         "--paths", "64"],
+        "pendulum/weak.json",
+    ),
+    (
+        lambda: sdae.stability("stiff-fiber", quick=True, paths=4),
+        ["stability", "--scene", "stiff-fiber", "--quick", "--paths", "4"],
+        "stability/report.json",
+    ),
+    (
+        lambda: sdae.mlmc("pendulum", quick=True, eps=[0.05, 0.03], seed=7),
+        ["mlmc", "--scene", "pendulum", "--quick", "--eps", "0.05,0.03", "--seed", "7"],
+        "mlmc/pendulum/report.json",
+    ),
+]
+
+
+@pytest.mark.parametrize("study, args, file", SAME_STUDIES)
+def test_a_report_equals_the_command_lines_json(tmp_path, command_line, study, args, file):
+    report = study()
+    assert numbers_of(report.to_dict()) == numbers_of(cli_report(command_line, tmp_path, args, file))
+
+
+def test_the_rows_are_the_command_lines_csv(tmp_path, command_line):
+    report = sdae.convergence("pendulum", paths=12, levels=(3, 5), ref_level=9, progress=False)
+    out = tmp_path / "cli"
+    subprocess.run(
+        [command_line, "convergence", "--scene", "pendulum", "--paths", "12", "--levels", "3..5",
+         "--ref-level", "9", "--out", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    lines = (out / "pendulum" / "report.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert list(report.rows[0]) == header
+    assert len(report.rows) == len(lines) - 1
+    for row, line in zip(report.rows, lines[1:]):
+        for column, cell in zip(header, line.split(",")):
+            if column not in RUN_DEPENDENT_COLUMNS and cell:
+                assert str(row[column]) == cell or float(row[column]) == float(cell), column
+
+
+def test_report_fields_are_numbers_lists_and_arrays(tmp_path):
+    report = sdae.mlmc("pendulum", quick=True, eps=[0.05], standard=False, progress=False)
+    assert report.kind == "mlmc"
+    assert isinstance(report.to_dict()["settings"]["seed"], int)
+    eps = report.settings["spec"]["eps"]
+    assert isinstance(eps, np.ndarray) and eps.dtype == np.float64 and list(eps) == [0.05]
+    levels = report.test
+    assert isinstance(levels, list) and isinstance(levels[0]["var_y"], float)
+    assert report.standard is None
+    assert [row["level"] for row in report.rows] == [level["level"] for level in levels]
+    assert report.tables[1][0]["eps"] == 0.05
+    with pytest.raises(AttributeError, match="no field 'schemes'"):
+        report.schemes
+    report.write(tmp_path / "out")
+    written = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert written == ["cost.svg", "levels.svg", "report.csv", "report.json", "report.md", "samples.svg"]
+    assert json.loads((tmp_path / "out" / "report.json").read_text())["scene"] == "pendulum"
+    assert "pendulum" in report.markdown
+
+
+def test_the_expectation_covers_the_rotors_closed_form():
+    # E[cos(phi_T - phi_0)] of the rotor, in closed form (its scene file's [weak] table).
+    exact = 0.7417415778265619
+    found = sdae.expectation("rotor", "cos_turn", eps=1e-2, seed=3, progress=False)
+    low, high = found.interval
+    assert low - found.bias <= exact <= high + found.bias, (found.interval, found.bias)
+    assert found.method in ("mlmc", "standard")
+    predicted = found.predicted
+    cheaper = "standard" if predicted["standard"] < predicted["mlmc"] else "mlmc"
+    assert found.method == cheaper
+    assert found.to_dict()["observable"] == "cos_turn"
+    assert "rotor: E[cos_turn(X_T)]" in repr(found)
+
+
+def test_expectations_do_not_depend_on_the_threads():
+    one = sdae.expectation("pendulum", eps=5e-2, threads=1, progress=False)
+    two = sdae.expectation("pendulum", eps=5e-2, threads=2, progress=False)
+    assert numbers_of(one.to_dict()) == numbers_of(two.to_dict())
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: sdae.convergence("pendulum", paths=0), "paths = 0"),
+        (lambda: sdae.convergence("pendulum", paths=-3), "paths = -3"),
+        (lambda: sdae.convergence("pendulum", levels=(5, 3)), "levels = (5, 3)"),
+        (lambda: sdae.convergence("pendulum", schemes=["nope"]), "schemes = \"nope\""),
+        (lambda: sdae.convergence("pendulum", reference_scheme="nope"), "reference_scheme"),
+        (lambda: sdae.convergence("pendulum", threads=0), "threads = 0"),
+        (lambda: sdae.convergence("pendulum", t_end=-1.0), "t_end = -1"),
+        (lambda: sdae.weak("fiber"), "has no [weak] table"),
+        (lambda: sdae.weak("pendulum", randomizations=4), "randomizations = 4: needs qmc=True"),
+        (lambda: sdae.weak("pendulum", qmc=True, randomizations=1), "randomizations = 1"),
+        (lambda: sdae.stability("pendulum"), "has no [stability] table"),
+        (lambda: sdae.mlmc("pendulum", eps=[-1.0]), "eps = -1"),
+        (lambda: sdae.mlmc("pendulum", observable="cos_angel"), "cos_angel"),
+        (lambda: sdae.mlmc("pendulum", test_samples=-1), "test_samples = -1"),
+        (lambda: sdae.expectation("pendulum", eps=0.0), "eps"),
+        (lambda: sdae.expectation("pendulum", eps=1e-2, test_levels=1), "levels"),
+    ],
+)
+def test_a_refused_setting_is_a_value_error_naming_it(call, name):
+    with pytest.raises(ValueError) as refused:
+        call()
+    assert name in str(refused.value)
+
+
+def test_a_scene_value_is_named_by_its_key_in_the_scene_file():
+    # The pendulum's reference (2^15 steps) is not above finer levels asked for.
+    with pytest.raises(ValueError, match=r"^study.reference = 15: .*\(the scene's value\)$"):
+        sdae.convergence("pendulum", levels=(3, 16))
+    table = sdae.scene("pendulum").to_dict()
+    table["study"]["paths"] = 1
+    with pytest.raises(ValueError, match=r"study.paths = 1: must be >= 2"):
+        sdae.convergence(table)
+
+
+def test_progress_is_drawn_on_request_and_cleared(capfd):
+    sdae.weak("pendulum", quick=True, progress=False)
+    assert capfd.readouterr().err == ""
+    sdae.weak("pendulum", quick=True, paths=200, progress=True)
+    err = capfd.readouterr().err
+    assert "\rpendulum weak: 0/200 paths, 0.0 s" in err, err
+    # The line is cleared at the end: the last thing written returns to the line's start.
+    assert err.endswith("\r")
+
+
+def test_ctrl_c_stops_a_study_within_a_second_and_the_interpreter_goes_on():
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    start = time.monotonic()
+    timer.start()
+    # Minutes of work: a run that ignored the signal would fail the test, not hang it.
+    with pytest.raises(KeyboardInterrupt):
+        sdae.convergence("pendulum", paths=100_000, levels=(4, 10), ref_level=16, progress=False)
+    elapsed = time.monotonic() - start
+    timer.cancel()
+    assert elapsed < 0.5 + 1.0
+    assert sdae.convergence("pendulum", paths=4, levels=(2, 3), ref_level=5, progress=False).kind == "convergence"
+
+
+def test_the_example_runs(tmp_path):
+    example = pathlib.Path(__file__).resolve().parents[1] / "examples" / "pendulum.py"
+    done = subprocess.run(
+        [sys.executable, str(example)], cwd=tmp_path, capture_output=True, text=True, check=True
+    )
+    assert "pendulum: E[cos_angle(X_T)] = " in done.stdout
+    assert "# Convergence study: pendulum" in done.stdout

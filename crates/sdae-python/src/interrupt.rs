@@ -54,6 +54,19 @@ pub struct Meter {
 }
 
 impl Meter {
+    /// The line of `total` `unit` of `label`, drawn once the run has gone `after` seconds;
+    /// `None` (no line) without `after`.
+    pub fn after(
+        after: Option<f64>, label: String, total: Option<u64>, unit: &'static str,
+    ) -> Option<Meter> {
+        after.map(|after| Meter {
+            label,
+            total,
+            unit,
+            after: Duration::try_from_secs_f64(after).unwrap_or(Duration::ZERO),
+        })
+    }
+
     /// The line for `done` items after `elapsed`.
     fn line(&self, done: u64, elapsed: Duration) -> String {
         let of = self.total.map_or(String::new(), |t| format!("/{t}"));

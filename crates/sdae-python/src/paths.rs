@@ -6,23 +6,25 @@ use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sdae_model::PathDiagnostics;
-use sdae_study::simulate::{SimulateSettings, SimulatedPaths, simulate as simulate_paths};
+use sdae_study::simulate::{SimulateSettings, SimulatedPaths, simulate_with_progress};
 
 use crate::args::{scheme_kind, whole};
 use crate::errors::to_py;
-use crate::interrupt::run_interruptible;
+use crate::interrupt::{Meter, run_interruptible};
 use crate::scene::PyScene;
 
 /// Simulates `paths` paths of `scene` with `scheme` over `steps` steps of h = T / steps from
 /// the scene's initial state; path i draws from the stream (seed, i). Records t_0, every
 /// `every`-th step and t_N. Releases the interpreter's lock; Ctrl-C raises KeyboardInterrupt.
+/// With `progress`, a progress line is drawn on stderr after that many seconds.
 /// The counts and the seed come as Python integers of any size: a negative one is a
 /// `ValueError` naming it, as is any setting the library refuses.
 #[pyfunction]
+#[pyo3(signature = (scene, scheme, paths, steps, seed, every, threads, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>, scene: &PyScene, scheme: &str, paths: i128, steps: i128, seed: i128,
-    every: i128, threads: i128,
+    every: i128, threads: i128, progress: Option<f64>,
 ) -> PyResult<PyPaths> {
     let (paths, steps, every, threads) = (
         whole("paths", paths)?,
@@ -37,8 +39,12 @@ pub fn simulate(
         .and_then(|s| s.threads(threads))
         .map_err(to_py)?;
     let scene = &scene.scene;
-    let simulated = run_interruptible(py, None, |run| {
-        simulate_paths(scene, &settings, &|| run.stopped())
+    let label = format!("{} {}", scene.name, kind.name());
+    let meter = Meter::after(progress, label, Some(paths as u64), "paths");
+    let simulated = run_interruptible(py, meter, |run| {
+        simulate_with_progress(scene, &settings, &|| run.stopped(), &|n| {
+            run.advance(n as u64)
+        })
     })?;
     PyPaths::new(py, simulated.map_err(to_py)?)
 }

@@ -86,6 +86,12 @@ impl PyScene {
     fn __eq__(&self, other: &Self) -> bool {
         self.scene == other.scene
     }
+
+    /// Pickles as its TOML text, so that scenes go to `multiprocessing` workers.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let rebuild = py.get_type::<PyScene>().getattr("from_toml")?;
+        Ok((rebuild, (self.to_toml()?,)))
+    }
 }
 
 impl From<Scene> for PyScene {

@@ -5,8 +5,6 @@
 //! does. A setting the library refuses is a `ValueError` named by its keyword when the caller
 //! gave it, else by its key in the scene file.
 
-use std::time::Duration;
-
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use sdae_mlmc::{MlmcError, RunControl};
@@ -67,17 +65,12 @@ fn given<'a>(pairs: &[(&'a str, bool)]) -> Vec<&'a str> {
     pairs.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect()
 }
 
-/// The progress line of a run of `total` `unit` of `scene`, drawn after `after` seconds
-/// (None: no line).
+/// The progress line of a run of `total` `unit` of `scene`'s `study`, drawn after `after`
+/// seconds (None: no line).
 fn meter(
     scene: &Scene, study: &str, total: Option<u64>, unit: &'static str, after: Option<f64>,
 ) -> Option<Meter> {
-    after.map(|after| Meter {
-        label: format!("{} {study}", scene.name),
-        total,
-        unit,
-        after: Duration::try_from_secs_f64(after).unwrap_or(Duration::ZERO),
-    })
+    Meter::after(after, format!("{} {study}", scene.name), total, unit)
 }
 
 /// The paths of `settings` on `scene`, checked first, with a progress line of paths.

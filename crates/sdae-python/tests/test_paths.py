@@ -133,3 +133,12 @@ def test_a_failed_path_holds_nan_after_its_last_completed_step():
         assert np.isnan(paths.positions[p, done + 1 :]).all()
         assert np.isnan(paths.multipliers[p, done + 1 :]).all()
     assert all("kappa system" in paths.failures[p] for p in failed)
+
+
+def test_a_progress_line_is_drawn_on_request_and_cleared(capfd):
+    sdae.simulate("pendulum", paths=64, steps=64, progress=False)
+    assert capfd.readouterr().err == ""
+    sdae.simulate("pendulum", paths=64, steps=64, progress=True)
+    err = capfd.readouterr().err
+    assert "\rpendulum half-explicit-practical: 0/64 paths, 0.0 s" in err, err
+    assert err.endswith("\r")

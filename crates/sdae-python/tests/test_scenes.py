@@ -104,3 +104,11 @@ def test_the_packages_docstring_examples_run():
     failures, tried = doctest.testmod(sdae)
     assert tried > 0
     assert failures == 0
+
+
+def test_a_scene_pickles_to_an_equal_scene():
+    import pickle
+
+    for name in ("pendulum", "triatomic", "fiber"):
+        scene = sdae.scene(name)
+        assert pickle.loads(pickle.dumps(scene)) == scene

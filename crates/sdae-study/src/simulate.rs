@@ -163,13 +163,26 @@ pub struct SimulatedPaths {
 pub fn simulate(
     scene: &Scene, settings: &SimulateSettings, stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<SimulatedPaths, StudyError> {
+    simulate_with_progress(scene, settings, stop, &|_| {})
+}
+
+/// [`simulate`], calling `progress` with the number of paths of each block as it finishes.
+pub fn simulate_with_progress(
+    scene: &Scene, settings: &SimulateSettings, stop: &(dyn Fn() -> bool + Sync),
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<SimulatedPaths, StudyError> {
     settings.validate()?;
-    scene.run(Simulator { settings, stop })?
+    scene.run(Simulator {
+        settings,
+        stop,
+        progress,
+    })?
 }
 
 struct Simulator<'a> {
     settings: &'a SimulateSettings,
     stop: &'a (dyn Fn() -> bool + Sync),
+    progress: &'a (dyn Fn(usize) + Sync),
 }
 
 impl SceneRunner for Simulator<'_> {
@@ -204,7 +217,9 @@ impl SceneRunner for Simulator<'_> {
                         seed: settings.seed,
                         stop: self.stop,
                     };
-                    run_block(&scheme, &prepared, grid.h(), &recorded, block)
+                    let records = run_block(&scheme, &prepared, grid.h(), &recorded, block)?;
+                    (self.progress)(indices.len());
+                    Ok(records)
                 })
                 .collect::<Result<Vec<_>, StudyError>>()
         })?;

@@ -77,6 +77,7 @@ def simulate(
     seed: int = 0,
     every: int = 1,
     threads: int = 1,
+    progress: Optional[bool] = None,
 ) -> Paths:
     """Simulates ``paths`` paths of a scene with ``scheme`` (see ``schemes()``) over ``steps``
     steps of h = T / steps from the scene's initial state.
@@ -88,9 +89,13 @@ def simulate(
     completed step; ``failures`` says why. The arrays are read-only (copy one to change it). The
     interpreter's lock is released during the run, and Ctrl-C raises KeyboardInterrupt (signals
     reach Python's main thread only). A negative count or seed, or a setting the library refuses
-    (including states that would not fit in memory), raises ValueError naming it.
+    (including states that would not fit in memory), raises ValueError naming it. A progress
+    line is drawn on stderr for runs over a second where stderr is a terminal
+    (``progress=True`` always, ``False`` never).
     """
-    return _sdae.simulate(scene(source), scheme, paths, steps, seed, every, threads)
+    return _sdae.simulate(
+        scene(source), scheme, paths, steps, seed, every, threads, _progress(progress)
+    )
 
 
 def _progress(progress: Optional[bool]) -> Optional[float]:

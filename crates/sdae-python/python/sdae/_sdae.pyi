@@ -66,7 +66,16 @@ class Paths:
     def diagnostics(self) -> Dict[str, npt.NDArray[Any]]:
         """Per-path diagnostics, read-only arrays of length P."""
 
-def simulate(scene: Scene, scheme: str, paths: int, steps: int, seed: int, every: int, threads: int) -> Paths:
+def simulate(
+    scene: Scene,
+    scheme: str,
+    paths: int,
+    steps: int,
+    seed: int,
+    every: int,
+    threads: int,
+    progress: Optional[float] = None,
+) -> Paths:
     """Simulates paths of a scene; see ``sdae.simulate`` (every argument given)."""
 
 class Report:

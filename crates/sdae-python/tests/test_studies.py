@@ -201,13 +201,21 @@ def test_progress_is_drawn_on_request_and_cleared(capfd):
     assert err.endswith("\r")
 
 
-def test_ctrl_c_stops_a_study_within_a_second_and_the_interpreter_goes_on():
+# Minutes of work each: a run that ignored the signal would fail the test, not hang it.
+LONG_RUNS = [
+    lambda: sdae.convergence("pendulum", paths=100_000, levels=(4, 10), ref_level=16, progress=False),
+    lambda: sdae.mlmc("pendulum", eps=[1e-4], progress=False),
+    lambda: sdae.expectation("noisy-pendulum", eps=1e-4, progress=False),
+]
+
+
+@pytest.mark.parametrize("long_run", LONG_RUNS)
+def test_ctrl_c_stops_a_study_within_a_second_and_the_interpreter_goes_on(long_run):
     timer = threading.Timer(0.5, _thread.interrupt_main)
     start = time.monotonic()
     timer.start()
-    # Minutes of work: a run that ignored the signal would fail the test, not hang it.
     with pytest.raises(KeyboardInterrupt):
-        sdae.convergence("pendulum", paths=100_000, levels=(4, 10), ref_level=16, progress=False)
+        long_run()
     elapsed = time.monotonic() - start
     timer.cancel()
     assert elapsed < 0.5 + 1.0

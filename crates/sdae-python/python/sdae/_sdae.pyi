@@ -1,7 +1,7 @@
 """Type stubs of the native module ``sdae._sdae``."""
 
 import os
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional
 
 import numpy as np
 import numpy.typing as npt
@@ -95,82 +95,21 @@ class Report:
     def write(self, folder: "str | os.PathLike[str]") -> None:
         """Writes the command line's files of the study into ``folder``."""
 
-def convergence(
-    scene: Scene,
-    *,
-    schemes: Optional[List[str]] = None,
-    reference_scheme: Optional[str] = None,
-    levels: Optional[Tuple[int, int]] = None,
-    ref_level: Optional[int] = None,
-    t_end: Optional[float] = None,
-    p: Optional[float] = None,
-    paths: Optional[int] = None,
-    seed: Optional[int] = None,
-    threads: Optional[int] = None,
-    quick: bool = False,
-    progress: Optional[float] = None,
-) -> Report:
-    """The convergence study; see ``sdae.convergence`` (``progress``: seconds before the line)."""
+# The studies take the keywords of the package's functions of the same names (``sdae.convergence``
+# and so on), which document them; ``progress`` is here the seconds before the progress line is
+# drawn, or None for no line.
 
-def weak(
-    scene: Scene,
-    *,
-    randomizations: Optional[int] = None,
-    paths: Optional[int] = None,
-    seed: Optional[int] = None,
-    threads: Optional[int] = None,
-    quick: bool = False,
-    progress: Optional[float] = None,
-) -> Report:
+def convergence(scene: Scene, **options: Any) -> Report:
+    """The convergence study; see ``sdae.convergence``."""
+
+def weak(scene: Scene, **options: Any) -> Report:
     """The weak-error study; see ``sdae.weak`` (randomizations given: QMC paths)."""
 
-def stability(
-    scene: Scene,
-    *,
-    paths: Optional[int] = None,
-    seed: Optional[int] = None,
-    threads: Optional[int] = None,
-    quick: bool = False,
-    progress: Optional[float] = None,
-) -> Report:
+def stability(scene: Scene, **options: Any) -> Report:
     """The stability study; see ``sdae.stability``."""
 
-def mlmc(
-    scene: Scene,
-    *,
-    observable: Optional[str] = None,
-    scheme: Optional[str] = None,
-    eps: Optional[List[float]] = None,
-    antithetic: bool = False,
-    coarsest: Optional[int] = None,
-    max_level: Optional[int] = None,
-    test_levels: Optional[int] = None,
-    test_samples: Optional[int] = None,
-    t_end: Optional[float] = None,
-    seed: int = 2026,
-    threads: Optional[int] = None,
-    quick: bool = False,
-    standard: bool = True,
-    randomizations: Optional[int] = None,
-    initial_points: Optional[int] = None,
-    progress: Optional[float] = None,
-) -> Report:
+def mlmc(scene: Scene, **options: Any) -> Report:
     """The MLMC study; see ``sdae.mlmc`` (randomizations or initial_points given: MLQMC too)."""
 
-def expectation(
-    scene: Scene,
-    *,
-    eps: float,
-    observable: Optional[str] = None,
-    scheme: Optional[str] = None,
-    antithetic: bool = False,
-    coarsest: Optional[int] = None,
-    max_level: Optional[int] = None,
-    test_levels: Optional[int] = None,
-    test_samples: Optional[int] = None,
-    t_end: Optional[float] = None,
-    seed: int = 2026,
-    threads: Optional[int] = None,
-    progress: Optional[float] = None,
-) -> Report:
+def expectation(scene: Scene, *, eps: float, **options: Any) -> Report:
     """E[f(X_T)] to accuracy eps; see ``sdae.expectation``."""

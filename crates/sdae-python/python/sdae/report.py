@@ -64,7 +64,8 @@ def _tables(text: str) -> List[List[Dict[str, Any]]]:
 class Report:
     """A study's report.
 
-    - ``to_dict()``: the content of the command line's JSON file for the same study;
+    - ``to_dict()``: the content of the command line's JSON file for the same study (``to_json()``
+      its text);
     - the JSON's top-level fields as attributes (``report.schemes``, ``report.seed``), lists of
       numbers as numpy float64 arrays, numbers JSON cannot hold ("NaN", "inf") as floats;
     - ``rows``: the report's first CSV table as a list of dicts, so that
@@ -81,6 +82,10 @@ class Report:
     def kind(self) -> str:
         """The study: "convergence", "weak", "stability", "mlmc" or "expectation"."""
         return self._native.kind
+
+    def to_json(self) -> str:
+        """The report as the text of the command line's JSON file."""
+        return self._native.to_json()
 
     def to_dict(self) -> Dict[str, Any]:
         """The report as the command line's JSON file holds it (a new dict on each call)."""

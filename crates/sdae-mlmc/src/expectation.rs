@@ -1,4 +1,4 @@
-//! E[P] to a requested root mean square accuracy eps by whichever of MLMC and standard Monte
+//! E\[P\] to a requested root mean square accuracy eps by whichever of MLMC and standard Monte
 //! Carlo a short convergence test predicts cheaper.
 //!
 //! The test runs a fixed number of pairs on levels 0..=L_test. From its means and variances,
@@ -98,7 +98,7 @@ pub fn predicted_work<L: LevelSampler>(
     })
 }
 
-/// E[P] to accuracy eps, with how it was found.
+/// E\[P\] to accuracy eps, with how it was found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Expectation {
     /// The accuracy asked for.
@@ -131,7 +131,7 @@ pub struct Expectation {
     pub test: Vec<LevelStats>,
 }
 
-/// E[P] of `sampler`'s finest levels to accuracy `settings.eps`: the convergence test, then
+/// E\[P\] of `sampler`'s finest levels to accuracy `settings.eps`: the convergence test, then
 /// the estimator it predicts cheaper ([`predicted_work`]); the adaptive algorithm when the
 /// test's levels do not reach the bias.
 pub fn expectation<L: LevelSampler>(

@@ -14,7 +14,7 @@
 //!   keeps finished blocks (a checkpoint: a resumed run folds exactly the uninterrupted sums).
 //! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
 //!   one level.
-//! - [`expectation`]: E[P] to a requested accuracy by whichever of MLMC and standard Monte
+//! - [`mod@expectation`]: E\[P\] to a requested accuracy by whichever of MLMC and standard Monte
 //!   Carlo a short convergence test predicts cheaper.
 //! - [`shard`]: a plan's run split into shards (on the nodes of a cluster) and merged into
 //!   exactly the sums of the unsharded run.

@@ -1,5 +1,5 @@
 //! E[f(X_T)] of a scene's observable to a requested accuracy, by MLMC or standard Monte Carlo,
-//! whichever the convergence test predicts cheaper ([`sdae_mlmc::expectation`]).
+//! whichever the convergence test predicts cheaper ([`sdae_mlmc::expectation()`]).
 
 use serde::Serialize;
 

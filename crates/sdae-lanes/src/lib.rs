@@ -392,6 +392,10 @@ impl<S: Simd> PathMask for LaneMask<S> {
     fn all(self) -> bool {
         LaneMask::all(self)
     }
+    #[inline(always)]
+    fn any(self) -> bool {
+        LaneMask::any(self)
+    }
 }
 
 impl Real for f64 {
@@ -618,6 +622,12 @@ pub fn per_path<S: Simd, const K: usize>(
     }
 }
 
+/// The lanes' words of a vector of u64.
+#[inline(always)]
+fn lane_words<V: bytemuck::Pod>(words: &V) -> &[u64] {
+    bytemuck::cast_slice(std::slice::from_ref(words))
+}
+
 /// to[k * len + i] = lane k of from[i].
 #[inline(always)]
 fn transpose_into<S: Simd>(from: &[Lanes<S>], to: &mut [f64]) {
@@ -653,7 +663,35 @@ impl<S: Simd> LaneMask<S> {
     /// Whether every lane holds.
     #[inline(always)]
     pub fn all(self) -> bool {
-        self.simd.first_true_m64s(self.simd.not_m64s(self.m)) >= S::F64_LANES
+        match self.words() {
+            Some(words) => lane_words(&words)
+                .iter()
+                .fold(true, |all, &w| all & (w != 0)),
+            None => self.simd.first_true_m64s(self.simd.not_m64s(self.m)) >= S::F64_LANES,
+        }
+    }
+
+    /// Whether any lane holds.
+    #[inline(always)]
+    pub fn any(self) -> bool {
+        match self.words() {
+            Some(words) => lane_words(&words)
+                .iter()
+                .fold(false, |any, &w| any | (w != 0)),
+            None => self.simd.first_true_m64s(self.m) < S::F64_LANES,
+        }
+    }
+
+    /// The mask as one word per lane (nonzero where the lane holds) where the instruction set
+    /// keeps a mask in a vector register; `None` where it keeps one bit per lane. Tested
+    /// without a branch per lane, unlike `Simd::first_true_m64s`.
+    #[inline(always)]
+    fn words(self) -> Option<S::u64s> {
+        if const { std::mem::size_of::<S::m64s>() == std::mem::size_of::<S::u64s>() } {
+            Some(bytemuck::cast(self.m))
+        } else {
+            None
+        }
     }
 
     /// Whether lane `i` < W holds.

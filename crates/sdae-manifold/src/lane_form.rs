@@ -321,7 +321,7 @@ pub type Factor<Sd, C> = <<C as ConstraintLanes>::Shape as GramShape>::Factor<La
 /// Whether any lane of `mask` holds.
 #[inline(always)]
 pub fn active_any<Sd: Simd>(mask: LaneMask<Sd>) -> bool {
-    !(!mask).all()
+    mask.any()
 }
 
 /// max_i |x_i| of finite entries (`sdae_manifold::vector::max_abs`).

@@ -39,13 +39,13 @@ pub trait NewtonSystem<T: Real>: ProbeMap<T> {
     /// and the paths where R(gamma) is finite (and the factorization passed).
     fn evaluate_and_factor(&mut self, gamma: Option<&[T]>, step: &mut [T]) -> (T, T::Mask);
     /// Factors J of the last evaluation at `gamma`, for what `pass` says the iteration does
-    /// next, where [`NewtonSystem::evaluate_and_factor`] did not; the paths where the
-    /// factorization passed. Called only where some path's R is finite. The default: nothing
-    /// left to do.
+    /// next, where [`NewtonSystem::evaluate_and_factor`] did not; the paths of
+    /// `pass.evaluated` where the factorization passed (none where no path's R is finite,
+    /// without factoring). The default: nothing left to do.
     #[inline(always)]
     fn factor(&mut self, gamma: &[T], pass: FactorPass<T>, step: &mut [T]) -> T::Mask {
-        let _ = (gamma, pass);
-        step[0].mask_like(true)
+        let _ = (gamma, step);
+        pass.evaluated
     }
     /// step <- J^-1 R from what the last factorization left in `step`, with its factors.
     fn back_substitute(&mut self, step: &mut [T]);
@@ -60,6 +60,8 @@ pub trait NewtonSystem<T: Real>: ProbeMap<T> {
 /// What a factorization of J(gamma) is for ([`NewtonSystem::factor`]).
 #[derive(Debug, Clone, Copy)]
 pub struct FactorPass<T: Real> {
+    /// The paths where R(gamma) is finite (and a fused factorization passed).
+    pub evaluated: T::Mask,
     /// The paths that converged at gamma (J(gamma) is the root's).
     pub converged: T::Mask,
     /// Whether this is the last iteration allowed (no Newton step follows).
@@ -141,15 +143,14 @@ pub fn start_from_zero<T: Real, P: NewtonSystem<T>>(
     system: &mut P, tolerance: T, gamma: &mut [T], step: &mut [T],
 ) -> NewtonStart<T> {
     let zero = tolerance.splat_like(0.0);
-    let (residual_at_zero, mut ok) = system.evaluate_and_factor(None, step);
-    if ok.any() {
-        let pass = FactorPass {
-            converged: zero.mask_like(false),
-            last: false,
-            at_zero: true,
-        };
-        ok = ok.and(system.factor(gamma, pass, step));
-    }
+    let (residual_at_zero, evaluated) = system.evaluate_and_factor(None, step);
+    let pass = FactorPass {
+        evaluated,
+        converged: zero.mask_like(false),
+        last: false,
+        at_zero: true,
+    };
+    let ok = system.factor(gamma, pass, step);
     system.back_substitute(step);
     let first_step = sum_squares(step).sqrt();
     let at_zero = residual_at_zero.at_most(tolerance);
@@ -219,16 +220,13 @@ pub fn newton_iterate<T: Real, P: NewtonSystem<T>>(
         let last = k == max_iterations;
         let (r_k, evaluated) = system.evaluate_and_factor(Some(gamma), step);
         let converged = settings.converged(r_k, paths.previous, tolerance, last);
-        let factored = if evaluated.any() {
-            let pass = FactorPass {
-                converged,
-                last,
-                at_zero: false,
-            };
-            evaluated.and(system.factor(gamma, pass, step))
-        } else {
-            evaluated
+        let pass = FactorPass {
+            evaluated,
+            converged,
+            last,
+            at_zero: false,
         };
+        let factored = system.factor(gamma, pass, step);
         // The next Newton step only if a path goes on (most often none does: one iteration
         // converges); the factors at the root are kept either way.
         let goes_on = paths.active.and(!converged);

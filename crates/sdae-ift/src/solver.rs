@@ -823,6 +823,9 @@ impl<P: BallProblem<Matrix = A>, A: Factorize> NewtonSystem<f64> for GeneralCorr
     }
 
     fn factor(&mut self, gamma: &[f64], pass: FactorPass<f64>, step: &mut [f64]) -> bool {
+        if !pass.evaluated {
+            return false;
+        }
         if pass.at_zero {
             let factored =
                 self.matrix

@@ -71,10 +71,11 @@ pub(crate) trait SplittingKernel<T: Real> {
     /// v <- v + M^-1 grad g(r) z.
     fn displace(&mut self, r: &Self::Rows, z: &[T], v: &mut Self::Rows);
     /// SHAKE from r along v over tau: the root kappa of g(r + tau v + M^-1 grad g(r) kappa) =
-    /// 0 connected to 0 (seed eq. 3.1 upper part with eta h = tau) into `kappa`; the point
-    /// is kept for [`SplittingKernel::move_to_root`].
+    /// 0 connected to 0 (seed eq. 3.1 upper part with eta h = tau), and its impulse kappa / tau
+    /// into `impulse` ([`shake_impulse`]); the point is kept for
+    /// [`SplittingKernel::move_to_root`].
     fn shake(
-        &mut self, r: &Self::Rows, v: &Self::Rows, kappa: &mut [T],
+        &mut self, r: &Self::Rows, v: &Self::Rows, impulse: &mut [T],
     ) -> Result<Shaken<T>, Self::Failure>;
     /// r <- the point of the last [`SplittingKernel::shake`].
     fn move_to_root(&mut self, r: &mut Self::Rows);
@@ -230,14 +231,20 @@ fn geodesic_drift<T: Real, K: SplittingKernel<T>>(
     m.ok = m.ok.and(shaken.ok);
     m.iterations = m.iterations + shaken.iterations;
     m.residual = shaken.residual;
-    let inverse_tau = kernel.numbers().sizes.inverse_tau;
-    for l in m.lambda.iter_mut() {
-        *l = *l * inverse_tau;
-    }
     add(m.impulse, m.lambda);
     kernel.displace(m.r, m.lambda, m.v);
     kernel.move_to_root(m.r);
     rattle(kernel, m, true)
+}
+
+/// The impulse kappa / tau of a SHAKE projection's root kappa, as kappa (1 / tau), into
+/// `impulse`: written by each kernel's [`SplittingKernel::shake`] from where its root is, in
+/// the pass that reads it.
+#[inline(always)]
+pub(crate) fn shake_impulse<T: Real>(kappa: &[T], inverse_tau: f64, impulse: &mut [T]) {
+    for (l, k) in impulse.iter_mut().zip(kappa) {
+        *l = *k * inverse_tau;
+    }
 }
 
 /// O: v_i <- exp(-gamma w_i h) v_i + sigma w_i sqrt((1 - exp(-2 gamma w_i h)) / (2 gamma w_i

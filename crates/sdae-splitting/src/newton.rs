@@ -24,6 +24,7 @@ use sdae_model::{Scheme, System};
 use crate::config::{SplittingConfig, StepSizes};
 use crate::kernel::{
     self, Motion, NoLaneForm, Shaken, SplittingKernel, StepNumbers, drift_and_thermostat,
+    shake_impulse,
 };
 use crate::splitting::Splitting;
 
@@ -276,7 +277,7 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     /// Newton from kappa = 0 at y = r + tau v, no ball ([`NewtonRoot`]).
     #[inline(always)]
     fn shake(
-        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, kappa: &mut [Lanes<Sd>],
+        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, impulse: &mut [Lanes<Sd>],
     ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
         let tau = Lanes::splat(self.simd, self.constants.numbers.sizes.tau);
         let y = Drifted { r, v, tau };
@@ -290,7 +291,8 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
         );
         self.root.point(&root, &y);
         // gamma* is kept: no contraction probes without a ball.
-        kappa.copy_from_slice(&self.root.gamma);
+        let inverse_tau = self.constants.numbers.sizes.inverse_tau;
+        shake_impulse(&self.root.gamma, inverse_tau, impulse);
         Ok(Shaken {
             ok: root.ok,
             iterations: root.iterations,

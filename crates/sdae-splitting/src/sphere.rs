@@ -16,7 +16,9 @@ use sdae_model::engine::{
 };
 use sdae_model::{LaneScheme, StepOutcome, System};
 
-use crate::kernel::{self, Motion, NoLaneForm, Shaken, SplittingKernel, StepNumbers};
+use crate::kernel::{
+    self, Motion, NoLaneForm, Shaken, SplittingKernel, StepNumbers, shake_impulse,
+};
 use crate::splitting::Splitting;
 
 impl<S: System> LaneScheme for Splitting<S> {
@@ -157,7 +159,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     /// The closed-form root at y = r + tau v ([`SphereRoot`]).
     #[inline(always)]
     fn shake(
-        &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], kappa: &mut [Lanes<Sd>],
+        &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], impulse: &mut [Lanes<Sd>],
     ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
         let mut y = *r;
         for (yi, &vi) in y.iter_mut().zip(v) {
@@ -165,7 +167,8 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
         }
         let root = self.kernel.root.solve(r, &y);
         self.root = root.x;
-        kappa[0] = root.gamma;
+        let inverse_tau = self.kernel.numbers.sizes.inverse_tau;
+        shake_impulse(&[root.gamma], inverse_tau, impulse);
         Ok(Shaken {
             ok: root.ok,
             iterations: root.residual.splat_like(0.0),

@@ -13,7 +13,7 @@ use sdae_model::{
 
 use crate::config::{SplittingConfig, StepSizes};
 use crate::error::SplittingError;
-use crate::kernel::{self, Motion, Shaken, SplittingKernel, StepNumbers};
+use crate::kernel::{self, Motion, Shaken, SplittingKernel, StepNumbers, shake_impulse};
 use crate::ou::OuFactors;
 
 /// The Gram matrix storage of a system's constraint.
@@ -317,7 +317,7 @@ impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
     }
     /// The ball solver from kappa = 0 in an unbounded ball; a failure where it finds no root.
     fn shake(
-        &mut self, r: &Vec<f64>, v: &Vec<f64>, kappa: &mut [f64],
+        &mut self, r: &Vec<f64>, v: &Vec<f64>, impulse: &mut [f64],
     ) -> Result<Shaken<f64>, StepFailure> {
         let (c, work, tau) = (self.constraint, &mut *self.work, self.numbers.sizes.tau);
         for ((yi, ri), vi) in work.y.iter_mut().zip(r).zip(v) {
@@ -342,7 +342,8 @@ impl<C: Constraint, M: Mass> SplittingKernel<f64> for OnePath<'_, C, M> {
                 source,
             })?;
         self.at_y = problem.at_y;
-        kappa.copy_from_slice(work.solver.root());
+        let inverse_tau = self.numbers.sizes.inverse_tau;
+        shake_impulse(work.solver.root(), inverse_tau, impulse);
         Ok(Shaken {
             ok: true,
             iterations: certificate.iterations as f64,

@@ -31,6 +31,10 @@ use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Paths of the ensemble: 16 KiB of state, in the first-level cache.
 const PATHS: usize = 512;
 

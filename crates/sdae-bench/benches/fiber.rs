@@ -30,6 +30,10 @@ use sdae_systems::{AirFlow, Fiber, FiberParams, Masses};
 mod common;
 use common::{EnsembleBench, PathByPath};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Steps between resets of the state to its initial value.
 const RESET_EVERY: u64 = 1000;
 

@@ -17,6 +17,10 @@ use sdae_reference::{
 };
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Paths of the ensemble (as `pendulum_ensemble` in sdae-scheme's benches).
 const PATHS: usize = 512;
 /// Steps between resets of the states.

@@ -13,6 +13,10 @@ use sdae_noise::{GaussianIncrements, IncrementSource};
 use sdae_scheme::{Stepper, StepperConfig};
 use sdae_systems::PendulumDrift;
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Steps of one state between resets to the initial state.
 const RESET_EVERY: u64 = 1000;
 const H: f64 = 1e-3;

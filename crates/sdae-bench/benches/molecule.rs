@@ -31,6 +31,10 @@ use sdae_systems::{
 mod common;
 use common::{EnsembleBench, PathByPath};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Paths of the ensembles.
 const PATHS: usize = 64;
 

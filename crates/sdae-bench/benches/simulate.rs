@@ -13,6 +13,10 @@ use sdae_study::integrator::SchemeKind;
 use sdae_study::scene::Scene;
 use sdae_study::simulate::{SimulateSettings, simulate};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 const PATHS: usize = 10_000;
 const STEPS: usize = 1024;
 

@@ -54,6 +54,10 @@ use sdae_systems::{
     RigidTriatomicParams, chain_molecule, pendulum, rigid_triatomic,
 };
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Step size of every scene.
 const H: f64 = 1e-2;
 

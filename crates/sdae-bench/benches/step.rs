@@ -32,6 +32,10 @@ use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
+/// Lane buffers start on cache lines, as in the command line and the Python package.
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 /// Steps between resets of the state to its initial value.
 const RESET_EVERY: u64 = 1000;
 

@@ -38,8 +38,15 @@
 //!     assert_eq!(e.to_bits(), energy(*xi).to_bits());
 //! }
 //! ```
+//!
+//! [`LineAligned`] is a global allocator that starts every buffer of a cache line or more on a
+//! cache line; programs that step lanes opt in with `#[global_allocator]` (the command line and
+//! the Python package do).
 
 use std::ops::{Add, Div, Mul, Neg, Not, Sub};
+
+mod aligned;
+pub use aligned::{LINE, LineAligned};
 
 use pulp::bytemuck;
 use pulp::{Simd, WithSimd};

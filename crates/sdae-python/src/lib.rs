@@ -9,6 +9,10 @@
 
 use pyo3::prelude::*;
 
+/// Lane buffers start on cache lines, as in the command line (docs/performance.md).
+#[global_allocator]
+static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
+
 mod args;
 mod errors;
 mod interrupt;

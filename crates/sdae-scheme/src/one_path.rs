@@ -22,7 +22,9 @@ impl<S: System> Scheme for Stepper<S> {
     ///
     /// A sphere with a diagonal mass (the pendulums) steps through the lane form at W = 1 (the
     /// ensemble's code in plain f64); what it does not decide, and every other system, goes
-    /// through the general path ([`Stepper::step_general`]).
+    /// through the general path ([`Stepper::step_general`]). Inlined where the caller allows:
+    /// a pendulum's step in a loop then costs what the lane form's arithmetic costs.
+    #[inline]
     fn step(&mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64]) -> StepResult {
         check_step_input(&self.system, r, v, h, dw)?;
         if let Some(step) = sphere::step_one_lane(self, r, v, h, dw) {

@@ -90,7 +90,9 @@ impl<S: System> Stepper<S> {
 
     /// The general path after the input checks: fixed-size buffers for one constraint in the
     /// plane or in space (the pendulums; every pass over a vector unrolled), the stepper's
-    /// buffers otherwise.
+    /// buffers otherwise. Out of line, so that [`Scheme::step`](sdae_model::Scheme::step)'s
+    /// path through the lane form at W = 1 stays small enough to be inlined into its caller.
+    #[inline(never)]
     pub(crate) fn general_step(
         &mut self, r: &mut [f64], v: &mut [f64], h: f64, dw: &[f64],
     ) -> StepResult {

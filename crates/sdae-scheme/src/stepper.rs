@@ -16,6 +16,63 @@ use crate::error::SchemeError;
 use crate::formulas;
 
 /// The stepper: a system, the scheme's constants and all buffers of one path.
+///
+/// A chain molecule's path under Langevin dynamics ([`run_path`](sdae_model::run_path)):
+///
+/// ```
+/// use sdae_model::{NoObserver, TimeGrid, run_path};
+/// use sdae_noise::GaussianIncrements;
+/// use sdae_scheme::{Stepper, StepperConfig};
+/// use sdae_systems::{ChainMoleculeParams, chain_molecule};
+/// let molecule = chain_molecule(&ChainMoleculeParams::default())?;
+/// let (mut r, mut v) = molecule.initial_state();
+/// let mut noise = GaussianIncrements::for_path(1, 0, molecule.noise_dimension());
+/// let config = StepperConfig::for_system(&molecule)?.with_c_eta(1.0)?;
+/// let mut stepper = Stepper::new(molecule, config)?;
+/// let grid = TimeGrid::new(1.0, 1000)?;
+/// let diagnostics = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver)?;
+/// assert!(diagnostics.max_position_residual < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// A rigid triatomic stepped by hand ([`Scheme::step`](sdae_model::Scheme::step)):
+///
+/// ```
+/// use sdae_model::{Scheme, System};
+/// use sdae_noise::{GaussianIncrements, IncrementSource};
+/// use sdae_scheme::{Stepper, StepperConfig};
+/// use sdae_systems::{RigidTriatomicParams, rigid_triatomic};
+/// let molecule = rigid_triatomic(&RigidTriatomicParams::default())?;
+/// let (mut r, mut v) = molecule.initial_state();
+/// let config = StepperConfig::for_system(&molecule)?.with_c_eta(1.0)?;
+/// let mut noise = GaussianIncrements::for_path(5, 0, molecule.noise_dim());
+/// let mut dw = vec![0.0; molecule.noise_dim()];
+/// let mut stepper = Stepper::new(molecule, config)?;
+/// for _ in 0..100 {
+///     noise.next_increment(1e-3, &mut dw);
+///     stepper.step(&mut r, &mut v, 1e-3, &dw)?;
+/// }
+/// assert!(stepper.system().kinetic_energy(&v) > 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// An inextensible fiber in turbulent air, with C_kappa left infinite:
+///
+/// ```
+/// use sdae_model::{NoObserver, TimeGrid, run_path};
+/// use sdae_noise::GaussianIncrements;
+/// use sdae_scheme::{Stepper, StepperConfig};
+/// use sdae_systems::{Fiber, FiberParams};
+/// let fiber = Fiber::new(&FiberParams::default())?;
+/// let (mut r, mut v) = fiber.zigzag(0.2);
+/// let mut noise = GaussianIncrements::for_path(3, 0, fiber.noise_dimension());
+/// let config = StepperConfig::new(1.0, f64::INFINITY)?;
+/// let mut stepper = Stepper::new(fiber, config)?;
+/// let grid = TimeGrid::new(0.1, 200)?;
+/// let diagnostics = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver)?;
+/// assert!(diagnostics.max_position_residual < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct Stepper<S: System> {
     pub(crate) system: S,

@@ -45,19 +45,21 @@
 //!   d E|w|^2 / dt at large |w| without the quadratic drag; beyond that only the quadratic drag
 //!   holds |w|, at large relative speeds). The defaults have 1.08 against 2.
 //!
+//! The zigzag state lies on the constraint (`sdae_scheme::Stepper` steps it; its documentation
+//! has a fiber's path):
+//!
 //! ```
-//! use sdae_model::{NoObserver, TimeGrid, run_path};
-//! use sdae_noise::GaussianIncrements;
-//! use sdae_scheme::{Stepper, StepperConfig};
+//! use sdae_manifold::Constraint;
+//! use sdae_model::System;
 //! use sdae_systems::{Fiber, FiberParams};
 //! let fiber = Fiber::new(&FiberParams::default())?;
-//! let (mut r, mut v) = fiber.zigzag(0.2);
-//! let mut noise = GaussianIncrements::for_path(3, 0, fiber.noise_dimension());
-//! let config = StepperConfig::new(1.0, f64::INFINITY)?;
-//! let mut stepper = Stepper::new(fiber, config)?;
-//! let grid = TimeGrid::new(0.1, 200)?;
-//! let diagnostics = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver)?;
-//! assert!(diagnostics.max_position_residual < 1e-12);
+//! let (r, v) = fiber.zigzag(0.2);
+//! let mut g = vec![1.0; fiber.constraint().n_constraints()];
+//! fiber.constraint().value(&r, &mut g);
+//! assert!(g.iter().all(|x| x.abs() < 1e-12));
+//! let mut a = vec![0.0; r.len()];
+//! fiber.drift(&r, &v, &mut a);
+//! assert!(a.iter().all(|x| x.is_finite()));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

@@ -19,19 +19,23 @@
 //! - [`rigid_triatomic`]: a rigid triangle of 3 atoms ([`RigidBonds`]) in a [`HarmonicTrap`]
 //!   ([`RigidTriatomicParams`]).
 //!
+//! The initial state lies on the tangent bundle (g(r) = 0, Dg(r) v = 0); `sdae_scheme::Stepper`
+//! steps it (its documentation has this molecule's path):
+//!
 //! ```
-//! use sdae_model::{NoObserver, TimeGrid, run_path};
-//! use sdae_noise::GaussianIncrements;
-//! use sdae_scheme::{Stepper, StepperConfig};
+//! use sdae_manifold::Constraint;
+//! use sdae_model::System;
 //! use sdae_systems::{ChainMoleculeParams, chain_molecule};
 //! let molecule = chain_molecule(&ChainMoleculeParams::default())?;
-//! let (mut r, mut v) = molecule.initial_state();
-//! let mut noise = GaussianIncrements::for_path(1, 0, molecule.noise_dimension());
-//! let config = StepperConfig::for_system(&molecule)?.with_c_eta(1.0)?;
-//! let mut stepper = Stepper::new(molecule, config)?;
-//! let grid = TimeGrid::new(1.0, 1000)?;
-//! let diagnostics = run_path(&mut stepper, &mut r, &mut v, grid, &mut noise, &mut NoObserver)?;
-//! assert!(diagnostics.max_position_residual < 1e-12);
+//! let (r, v) = molecule.initial_state();
+//! let m = molecule.constraint().n_constraints();
+//! let (mut g, mut dg_v) = (vec![1.0; m], vec![1.0; m]);
+//! molecule.constraint().value(&r, &mut g);
+//! molecule.constraint().jacobian_mul(&r, &v, &mut dg_v);
+//! assert!(g.iter().chain(&dg_v).all(|x| x.abs() < 1e-12));
+//! let mut a = vec![0.0; r.len()];
+//! molecule.drift(&r, &v, &mut a);
+//! assert!(a.iter().all(|x| x.is_finite()));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
@@ -325,23 +329,17 @@ impl Default for RigidTriatomicParams {
 /// constants are available:
 ///
 /// ```
-/// use sdae_model::{Scheme, System};
-/// use sdae_noise::{GaussianIncrements, IncrementSource};
-/// use sdae_scheme::{Stepper, StepperConfig};
+/// use sdae_manifold::Constraint;
+/// use sdae_model::System;
 /// use sdae_systems::{RigidTriatomicParams, rigid_triatomic};
 /// let molecule = rigid_triatomic(&RigidTriatomicParams::default())?;
 /// let target = molecule.equipartition_energy();
 /// assert_eq!(target, 3.0); // (9 - 3) kT / 2
-/// let (mut r, mut v) = molecule.initial_state();
-/// let config = StepperConfig::for_system(&molecule)?.with_c_eta(1.0)?;
-/// let mut noise = GaussianIncrements::for_path(5, 0, molecule.noise_dim());
-/// let mut dw = vec![0.0; molecule.noise_dim()];
-/// let mut stepper = Stepper::new(molecule, config)?;
-/// for _ in 0..100 {
-///     noise.next_increment(1e-3, &mut dw);
-///     stepper.step(&mut r, &mut v, 1e-3, &dw)?;
-/// }
-/// assert!(stepper.system().kinetic_energy(&v) > 0.0);
+/// let (r, v) = molecule.initial_state();
+/// let mut g = [1.0; 3];
+/// molecule.constraint().value(&r, &mut g);
+/// assert!(g.iter().all(|x| x.abs() < 1e-12));
+/// assert_eq!(molecule.kinetic_energy(&v), 0.0);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn rigid_triatomic(params: &RigidTriatomicParams) -> Result<RigidTriatomic, SystemError> {

@@ -12,7 +12,7 @@ use sdae_ift::SolverSettings;
 use sdae_lanes::{LaneMask, Lanes, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
-use sdae_manifold::{Mass, MatrixFactor, Sphere};
+use sdae_manifold::{MatrixFactor, Sphere};
 
 use crate::error::StepFailure;
 use crate::kernel_scheme::{
@@ -98,38 +98,30 @@ impl<S: System, Sd: Simd, L: LaneConstraint<Sd>> StepKernel<Lanes<Sd>> for Lanew
 /// The sphere's closed form with a diagonal M^-1 ([`SphereRoot`]).
 struct SphereConstraint<'a, const N: usize> {
     root: &'a SphereRoot<N>,
-    sphere: &'a Sphere,
-    inverse_mass: &'a [f64; N],
 }
 
 impl<Sd: Simd, const N: usize> LaneConstraint<Sd> for SphereConstraint<'_, N> {
     #[inline(always)]
     fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
-        for (xi, w) in x.iter_mut().zip(self.inverse_mass) {
+        for (xi, w) in x.iter_mut().zip(self.root.inverse_mass()) {
             *xi = *xi * *w;
         }
     }
-    /// The closed-form root, lambda = -Dg(r') v~ / (Dg(r') M^-1 grad g(r)) and
-    /// v' = v~ + M^-1 grad g(r) lambda.
+    /// The closed-form root and the velocity at it ([`SphereRoot::velocity`]).
     #[inline(always)]
     fn constrain(
         &mut self, r: &[Lanes<Sd>], y: &[Lanes<Sd>], velocity: &mut [Lanes<Sd>],
         next_r: &mut [Lanes<Sd>], multiplier: &mut [Lanes<Sd>],
     ) -> Constrained<Lanes<Sd>> {
-        let (r, y) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(y));
-        let root = self.root.solve(r, y);
+        let r = coordinates::<Sd, N>(r);
+        let root = self.root.solve(r, coordinates::<Sd, N>(y));
         next_r.copy_from_slice(&root.x);
-        let one = root.gram.splat_like(1.0);
-        let lambda = -self.sphere.normal_rate(&root.x, velocity) * (one / root.gram);
-        let mut v_new = [lambda; N];
-        let w = self.inverse_mass;
-        self.sphere
-            .displace_diagonal(r, lambda, |k| w[k], velocity, &mut v_new);
+        let (lambda, v_new) = self.root.velocity(r, &root, velocity);
         velocity.copy_from_slice(&v_new);
         multiplier[0] = lambda;
         Constrained {
             ok: root.ok,
-            newton_iterations: one.splat_like(0.0),
+            newton_iterations: lambda.splat_like(0.0),
             position_residual: root.residual,
             contraction: root.contraction,
             kappa_norm: root.norm,
@@ -203,8 +195,6 @@ pub(crate) struct OnSphere;
 pub(crate) struct SphereKernel<const N: usize> {
     h: f64,
     root: SphereRoot<N>,
-    sphere: Sphere,
-    inverse_mass: [f64; N],
 }
 
 impl<K: KernelScheme> SphereKernels<Kernelized<K>> for OnSphere {
@@ -213,18 +203,9 @@ impl<K: KernelScheme> SphereKernels<Kernelized<K>> for OnSphere {
     fn kernel<const N: usize>(
         &self, scheme: &Kernelized<K>, sphere: &Sphere, h: f64,
     ) -> Option<SphereKernel<N>> {
-        let mass = scheme.system().mass();
-        if !<<K::System as System>::Mass as Mass>::DIAGONAL {
-            return None;
-        }
-        let inverse_mass = std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
         let (settings, radius) = scheme.scheme.solver();
-        Some(SphereKernel {
-            h,
-            root: SphereRoot::new(sphere, inverse_mass, &settings, radius),
-            sphere: *sphere,
-            inverse_mass,
-        })
+        let root = SphereRoot::for_mass(sphere, scheme.system().mass(), &settings, radius)?;
+        Some(SphereKernel { h, root })
     }
 }
 
@@ -238,11 +219,7 @@ impl<K: KernelScheme, const N: usize> LaneKernel<Kernelized<K>, N> for SphereKer
         let mut kernel = Lanewise {
             system: scheme.system(),
             zero,
-            constraint: SphereConstraint {
-                root: &self.root,
-                sphere: &self.sphere,
-                inverse_mass: &self.inverse_mass,
-            },
+            constraint: SphereConstraint { root: &self.root },
             scratch: &mut scratch,
         };
         let (mut next_r, mut next_v, mut dmu, mut work) = ([zero; N], [zero; N], [zero], [zero; N]);

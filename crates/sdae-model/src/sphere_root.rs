@@ -12,7 +12,7 @@
 use pulp::Simd;
 use sdae_ift::{SolverSettings, quadratic_root};
 use sdae_lanes::{LaneMask, Lanes};
-use sdae_manifold::{Constraint, Roundoff, Sphere};
+use sdae_manifold::{Constraint, Mass, Roundoff, Sphere};
 
 /// The constants of the root: the sphere's, the diagonal of M^-1, the solver's settings and
 /// the radius of the ball the root must lie in (C_kappa, or infinite).
@@ -61,9 +61,48 @@ impl<const N: usize> SphereRoot<N> {
         }
     }
 
+    /// [`SphereRoot::new`] with the diagonal of `mass`'s inverse, or `None` if `mass` is not
+    /// diagonal.
+    pub fn for_mass<M: Mass>(
+        sphere: &Sphere, mass: &M, settings: &SolverSettings, radius: f64,
+    ) -> Option<Self> {
+        if !M::DIAGONAL {
+            return None;
+        }
+        let inverse_mass = std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
+        Some(Self::new(sphere, inverse_mass, settings, radius))
+    }
+
     /// The radius of the ball.
     pub fn radius(&self) -> f64 {
         self.radius
+    }
+
+    /// The sphere.
+    pub fn sphere(&self) -> &Sphere {
+        &self.sphere
+    }
+
+    /// The diagonal of M^-1.
+    pub fn inverse_mass(&self) -> &[f64; N] {
+        &self.inverse_mass
+    }
+
+    /// The constrained velocity of seed eq. 3.1 (lower part) at the root `root` of r and y:
+    /// lambda = -Dg(x) v~ / (Dg(x) M^-1 grad g(r)) with the root's Gram value, and
+    /// v' = v~ + M^-1 grad g(r) lambda, from v~ (`free`); the ball solver's closed form with
+    /// the same floating-point operations.
+    #[inline(always)]
+    pub fn velocity<Sd: Simd>(
+        &self, r: &[Lanes<Sd>; N], root: &RootLanes<Sd, N>, free: &[Lanes<Sd>],
+    ) -> (Lanes<Sd>, [Lanes<Sd>; N]) {
+        let one = root.gram.splat_like(1.0);
+        let lambda = -self.sphere.normal_rate(&root.x, free) * (one / root.gram);
+        let mut v = [lambda; N];
+        let w = &self.inverse_mass;
+        self.sphere
+            .displace_diagonal(r, lambda, |k| w[k], free, &mut v);
+        (lambda, v)
     }
 
     /// The root of R(gamma) = g(y + M^-1 grad g(r) gamma) in each lane.

@@ -49,11 +49,9 @@ impl<S: System> SphereKernels<Splitting<S>> for Kernels {
 /// The constants of one step: the scheme's and the sphere's.
 struct Kernel<const N: usize> {
     numbers: StepNumbers,
-    /// The SHAKE root (an unbounded ball: no certificate is claimed).
+    /// The SHAKE root (an unbounded ball: no certificate is claimed), with the sphere and
+    /// M^-1.
     root: SphereRoot<N>,
-    sphere: Sphere,
-    /// (M^-1)_ii.
-    inverse_mass: [f64; N],
 }
 
 impl<const N: usize> Kernel<N> {
@@ -68,8 +66,6 @@ impl<const N: usize> Kernel<N> {
                 scheme.numbers.clone()
             },
             root: SphereRoot::new(sphere, inverse_mass, &config.solver, f64::INFINITY),
-            sphere: *sphere,
-            inverse_mass,
         }
     }
 }
@@ -119,7 +115,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     }
     #[inline(always)]
     fn inverse_mass(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {
-        x * self.kernel.inverse_mass[k]
+        x * self.kernel.root.inverse_mass()[k]
     }
     /// The system's lane form of F(r); [`NoLaneForm`] without one.
     #[inline(always)]
@@ -142,18 +138,16 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
         &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _refactor: bool,
         lambda: &mut [Lanes<Sd>],
     ) -> Result<LaneMask<Sd>, NoLaneForm> {
-        let (sphere, w) = (&self.kernel.sphere, &self.kernel.inverse_mass);
+        let (sphere, w) = (self.kernel.root.sphere(), self.kernel.root.inverse_mass());
         let [_, gram] = sphere.value_and_gram(r, r, |k| w[k]);
         lambda[0] = -sphere.normal_rate(r, v) / gram;
         Ok(gram.is_finite().and(!gram.eq(gram.splat_like(0.0))))
     }
     #[inline(always)]
     fn displace(&mut self, r: &[Lanes<Sd>; N], z: &[Lanes<Sd>], v: &mut [Lanes<Sd>; N]) {
-        let w = &self.kernel.inverse_mass;
+        let (sphere, w) = (self.kernel.root.sphere(), self.kernel.root.inverse_mass());
         let mut displaced = *v;
-        self.kernel
-            .sphere
-            .displace_diagonal(r, z[0], |k| w[k], v, &mut displaced);
+        sphere.displace_diagonal(r, z[0], |k| w[k], v, &mut displaced);
         *v = displaced;
     }
     /// The closed-form root at y = r + tau v ([`SphereRoot`]).
@@ -183,7 +177,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     fn velocity_residual(
         &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _scratch: &mut [Lanes<Sd>],
     ) -> Lanes<Sd> {
-        self.kernel.sphere.normal_rate(r, v).abs()
+        self.kernel.root.sphere().normal_rate(r, v).abs()
     }
 }
 

@@ -12,7 +12,7 @@
 use pulp::{Scalar, Simd};
 use sdae_ift::{Certificate, Method};
 use sdae_lanes::{LaneWidth, Lanes, dot};
-use sdae_manifold::{Mass, Sphere, motion_measure};
+use sdae_manifold::{Sphere, motion_measure};
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
@@ -58,31 +58,17 @@ impl<S: System> SphereKernels<Stepper<S>> for Kernels {
 /// The constants of one step on the sphere.
 struct Kernel<const N: usize> {
     h: f64,
-    /// The kappa root in the ball of radius C_kappa.
+    /// The kappa root in the ball of radius C_kappa, with the sphere and M^-1.
     root: SphereRoot<N>,
-    sphere: Sphere,
-    /// (M^-1)_ii.
-    inverse_mass: [f64; N],
 }
 
 impl<const N: usize> Kernel<N> {
     /// The constants, or `None` if the mass is not diagonal.
     fn new<S: System>(stepper: &Stepper<S>, sphere: &Sphere, h: f64) -> Option<Self> {
-        let mass = stepper.system().mass();
-        if !<S::Mass as Mass>::DIAGONAL {
-            return None;
-        }
-        let mut inverse_mass = [0.0; N];
-        for (k, w) in inverse_mass.iter_mut().enumerate() {
-            *w = mass.inverse_diagonal_entry(k).unwrap_or(0.0);
-        }
         let config = stepper.config();
-        Some(Self {
-            h,
-            root: SphereRoot::new(sphere, inverse_mass, &config.solver, config.c_kappa),
-            sphere: *sphere,
-            inverse_mass,
-        })
+        let mass = stepper.system().mass();
+        let root = SphereRoot::for_mass(sphere, mass, &config.solver, config.c_kappa)?;
+        Some(Self { h, root })
     }
 }
 
@@ -188,7 +174,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
         &self, _: &[Lanes<Sd>], _: &[Lanes<Sd>], _: &[Lanes<Sd>], speed: Lanes<Sd>,
         acceleration: Lanes<Sd>,
     ) -> Option<Lanes<Sd>> {
-        let rho = self.kernel.sphere.radius();
+        let rho = self.kernel.root.sphere().radius();
         Some(motion_measure(speed / rho, acceleration / rho))
     }
     /// Whether eq. 3.2 leaves every lane's step untruncated (eta = 1), decided without the
@@ -200,7 +186,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
     #[inline(always)]
     fn surely_untruncated(&self, norms2: Lanes<Sd>, c_eta: f64, h: f64) -> bool {
         let b = if self.local_size {
-            norms2 * self.kernel.sphere.inverse_radius_squared()
+            norms2 * self.kernel.root.sphere().inverse_radius_squared()
         } else {
             norms2
         };
@@ -208,20 +194,16 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
         b.le(b.splat_like(half_step.min(half_step * half_step)))
             .all()
     }
-    /// The closed-form root, v~ = v + M^-1 force, lambda = -Dg(r') v~ / (Dg(r') M^-1 grad
-    /// g(r)) and v' = v~ + M^-1 grad g(r) lambda.
+    /// The closed-form root, v~ = v + M^-1 force and the velocity at the root
+    /// ([`SphereRoot::velocity`]).
     #[inline(always)]
     fn constrain(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, force: &mut [Lanes<Sd>],
         dmu: &mut [Lanes<Sd>], monitor: bool,
     ) -> Result<Update<Lanes<Sd>>, NoLaneForm> {
         let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
-        let Kernel {
-            root: solver,
-            sphere,
-            inverse_mass,
-            ..
-        } = self.kernel;
+        let solver = &self.kernel.root;
+        let (sphere, inverse_mass) = (solver.sphere(), solver.inverse_mass());
         let zero = eta_h.splat_like(0.0);
         let mut y = [zero; N];
         for i in 0..N {
@@ -231,9 +213,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
         for i in 0..N {
             force[i] = force[i] * inverse_mass[i] + v[i];
         }
-        let lambda = -sphere.normal_rate(&root.x, force) * (zero.splat_like(1.0) / root.gram);
-        let mut v_new = [zero; N];
-        sphere.displace_diagonal(r, lambda, |k| inverse_mass[k], force, &mut v_new);
+        let (lambda, v_new) = solver.velocity(r, &root, force);
         let finite = dot(&v_new, &v_new).is_finite();
         // Written out, not `then`: a closure would not inherit the instruction set.
         let velocity_residual = if monitor {
@@ -314,8 +294,6 @@ mod tests {
         Kernel {
             h,
             root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
-            sphere,
-            inverse_mass: [1.0; 2],
         }
     }
 

@@ -31,6 +31,18 @@ pub struct AdaptiveSettings {
     pub max_level: u32,
 }
 
+impl AdaptiveSettings {
+    /// Settings that start on levels 0..=2, the fewest from which alpha can be fitted.
+    pub fn from_three_levels(eps: f64, initial_samples: u64, max_level: u32) -> Self {
+        Self {
+            eps,
+            initial_samples,
+            min_levels: 2,
+            max_level,
+        }
+    }
+}
+
 /// The result of an MLMC run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MlmcEstimate {
@@ -267,11 +279,7 @@ pub fn adaptive<L: LevelSampler>(
 fn finish<L: LevelSampler>(
     sampler: &L, eps: f64, levels: Vec<LevelSums>, (bias, bias_alpha): (f64, f64), converged: bool,
 ) -> MlmcEstimate {
-    let work = levels
-        .iter()
-        .enumerate()
-        .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
-        .sum();
+    let work = work_of(sampler, &levels);
     MlmcEstimate {
         eps,
         estimate: estimate_of(&levels),
@@ -282,6 +290,16 @@ fn finish<L: LevelSampler>(
         work,
         levels,
     }
+}
+
+/// The work of `levels` in steps: each level's attempted samples times the steps of one of its
+/// samples, sum_l N_l C_l.
+pub fn work_of<L: LevelSampler>(sampler: &L, levels: &[LevelSums]) -> f64 {
+    levels
+        .iter()
+        .enumerate()
+        .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
+        .sum()
 }
 
 /// A run with fixed numbers of samples per level (each rounded up to whole blocks): the plan

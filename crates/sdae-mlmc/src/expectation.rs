@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::algorithm::{
     AdaptiveSettings, adaptive, bias_estimate, estimate_of, plan_from_test, run_plan,
-    standard_monte_carlo,
+    standard_monte_carlo, work_of,
 };
 use crate::error::{MlmcError, check_eps};
 use crate::sampler::{LevelSampler, RunControl};
@@ -149,11 +149,7 @@ pub fn expectation<L: LevelSampler>(
     let samples = vec![settings.test_samples.max(2); settings.test_levels as usize + 1];
     let test_sums = run_plan(sampler, control, &samples)?;
     let test = level_stats(&test_sums, sampler);
-    let test_work = test_sums
-        .iter()
-        .enumerate()
-        .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
-        .sum();
+    let test_work = work_of(sampler, &test_sums);
     let test_seconds: f64 = test_sums.iter().map(|s| s.seconds).sum();
     let predicted = predicted_work(sampler, &test, eps);
     let mut found = match predicted {
@@ -171,16 +167,12 @@ pub fn expectation<L: LevelSampler>(
 fn multilevel<L: LevelSampler>(
     sampler: &L, control: &RunControl<'_>, settings: &ExpectationSettings, eps: f64,
 ) -> Result<Expectation, MlmcError> {
-    let run = adaptive(
-        sampler,
-        control,
-        &AdaptiveSettings {
-            eps,
-            initial_samples: settings.initial_samples,
-            min_levels: 2,
-            max_level: settings.max_level.max(2),
-        },
-    )?;
+    let adaptive_settings = AdaptiveSettings::from_three_levels(
+        eps,
+        settings.initial_samples,
+        settings.max_level.max(2),
+    );
+    let run = adaptive(sampler, control, &adaptive_settings)?;
     Ok(Expectation {
         eps,
         method: Method::Mlmc,

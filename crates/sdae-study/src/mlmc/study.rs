@@ -15,7 +15,7 @@ use crate::scene::{Prepared, Scene};
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::{
     AdaptiveSettings, MlmcEstimate, Plan, adaptive, check_counts, optimal_counts, run_plan,
-    standard_monte_carlo,
+    standard_monte_carlo, work_of,
 };
 use sdae_mlmc::error::{check_eps, samples_exceed_memory};
 use sdae_mlmc::fit::{Rates, fit_rates};
@@ -521,25 +521,17 @@ pub fn run_study<L: LevelSampler>(
     check_accuracies(sampler, &test, &spec.eps)?;
     let mut complexity = Vec::with_capacity(spec.eps.len());
     for &eps in &spec.eps {
-        let run = adaptive(
-            sampler,
-            control,
-            &AdaptiveSettings {
-                eps,
-                initial_samples: settings.initial_samples,
-                min_levels: 2,
-                max_level: spec.max_level,
-            },
-        )?;
+        let adaptive_settings =
+            AdaptiveSettings::from_three_levels(eps, settings.initial_samples, spec.max_level);
+        let run = adaptive(sampler, control, &adaptive_settings)?;
         complexity.push(complexity_row(sampler, &test, run));
     }
     let standard = if settings.standard_run {
-        let cap_work = test_sums
+        let cap_work = complexity
             .iter()
-            .enumerate()
-            .map(|(l, s)| s.attempted() as f64 * sampler.pair_steps(l as u32) as f64)
-            .chain(complexity.iter().map(|row| row.run.work))
-            .sum();
+            .fold(work_of(sampler, &test_sums), |work, row| {
+                work + row.run.work
+            });
         Some(standard_run(
             sampler,
             control,

@@ -16,9 +16,12 @@ struct Independent(Linear);
 
 impl Independent {
     /// The fine values of level `level`'s samples `indices` of `linear`.
-    fn fine(linear: &Linear, level: u32, indices: Range<u64>) -> Result<Vec<f64>, MlmcError> {
+    fn fine(
+        linear: &Linear, worker: &mut <Linear as LevelSampler>::Worker, level: u32,
+        indices: Range<u64>,
+    ) -> Result<Vec<f64>, MlmcError> {
         Ok(linear
-            .run_block(&mut (), level, indices, false)?
+            .run_block(worker, level, indices, false)?
             .into_iter()
             .map(|s| match s {
                 Sample::Value { fine, .. } => fine,
@@ -29,24 +32,17 @@ impl Independent {
 }
 
 impl LevelSampler for Independent {
-    type Worker = ();
-    fn worker(&self) -> Result<(), MlmcError> {
-        Ok(())
+    type Worker = <Linear as LevelSampler>::Worker;
+    fn worker(&self) -> Result<Self::Worker, MlmcError> {
+        self.0.worker()
     }
     fn run_block(
-        &self, _: &mut (), level: u32, indices: Range<u64>, coupled: bool,
+        &self, worker: &mut Self::Worker, level: u32, indices: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {
-        let fine = Self::fine(&self.0, level, indices.clone())?;
+        let fine = Self::fine(&self.0, worker, level, indices.clone())?;
         let coarse = if coupled && level > 0 {
-            let other = Linear {
-                a: self.0.a,
-                b: self.0.b,
-                multiplicative: self.0.multiplicative,
-                t_end: self.0.t_end,
-                coarsest: self.0.coarsest,
-                seed: self.0.seed ^ 0x5eed,
-            };
-            Self::fine(&other, level - 1, indices)?
+            let other = self.0.with_seed(self.0.seed ^ 0x5eed);
+            Self::fine(&other, worker, level - 1, indices)?
         } else {
             vec![0.0; fine.len()]
         };

@@ -30,6 +30,11 @@ impl Linear {
         }
     }
 
+    /// The same SDE and levels with the paths of `seed`'s streams.
+    pub fn with_seed(&self, seed: u64) -> Self {
+        Linear { seed, ..*self }
+    }
+
     fn step(&self, x: f64, h: f64, dw: f64) -> f64 {
         let noise = if self.multiplicative {
             self.b * x

@@ -12,7 +12,7 @@ use sdae_study::StudyError;
 use sdae_study::files::{read_json, write_atomically, write_json};
 use sdae_study::mlmc::QmcSettings;
 use sdae_study::mlmc::plan_runs::{PlanRun, merged_report, plan_for_eps, run_scene_plan};
-use sdae_study::mlmc::report::{print_summary, write_report};
+use sdae_study::mlmc::report::{REPORT_FILES, print_summary, write_report};
 use sdae_study::mlmc::shard::{MlmcShard, merge, plan_markdown};
 use sdae_study::mlmc::study::{MlmcReport, MlmcSettings, run_mlmc};
 use sdae_study::mlmc::{caused_by_input, study_error};
@@ -120,16 +120,6 @@ fn control<'a>(
     c.stop = Some(stop);
     Ok(c)
 }
-
-/// The files the MLMC study writes in its scene's folder.
-const REPORT_FILES: [&str; 6] = [
-    "report.json",
-    "report.csv",
-    "report.md",
-    "levels.svg",
-    "samples.svg",
-    "cost.svg",
-];
 
 /// The files a plan's unsharded run writes.
 const PLAN_FILES: [&str; 2] = ["plan-report.json", "plan-report.md"];

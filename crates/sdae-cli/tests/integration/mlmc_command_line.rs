@@ -7,6 +7,7 @@ use crate::cli;
 use std::path::Path;
 
 use cli::{ran, study, text, usage_error};
+use sdae_study::mlmc::report::REPORT_FILES;
 
 fn scratch(name: &str) -> std::path::PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -81,14 +82,7 @@ fn a_small_run_writes_its_report_and_a_merged_plan_equals_the_unsharded_run() {
         plan.to_str().unwrap(),
     ]);
     let report = dir.join("mlmc/pendulum");
-    for file in [
-        "report.json",
-        "report.csv",
-        "report.md",
-        "levels.svg",
-        "samples.svg",
-        "cost.svg",
-    ] {
+    for file in REPORT_FILES {
         assert!(report.join(file).exists(), "{file} missing");
     }
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();

@@ -400,8 +400,17 @@ pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std:
     Ok(())
 }
 
-/// Writes `report.json`, `report.csv`, `report.md`, `levels.svg`, `samples.svg` and
-/// `cost.svg` (and with `--qmc` `mlqmc.svg`) into `dir`.
+/// The files [`write_report`] writes for every study (with `--qmc` also `mlqmc.svg`).
+pub const REPORT_FILES: [&str; 6] = [
+    "report.json",
+    "report.csv",
+    "report.md",
+    "levels.svg",
+    "samples.svg",
+    "cost.svg",
+];
+
+/// Writes the [`REPORT_FILES`] (and with `--qmc` `mlqmc.svg`) into `dir`.
 pub fn write_report(report: &MlmcReport, dir: &Path) -> Result<(), StudyError> {
     write_json(&dir.join("report.json"), report)?;
     write_atomically(&dir.join("report.csv"), &csv(report))?;

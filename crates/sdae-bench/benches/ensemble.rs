@@ -31,27 +31,12 @@ use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
 use sdae_systems::{PendulumParams, pendulum};
 
+mod pendulum_paths;
+use pendulum_paths::{DRAWN_STEPS, H, PATHS, R0, RESET_EVERY, SEED, V0, drawn_increments};
+
 /// Lane buffers start on cache lines, as in the command line and the Python package.
 #[global_allocator]
 static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
-
-/// Paths of the ensemble: 16 KiB of state, in the first-level cache.
-const PATHS: usize = 512;
-
-/// Steps between resets of the states.
-const RESET_EVERY: usize = 1000;
-
-/// Increments drawn beforehand for `step_only` (cycled).
-const DRAWN_STEPS: usize = 64;
-
-/// Step size, as `pendulum_step`.
-const H: f64 = 1e-3;
-
-/// Seed of the paths' streams.
-const SEED: u64 = 2024;
-
-const R0: [f64; 2] = [1.0, 0.0];
-const V0: [f64; 2] = [0.0, 1.0];
 
 /// The pendulum with its drift (gravity 1, no friction) given as a function: a user's system
 /// without a lane form, whose drift the ensemble evaluates lane by lane.
@@ -90,14 +75,7 @@ impl<S: System<Constraint = Sphere>> Bench<S> {
             .iter()
             .map(|&p| GaussianIncrements::for_path(SEED, p, 2))
             .collect();
-        let stride = ensemble.stride();
-        let drawn = (0..DRAWN_STEPS)
-            .map(|_| {
-                let mut dw = vec![0.0; 2 * stride];
-                noise.fill(H, &mut dw).expect("increments buffer");
-                dw
-            })
-            .collect();
+        let drawn = drawn_increments(&mut noise, ensemble.stride());
         Self {
             ensemble,
             noise,

@@ -17,33 +17,19 @@ use sdae_reference::{
 };
 use sdae_systems::{Pendulum, PendulumParams, pendulum};
 
+mod pendulum_paths;
+use pendulum_paths::{DRAWN_STEPS, H, PATHS, R0, RESET_EVERY, SEED, V0, drawn_increments};
+
 /// Lane buffers start on cache lines, as in the command line and the Python package.
 #[global_allocator]
 static ALLOCATOR: sdae_lanes::LineAligned = sdae_lanes::LineAligned;
-
-/// Paths of the ensemble (as `pendulum_ensemble` in sdae-scheme's benches).
-const PATHS: usize = 512;
-/// Steps between resets of the states.
-const RESET_EVERY: usize = 1000;
-/// Increments drawn beforehand (cycled).
-const DRAWN_STEPS: usize = 64;
-/// Step size.
-const H: f64 = 1e-3;
-const R0: [f64; 2] = [1.0, 0.0];
-const V0: [f64; 2] = [0.0, 1.0];
 
 /// Steps `ensemble` on the drawn increments, one step of every path per iteration.
 fn bench_ensemble<E: PathEnsemble>(c: &mut Criterion, name: &str, mut ensemble: E) {
     let stride = ensemble.stride();
     let indices: Vec<u64> = (0..PATHS as u64).collect();
-    let mut noise = EnsembleIncrements::for_paths(2024, &indices, 2);
-    let drawn: Vec<Vec<f64>> = (0..DRAWN_STEPS)
-        .map(|_| {
-            let mut dw = vec![0.0; 2 * stride];
-            noise.fill(H, &mut dw).expect("increments buffer");
-            dw
-        })
-        .collect();
+    let mut noise = EnsembleIncrements::for_paths(SEED, &indices, 2);
+    let drawn = drawn_increments(&mut noise, stride);
     let mut group = c.benchmark_group("inherent_ensemble");
     group.throughput(Throughput::Elements(PATHS as u64));
     let mut steps = 0usize;

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::quasi::{QmcReport, QuasiStandardRun};
-use super::report::{csv_interval, interval};
+use super::report::{bias_cell, csv_interval, interval};
 use sdae_stats::Interval;
 
 /// "c [low, high]", "c (no interval from two eps)", or "-" (fewer than two eps).
@@ -39,13 +39,11 @@ pub fn section(qmc: &QmcReport) -> String {
         let e = &row.run;
         let _ = writeln!(
             s,
-            "| {:.0e} | {} | {:.2e} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
+            "| {:.0e} | {} | {:.2e} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
             e.eps,
             interval(&e.estimate),
             e.variance,
-            e.bias,
-            e.bias_alpha,
-            if e.converged { "" } else { " (not converged)" },
+            bias_cell(e.bias, e.bias_alpha, e.converged),
             e.levels.len() - 1,
             points(row),
             e.work,

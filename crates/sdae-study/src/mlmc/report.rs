@@ -30,6 +30,13 @@ pub fn csv_interval(i: &Interval) -> String {
     format!("{:e},{:e},{:e}", i.estimate, i.ci_low, i.ci_high)
 }
 
+/// The bias estimate with the weak rate it used, "bias (alpha)", and " (not converged)" after
+/// a run that stopped at its finest level allowed with the bias still too large.
+pub fn bias_cell(bias: f64, alpha: f64, converged: bool) -> String {
+    let note = if converged { "" } else { " (not converged)" };
+    format!("{bias:.2e} ({alpha:.2}){note}")
+}
+
 /// A column of a Markdown table of levels ([`level_table`]).
 #[derive(Debug, Clone, Copy)]
 pub enum LevelColumn {
@@ -276,12 +283,10 @@ fn complexity_section(report: &MlmcReport) -> String {
         let n: Vec<String> = row.samples.iter().map(u64::to_string).collect();
         let _ = writeln!(
             s,
-            "| {:.0e} | {} | {:.2e} ({:.2}){} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
+            "| {:.0e} | {} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
             e.eps,
             interval(&e.estimate),
-            e.bias,
-            e.bias_alpha,
-            if e.converged { "" } else { " (not converged)" },
+            bias_cell(e.bias, e.bias_alpha, e.converged),
             row.samples.len() - 1,
             n.join(" "),
             row.mlmc_work,

@@ -39,14 +39,17 @@
 //! }
 //! ```
 //!
-//! [`LineAligned`] is a global allocator that starts every buffer of a cache line or more on a
-//! cache line; programs that step lanes opt in with `#[global_allocator]` (the command line and
-//! the Python package do).
+//! [`LineVec`] is a buffer whose values start on a cache line: the ensembles keep their states,
+//! rows and scratch in it. [`LineAligned`] is a global allocator that starts every buffer of a
+//! cache line or more on a cache line, for the buffers a program allocates itself; programs
+//! opt in with `#[global_allocator]` (the command line and the Python package do).
 
 use std::ops::{Add, Div, Mul, Neg, Not, Sub};
 
 mod aligned;
+mod line_vec;
 pub use aligned::{LINE, LineAligned};
+pub use line_vec::LineVec;
 
 use pulp::bytemuck;
 use pulp::{Simd, WithSimd};

@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use sdae_lanes::lane_stride;
+use sdae_lanes::{LineVec, lane_stride};
 use sdae_manifold::vector::{dot, max_abs};
 use sdae_manifold::{Constraint, Mass};
 use sdae_model::{FailureKind, ModelError, PathDiagnostics, PathEnsemble, System, TimeGrid};
@@ -295,7 +295,7 @@ fn kinetic_energy<M: Mass>(mass: &M, v: &[f64], scratch: &mut [f64]) -> f64 {
 /// p at `j * stride + p`): level 0 from each path's own stream, level j from pairwise sums of
 /// j - 1 (the sums of a path's fine increments, whatever the block).
 fn fill_pyramid(
-    pyramid: &mut [Vec<f64>], noise: &mut dyn EnsembleNoise, h_fine: f64,
+    pyramid: &mut [LineVec<f64>], noise: &mut dyn EnsembleNoise, h_fine: f64,
 ) -> Result<(), ModelError> {
     if noise.dim() == 0 {
         return Ok(());
@@ -335,7 +335,7 @@ struct Lockstep<'a> {
     /// Fine steps per record of the reference (one record per step of the finest level).
     record_stride: usize,
     /// pyramid[j]: sums of 2^j consecutive fine increments of the chunk (rows of l * stride).
-    pyramid: Vec<Vec<f64>>,
+    pyramid: Vec<LineVec<f64>>,
     /// The reference at the finest level's grid points of the chunk (rows r, v, mu), time-major:
     /// record j of path p at row `j * paths + p`, so that the comparison after a step reads the
     /// block's records in order.
@@ -348,7 +348,7 @@ struct Lockstep<'a> {
     snapshot: Vec<f64>,
     /// Sums of the fine increments of the current step of each track whose steps span several
     /// chunks (l * stride each), and the fine steps summed so far.
-    pending: Vec<Vec<f64>>,
+    pending: Vec<LineVec<f64>>,
     pending_fine: Vec<usize>,
     /// Steps each path had taken before the current stretch.
     before: Vec<usize>,
@@ -398,13 +398,13 @@ impl<'a> Lockstep<'a> {
             chunk,
             record_stride,
             pyramid: (0..=depth)
-                .map(|j| vec![0.0; (chunk >> j) * dims.l * stride])
+                .map(|j| LineVec::from_elem(0.0, (chunk >> j) * dims.l * stride))
                 .collect(),
             records: vec![0.0; rows],
             paths,
             block: (0..live).collect(),
             snapshot: vec![0.0; dims.row() * live],
-            pending: vec![vec![0.0; dims.l * stride]; tracks],
+            pending: vec![LineVec::from_elem(0.0, dims.l * stride); tracks],
             pending_fine: vec![0; tracks],
             before: vec![0; paths],
             scratch: Scratch {

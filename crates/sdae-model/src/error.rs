@@ -3,6 +3,7 @@
 //! whole path's [`PathFailure`](crate::PathFailure) carries its diagnostics too).
 
 use sdae_ift::IftError;
+use sdae_lanes::LineVec;
 use sdae_manifold::{LinearError, ManifoldError};
 use sdae_noise::NoiseError;
 use serde::{Deserialize, Serialize};
@@ -89,17 +90,37 @@ impl From<NoiseError> for ModelError {
 pub(crate) fn try_filled<T: Clone>(
     what: &'static str, value: T, rows: usize, cols: usize,
 ) -> Result<Vec<T>, ModelError> {
-    let entry_bytes = std::mem::size_of::<T>();
-    let error = |len| ModelError::Allocation {
-        what,
-        len,
-        entry_bytes,
-    };
-    let len = rows.checked_mul(cols).ok_or(error(usize::MAX))?;
+    let len = checked_len::<T>(what, rows, cols)?;
     let mut buffer = Vec::new();
-    buffer.try_reserve_exact(len).map_err(|_| error(len))?;
+    buffer
+        .try_reserve_exact(len)
+        .map_err(|_| allocation::<T>(what, len))?;
     buffer.resize(len, value);
     Ok(buffer)
+}
+
+/// [`try_filled`] in a buffer whose values start on a cache line ([`LineVec`]), for the
+/// lanes' states.
+pub(crate) fn try_lines<T: Copy>(
+    what: &'static str, value: T, rows: usize, cols: usize,
+) -> Result<LineVec<T>, ModelError> {
+    let len = checked_len::<T>(what, rows, cols)?;
+    LineVec::try_from_elem(value, len).ok_or(allocation::<T>(what, len))
+}
+
+/// rows * cols, or the allocation error of `what` where it overflows.
+fn checked_len<T>(what: &'static str, rows: usize, cols: usize) -> Result<usize, ModelError> {
+    rows.checked_mul(cols)
+        .ok_or(allocation::<T>(what, usize::MAX))
+}
+
+/// The failure to allocate `len` entries of `T` for `what`.
+fn allocation<T>(what: &'static str, len: usize) -> ModelError {
+    ModelError::Allocation {
+        what,
+        len,
+        entry_bytes: std::mem::size_of::<T>(),
+    }
 }
 
 /// Fails with [`ModelError::DimensionMismatch`] unless `found == expected`.

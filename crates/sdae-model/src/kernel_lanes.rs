@@ -9,7 +9,7 @@
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LaneMask, Lanes, per_path};
+use sdae_lanes::{LaneMask, Lanes, LineVec, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{MatrixFactor, Sphere};
@@ -249,7 +249,7 @@ pub struct NewtonKernel<Sd: Simd, C: ConstraintLanes> {
     settings: SolverSettings,
     radius: f64,
     /// The step's scratch rows ([`KernelNext::work`]).
-    work: Vec<Lanes<Sd>>,
+    work: LineVec<Lanes<Sd>>,
     /// Path-by-path buffers of a system without lane forms of this size.
     scratch: Vec<f64>,
 }
@@ -267,7 +267,7 @@ impl<K: KernelScheme> NewtonKernels for Kernelized<K> {
             form,
             settings,
             radius,
-            work: vec![Lanes::splat(simd, 0.0); n],
+            work: LineVec::from_elem(Lanes::splat(simd, 0.0), n),
             scratch: Vec::new(),
         }
     }

@@ -5,10 +5,10 @@
 //! its steps went through the lanes or through the scalar step.
 
 use pulp::Simd;
-use sdae_lanes::{LaneMask, Lanes};
+use sdae_lanes::{LaneMask, Lanes, LineVec};
 
 use crate::diagnostics::{ITERATION_BINS, PathDiagnostics};
-use crate::error::{ModelError, try_filled};
+use crate::error::{ModelError, try_lines};
 use crate::scheme::StepOutcome;
 
 /// What [`PathDiagnostics::record`] reads of the [`StepOutcome`]s of W lanes' steps, per lane.
@@ -47,19 +47,19 @@ impl<Sd: Simd> LaneRecord<Sd> {
 #[derive(Debug, Clone)]
 pub(crate) struct DiagnosticsColumns {
     stride: usize,
-    steps: Vec<f64>,
-    truncated_steps: Vec<f64>,
-    min_eta: Vec<f64>,
-    newton_iterations: Vec<f64>,
+    steps: LineVec<f64>,
+    truncated_steps: LineVec<f64>,
+    min_eta: LineVec<f64>,
+    newton_iterations: LineVec<f64>,
     /// Bin b of path p at `b * stride + p`.
-    iteration_histogram: Vec<f64>,
-    homotopy_steps: Vec<f64>,
-    max_position_residual: Vec<f64>,
-    max_velocity_residual: Vec<f64>,
-    max_kappa_ratio: Vec<f64>,
-    max_contraction: Vec<f64>,
-    clock_lag: Vec<f64>,
-    rounding_certified_steps: Vec<f64>,
+    iteration_histogram: LineVec<f64>,
+    homotopy_steps: LineVec<f64>,
+    max_position_residual: LineVec<f64>,
+    max_velocity_residual: LineVec<f64>,
+    max_kappa_ratio: LineVec<f64>,
+    max_contraction: LineVec<f64>,
+    clock_lag: LineVec<f64>,
+    rounding_certified_steps: LineVec<f64>,
 }
 
 impl DiagnosticsColumns {
@@ -67,14 +67,14 @@ impl DiagnosticsColumns {
     /// ([`ModelError::Allocation`] if they do not fit in memory).
     pub(crate) fn new(stride: usize) -> Result<Self, ModelError> {
         let what = "the lanes' diagnostics";
-        let column = || try_filled(what, 0.0, 1, stride);
+        let column = || try_lines(what, 0.0, 1, stride);
         let mut columns = Self {
             stride,
             steps: column()?,
             truncated_steps: column()?,
             min_eta: column()?,
             newton_iterations: column()?,
-            iteration_histogram: try_filled(what, 0.0, ITERATION_BINS, stride)?,
+            iteration_histogram: try_lines(what, 0.0, ITERATION_BINS, stride)?,
             homotopy_steps: column()?,
             max_position_residual: column()?,
             max_velocity_residual: column()?,

@@ -3,12 +3,12 @@
 use std::mem::take;
 
 use pulp::Simd;
-use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes};
+use sdae_lanes::{LANE_BLOCK, LaneMask, LaneWidth, Lanes, LineVec};
 use sdae_manifold::Constraint;
 
 use crate::diagnostics::PathDiagnostics;
 use crate::ensemble::{PathEnsemble, check_initial_state, check_path, for_each_row};
-use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled};
+use crate::error::{ModelError, StepFailure, check_dim, check_step_size, try_filled, try_lines};
 use crate::lane_diagnostics::{DiagnosticsColumns, LaneRecord};
 use crate::scheme::Scheme;
 use crate::system::System;
@@ -43,13 +43,13 @@ pub struct LanePaths {
     paths: usize,
     stride: usize,
     /// Positions, block by block.
-    r: Vec<f64>,
+    r: LineVec<f64>,
     /// Velocities, block by block.
-    v: Vec<f64>,
+    v: LineVec<f64>,
     /// mu, constraint j of path p at `j * stride + p`.
-    mu: Vec<f64>,
+    mu: LineVec<f64>,
     /// 1 for a path that goes on, 0 for a stopped path or a padding lane.
-    alive: Vec<f64>,
+    alive: LineVec<f64>,
     failures: Vec<Option<StepFailure>>,
     /// How many of `failures` are `Some`.
     failed: usize,
@@ -114,10 +114,10 @@ impl LanePaths {
         let mut state = Self {
             paths,
             stride,
-            r: try_filled("the lanes' positions", 0.0, n, stride)?,
-            v: try_filled("the lanes' velocities", 0.0, n, stride)?,
-            mu: try_filled("the lanes' multipliers", 0.0, m, stride)?,
-            alive: try_filled("the lanes' flags", 0.0, 1, stride)?,
+            r: try_lines("the lanes' positions", 0.0, n, stride)?,
+            v: try_lines("the lanes' velocities", 0.0, n, stride)?,
+            mu: try_lines("the lanes' multipliers", 0.0, m, stride)?,
+            alive: try_lines("the lanes' flags", 0.0, 1, stride)?,
             failures: try_filled("the paths' failures", None, paths, 1)?,
             failed: 0,
             diagnostics: DiagnosticsColumns::new(stride)?,
@@ -393,16 +393,16 @@ impl LanePaths {
 pub struct LaneRows<Sd: Simd> {
     simd: Sd,
     /// r_{k+1} (n rows).
-    pub r: Vec<Lanes<Sd>>,
+    pub r: LineVec<Lanes<Sd>>,
     /// v_{k+1} (n rows).
-    pub v: Vec<Lanes<Sd>>,
+    pub v: LineVec<Lanes<Sd>>,
     /// The increments dw (l rows), copied for a group of an ensemble of several groups.
-    dw: Vec<Lanes<Sd>>,
+    dw: LineVec<Lanes<Sd>>,
     /// mu_{k+1} - mu_k (m rows).
-    pub dmu: Vec<Lanes<Sd>>,
+    pub dmu: LineVec<Lanes<Sd>>,
     /// r_k and v_k copied, for a group narrower than a block.
-    r_copy: Vec<Lanes<Sd>>,
-    v_copy: Vec<Lanes<Sd>>,
+    r_copy: LineVec<Lanes<Sd>>,
+    v_copy: LineVec<Lanes<Sd>>,
 }
 
 impl<Sd: Simd> LaneRows<Sd> {
@@ -411,12 +411,12 @@ impl<Sd: Simd> LaneRows<Sd> {
         let zero = Lanes::splat(simd, 0.0);
         Self {
             simd,
-            r: vec![zero; n],
-            v: vec![zero; n],
-            dw: vec![zero; l],
-            dmu: vec![zero; m],
-            r_copy: vec![zero; n],
-            v_copy: vec![zero; n],
+            r: LineVec::from_elem(zero, n),
+            v: LineVec::from_elem(zero, n),
+            dw: LineVec::from_elem(zero, l),
+            dmu: LineVec::from_elem(zero, m),
+            r_copy: LineVec::from_elem(zero, n),
+            v_copy: LineVec::from_elem(zero, n),
         }
     }
 

@@ -22,7 +22,7 @@ use sdae_ift::{
     NewtonSystem, ProbeMap, QuadraticRoot, SolverSettings, certify, newton_from_zero,
     quadratic_root,
 };
-use sdae_lanes::{LaneMask, Lanes};
+use sdae_lanes::{LaneMask, Lanes, LineVec};
 use sdae_manifold::lane_form::{
     ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes, active_any,
 };
@@ -102,16 +102,16 @@ pub struct NewtonRoot<Sd: Simd, C: ConstraintLanes> {
     simd: Sd,
     /// The point x = y + M^-1 grad g(r) gamma of the last evaluation: the root's point in the
     /// lanes whose root is not 0 ([`NewtonRoot::point`] takes y in the others).
-    pub x: Vec<Lanes<Sd>>,
+    pub x: LineVec<Lanes<Sd>>,
     /// Scratch for R(gamma) (a constraint that stores g(x)).
-    residual: Vec<Lanes<Sd>>,
+    residual: LineVec<Lanes<Sd>>,
     /// J(gamma) = Dg(x) M^-1 grad g(r) of the last evaluation.
     jacobian: Jacobian<Sd, C>,
     factor_at_zero: Factor<Sd, C>,
     factor: Factor<Sd, C>,
     /// gamma*, unless the certificate's probes took its place (then free scratch of m rows).
-    pub gamma: Vec<Lanes<Sd>>,
-    step: Vec<Lanes<Sd>>,
+    pub gamma: LineVec<Lanes<Sd>>,
+    step: LineVec<Lanes<Sd>>,
 }
 
 /// What the Newton iteration decided, per lane.
@@ -209,13 +209,13 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
         let zero = Lanes::splat(simd, 0.0);
         Self {
             simd,
-            x: vec![zero; n],
-            residual: vec![zero; m],
+            x: LineVec::from_elem(zero, n),
+            residual: LineVec::from_elem(zero, m),
             jacobian: SquareMatrix::zeros_like(zero, m),
             factor_at_zero: MatrixFactor::zeros_like(zero, m),
             factor: MatrixFactor::zeros_like(zero, m),
-            gamma: vec![zero; m],
-            step: vec![zero; m],
+            gamma: LineVec::from_elem(zero, m),
+            step: LineVec::from_elem(zero, m),
         }
     }
 

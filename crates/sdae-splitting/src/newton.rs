@@ -13,7 +13,7 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, per_path};
+use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, LineVec, per_path};
 use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
 use sdae_manifold::{GramShape, GramStructure, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
@@ -67,7 +67,7 @@ impl Constants {
 pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     lanes: NewtonLanes<Sd, C>,
     /// A projection's multiplier (m rows).
-    lambda: Vec<Lanes<Sd>>,
+    lambda: LineVec<Lanes<Sd>>,
     /// Each group's last end point, up to [`END_POINTS_BYTES`].
     ends: Vec<EndPoint<Sd, C>>,
     /// How many groups' end points are kept.
@@ -86,12 +86,12 @@ struct NewtonLanes<Sd: Simd, C: ConstraintLanes> {
     /// evaluation leaves (m rows each, not read).
     gram: Jacobian<Sd, C>,
     gram_factor: Factor<Sd, C>,
-    values: Vec<Lanes<Sd>>,
-    solved: Vec<Lanes<Sd>>,
+    values: LineVec<Lanes<Sd>>,
+    solved: LineVec<Lanes<Sd>>,
     /// F(r), the zero velocity of F(r) = a(r, 0) and the next velocity (n rows each).
-    force: Vec<Lanes<Sd>>,
-    zero: Vec<Lanes<Sd>>,
-    u: Vec<Lanes<Sd>>,
+    force: LineVec<Lanes<Sd>>,
+    zero: LineVec<Lanes<Sd>>,
+    u: LineVec<Lanes<Sd>>,
     /// Path-by-path buffers of a system without lane forms of this size.
     scratch: Vec<f64>,
 }
@@ -112,7 +112,7 @@ const END_POINTS_BYTES: usize = 64 << 20;
 struct EndPoint<Sd: Simd, C: ConstraintLanes> {
     /// r_{k+1}, row by row (W values per coordinate); empty until the group's first step.
     r: Vec<f64>,
-    force: Vec<Lanes<Sd>>,
+    force: LineVec<Lanes<Sd>>,
     gram_factor: Factor<Sd, C>,
     gram: Option<Jacobian<Sd, C>>,
 }
@@ -136,14 +136,14 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
                 constraint,
                 gram: SquareMatrix::zeros_like(zero, m),
                 gram_factor: MatrixFactor::zeros_like(zero, m),
-                values: vec![zero; m],
-                solved: vec![zero; m],
-                force: vec![zero; n],
-                zero: vec![zero; n],
-                u: vec![zero; n],
+                values: LineVec::from_elem(zero, m),
+                solved: LineVec::from_elem(zero, m),
+                force: LineVec::from_elem(zero, n),
+                zero: LineVec::from_elem(zero, n),
+                u: LineVec::from_elem(zero, n),
                 scratch: Vec::new(),
             },
-            lambda: vec![zero; m],
+            lambda: LineVec::from_elem(zero, m),
             ends: Vec::new(),
             kept_groups: END_POINTS_BYTES / end_point_bytes::<Sd>(n, m),
         }
@@ -212,7 +212,7 @@ fn swap_end_point<Sd: Simd, C: ConstraintLanes>(
 }
 
 impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd, C> {
-    type Rows = Vec<Lanes<Sd>>;
+    type Rows = LineVec<Lanes<Sd>>;
     type Failure = NoLaneForm;
     #[inline(always)]
     fn numbers(&self) -> &StepNumbers {
@@ -243,7 +243,8 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     /// quotient where G_M(r) is a scalar.
     #[inline(always)]
     fn rattle_multiplier(
-        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, refactor: bool, lambda: &mut [Lanes<Sd>],
+        &mut self, r: &LineVec<Lanes<Sd>>, v: &LineVec<Lanes<Sd>>, refactor: bool,
+        lambda: &mut [Lanes<Sd>],
     ) -> Result<LaneMask<Sd>, NoLaneForm> {
         let c = &self.constraint;
         let mut regular = self.zero[0].eq(self.zero[0]);
@@ -270,14 +271,14 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
         Ok(regular)
     }
     #[inline(always)]
-    fn displace(&mut self, r: &Vec<Lanes<Sd>>, z: &[Lanes<Sd>], v: &mut Vec<Lanes<Sd>>) {
+    fn displace(&mut self, r: &LineVec<Lanes<Sd>>, z: &[Lanes<Sd>], v: &mut LineVec<Lanes<Sd>>) {
         self.constraint.displace(r, z, Some(&v[..]), &mut self.u);
         std::mem::swap(v, &mut self.u);
     }
     /// Newton from kappa = 0 at y = r + tau v, no ball ([`NewtonRoot`]).
     #[inline(always)]
     fn shake(
-        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, impulse: &mut [Lanes<Sd>],
+        &mut self, r: &LineVec<Lanes<Sd>>, v: &LineVec<Lanes<Sd>>, impulse: &mut [Lanes<Sd>],
     ) -> Result<Shaken<Lanes<Sd>>, NoLaneForm> {
         let tau = Lanes::splat(self.simd, self.constants.numbers.sizes.tau);
         let y = Drifted { r, v, tau };
@@ -300,13 +301,13 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
         })
     }
     #[inline(always)]
-    fn move_to_root(&mut self, r: &mut Vec<Lanes<Sd>>) {
+    fn move_to_root(&mut self, r: &mut LineVec<Lanes<Sd>>) {
         std::mem::swap(r, &mut self.root.x);
     }
     /// max_i |-(Dg(r) v)_i| = max_i |(Dg(r) v)_i|.
     #[inline(always)]
     fn velocity_residual(
-        &mut self, r: &Vec<Lanes<Sd>>, v: &Vec<Lanes<Sd>>, scratch: &mut [Lanes<Sd>],
+        &mut self, r: &LineVec<Lanes<Sd>>, v: &LineVec<Lanes<Sd>>, scratch: &mut [Lanes<Sd>],
     ) -> Lanes<Sd> {
         self.constraint.negated_jacobian_mul(r, v, scratch);
         max_abs(scratch)
@@ -315,7 +316,8 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     /// per system.
     #[inline(never)]
     fn middle(
-        &mut self, m: &mut Motion<'_, Lanes<Sd>, Vec<Lanes<Sd>>>, dw: &[Lanes<Sd>], factored: bool,
+        &mut self, m: &mut Motion<'_, Lanes<Sd>, LineVec<Lanes<Sd>>>, dw: &[Lanes<Sd>],
+        factored: bool,
     ) -> Result<(), NoLaneForm> {
         let simd = self.simd;
         simd.vectorize(Middle {
@@ -331,7 +333,7 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
 /// own with the caller's instruction set (a closure would not inherit it).
 struct Middle<'a, 'm, Sd: Simd, C: ConstraintLanes> {
     lanes: &'a mut NewtonLanes<Sd, C>,
-    motion: &'a mut Motion<'m, Lanes<Sd>, Vec<Lanes<Sd>>>,
+    motion: &'a mut Motion<'m, Lanes<Sd>, LineVec<Lanes<Sd>>>,
     dw: &'a [Lanes<Sd>],
     factored: bool,
 }

@@ -18,6 +18,7 @@
 //! ```
 
 use rayon::prelude::*;
+use sdae_lanes::LineVec;
 use sdae_manifold::Constraint;
 use sdae_model::{PathDiagnostics, TimeGrid};
 use sdae_noise::EnsembleIncrements;
@@ -278,7 +279,7 @@ where
     let mut ensemble = scheme.build_ensemble(indices.len(), r0, v0)?;
     let l = prepared.system.noise_dim();
     let mut noise = EnsembleIncrements::for_paths(block.seed, indices, l);
-    let mut dw = vec![0.0; l * ensemble.stride()];
+    let mut dw = LineVec::from_elem(0.0, l * ensemble.stride());
     let (n, m) = (r0.len(), prepared.system.constraint().n_constraints());
     let row = 2 * n + m;
     let all: Vec<usize> = (0..indices.len()).collect();

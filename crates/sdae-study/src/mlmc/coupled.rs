@@ -9,6 +9,7 @@
 
 use std::ops::Range;
 
+use sdae_lanes::LineVec;
 use sdae_model::PathEnsemble;
 use sdae_noise::{EnsembleIncrements, EnsembleNoise, MAX_SOBOL_DIMS, QuasiBrownian};
 
@@ -44,7 +45,7 @@ pub struct Worker<S> {
     fine: BoxedEnsemble<S>,
     twin: BoxedEnsemble<S>,
     coarse: BoxedEnsemble<S>,
-    increments: Vec<f64>,
+    increments: LineVec<f64>,
     sum: Vec<f64>,
     rows: Vec<f64>,
     /// The scrambled points of the last (level, randomization) run on quasi-random paths.
@@ -302,7 +303,7 @@ where
             fine: build()?,
             twin: build()?,
             coarse: build()?,
-            increments: Vec::new(),
+            increments: LineVec::new(),
             sum: Vec::new(),
             rows: Vec::new(),
             quasi: None,

@@ -42,9 +42,7 @@ pub(crate) trait HalfExplicitKernel<T: Real> {
     #[inline(always)]
     fn scale_drift(&mut self, r: &[T], v: &[T], eta_h: T, drift_h: T, force: &mut [T]) {
         let _ = (r, v, eta_h);
-        for f in force.iter_mut() {
-            *f = drift_h * *f;
-        }
+        scale_force(drift_h, force);
     }
     /// The constrained update of eq. 3.1 from r and y = r + eta_h v with the force
     /// eta h a + B dw (`force`, rescaled where asked): v~ = v + M^-1 force, the kappa root
@@ -56,6 +54,14 @@ pub(crate) trait HalfExplicitKernel<T: Real> {
     fn constrain(
         &mut self, r: &[T], v: &[T], eta_h: T, force: &mut [T], dmu: &mut [T], monitor: bool,
     ) -> Result<Update<T>, Self::Stop>;
+}
+
+/// force <- drift_h force, the default of [`HalfExplicitKernel::scale_drift`].
+#[inline(always)]
+pub(crate) fn scale_force<T: Real>(drift_h: T, force: &mut [T]) {
+    for f in force.iter_mut() {
+        *f = drift_h * *f;
+    }
 }
 
 /// What [`HalfExplicitKernel::constrain`] found, per path.

@@ -20,7 +20,7 @@ use sdae_model::engine::{
 use sdae_model::{Scheme, StepOutcome, System};
 
 use crate::formulas;
-use crate::step::{HalfExplicitKernel, Update, half_explicit_step, lane_record};
+use crate::step::{self, HalfExplicitKernel, Update, half_explicit_step, lane_record};
 use crate::stepper::Stepper;
 
 /// One step of every path of an ensemble whose constraint is a sphere ([`step_sphere_lanes`]);
@@ -95,6 +95,7 @@ impl<const N: usize> Kernel<N> {
             kernel: self,
             system: stepper.system(),
             local_size: config.local_size,
+            root: None,
             next: None,
         };
         let (mut force, mut dmu) = ([r[0].splat_like(0.0); N], [r[0].splat_like(0.0)]);
@@ -107,7 +108,7 @@ impl<const N: usize> Kernel<N> {
             &mut dmu,
         )
         .ok()?;
-        let (root, v_new) = on_sphere.next?;
+        let (root, v_new) = (on_sphere.root?, on_sphere.next?);
         let step = LaneStep {
             ok: step.ok,
             r: root.x,
@@ -127,8 +128,10 @@ struct OnSphere<'a, S: System, Sd: Simd, const N: usize> {
     system: &'a S,
     /// Whether eq. 3.2 takes the local measure ([`StepperConfig::local_size`](crate::StepperConfig)).
     local_size: bool,
-    /// The kappa root (with r_{k+1}) and v_{k+1}, once constrained.
-    next: Option<(RootLanes<Sd, N>, [Lanes<Sd>; N])>,
+    /// The kappa root at y = r + eta h v (with r_{k+1}), once eta is known.
+    root: Option<RootLanes<Sd, N>>,
+    /// v_{k+1}, once constrained.
+    next: Option<[Lanes<Sd>; N]>,
 }
 
 /// The first N rows of `x`.
@@ -194,26 +197,41 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
         b.le(b.splat_like(half_step.min(half_step * half_step)))
             .all()
     }
-    /// The closed-form root, v~ = v + M^-1 force and the velocity at the root
+    /// The drift's part of the force, and the closed-form kappa root at y = r + eta_h v: solved
+    /// here, before the noise is added, so that its square root and divisions overlap the
+    /// noise's evaluation (the W = 1 ensemble measured 10% slower with the root solved in
+    /// [`HalfExplicitKernel::constrain`]).
+    #[inline(always)]
+    fn scale_drift(
+        &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, drift_h: Lanes<Sd>,
+        force: &mut [Lanes<Sd>],
+    ) {
+        step::scale_force(drift_h, force);
+        let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
+        let mut y = [eta_h.splat_like(0.0); N];
+        for i in 0..N {
+            y[i] = formulas::drifted(r[i], v[i], eta_h);
+        }
+        self.root = Some(self.kernel.root.solve(r, &y));
+    }
+    /// v~ = v + M^-1 force and the velocity at the root of [`HalfExplicitKernel::scale_drift`]
     /// ([`SphereRoot::velocity`]).
     #[inline(always)]
     fn constrain(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], eta_h: Lanes<Sd>, force: &mut [Lanes<Sd>],
         dmu: &mut [Lanes<Sd>], monitor: bool,
     ) -> Result<Update<Lanes<Sd>>, NoLaneForm> {
+        // The step always scales the drift first; without the root its paths take the
+        // one-path step.
+        let root = self.root.as_ref().ok_or(NoLaneForm)?;
         let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
         let solver = &self.kernel.root;
         let (sphere, inverse_mass) = (solver.sphere(), solver.inverse_mass());
         let zero = eta_h.splat_like(0.0);
-        let mut y = [zero; N];
-        for i in 0..N {
-            y[i] = formulas::drifted(r[i], v[i], eta_h);
-        }
-        let root = solver.solve(r, &y);
         for i in 0..N {
             force[i] = force[i] * inverse_mass[i] + v[i];
         }
-        let (lambda, v_new) = solver.velocity(r, &root, force);
+        let (lambda, v_new) = solver.velocity(r, root, force);
         let finite = dot(&v_new, &v_new).is_finite();
         // Written out, not `then`: a closure would not inherit the instruction set.
         let velocity_residual = if monitor {
@@ -230,7 +248,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
             contraction: root.contraction,
             kappa_norm: root.norm,
         };
-        self.next = Some((root, v_new));
+        self.next = Some(v_new);
         Ok(update)
     }
 }
@@ -284,7 +302,6 @@ pub(crate) fn step_one_lane<S: System>(
 mod tests {
     use super::*;
     use crate::StepperConfig;
-    use crate::step;
     use sdae_ift::SolverSettings;
     use sdae_systems::{PendulumParams, pendulum};
 
@@ -312,6 +329,7 @@ mod tests {
                     kernel: &k,
                     system: &system,
                     local_size,
+                    root: None,
                     next: None,
                 };
                 let mut config = StepperConfig::new(c_eta, f64::INFINITY).unwrap();

@@ -22,7 +22,7 @@ impl Constraint for Sphere {
         out[0] = 0.5 * (1.0 - dot(x, x) * self.inv_r2);
     }
     /// Dg(x) u = -x.u / rho^2.
-    #[inline]
+    #[inline(always)]
     fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
         out[0] = self.normal_rate(x, u);
     }
@@ -110,6 +110,7 @@ impl Constraint for Sphere {
 
 impl Curvature for Sphere {
     /// D^2 g(x)(u, w) = -u.w / rho^2.
+    #[inline(always)]
     fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
         out[0] = self.curvature_rate(u, w);
     }

@@ -93,7 +93,9 @@ impl<S: CurvedSystem> InherentSde<S> {
         let c = self.system.constraint();
         c.cross_gram(r, r, self.system.mass(), &mut self.scratch, &mut self.gram);
         self.gram.factor_into(&mut self.factor)?;
-        self.prepared_at.copy_from_slice(r);
+        if cfg!(debug_assertions) {
+            self.prepared_at.copy_from_slice(r);
+        }
         self.prepared = true;
         Ok(())
     }

@@ -148,6 +148,7 @@ impl<S: CurvedSystem> InherentKernel<f64> for OnePath<'_, S> {
     type Error = StepFailure;
     /// Factors G_M(r) ([`InherentSde::prepare`]) and evaluates the drift parts, and the noise
     /// parts if `dw` is not empty (a scene without noise pays nothing for it).
+    #[inline(always)]
     fn parts(
         &mut self, r: &[f64], v: &[f64], dw: &[f64], parts: &mut Parts<'_, f64>,
     ) -> Result<bool, StepFailure> {

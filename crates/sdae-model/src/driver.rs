@@ -53,6 +53,14 @@ impl PathState {
         }
     }
 
+    /// Back to k = 0 with mu = 0 and no diagnostics, as [`PathState::new`] leaves it, in the
+    /// same buffers.
+    pub fn restart(&mut self) {
+        self.k = 0;
+        self.mu.fill(0.0);
+        self.diagnostics = PathDiagnostics::default();
+    }
+
     /// One step of size h of `scheme` from (r, v) = (r_k, v_k) with the increment dw: the
     /// residuals the scheme did not measure (if [`PathState::measure_residuals`]), the
     /// diagnostics, mu_{k+1} = mu_k + (mu_{k+1} - mu_k) (seed eq. 1.4) and k + 1. On failure

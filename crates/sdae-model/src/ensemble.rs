@@ -178,9 +178,12 @@ pub fn check_initial_state<S: System + ?Sized>(
 /// the same [`PathState::step`] as [`run_path`](crate::run_path).
 pub struct PathLoop<Sch: Scheme> {
     scheme: Sch,
-    /// Path p's r_k and v_k.
-    r: Vec<Vec<f64>>,
-    v: Vec<Vec<f64>>,
+    /// The coordinates n.
+    n: usize,
+    /// Path p's r_k and v_k: entries p n to (p + 1) n, in one buffer for all paths (one
+    /// allocation each, none on restart, paths next to each other).
+    r: Vec<f64>,
+    v: Vec<f64>,
     /// Path p's k, mu and diagnostics.
     states: Vec<PathState>,
     /// Whether path p goes on.
@@ -202,12 +205,13 @@ impl<Sch: Scheme> PathLoop<Sch> {
         }
         check_initial_state(scheme.system(), r0, v0)?;
         let system = scheme.system();
-        let m = system.constraint().n_constraints();
+        let (n, m) = (r0.len(), system.constraint().n_constraints());
         let l = system.noise_dim();
         let fresh = PathState::new(m, true, false);
         let mut ensemble = Self {
-            r: try_filled("the paths' positions", Vec::new(), paths, 1)?,
-            v: try_filled("the paths' velocities", Vec::new(), paths, 1)?,
+            n,
+            r: try_filled("the paths' positions", 0.0, paths, n)?,
+            v: try_filled("the paths' velocities", 0.0, paths, n)?,
             states: try_filled("the paths' states", fresh, paths, 1)?,
             alive: try_filled("the paths' flags", true, paths, 1)?,
             failures: try_filled("the paths' failures", None, paths, 1)?,
@@ -221,6 +225,11 @@ impl<Sch: Scheme> PathLoop<Sch> {
     /// The scheme.
     pub fn scheme(&self) -> &Sch {
         &self.scheme
+    }
+
+    /// Where path p's r_k and v_k are in their buffers.
+    fn rows(&self, p: usize) -> std::ops::Range<usize> {
+        p * self.n..(p + 1) * self.n
     }
 }
 
@@ -237,11 +246,11 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
 
     fn restart(&mut self, r0: &[f64], v0: &[f64]) -> Result<(), ModelError> {
         check_initial_state(self.scheme.system(), r0, v0)?;
-        let m = self.scheme.system().constraint().n_constraints();
         for p in 0..self.states.len() {
-            self.r[p] = r0.to_vec();
-            self.v[p] = v0.to_vec();
-            self.states[p] = PathState::new(m, true, false);
+            let rows = self.rows(p);
+            self.r[rows.clone()].copy_from_slice(r0);
+            self.v[rows].copy_from_slice(v0);
+            self.states[p].restart();
             self.alive[p] = true;
             self.failures[p] = None;
         }
@@ -250,10 +259,11 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
 
     fn set_state(&mut self, p: usize, r: &[f64], v: &[f64]) -> Result<(), ModelError> {
         check_path(p, self.paths())?;
-        check_dim("position", self.r[p].len(), r.len())?;
-        check_dim("velocity", self.v[p].len(), v.len())?;
-        self.r[p].copy_from_slice(r);
-        self.v[p].copy_from_slice(v);
+        check_dim("position", self.n, r.len())?;
+        check_dim("velocity", self.n, v.len())?;
+        let rows = self.rows(p);
+        self.r[rows.clone()].copy_from_slice(r);
+        self.v[rows].copy_from_slice(v);
         self.alive[p] = true;
         self.failures[p] = None;
         Ok(())
@@ -271,11 +281,12 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
             for (j, x) in self.dw.iter_mut().enumerate() {
                 *x = dw[j * stride + p];
             }
+            let rows = self.rows(p);
             let state = &mut self.states[p];
             if let Err(failure) = state.step(
                 &mut self.scheme,
-                &mut self.r[p],
-                &mut self.v[p],
+                &mut self.r[rows.clone()],
+                &mut self.v[rows],
                 h,
                 &self.dw,
             ) {
@@ -291,14 +302,14 @@ impl<Sch: Scheme> PathEnsemble for PathLoop<Sch> {
         &self, p: usize, r: &mut [f64], v: &mut [f64], mu: &mut [f64],
     ) -> Result<(), ModelError> {
         check_path(p, self.paths())?;
-        check_dim("position", self.r[p].len(), r.len())?;
-        check_dim("velocity", self.v[p].len(), v.len())?;
+        check_dim("position", self.n, r.len())?;
+        check_dim("velocity", self.n, v.len())?;
         if !mu.is_empty() {
             check_dim("multiplier", self.states[p].mu.len(), mu.len())?;
             mu.copy_from_slice(&self.states[p].mu);
         }
-        r.copy_from_slice(&self.r[p]);
-        v.copy_from_slice(&self.v[p]);
+        r.copy_from_slice(&self.r[self.rows(p)]);
+        v.copy_from_slice(&self.v[self.rows(p)]);
         Ok(())
     }
 

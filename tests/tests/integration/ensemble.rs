@@ -206,6 +206,14 @@ fn a_failed_lane_stops_with_the_scalar_failure_and_the_others_go_on() {
         assert_eq!(run.diagnostics(2).unwrap().steps, 3);
         run.restart(&[1.5, 0.0], &[0.0, 0.1]).unwrap();
         assert_eq!(run.failed_paths(), 0);
+        let (mut r, mut v, mut mu) = ([0.0; 2], [0.0; 2], [1.0]);
+        run.state(2, &mut r, &mut v, &mut mu).unwrap();
+        assert_eq!(
+            (r, v, mu),
+            ([1.5, 0.0], [0.0, 0.1], [0.0]),
+            "a restart puts the state back and mu to zero"
+        );
+        assert_eq!(run.diagnostics(2).unwrap().steps, 0);
         run.step(0.1, &dw).unwrap();
         assert!((0..9).all(|p| run.diagnostics(p).unwrap().steps == 1));
     }
@@ -315,6 +323,41 @@ fn bad_input_is_a_typed_error() {
         .err()
         .unwrap();
     assert!(model(e).contains("paths"));
+}
+
+/// A restarted path loop (its paths in one buffer, its path states reset in place) steps as
+/// a fresh one: the same states, mu and diagnostics after the same increments.
+#[test]
+fn a_restarted_path_loop_steps_as_a_fresh_one() {
+    let stepper = Stepper::new(noisy_pendulum(2), configs(&noisy_pendulum(2))[0].1).unwrap();
+    let (r0, v0) = ([1.5, 0.0], [0.0, 0.1]);
+    let mut fresh = PathLoop::new(stepper.clone(), 3, &r0, &v0).unwrap();
+    let mut restarted = PathLoop::new(stepper, 3, &r0, &v0).unwrap();
+    let stride = fresh.stride();
+    let dw: Vec<f64> = (0..2 * stride).map(|i| 0.1 * (i as f64 - 2.0)).collect();
+    for _ in 0..3 {
+        restarted.step(0.05, &dw).unwrap();
+    }
+    restarted.set_state(1, &[0.0, 1.5], &[0.2, 0.0]).unwrap();
+    restarted.restart(&r0, &v0).unwrap();
+    for _ in 0..2 {
+        fresh.step(0.05, &dw).unwrap();
+        restarted.step(0.05, &dw).unwrap();
+    }
+    for p in 0..3 {
+        let mut a = ([0.0; 2], [0.0; 2], [0.0]);
+        let mut b = ([0.0; 2], [0.0; 2], [0.0]);
+        fresh.state(p, &mut a.0, &mut a.1, &mut a.2).unwrap();
+        restarted.state(p, &mut b.0, &mut b.1, &mut b.2).unwrap();
+        assert_eq!(a, b, "path {p}");
+        assert_ne!(a.0, r0, "path {p} has moved");
+        let (d, e) = (
+            fresh.diagnostics(p).unwrap(),
+            restarted.diagnostics(p).unwrap(),
+        );
+        assert_eq!(d, e, "path {p}");
+        assert_eq!(e.steps, 2);
+    }
 }
 
 /// What a caller can get wrong beyond the shapes: a path index out of range names the index

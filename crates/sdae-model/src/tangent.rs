@@ -132,6 +132,12 @@ impl<G: Factorize> TangentProjector<G> {
     /// r <- the root of g(r + M^-1 grad g(r) gamma) = 0 (the kappa system with eta = 0 and
     /// y = r): the point of the manifold on the normal line through r. Returns the solver's
     /// certificate; r is unchanged on failure.
+    ///
+    /// Inlined, so that a caller that reads only part of the certificate does not have it built
+    /// in memory and copied back: out of line, the copy read fields just written one by one,
+    /// a stalled store-to-load forward each step (projected Euler-Maruyama measured 138 ns per
+    /// step of one path against 131 ns inlined, docs/performance.md).
+    #[inline]
     pub fn project_position<C, M>(
         &mut self, constraint: &C, mass: &M, r: &mut [f64],
     ) -> Result<Certificate, IftError>

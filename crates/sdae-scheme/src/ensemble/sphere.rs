@@ -19,6 +19,7 @@ use sdae_model::engine::{
 };
 use sdae_model::{Scheme, StepOutcome, System};
 
+use crate::config::StepperConfig;
 use crate::formulas;
 use crate::step::{self, HalfExplicitKernel, Update, half_explicit_step, lane_record};
 use crate::stepper::Stepper;
@@ -58,6 +59,11 @@ impl<S: System> SphereKernels<Stepper<S>> for Kernels {
 /// The constants of one step on the sphere.
 struct Kernel<const N: usize> {
     h: f64,
+    /// The stepper's configuration, copied: the kernel is a local of the ensemble's loop, so
+    /// the compiler keeps what the step derives from it (the untruncated shortcut's bound)
+    /// out of the loop, which it does not through the stepper's reference (the W = 1
+    /// ensemble measured 4% more instructions per path-step).
+    config: StepperConfig,
     /// The kappa root in the ball of radius C_kappa, with the sphere and M^-1.
     root: SphereRoot<N>,
 }
@@ -68,7 +74,11 @@ impl<const N: usize> Kernel<N> {
         let config = stepper.config();
         let mass = stepper.system().mass();
         let root = SphereRoot::for_mass(sphere, mass, &config.solver, config.c_kappa)?;
-        Some(Self { h, root })
+        Some(Self {
+            h,
+            config: *config,
+            root,
+        })
     }
 }
 
@@ -90,7 +100,7 @@ impl<const N: usize> Kernel<N> {
     fn step_with_root<S: System, Sd: Simd>(
         &self, stepper: &Stepper<S>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],
     ) -> Option<(LaneStep<Sd, N>, RootLanes<Sd, N>)> {
-        let config = stepper.config();
+        let config = &self.config;
         let mut on_sphere = OnSphere {
             kernel: self,
             system: stepper.system(),
@@ -310,6 +320,7 @@ mod tests {
         let sphere = Sphere::new(2, rho).unwrap();
         Kernel {
             h,
+            config: StepperConfig::new(1.0, f64::INFINITY).unwrap(),
             root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
         }
     }

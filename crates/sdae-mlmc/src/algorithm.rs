@@ -49,8 +49,10 @@ pub struct MlmcEstimate {
     /// The accuracy asked for.
     pub eps: f64,
     /// sum_l mean(P_l - P_{l-1}) with its 95% interval from the sampling variance
-    /// sum_l V_l / N_l (the bias is not in it: see `bias`).
+    /// sum_l V_l / N_l: an interval for E\[P_L\] (the bias is not in it: see `with_bias`).
     pub estimate: Interval,
+    /// The interval for E\[P\] the reports print: `estimate` widened by `bias` on each side.
+    pub with_bias: Interval,
     /// The bias estimate at the finest level when the run stopped ([`bias_estimate`]).
     pub bias: f64,
     /// The weak rate alpha the bias estimate used.
@@ -280,9 +282,11 @@ fn finish<L: LevelSampler>(
     sampler: &L, eps: f64, levels: Vec<LevelSums>, (bias, bias_alpha): (f64, f64), converged: bool,
 ) -> MlmcEstimate {
     let work = work_of(sampler, &levels);
+    let estimate = estimate_of(&levels);
     MlmcEstimate {
         eps,
-        estimate: estimate_of(&levels),
+        estimate,
+        with_bias: estimate.widened(bias),
         bias,
         bias_alpha,
         converged,

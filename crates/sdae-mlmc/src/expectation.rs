@@ -105,9 +105,11 @@ pub struct Expectation {
     pub eps: f64,
     /// The estimator that ran.
     pub method: Method,
-    /// The estimate with its 95% interval from the sampling variance (the bias is not in it:
-    /// see `bias`).
+    /// The estimate with its 95% interval from the sampling variance, an interval for
+    /// E\[P_L\] (the bias is not in it: see `with_bias`).
     pub estimate: Interval,
+    /// The interval for E\[P\]: `estimate` widened by `bias` on each side.
+    pub with_bias: Interval,
     /// The bias estimate |E[P - P_L]| at the finest level L used.
     #[serde(with = "sdae_stats::json_f64")]
     pub bias: f64,
@@ -177,6 +179,7 @@ fn multilevel<L: LevelSampler>(
         eps,
         method: Method::Mlmc,
         estimate: run.estimate,
+        with_bias: run.with_bias,
         bias: run.bias,
         converged: run.converged,
         level: (run.levels.len() - 1) as u32,
@@ -204,11 +207,14 @@ fn standard<L: LevelSampler>(
         .collect();
     let mut samples = vec![0; level as usize + 1];
     samples[level as usize] = sums.attempted();
+    let estimate = estimate_of(std::slice::from_ref(&sums));
+    let bias = bias_estimate(&means).0;
     Ok(Expectation {
         eps,
         method: Method::Standard,
-        estimate: estimate_of(std::slice::from_ref(&sums)),
-        bias: bias_estimate(&means).0,
+        estimate,
+        with_bias: estimate.widened(bias),
+        bias,
         converged: true,
         level,
         samples,

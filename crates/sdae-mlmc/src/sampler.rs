@@ -190,6 +190,21 @@ impl<'a> RunControl<'a> {
     }
 }
 
+/// The fine paths alone of the first `samples` samples of level `level` (whole blocks), run on
+/// the calling thread and kept out of any block store: whether a level runs at all, probed
+/// before a run whose blocks a checkpoint keeps.
+pub fn probe_level<L: LevelSampler>(
+    sampler: &L, level: u32, samples: u64,
+) -> Result<LevelSums, MlmcError> {
+    let mut worker = sampler.worker()?;
+    let start = Instant::now();
+    let mut found = Vec::new();
+    for b in 0..samples.div_ceil(BLOCK) {
+        found.extend(sampler.run_block(&mut worker, level, b * BLOCK..(b + 1) * BLOCK, false)?);
+    }
+    Ok(LevelSums::of(&found, start.elapsed().as_secs_f64()))
+}
+
 /// The blocks of the first `samples` samples (rounded up) that shard `shard` = (index, count)
 /// runs: block b on shard b mod count.
 pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {

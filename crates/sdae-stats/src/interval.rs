@@ -22,6 +22,18 @@ impl Interval {
     pub fn contains(&self, x: f64) -> bool {
         self.ci_low <= x && x <= self.ci_high
     }
+
+    /// The interval with `margin` added on each side, [ci_low - margin, ci_high + margin], the
+    /// estimate unchanged: a sampling interval for E\[P_L\] widened by a bound on the bias
+    /// |E\[P\] - E\[P_L\]| is an interval for E\[P\]. A NaN margin gives NaN ends (nothing
+    /// bounds the bias), never the narrower interval.
+    pub fn widened(&self, margin: f64) -> Interval {
+        Interval {
+            estimate: self.estimate,
+            ci_low: self.ci_low - margin,
+            ci_high: self.ci_high + margin,
+        }
+    }
 }
 
 /// The two-sided 95% quantile t_{0.975, dof} of Student's t distribution (NaN for dof = 0).
@@ -51,5 +63,19 @@ mod tests {
             assert!((t975(dof) - value).abs() < 5e-4, "dof {dof}: {}", t975(dof));
         }
         assert!(t975(0).is_nan());
+    }
+
+    #[test]
+    fn a_widened_interval_keeps_its_estimate_and_never_narrows_on_nan() {
+        let i = Interval {
+            estimate: 1.0,
+            ci_low: 0.5,
+            ci_high: 1.25,
+        };
+        let w = i.widened(0.25);
+        assert_eq!((w.estimate, w.ci_low, w.ci_high), (1.0, 0.25, 1.5));
+        assert!(!i.contains(1.4) && w.contains(1.4));
+        let nan = i.widened(f64::NAN);
+        assert!(nan.ci_low.is_nan() && nan.ci_high.is_nan() && !nan.contains(1.0));
     }
 }

@@ -4,6 +4,7 @@
 //! With the antithetic option (Giles and Szpruch 2014) the fine value is the average of f over
 //! the fine path and its twin with each pair of consecutive fine increments swapped.
 //!
+//! - [`coarsest`]: level 0 moved to the first step count that runs, before the study.
 //! - [`coupled`]: the level sampler of a scene: any study scheme on both paths of a pair, in
 //!   SIMD-lane ensembles.
 //! - [`quasi`]: randomized quasi-Monte Carlo paths (`--qmc`): multilevel QMC beside MLMC at
@@ -17,6 +18,7 @@
 //!   whichever the convergence test predicts cheaper.
 //! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
 
+pub mod coarsest;
 pub mod coupled;
 pub mod expectation;
 pub mod plan_runs;

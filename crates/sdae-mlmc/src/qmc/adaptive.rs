@@ -57,9 +57,12 @@ pub struct MlqmcEstimate {
     pub randomizations: u32,
     /// The mean over r of the totals `totals` with the 95% t interval of R - 1 degrees of
     /// freedom, mean +- t_{0.975, R-1} s / sqrt(R), s the totals' sample standard deviation
-    /// (the bias is not in it: see `bias`).
+    /// (an interval for E\[P_L\]; the bias is not in it: see `with_bias`).
     #[serde(with = "super::interval_serde")]
     pub estimate: Interval,
+    /// The interval for E\[P\] the reports print: `estimate` widened by `bias` on each side.
+    #[serde(with = "super::interval_serde")]
+    pub with_bias: Interval,
     /// total_r = sum_l mean_{l,r}: R independent estimates of E\[P_L\].
     #[serde(with = "sdae_stats::json_f64::vec")]
     pub totals: Vec<f64>,
@@ -225,6 +228,7 @@ fn finish(
         eps: settings.eps,
         randomizations: settings.randomizations,
         estimate,
+        with_bias: estimate.widened(bias),
         totals,
         variance: total_variance(&levels),
         bias,

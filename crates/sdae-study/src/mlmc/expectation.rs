@@ -3,6 +3,7 @@
 
 use serde::Serialize;
 
+use super::coarsest::{CoarsestMoved, first_level_that_runs};
 use super::study::{MlmcSettings, SamplerTask, with_sampler};
 use crate::scene::Scene;
 use sdae_mlmc::expectation::{Expectation, ExpectationSettings, expectation};
@@ -26,18 +27,23 @@ pub struct SceneExpectation {
     /// The estimate and how it was found.
     #[serde(flatten)]
     pub found: Expectation,
+    /// Level 0 moved to finer steps because the asked one did not run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarsest_moved: Option<CoarsestMoved>,
 }
 
 /// E[f(X_T)] of `scene`'s observable to root mean square accuracy `eps`, with the observable,
 /// scheme, final time, seed, threads, convergence test (levels and samples), N_0 and finest
 /// level of `settings` (its own list of eps and standard and QMC runs are not used). The
-/// settings are checked first ([`MlmcSettings::validate_for`]).
+/// settings are checked first ([`MlmcSettings::validate_for`]), and level 0 moves to the first
+/// step count that runs ([`first_level_that_runs`]).
 pub fn scene_expectation(
     scene: &Scene, settings: &MlmcSettings, eps: f64, control: &RunControl<'_>,
 ) -> Result<SceneExpectation, MlmcError> {
     let mut checked = settings.clone();
     checked.spec.eps = vec![eps];
     checked.validate_for(scene)?;
+    let (checked, coarsest_moved) = first_level_that_runs(scene, &checked)?;
     let spec = &checked.spec;
     let wanted = ExpectationSettings {
         eps,
@@ -66,5 +72,6 @@ pub fn scene_expectation(
         t_end: checked.t_end,
         seed: checked.seed,
         found,
+        coarsest_moved,
     })
 }

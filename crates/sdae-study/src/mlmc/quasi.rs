@@ -84,8 +84,14 @@ pub struct QuasiStandardRun {
     pub eps: f64,
     /// The level, its R sums and statistics (Y = P_l).
     pub level: QuasiLevel,
-    /// E\[P_l\] with its t interval over the R randomizations.
+    /// E\[P_l\] with its t interval over the R randomizations (the bias is not in it: see
+    /// `with_bias`).
     pub estimate: Interval,
+    /// The bias estimate |E\[P - P_l\]| of level l, the standard run's.
+    #[serde(with = "sdae_stats::json_f64")]
+    pub bias: f64,
+    /// The interval for E\[P\] the reports print: `estimate` widened by `bias` on each side.
+    pub with_bias: Interval,
     /// Its work, R n path_steps(l).
     #[serde(with = "sdae_stats::json_f64")]
     pub work: f64,
@@ -217,11 +223,19 @@ fn single_level<Q: QuasiSampler>(
     // Standard Monte Carlo to the accuracy reached: 2 V[P_l] / eps^2 paths, V[P_l] the
     // variance of one path's value, which the randomizations' sums give.
     let var_p = q.randomizations.iter().map(|s| s.var_p()).sum::<f64>() / r;
-    let standard_work = 2.0 * var_p / (eps * eps) * steps;
+    // Two paths at least; with no variance at all (every path alike) no more.
+    let paths = if var_p == 0.0 {
+        2.0
+    } else {
+        (2.0 * var_p / (eps * eps)).max(2.0)
+    };
+    let standard_work = paths * steps;
     Ok(QuasiStandardRun {
         target_eps,
         eps,
         estimate,
+        bias: standard.bias,
+        with_bias: estimate.widened(standard.bias),
         work: q.work,
         standard_work,
         savings: standard_work / q.work,

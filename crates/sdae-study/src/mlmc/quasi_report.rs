@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::quasi::{QmcReport, QuasiStandardRun};
-use super::report::{bias_cell, csv_interval, interval};
+use super::report::{bias_cell, csv_interval, interval, ratio, with_bias};
 use sdae_stats::Interval;
 
 /// "c [low, high]", "c (no interval from two eps)", or "-" (fewer than two eps).
@@ -32,7 +32,7 @@ fn points(row: &super::quasi::QuasiRow) -> String {
 /// The Markdown section: one row per eps, the cost exponents and the single-level run.
 pub fn section(qmc: &QmcReport) -> String {
     let mut s = format!(
-        "\n## Multilevel quasi-Monte Carlo\n\nR = {} randomizations (scrambled Sobol' points, Brownian bridge), n_0 = {} points per level.\n\n| eps | estimate [95%, t over R] | sum V_l | bias est. (alpha) | L | n_l | MLQMC work (steps) | MLMC work (steps) | savings | run (s) | MLMC run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "\n## Multilevel quasi-Monte Carlo\n\nR = {} randomizations (scrambled Sobol' points, Brownian bridge), n_0 = {} points per level.\n\n| eps | E[f(X_T)] [95% t over R + bias] | sum V_l | bias est. (alpha) | L | n_l | MLQMC work (steps) | MLMC work (steps) | savings | run (s) | MLMC run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
         qmc.settings.randomizations, qmc.settings.initial_points
     );
     for row in &qmc.runs {
@@ -41,7 +41,7 @@ pub fn section(qmc: &QmcReport) -> String {
             s,
             "| {:.0e} | {} | {:.2e} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3} | {:.3} |",
             e.eps,
-            interval(&e.estimate),
+            interval(&e.with_bias),
             e.variance,
             bias_cell(e.bias, e.bias_alpha, e.converged),
             e.levels.len() - 1,
@@ -120,18 +120,18 @@ pub fn standard_line(d: &QuasiStandardRun) -> String {
     format!(
         "Direct single-level randomized QMC on level {} ({} randomizations of {} points, {} \
          failed): {} at eps = {:.2e} (asked {:.0e}) in {:.3e} steps, {:.3} s; \
-         standard Monte Carlo needs {:.3e} steps for that accuracy: {:.1}x.",
+         standard Monte Carlo needs {:.3e} steps for that accuracy: {}.",
         d.level.level,
         d.level.randomizations.len(),
         d.level.points,
         d.level.failed,
-        interval(&d.estimate),
+        with_bias(&d.with_bias, d.bias),
         d.eps,
         d.target_eps,
         d.work,
         d.seconds,
         d.standard_work,
-        d.savings
+        ratio(d.savings)
     )
 }
 
@@ -146,7 +146,7 @@ pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
                 "MLQMC eps {:.0e}: {}, L = {}, n_l = [{}] x R = {}, work {:.3e} \
                  steps (MLMC's over it: {:.1}x), {:.3} s",
                 e.eps,
-                interval(&e.estimate),
+                with_bias(&e.with_bias, e.bias),
                 e.levels.len() - 1,
                 points(row),
                 e.randomizations,
@@ -169,7 +169,7 @@ pub fn summary_lines(qmc: &QmcReport) -> Vec<String> {
 /// The CSV table of the MLQMC runs, one row per eps (after a blank line).
 pub fn csv(qmc: &QmcReport) -> String {
     let mut s = String::from(
-        "\nmlqmc_eps,estimate,ci_low,ci_high,variance,bias,bias_alpha,converged,levels,points,randomizations,failed,work,mlmc_work,savings,seconds\n",
+        "\nmlqmc_eps,estimate,ci_low,ci_high,low_with_bias,high_with_bias,variance,bias,bias_alpha,converged,levels,points,randomizations,failed,work,mlmc_work,savings,seconds\n",
     );
     for row in &qmc.runs {
         let e = &row.run;

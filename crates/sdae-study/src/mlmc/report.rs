@@ -25,6 +25,22 @@ pub fn interval(i: &Interval) -> String {
     format!("{:.6} [{:.6}, {:.6}]", i.estimate, i.ci_low, i.ci_high)
 }
 
+/// An interval for E[f(X_T)] with the bias estimate it holds, "estimate [low, high] (95% +
+/// bias b)": the sampling interval of E\[P_L\] widened by the bias estimate b on each side.
+pub fn with_bias(i: &Interval, bias: f64) -> String {
+    format!("{} (95% + bias {bias:.1e})", interval(i))
+}
+
+/// A ratio of times or works, "2.5x", or "- (too short to compare)" where it is not a finite
+/// positive number (seconds that round to 0).
+pub fn ratio(x: f64) -> String {
+    if x.is_finite() && x > 0.0 {
+        format!("{x:.1}x")
+    } else {
+        "- (too short to compare)".into()
+    }
+}
+
 /// An estimate with its interval as three CSV fields, "estimate,low,high".
 pub fn csv_interval(i: &Interval) -> String {
     format!("{:e},{:e},{:e}", i.estimate, i.ci_low, i.ci_high)
@@ -139,15 +155,17 @@ pub fn csv(report: &MlmcReport) -> String {
             l.seconds_per_sample
         );
     }
-    s.push_str("\neps,estimate,ci_low,ci_high,bias,bias_alpha,converged,levels,samples,failed,mlmc_work,standard_work,savings,mlmc_cost,standard_cost,seconds\n");
+    s.push_str("\neps,estimate,ci_low,ci_high,low_with_bias,high_with_bias,bias,bias_alpha,converged,levels,samples,failed,mlmc_work,standard_work,savings,mlmc_cost,standard_cost,seconds\n");
     for row in &report.complexity {
         let r = &row.run;
         let joined = |v: Vec<u64>| v.iter().map(u64::to_string).collect::<Vec<_>>().join(" ");
         let _ = writeln!(
             s,
-            "{:e},{},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
+            "{:e},{},{:e},{:e},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
             r.eps,
             csv_interval(&r.estimate),
+            r.with_bias.ci_low,
+            r.with_bias.ci_high,
             r.bias,
             r.bias_alpha,
             r.converged,
@@ -276,7 +294,7 @@ pub fn rates_lines(r: &Rates) -> Vec<String> {
 /// The complexity table, one row per eps, and the direct standard Monte Carlo run if any.
 fn complexity_section(report: &MlmcReport) -> String {
     let mut s = String::from(
-        "\n## Complexity\n\n| eps | estimate [95%] | bias est. (alpha) | L | N_l | MLMC work (steps) | standard MC work (steps) | savings | MLMC cost (s) | standard MC cost (s) | run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "\n## Complexity\n\n| eps | E[f(X_T)] [95% + bias] | bias est. (alpha) | L | N_l | MLMC work (steps) | standard MC work (steps) | savings | MLMC cost (s) | standard MC cost (s) | run (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for row in &report.complexity {
         let e = &row.run;
@@ -285,7 +303,7 @@ fn complexity_section(report: &MlmcReport) -> String {
             s,
             "| {:.0e} | {} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.3e} | {:.3e} | {:.3} |",
             e.eps,
-            interval(&e.estimate),
+            interval(&e.with_bias),
             bias_cell(e.bias, e.bias_alpha, e.converged),
             row.samples.len() - 1,
             n.join(" "),
@@ -302,7 +320,8 @@ fn complexity_section(report: &MlmcReport) -> String {
          convergence test's measured seconds per sample, beside it. Standard Monte Carlo needs \
          2 V[P_L] / eps^2 paths on the finest level L of the MLMC run. The bias estimate raises \
          each of the last means by its standard error and takes alpha at the low end of its \
-         interval over the asymptotic levels.\n",
+         interval over the asymptotic levels. Every interval for E[f(X_T)] is the 95% sampling \
+         interval of E[P_L] widened by that bias estimate on each side (95% + bias).\n",
     );
     if let Some(d) = &report.standard {
         let _ = writeln!(s, "\n{}", standard_line(d));
@@ -333,16 +352,16 @@ pub fn standard_line(d: &StandardRun) -> String {
         "Direct standard Monte Carlo (cap: the MLMC part's work, {:.3e} steps, predicted {:.1} s): \
          {accuracy} on level {} ({} paths, {} failed): {} in {:.3} s{scaled}, \
          against {:.3} s for MLMC (seconds of all threads together, which bound the wall-clock \
-         time): {:.1}x.",
+         time): {}.",
         d.cap_work,
         d.cap_seconds,
         d.level,
         d.samples,
         d.failed,
-        interval(&d.estimate),
+        with_bias(&d.with_bias, d.bias),
         d.seconds,
         d.mlmc_seconds,
-        d.speedup
+        ratio(d.speedup)
     )
 }
 
@@ -378,10 +397,10 @@ pub fn write_summary(report: &MlmcReport, out: &mut impl std::io::Write) -> std:
         let e = &row.run;
         writeln!(
             out,
-            "  eps {:.0e}: {}, bias est. {:.2e} (alpha {:.2}), L = {}, N_l = {:?}, \
-             work {:.3e} steps, savings {:.1}x, {:.3} s",
+            "  eps {:.0e}: {} (95% + bias), bias est. {:.2e} (alpha {:.2}), L = {}, \
+             N_l = {:?}, work {:.3e} steps, savings {:.1}x, {:.3} s",
             e.eps,
-            interval(&e.estimate),
+            interval(&e.with_bias),
             e.bias,
             e.bias_alpha,
             row.samples.len() - 1,

@@ -83,7 +83,7 @@ pub fn plan_markdown(report: &PlanReport) -> String {
     let (id, e) = (&report.identity, &report.estimate);
     let s = format!(
         "# MLMC plan run: {} ({}, E[{}(X_T)])\n\nSeed {}, level 0 on 2^{} steps, {}antithetic, \
-         eps = {:.0e}.\n\nEstimate {} (95%), bias estimate {:.2e}{}.\n\n",
+         eps = {:.0e}.\n\nE[f(X_T)] = {} (95% + bias), bias estimate {:.2e}{}.\n\n",
         id.scene,
         id.scheme,
         id.observable,
@@ -91,7 +91,7 @@ pub fn plan_markdown(report: &PlanReport) -> String {
         id.coarsest,
         if id.antithetic { "" } else { "not " },
         e.eps,
-        interval(&e.estimate),
+        interval(&e.with_bias),
         e.bias,
         if e.converged {
             ""

@@ -22,6 +22,7 @@ use sdae_mlmc::fit::{Rates, fit_rates};
 use sdae_mlmc::qmc::QuasiSampler;
 use sdae_mlmc::sampler::{LevelSampler, RunControl};
 
+use super::coarsest::{CoarsestMoved, first_level_that_runs};
 use super::quasi::{QmcReport, QmcSettings, run_qmc};
 use sdae_mlmc::sums::{LevelStats, level_stats};
 use sdae_stats::Interval;
@@ -158,8 +159,9 @@ impl MlmcSettings {
         Ok(())
     }
 
-    /// The step exponent k0 + L_max of the finest level, checked: level 0 on at least 2 steps,
-    /// and the sum in checked arithmetic at most [`MAX_STEP_EXPONENT`].
+    /// The step exponent k0 + L_max of the finest level, checked: level 0 on at least 2 steps
+    /// and at most 2^[`MAX_STEP_EXPONENT`] (else `mlmc.coarsest` is refused), and the sum in
+    /// checked arithmetic at most [`MAX_STEP_EXPONENT`] (else `mlmc.max_level`).
     fn finest_exponent(&self) -> Result<u32, MlmcError> {
         let s = &self.spec;
         if s.coarsest == 0 {
@@ -173,6 +175,18 @@ impl MlmcSettings {
                     .into(),
             );
         }
+        let reach = u64::from(s.coarsest) + u64::from(s.max_level);
+        if s.coarsest > MAX_STEP_EXPONENT {
+            return setting(
+                "mlmc.coarsest",
+                s.coarsest.to_string(),
+                format!(
+                    "level 0 on 2^{} steps is above the 2^{MAX_STEP_EXPONENT} steps per path a \
+                     level may have (with levels 0..={} the finest would have 2^{reach} steps)",
+                    s.coarsest, s.max_level
+                ),
+            );
+        }
         let finest = s
             .coarsest
             .checked_add(s.max_level)
@@ -182,11 +196,9 @@ impl MlmcSettings {
                 "mlmc.max_level",
                 s.max_level.to_string(),
                 format!(
-                    "the levels 0..={} on 2^{} steps at level 0 reach 2^{} steps per path at \
-                     the finest, above 2^{MAX_STEP_EXPONENT}",
-                    s.max_level,
-                    s.coarsest,
-                    u64::from(s.coarsest) + u64::from(s.max_level)
+                    "the levels 0..={} on 2^{} steps at level 0 reach 2^{reach} steps per path \
+                     at the finest, above 2^{MAX_STEP_EXPONENT}",
+                    s.max_level, s.coarsest
                 ),
             );
         };
@@ -329,8 +341,13 @@ pub struct StandardRun {
     pub samples: u64,
     /// Paths that failed.
     pub failed: u64,
-    /// The estimate with its interval.
+    /// E\[P_L\] with its 95% sampling interval (the bias is not in it: see `with_bias`).
     pub estimate: Interval,
+    /// The bias estimate |E\[P - P_L\]| of level L: the MLMC run's at `target_eps`, whose
+    /// finest level L is.
+    pub bias: f64,
+    /// The interval for E\[P\] the reports print: `estimate` widened by `bias` on each side.
+    pub with_bias: Interval,
     /// Work in steps that standard Monte Carlo needs at `target_eps`.
     pub target_work: f64,
     /// The cap on the work: the MLMC part's steps.
@@ -373,6 +390,10 @@ pub struct MlmcReport {
     /// The randomized QMC part (`--qmc`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub qmc: Option<QmcReport>,
+    /// Level 0 moved to finer steps because the asked one did not run (then `settings` hold
+    /// the levels run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarsest_moved: Option<CoarsestMoved>,
 }
 
 /// The sampler of a scene's system for `settings` (its scheme and observable checked).
@@ -438,7 +459,9 @@ fn complexity_row<L: LevelSampler>(
         .enumerate()
         .map(|(l, &n)| n as f64 * seconds_per_sample(sampler, test, l as u32))
         .sum::<f64>();
-    let paths = 2.0 * variance_of_p(test, top) / (run.eps * run.eps);
+    // Two paths at least, as the direct run takes: a variance of 0 (a final time so short
+    // that every path ends where it started) would make standard Monte Carlo free.
+    let paths = (2.0 * variance_of_p(test, top) / (run.eps * run.eps)).max(2.0);
     let standard_work = paths * sampler.path_steps(top) as f64;
     ComplexityRow {
         samples,
@@ -553,6 +576,7 @@ pub fn run_study<L: LevelSampler>(
         complexity,
         standard,
         qmc: None,
+        coarsest_moved: None,
     })
 }
 
@@ -623,13 +647,16 @@ fn standard_run<L: LevelSampler>(
     };
     let sums = standard_monte_carlo(sampler, control, level, paths.ceil() as u64)?;
     let per_step = seconds_per_path(sampler, test, level) / steps;
+    let estimate = sdae_mlmc::algorithm::estimate_of(std::slice::from_ref(&sums));
     Ok(StandardRun {
         target_eps,
         eps,
         level,
         samples: sums.attempted(),
         failed: sums.failed,
-        estimate: sdae_mlmc::algorithm::estimate_of(&[sums]),
+        estimate,
+        bias: row.run.bias,
+        with_bias: estimate.widened(row.run.bias),
         target_work,
         cap_work,
         predicted_seconds: target_work * per_step,
@@ -672,8 +699,23 @@ pub fn with_sampler<T: SamplerTask>(
     scene.run(WithSampler { settings, task })?
 }
 
-/// The whole study of a scene ([`run_study_quasi`] with its sampler).
+/// The whole study of a scene ([`run_study_quasi`] with its sampler), level 0 on the first
+/// step count that runs ([`first_level_that_runs`]; the move is the report's first warning).
 pub fn run_mlmc(
+    scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>,
+) -> Result<MlmcReport, MlmcError> {
+    settings.validate_for(scene)?;
+    let (settings, moved) = first_level_that_runs(scene, settings)?;
+    let mut report = run_mlmc_as_set(scene, &settings, control)?;
+    if let Some(moved) = moved {
+        report.warnings.insert(0, moved.describe());
+        report.coarsest_moved = Some(moved);
+    }
+    Ok(report)
+}
+
+/// The whole study of a scene on the levels `settings` set.
+fn run_mlmc_as_set(
     scene: &Scene, settings: &MlmcSettings, control: &RunControl<'_>,
 ) -> Result<MlmcReport, MlmcError> {
     struct Study<'a, 'b> {
@@ -721,7 +763,13 @@ mod tests {
         s.spec.max_level = 2;
         let err = s.validate().unwrap_err();
         assert!(err.to_string().contains("2^4294967297 steps"), "{err}");
-        assert_eq!(key_of(err), "mlmc.max_level");
+        assert_eq!(key_of(err), "mlmc.coarsest");
+        s.spec.coarsest = 20;
+        s.spec.max_level = 12;
+        assert_eq!(key_of(s.validate().unwrap_err()), "mlmc.max_level");
+        s.spec.coarsest = 2;
+        s.spec.max_level = u32::MAX;
+        assert_eq!(key_of(s.validate().unwrap_err()), "mlmc.max_level");
         let mut s = settings();
         s.spec.test_samples = 1_000_000_000_000;
         let err = s.validate().unwrap_err();

@@ -3,6 +3,7 @@
 //!
 //! One test binary for the crate: each file below is a module of it.
 
+mod bias_intervals;
 mod equipartition;
 mod invariant_bias;
 /// The scalar linear SDEs of sdae-mlmc's suite (which uses the rest of the module).

@@ -22,11 +22,11 @@ use crate::linear::Linear;
 /// [`circle_cos_turn`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Circle {
-    radius: f64,
-    friction: f64,
-    noise: f64,
-    speed: f64,
-    t_end: f64,
+    pub(crate) radius: f64,
+    pub(crate) friction: f64,
+    pub(crate) noise: f64,
+    pub(crate) speed: f64,
+    pub(crate) t_end: f64,
 }
 
 /// The unit circle, unit friction, noise and speed, T = 1.
@@ -48,7 +48,7 @@ pub(crate) fn circle(c: Circle) -> (Scene, f64) {
         t_end,
     } = c;
     let text = format!(
-        "name = \"circle\"\nT = {t_end}\noutputs = [\"position\"]\n\
+        "name = \"circle\"\nT = {t_end}\noutputs = [\"position\", \"velocity\"]\n\
          [system.pendulum]\ndim = 2\nlength = {radius}\ngravity = 0.0\nnoise = {noise}\nfriction = {friction}\n\
          [initial]\nposition = [0.0, -{radius}]\nvelocity = [{speed}, 0.0]\n\
          [scheme]\npractical_c_eta = 1.0\n"

@@ -37,6 +37,15 @@
 //!   law has local slopes s_k that approach p like 2^-k, so what is left of the approach after
 //!   the finest pair is about the last change s_k - s_(k-1).
 //!
+//! - where the levels cannot show the asymptote, the levels tell no order
+//!   ([`WeakOrder::unshown`]): two fitted levels, whose one local slope cannot be compared with
+//!   another; or three whose one change of local slope the Monte Carlo error leaves unknown to
+//!   within an order (its 95% interval reaches beyond +-[`MAX_UNSHOWN_CHANGE`]). Within that
+//!   reach, a change of three levels' slopes that the Monte Carlo error hides widens the finest
+//!   local slope's interval by its reach, as a resolved one does by its size. Resolved near their half-widths,
+//!   a few coarse levels share one Monte Carlo offset, which steepens or flattens every local
+//!   slope alike: a bootstrap interval of the fit alone then excludes the true order.
+//!
 //! So the verdict covers the model error too, instead of a tight interval around a slope that
 //! is still moving. All intervals come from one bootstrap over whole paths
 //! (the study's path bootstrap), so the correlation between levels is kept.
@@ -44,6 +53,10 @@
 use serde::Serialize;
 
 use crate::{Interval, PRE_ASYMPTOTIC_TOLERANCE};
+
+/// The largest reach of the 95% interval of the change between the local slopes of three
+/// fitted levels with which they still show the asymptote (one order).
+pub const MAX_UNSHOWN_CHANGE: f64 = 1.0;
 
 /// The slope between two neighbouring fitted levels, with its 95% bootstrap interval.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -76,6 +89,10 @@ pub struct WeakOrder {
     /// Monte Carlo error and the tolerance 0.05, and no smaller than the change before it (approaching an order, the
     /// changes shrink, about by half a level). The levels then tell no order.
     pub unsettled: bool,
+    /// The fitted levels cannot show the asymptote: two of them, or three whose change of local
+    /// slope has a 95% interval reaching beyond +-[`MAX_UNSHOWN_CHANGE`]. The levels then tell
+    /// no order.
+    pub unshown: bool,
     /// Where the local slope still changes between the two finest pairs of fitted levels
     /// beyond the Monte Carlo error: that change (module documentation). The order's interval
     /// includes the finest local slope's interval widened by it on each side.
@@ -169,24 +186,40 @@ impl<'a> OrderCandidates<'a> {
             return None;
         }
         let start = first_asymptotic(after_sign, m, differences);
-        // The change of the local slope between the two finest pairs of fitted levels.
+        // The change of the local slope between the two finest pairs of fitted levels: its size
+        // where resolved, the reach of its interval where the Monte Carlo error hides it.
         let bending = (m - start >= 3)
             .then(|| changes[m - 3])
             .flatten()
             .filter(|c| !c.contains(0.0))
             .map(|c| c.estimate.abs());
+        // Three fitted levels show the asymptote by one comparison, their change of local slope:
+        // where the Monte Carlo error hides it, it is known only to within its interval's reach,
+        // which must stay within MAX_UNSHOWN_CHANGE and widens the finest local slope's interval.
+        let only = (m - start == 3).then(|| changes[m - 3]).flatten();
+        let shown = match only {
+            _ if m - start >= 4 => true,
+            Some(c) => reach(&c) <= MAX_UNSHOWN_CHANGE,
+            None => false,
+        };
+        let hidden = only
+            .filter(|c| shown && c.contains(0.0) && reach(c) > PRE_ASYMPTOTIC_TOLERANCE)
+            .map(|c| reach(&c));
         // After a change of sign, x = h_finest / h0 with h0 at the first fitted level.
         let crossing = (start > 0 && e[u[start - 1]].signum() != e[u[start]].signum())
             .then(|| self.h[u[m - 1]] / self.h[u[start]]);
         let after_crossing = crossing.map(crossing_widening);
+        // Too few levels after a change of sign is the more telling reason.
+        let unshown = after_crossing.is_none_or(f64::is_finite) && !shown;
         let unsettled = bending.is_some() && m - after_sign >= 4 && unsettling(changes);
         let order = suffix[start]
             .filter(|_| after_crossing.is_none_or(f64::is_finite))
-            .filter(|_| !unsettled)
-            .map(|order| widened_order(order, local[m - 2], [bending, after_crossing]));
+            .filter(|_| !unsettled && !unshown)
+            .map(|order| widened_order(order, local[m - 2], [bending.or(hidden), after_crossing]));
         Some(WeakOrder {
             order,
             unsettled,
+            unshown,
             bending,
             after_crossing: after_crossing.filter(|x| x.is_finite()),
             fitted: u[start..].to_vec(),
@@ -210,6 +243,11 @@ fn first_asymptotic(mut start: usize, m: usize, differences: &[Option<Interval>]
         start += 1;
     }
     start
+}
+
+/// How far an interval of a change of local slopes reaches from 0: the larger of |ends|.
+fn reach(change: &Interval) -> f64 {
+    change.ci_low.abs().max(change.ci_high.abs())
 }
 
 /// How far the finest local slope can still be from the order after a change of sign, for
@@ -363,26 +401,49 @@ mod tests {
     fn slopes_that_grow_apart_tell_no_order() {
         // Local slopes 0.1, 0.4, 1.1, 2.5 (an error switched off by truncation at small h).
         let h: Vec<f64> = (2..7).map(|k| 0.5f64.powi(k)).collect();
-        let slopes = [0.1, 0.4, 1.1, 2.5];
-        let mut e = vec![1.0];
-        for s in slopes {
-            let last = e[e.len() - 1];
-            e.push(last / 2f64.powf(s));
-        }
+        let e = with_local_slopes(&[0.1, 0.4, 1.1, 2.5]);
         let c = OrderCandidates::new(&h, |_| true);
         let fit = c.choose(&e, &intervals(&c, &e, 0.01)).unwrap();
         assert!(fit.unsettled, "{fit:?}");
         assert!(fit.order.is_none());
         // Slopes that settle (changes 0.4, 0.2) do tell one.
-        let mut settling = vec![1.0];
-        for s in [0.3, 0.7, 0.9, 1.0] {
-            let last = settling[settling.len() - 1];
-            settling.push(last / 2f64.powf(s));
-        }
+        let settling = with_local_slopes(&[0.3, 0.7, 0.9, 1.0]);
         let fit = c
             .choose(&settling, &intervals(&c, &settling, 0.01))
             .unwrap();
         assert!(!fit.unsettled && fit.order.is_some(), "{fit:?}");
+    }
+
+    /// Errors with local slopes `slopes` from 1 at h = 1/4.
+    fn with_local_slopes(slopes: &[f64]) -> Vec<f64> {
+        let mut e = vec![1.0];
+        for s in slopes {
+            let last = e[e.len() - 1];
+            e.push(last / 2f64.powf(*s));
+        }
+        e
+    }
+
+    #[test]
+    fn levels_that_cannot_show_the_asymptote_tell_no_order() {
+        let h: Vec<f64> = (2..5).map(|k| 0.5f64.powi(k)).collect();
+        let c = OrderCandidates::new(&h, |_| true);
+        // Local slopes 1.2 and 1.3 (the true order 1 a level further): a change of 0.1 that a
+        // Monte Carlo error of 0.2 hides widens the finest slope's interval by its reach, 0.3.
+        let e = with_local_slopes(&[1.2, 1.3]);
+        let fit = c.choose(&e, &intervals(&c, &e, 0.2)).unwrap();
+        assert!(!fit.unshown && fit.bending.is_none(), "{fit:?}");
+        let order = fit.order.unwrap();
+        assert!(order.contains(1.0), "{order:?}");
+        assert!((order.ci_low - (1.3 - 0.2 - 0.3)).abs() < 1e-9, "{order:?}");
+        // The same slopes with an error of 1: the change is unknown to within an order.
+        let fit = c.choose(&e, &intervals(&c, &e, 1.0)).unwrap();
+        assert!(fit.unshown && fit.order.is_none(), "{fit:?}");
+        // Two levels have one local slope: nothing to compare it with.
+        let two = OrderCandidates::new(&h, |j| j > 0);
+        let fit = two.choose(&e, &intervals(&two, &e, 0.01)).unwrap();
+        assert_eq!(fit.fitted, vec![1, 2]);
+        assert!(fit.unshown && fit.order.is_none(), "{fit:?}");
     }
 
     #[test]

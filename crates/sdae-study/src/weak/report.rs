@@ -60,6 +60,12 @@ fn order_notes(o: &WeakOrder, row: &WeakScheme) -> Vec<String> {
     }
     match (o.order, o.after_crossing) {
         (None, _) if o.unsettled => s.push("the local slopes do not settle yet".into()),
+        (None, _) if o.unshown => s.push(format!(
+            "the resolved levels N = {} cannot show the asymptote (fewer than three, or their \
+             local slopes' change is unknown to within {})",
+            n(&o.fitted),
+            sdae_stats::weak_order::MAX_UNSHOWN_CHANGE
+        )),
         (None, _) => s.push("too few levels after the error's change of sign".into()),
         (Some(_), Some(x)) => s.push(format!("{x:.2} off after the error's change of sign")),
         _ => {}

@@ -84,6 +84,17 @@ fn pendulum_orders(first_order: &[SchemeKind], thorough: bool) -> WeakReport {
     let practical = order("half-explicit-practical");
     assert!(practical.contains(1.0), "{practical:?}");
     for kind in second_order {
+        // Their errors fall fast below the Monte Carlo error: where only three levels are
+        // resolved and their two local slopes differ beyond what one order allows (g-BAOAB on
+        // the study's paths: 2.28 [1.93, 2.80], then 1.72 [1.17, 2.62]), the levels cannot
+        // show the asymptote and the order is withheld with that reason.
+        if row(&report, kind.name())
+            .order
+            .as_ref()
+            .is_some_and(|f| f.unshown && f.order.is_none())
+        {
+            continue;
+        }
         let o = order(kind.name());
         let lowest = if thorough { 1.6 } else { 1.0 };
         assert!(o.ci_low > lowest, "{}: {o:?}", kind.name());
@@ -179,16 +190,39 @@ fn circle_orders(thorough: bool) {
         reference.ci_low - bound <= exact && exact <= reference.ci_high + bound,
         "{reference:?} +- {bound:e} against {exact}"
     );
-    // Every order given covers the true one. A scheme gets none only where the report says
-    // why: its local slopes do not settle over these levels (the theory's C_eta truncates most
-    // steps at coarse h, so its error falls faster and faster as the truncation turns off),
-    // too few levels follow a change of sign of its error (named pre-asymptotic), or it is
-    // more accurate than the paths resolve at all but one level (g-BAOAB, whose geodesic
-    // drift is exact on a circle), or the errors of its two finest resolved levels differ in
-    // sign (stochastic Heun on fewer paths, whose error crosses zero near N = 16).
-    for kind in SchemeKind::ALL {
-        let r = row(&report, kind.name());
+    for r in &cos.schemes {
         assert!(r.lost.is_empty(), "{}: {:?}", r.name, r.lost);
+    }
+    every_order_is_true_or_withheld(&report);
+    let mut with_orders = vec![
+        SchemeKind::HalfExplicitPractical,
+        SchemeKind::EulerMaruyama,
+        SchemeKind::ProjectedEulerMaruyama,
+    ];
+    if thorough {
+        with_orders.push(SchemeKind::BaoabRattle);
+    }
+    for kind in with_orders {
+        let fit = row(&report, kind.name()).order.as_ref();
+        let withheld = kind == SchemeKind::BaoabRattle && fit.is_some_and(|f| f.unshown);
+        assert!(
+            withheld || fit.is_some_and(|f| f.order.is_some()),
+            "{}: {fit:?}",
+            kind.name()
+        );
+    }
+}
+
+/// Every order given covers the true one. A scheme gets none only where the report says why:
+/// its local slopes do not settle over these levels (the theory's C_eta truncates most steps at
+/// coarse h, so its error falls faster and faster as the truncation turns off), too few levels
+/// follow a change of sign of its error (named pre-asymptotic), its resolved levels cannot show
+/// the asymptote, or it is more accurate than the paths resolve at all but one level (g-BAOAB,
+/// whose geodesic drift is exact on a circle), or the errors of its two finest resolved levels
+/// differ in sign (stochastic Heun on fewer paths, whose error crosses zero near N = 16).
+fn every_order_is_true_or_withheld(report: &WeakReport) {
+    for kind in SchemeKind::ALL {
+        let r = row(report, kind.name());
         let Some(fit) = &r.order else {
             let resolved: Vec<f64> = r
                 .levels
@@ -206,23 +240,11 @@ fn circle_orders(thorough: bool) {
         match fit.order {
             Some(o) => assert!(o.contains(true_order(kind)), "{}: {fit:?}", r.name),
             None => assert!(
-                fit.unsettled || !fit.pre_asymptotic.is_empty(),
+                fit.unsettled || fit.unshown || !fit.pre_asymptotic.is_empty(),
                 "{}: {fit:?}",
                 r.name
             ),
         }
-    }
-    let mut with_orders = vec![
-        SchemeKind::HalfExplicitPractical,
-        SchemeKind::EulerMaruyama,
-        SchemeKind::ProjectedEulerMaruyama,
-    ];
-    if thorough {
-        with_orders.push(SchemeKind::BaoabRattle);
-    }
-    for kind in with_orders {
-        let fit = row(&report, kind.name()).order.as_ref();
-        assert!(fit.is_some_and(|f| f.order.is_some()), "{}", kind.name());
     }
 }
 
@@ -281,4 +303,45 @@ fn a_scheme_that_loses_its_coarsest_level_keeps_the_finer_ones() {
     assert!(report.uncompared().is_empty(), "{:?}", report.uncompared());
     let md = markdown(&report);
     assert!(md.contains("N = 4 ("), "{md}");
+}
+
+/// A second circle (radius 0.8, friction 1.5, noise 1.1, speed 1.4, T = 1) whose mean kinetic
+/// energy has a closed form (E[|v_T|^2 / 2] = (u_0^2 e^(-2 gamma T) + sigma^2 (1 - e^(-2 gamma
+/// T)) / (2 gamma)) / 2, the constraint force being normal to v), on the weak study's default
+/// sizes (10000 paths, levels 2..7 against 2^11 steps): every order printed covers the true one
+/// or is withheld with its reason, and the extrapolated reference covers the closed form.
+#[test]
+fn on_a_second_circle_the_kinetic_energy_orders_are_true_or_withheld() {
+    let scene = Scene::from_toml(
+        &CIRCLE
+            .replace("length = 1.5", "length = 0.8")
+            .replace("position = [0.0, -1.5]", "position = [0.0, -0.8]")
+            .replace("friction = 0.7", "friction = 1.5")
+            .replace("noise = 0.9", "noise = 1.1")
+            .replace("velocity = [1.2, 0.0]", "velocity = [1.4, 0.0]")
+            .replace("[\"cos_turn\"]", "[\"kinetic_energy\"]")
+            .replace("paths = 20000\n", ""),
+    )
+    .unwrap();
+    let settings = ConvergenceSettings {
+        threads: 2,
+        ..weak_settings(&scene, false).unwrap()
+    };
+    assert_eq!((settings.paths, settings.finest), (10_000, 7));
+    let report = scene
+        .run(Weak {
+            settings: &settings,
+            extra: None,
+        })
+        .unwrap();
+    let energy = &report.observables[0];
+    let decay = (-2.0 * 1.5f64).exp();
+    let exact = 0.5 * (1.4f64.powi(2) * decay + 1.1f64.powi(2) * (1.0 - decay) / 3.0);
+    let reference = energy.reference_value.unwrap();
+    let bound = energy.reference_bias.as_ref().unwrap().bound;
+    assert!(
+        reference.ci_low - bound <= exact && exact <= reference.ci_high + bound,
+        "{reference:?} +- {bound:e} against {exact}"
+    );
+    every_order_is_true_or_withheld(&report);
 }

@@ -324,6 +324,11 @@ pub struct ConvergenceRun {
     pub kinetic_target: Option<f64>,
     /// This run is shard `shard.0` of `shard.1` (paths i with i % shard.1 == shard.0).
     pub shard: (usize, usize),
+    /// The size of each output's state, [|r_0|, |v_0|, 0] (Euclidean norms of the initial
+    /// state; the multiplier has none): an error within [`ROUNDING_LEVEL`] of it is the
+    /// arithmetic's ([`at_rounding_level`]).
+    #[serde(default)]
+    pub state_scale: [f64; 3],
     /// One record per path, by index.
     pub records: Vec<PathRecord>,
 }
@@ -464,6 +469,7 @@ where
         skipped,
         kinetic_target: prepared.kinetic_target,
         shard: (index, count.max(1)),
+        state_scale: [norm(&prepared.position), norm(&prepared.velocity), 0.0],
         records,
     })
 }
@@ -579,21 +585,40 @@ pub struct SchemeReport {
     pub not_fitted_truncated: Vec<usize>,
     /// Levels left out of an output's fit because their error underflowed: zero or subnormal
     /// ([`underflowed`]), the scheme's and the reference's paths equal to the last bit or
-    /// closer than f64 resolves. Such an error measures the arithmetic, not the scheme.
+    /// closer than f64 resolves, or within the rounding of the state it measures
+    /// ([`at_rounding_level`]). Such an error measures the arithmetic, not the scheme.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unresolved: Vec<Unresolved>,
 }
 
-/// A level whose error of one output underflowed (see [`SchemeReport::unresolved`]).
+/// A level whose error of one output underflowed or lies at the rounding level of its state
+/// (see [`SchemeReport::unresolved`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Unresolved {
     /// The output: `r`, `v` or `mu`.
     pub output: &'static str,
     /// The level's index (into the scheme's levels).
     pub level: usize,
-    /// Its L^p error: 0 or subnormal.
+    /// Its L^p error: 0, subnormal, or within [`ROUNDING_LEVEL`] of its state's size.
     #[serde(with = "sdae_stats::json_f64")]
     pub error: f64,
+}
+
+/// How many units of rounding (f64::EPSILON) of an output's state an error must exceed to be
+/// the scheme's: 2^6, about 1.4e-14 of the state.
+pub const ROUNDING_LEVEL: f64 = 64.0 * f64::EPSILON;
+
+/// Whether an error lies at the rounding level of the state it measures, of size `scale`:
+/// at most [`ROUNDING_LEVEL`] times it. At T = 1e-100 the paths move by about 1e-100 and their
+/// errors, some 1e-114 at every N, measure the rounding of that move, not the scheme: an order
+/// fitted to them is 0 with an interval of zero width.
+pub fn at_rounding_level(error: f64, scale: f64) -> bool {
+    error <= ROUNDING_LEVEL * scale
+}
+
+/// The Euclidean norm of `x`.
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
 /// Whether an error underflowed: zero or subnormal (below `f64::MIN_POSITIVE`), or not a
@@ -868,6 +893,7 @@ impl Errors {
 /// [`lp_error`] gives, one bootstrap for all levels), the others' from [`lp_error`].
 fn scheme_report(
     s: usize, name: &str, good: &[&PathRecord], scene: &Scene, settings: &ConvergenceSettings,
+    scale: [f64; 3],
 ) -> SchemeReport {
     let levels = settings.levels();
     let count = levels.len();
@@ -892,12 +918,13 @@ fn scheme_report(
     let mut fits: [Option<OrderFit>; 3] = [None, None, None];
     let mut unresolved = Vec::new();
     for (c, fit) in fits.iter_mut().enumerate().filter(|(c, _)| outputs[*c]) {
-        // Levels whose error underflowed are named, not fitted.
+        // Levels whose error underflowed or lies at the rounding level of the state are named,
+        // not fitted.
         let mut fitted = Vec::new();
         for &j in &fittable {
             let error = lp_error(&distances(&common, s, j, count, c), settings.p)
                 .map_or(f64::NAN, |e| e.estimate);
-            if underflowed(error) && !error.is_nan() {
+            if (underflowed(error) || at_rounding_level(error, scale[c])) && !error.is_nan() {
                 unresolved.push(Unresolved {
                     output: OUTPUT_NAMES[c],
                     level: j,
@@ -953,6 +980,7 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         schemes,
         skipped,
         kinetic_target,
+        state_scale,
         mut records,
         ..
     } = run;
@@ -963,7 +991,8 @@ pub fn build_report(run: ConvergenceRun) -> ConvergenceReport {
         .collect();
     // The schemes' statistics (bootstrap intervals, order fits) on the study's threads; each
     // report depends only on the records.
-    let report = |(s, name): (usize, &String)| scheme_report(s, name, &good, &scene, &settings);
+    let report =
+        |(s, name): (usize, &String)| scheme_report(s, name, &good, &scene, &settings, state_scale);
     let on_threads = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads.max(1))
         .build();

@@ -291,9 +291,9 @@ fn orders_section(report: &ConvergenceReport) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "\nNot fitted, unresolved (the error underflowed to zero or a subnormal float: \
-                 the paths agree to the last bit, the arithmetic is measured, not the scheme): \
-                 {}: {}.",
+                "\nNot fitted, unresolved (the error underflowed to zero or a subnormal float, or \
+                 lies within 64 roundings of the state it measures: the arithmetic is measured, \
+                 not the scheme): {}: {}.",
                 scheme.name,
                 levels.join("; ")
             );
@@ -376,8 +376,8 @@ pub fn write_summary(
         // On standard error, as every note; a closed stream ends the note only.
         let _ = writeln!(
             &mut std::io::stderr(),
-            "note: {unresolved} error(s) underflowed to zero or a subnormal float and are not \
-             fitted (unresolved: see report.md)"
+            "note: {unresolved} error(s) underflowed or lie at the rounding level of their state \
+             and are not fitted (unresolved: see report.md)"
         );
     }
     if any_indicative(report) {

@@ -3,6 +3,7 @@
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use sdae_study::convergence::MAX_THREADS;
 use sdae_study::integrator::SchemeKind;
 
 /// The names of the built-in schemes.
@@ -23,6 +24,17 @@ pub fn whole<T: TryFrom<i128>>(name: &str, value: i128) -> PyResult<T> {
             "{name} = {value}: must be a whole number from 0 to {largest}"
         ))
     })
+}
+
+/// `value` as worker threads asked for: 1 to [`MAX_THREADS`], as the command line's `--threads`
+/// takes them, or a `ValueError` naming `threads` (how many start is the run's business).
+pub fn thread_count(value: i128) -> PyResult<usize> {
+    match whole("threads", value)? {
+        n @ 1..=MAX_THREADS => Ok(n),
+        n => Err(PyValueError::new_err(format!(
+            "threads = {n}: must be in 1..={MAX_THREADS}"
+        ))),
+    }
 }
 
 /// The built-in scheme `name`, or a `ValueError` naming the keyword `keyword`.

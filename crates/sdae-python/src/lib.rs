@@ -19,6 +19,7 @@ mod interrupt;
 mod paths;
 mod report;
 mod scene;
+mod scene_dict;
 mod studies;
 
 /// The native module `sdae._sdae`.

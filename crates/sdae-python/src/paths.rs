@@ -6,9 +6,10 @@ use numpy::{IntoPyArray, PyArray1, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sdae_model::PathDiagnostics;
+use sdae_study::options::started_threads;
 use sdae_study::simulate::{SimulateSettings, SimulatedPaths, simulate_with_progress};
 
-use crate::args::{scheme_kind, whole};
+use crate::args::{scheme_kind, thread_count, whole};
 use crate::errors::to_py;
 use crate::interrupt::{Meter, run_interruptible};
 use crate::scene::PyScene;
@@ -18,7 +19,10 @@ use crate::scene::PyScene;
 /// `every`-th step and t_N. Releases the interpreter's lock; Ctrl-C raises KeyboardInterrupt.
 /// With `progress`, a progress line is drawn on stderr after that many seconds.
 /// The counts and the seed come as Python integers of any size: a negative one is a
-/// `ValueError` naming it, as is any setting the library refuses.
+/// `ValueError` naming it, as is any setting the library refuses. `threads` is refused outside
+/// 1..=[`MAX_THREADS`](sdae_study::convergence::MAX_THREADS) as on the command line, and as
+/// there at most one thread per path and 4 per available core are started
+/// ([`started_threads`]).
 #[pyfunction]
 #[pyo3(signature = (scene, scheme, paths, steps, seed, every, threads, progress=None))]
 #[allow(clippy::too_many_arguments)]
@@ -30,13 +34,13 @@ pub fn simulate(
         whole("paths", paths)?,
         whole("steps", steps)?,
         whole("every", every)?,
-        whole("threads", threads)?,
+        thread_count(threads)?,
     );
     let seed = whole("seed", seed)?;
     let kind = scheme_kind("scheme", scheme)?;
     let settings = SimulateSettings::new(kind, paths, steps, seed)
         .and_then(|s| s.every(every))
-        .and_then(|s| s.threads(threads))
+        .and_then(|s| s.threads(started_threads(threads, paths)))
         .map_err(to_py)?;
     let scene = &scene.scene;
     let label = format!("{} {}", scene.name, kind.name());

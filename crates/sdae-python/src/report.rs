@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use pyo3::exceptions::PyOSError;
 use pyo3::prelude::*;
 use sdae_study::StudyError;
 use sdae_study::convergence::ConvergenceReport;
@@ -75,12 +76,20 @@ impl Study {
         }
     }
 
-    /// Writes the files the command line writes for this study into `dir`.
-    fn write(&self, dir: &std::path::Path) -> Result<(), StudyError> {
-        std::fs::create_dir_all(dir).map_err(|e| StudyError::Io {
-            file: dir.display().to_string(),
-            message: e.to_string(),
+    /// Writes the files the command line writes for this study into `dir`, made if missing;
+    /// an `OSError` naming the folder, or the file, that cannot be written and why.
+    fn write(&self, dir: &std::path::Path) -> PyResult<()> {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            PyOSError::new_err(format!(
+                "cannot write the report to the folder {}: {e}",
+                dir.display()
+            ))
         })?;
+        self.write_files(dir).map_err(to_py)
+    }
+
+    /// Writes the study's files into the folder `dir`.
+    fn write_files(&self, dir: &std::path::Path) -> Result<(), StudyError> {
         match self {
             Study::Convergence(r) => sdae_study::output::write_report(r, dir),
             Study::Weak(r) => sdae_study::weak::report::write_report(r, dir),
@@ -121,9 +130,10 @@ fn expectation_csv(e: &SceneExpectation) -> String {
         .predicted
         .map_or((f64::NAN, f64::NAN), |p| (p.mlmc, p.standard));
     format!(
-        "scene,observable,scheme,T,eps,method,estimate,ci_low,ci_high,bias,level,failed,\
-         test_work,work,predicted_mlmc_work,predicted_standard_work,seconds\n\
-         {},{},{},{:e},{:e},{},{:e},{:e},{:e},{:e},{},{},{:e},{:e},{:e},{:e},{:e}\n",
+        "scene,observable,scheme,T,eps,method,estimate,ci_low,ci_high,low_with_bias,\
+         high_with_bias,bias,level,failed,test_work,work,predicted_mlmc_work,\
+         predicted_standard_work,seconds\n\
+         {},{},{},{:e},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{:e},{:e},{:e},{:e},{:e}\n",
         e.scene,
         e.observable,
         e.scheme,
@@ -133,6 +143,8 @@ fn expectation_csv(e: &SceneExpectation) -> String {
         f.estimate.estimate,
         f.estimate.ci_low,
         f.estimate.ci_high,
+        f.with_bias.ci_low,
+        f.with_bias.ci_high,
         f.bias,
         f.level,
         f.failed,
@@ -161,13 +173,13 @@ fn expectation_line(e: &SceneExpectation) -> String {
         },
     );
     format!(
-        "{}: E[{}(X_T)] = {:.6} [{:.6}, {:.6}] (95%), bias estimate {:.2e}, eps = {:e}, by {how} \
-         on levels 0..={} with {}{predicted}",
+        "{}: E[{}(X_T)] = {:.6} [{:.6}, {:.6}] (95% + bias), bias estimate {:.2e}, eps = {:e}, \
+         by {how} on levels 0..={} with {}{predicted}",
         e.scene,
         e.observable,
-        f.estimate.estimate,
-        f.estimate.ci_low,
-        f.estimate.ci_high,
+        f.with_bias.estimate,
+        f.with_bias.ci_low,
+        f.with_bias.ci_high,
         f.bias,
         f.eps,
         f.level,
@@ -219,9 +231,10 @@ impl PyReport {
     }
 
     /// Writes the command line's files of this study (JSON, CSV, Markdown, SVG plots) into
-    /// `folder`, made if missing.
+    /// `folder`, made if missing; an `OSError` naming the folder, or the file, that cannot be
+    /// written, and why.
     fn write(&self, folder: PathBuf) -> PyResult<()> {
-        self.study.write(&folder).map_err(to_py)
+        self.study.write(&folder)
     }
 
     fn __repr__(&self) -> String {

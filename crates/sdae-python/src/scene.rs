@@ -1,11 +1,16 @@
 //! Scenes from Python: a built-in one by name, a TOML file or text, or a dict with the keys of
-//! a scene file; checked as the command line checks them.
+//! a scene file; checked as the command line checks them before a study, system and initial
+//! state included, so that what a run would refuse is refused when the scene is made.
+
+use std::path::{Path, PathBuf};
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sdae_study::StudyError;
 use sdae_study::scene::{BUILT_IN, Scene};
 
 use crate::errors::to_py;
+use crate::scene_dict::scene_of_dict;
 
 /// The names of the built-in scenes.
 #[pyfunction]
@@ -25,28 +30,27 @@ impl PyScene {
     /// The built-in scene `name` (see `built_in_scenes()`).
     #[staticmethod]
     fn built_in(name: &str) -> PyResult<Self> {
-        Scene::built_in(name).map(Self::from).map_err(to_py)
+        Self::checked(Scene::built_in(name).map_err(to_py)?, None)
     }
 
     /// The scene written as TOML text, in the format of a scene file.
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
-        Scene::from_toml(text).map(Self::from).map_err(to_py)
+        Self::checked(Scene::from_toml(text).map_err(to_py)?, None)
     }
 
     /// The scene of a scene file.
     #[staticmethod]
-    fn from_file(path: std::path::PathBuf) -> PyResult<Self> {
-        Scene::from_file(&path).map(Self::from).map_err(to_py)
+    fn from_file(path: PathBuf) -> PyResult<Self> {
+        Self::checked(Scene::from_file(&path).map_err(to_py)?, Some(&path))
     }
 
-    /// The scene of a dict with the keys of a scene file (nested dicts for its tables).
+    /// The scene of a dict with the keys of a scene file (nested dicts for its tables, numpy
+    /// scalars and 1-D arrays taken as numbers and lists); a refused value is named by its
+    /// dotted key (`system.pendulum.length`), NaN and infinity included.
     #[staticmethod]
-    fn from_dict(py: Python<'_>, table: &Bound<'_, PyDict>) -> PyResult<Self> {
-        let json = py.import("json")?.call_method1("dumps", (table,))?;
-        Scene::from_json(&json.extract::<String>()?)
-            .map(Self::from)
-            .map_err(to_py)
+    fn from_dict(table: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Self::checked(scene_of_dict(table)?, None)
     }
 
     /// The scene's name.
@@ -94,8 +98,18 @@ impl PyScene {
     }
 }
 
-impl From<Scene> for PyScene {
-    fn from(scene: Scene) -> Self {
-        Self { scene }
+impl PyScene {
+    /// `scene` once its system is built and its initial state checked
+    /// ([`Scene::check_system`]), as the command line checks a scene before a study; a refusal
+    /// of a scene read from `file` names the file, as there.
+    fn checked(scene: Scene, file: Option<&Path>) -> PyResult<Self> {
+        scene.check_system().map_err(|e| match (e, file) {
+            (StudyError::Invalid { scene, message }, Some(file)) => to_py(StudyError::Invalid {
+                scene,
+                message: format!("{message} (scene file {})", file.display()),
+            }),
+            (e, _) => to_py(e),
+        })?;
+        Ok(Self { scene })
     }
 }

@@ -22,7 +22,7 @@ use sdae_study::scene::Scene;
 use sdae_study::scene_load::key_in_table;
 use sdae_study::stability::{StabilityReport, StabilityScene};
 
-use crate::args::{scheme_kind, whole};
+use crate::args::{scheme_kind, thread_count, whole};
 use crate::errors::to_py;
 use crate::interrupt::{Meter, Run, run_interruptible};
 use crate::report::{PyReport, Study};
@@ -101,7 +101,7 @@ fn ensemble(
     Ok(EnsembleOptions {
         paths: paths.map(|n| whole("paths", n)).transpose()?,
         seed: seed.map(|s| whole("seed", s)).transpose()?,
-        threads: threads.map(|k| whole("threads", k)).transpose()?,
+        threads: threads.map(thread_count).transpose()?,
         quick,
     })
 }
@@ -341,7 +341,7 @@ fn mlmc_keywords(
         test_samples: test_samples.map(|n| whole("test_samples", n)).transpose()?,
         t_end,
         seed: whole("seed", seed)?,
-        threads: threads.map(|k| whole("threads", k)).transpose()?,
+        threads: threads.map(thread_count).transpose()?,
         ..MlmcOptions::default()
     };
     let given = given(&[

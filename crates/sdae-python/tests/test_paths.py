@@ -78,6 +78,7 @@ def test_path_zero_is_the_command_lines_trace_bit_for_bit(tmp_path, command_line
         (dict(paths=-1, steps=10), "paths = -1"),
         (dict(paths=1, steps=10, seed=-1), "seed = -1"),
         (dict(paths=10**15, steps=10**6), "paths = 1000000000000000: the recorded states need"),
+        (dict(paths=1, steps=10, threads=1025), "threads = 1025: must be in 1..=1024"),
     ],
 )
 def test_a_refused_setting_is_a_value_error_naming_it(settings, name):
@@ -85,12 +86,52 @@ def test_a_refused_setting_is_a_value_error_naming_it(settings, name):
         sdae.simulate("pendulum", **settings)
 
 
-def test_a_refused_system_parameter_is_a_value_error_naming_it():
-    table = sdae.scene("pendulum").to_dict()
-    table["system"]["pendulum"]["length"] = 0.0
-    scene = sdae.Scene.from_dict(table)
-    with pytest.raises(ValueError, match="length = 0: must be finite and > 0"):
-        sdae.simulate(scene, paths=1, steps=4)
+@pytest.mark.parametrize(
+    "settings, message",
+    [
+        (dict(paths=True, steps=8), "paths = True: must be a whole number, not bool"),
+        (dict(paths=2, steps=True), "steps = True: must be a whole number"),
+        (dict(paths=2, steps=8, seed=False), "seed = False: must be a whole number"),
+        (dict(paths=2, steps=8, every=True), "every = True: must be a whole number"),
+        (dict(paths=2, steps=8, threads=True), "threads = True: must be a whole number"),
+        (dict(paths=np.bool_(True), steps=8), "paths = np.True_: must be a whole number"),
+        (dict(paths="2", steps=8), "paths = '2': must be a whole number, not str"),
+        (dict(paths=2.0, steps=8), "paths = 2.0: must be a whole number, not float"),
+        (dict(paths=2, steps=8, progress=1), "progress = 1: must be True or False"),
+    ],
+)
+def test_a_bool_string_or_float_where_a_count_goes_is_a_type_error_naming_it(settings, message):
+    with pytest.raises(TypeError) as refused:
+        sdae.simulate("pendulum", **settings)
+    assert message in str(refused.value)
+
+
+def test_the_scheme_is_one_name():
+    with pytest.raises(TypeError, match=r"scheme = \['euler-maruyama'\]: must be a name"):
+        sdae.simulate("pendulum", ["euler-maruyama"], paths=1, steps=4)
+
+
+def test_numpy_integers_are_counts():
+    paths = sdae.simulate("pendulum", paths=np.int64(3), steps=np.int32(8), seed=np.uint64(2))
+    assert paths.positions.shape == (3, 9, 2)
+    np.testing.assert_array_equal(
+        paths.positions, sdae.simulate("pendulum", paths=3, steps=8, seed=2).positions
+    )
+
+
+def test_threads_beyond_one_per_path_or_four_per_core_are_not_started():
+    # As on the command line: 1000 threads asked for 1000 paths of 16 steps start at most 4
+    # per core, and the run takes as long as with a few threads (starting them all took
+    # seconds for a run of milliseconds).
+    def seconds(threads):
+        start = time.monotonic()
+        run = sdae.simulate("pendulum", paths=1000, steps=16, seed=4, threads=threads)
+        return time.monotonic() - start, run
+
+    few, expected = seconds(2)
+    many, run = seconds(1000)
+    np.testing.assert_array_equal(run.positions, expected.positions)
+    assert many < 5 * few + 0.25, (many, few)
 
 
 def test_an_unknown_scheme_is_a_value_error_listing_the_schemes():

@@ -1,8 +1,10 @@
 """Scenes from Python: by name, from TOML, files and dicts, refused as the command line refuses
 them."""
 
+import re
 import subprocess
 
+import numpy as np
 import pytest
 
 import sdae
@@ -112,3 +114,114 @@ def test_a_scene_pickles_to_an_equal_scene():
     for name in ("pendulum", "triatomic", "fiber"):
         scene = sdae.scene(name)
         assert pickle.loads(pickle.dumps(scene)) == scene
+
+
+def _pendulum(change):
+    """The pendulum scene's dict with `change` made to it."""
+    table = sdae.scene("pendulum").to_dict()
+    change(table)
+    return table
+
+
+def test_a_scene_dict_takes_numpy_scalars_and_arrays():
+    def numpy(t):
+        t["T"] = np.float32(1.0)
+        t["study"]["paths"] = np.int64(10000)
+        t["study"]["levels"] = np.array([3, 10])
+        t["system"]["pendulum"]["length"] = np.float64(1.0)
+        t["initial"]["position"] = np.array([0.0, -1.0])
+        t["initial"]["velocity"] = (np.float64(1.0), 0)
+        t["initial"]["project"] = np.bool_(False)
+
+    assert sdae.scene(_pendulum(numpy)) == sdae.scene("pendulum")
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda t: t["system"]["pendulum"].update(length=float("nan")),
+            "system.pendulum.length = nan: must be finite",
+        ),
+        (
+            lambda t: t["system"]["pendulum"].update(gravity=np.float64("inf")),
+            "system.pendulum.gravity = inf: must be finite",
+        ),
+        (
+            lambda t: t["initial"].update(velocity=np.array([1.0, -np.inf])),
+            "initial.velocity[1] = -inf: must be finite",
+        ),
+        (lambda t: t.update(T=float("nan")), "T = nan: must be finite"),
+    ],
+)
+def test_nan_or_infinity_in_a_scene_dict_is_refused_naming_its_key(change, message):
+    with pytest.raises(ValueError) as refused:
+        sdae.scene(_pendulum(change))
+    assert str(refused.value).startswith(message), str(refused.value)
+
+
+@pytest.mark.parametrize(
+    "change, error, message",
+    [
+        (
+            lambda t: t["system"]["pendulum"].update(length="1.0"),
+            ValueError,
+            'system.pendulum.length: invalid type: string "1.0", expected f64',
+        ),
+        (lambda t: t["study"].update(paths=True), ValueError, "study.paths: invalid type: boolean"),
+        (lambda t: t["study"].update(paths=-3), ValueError, "study.paths: invalid value: integer `-3`"),
+        (lambda t: t["outputs"].append("speed"), ValueError, "outputs[3]: unknown variant `speed`"),
+        (lambda t: t["system"]["pendulum"].pop("length"), ValueError, "system.pendulum: missing field `length`"),
+        (lambda t: t.update(outputs={"position"}), TypeError, "outputs = {'position'}: a scene holds"),
+        (lambda t: t["study"].update({3: 4}), TypeError, "study: a key is a string, not int"),
+    ],
+)
+def test_a_value_of_the_wrong_kind_in_a_scene_dict_is_refused_naming_its_key(change, error, message):
+    with pytest.raises(error) as refused:
+        sdae.scene(_pendulum(change))
+    assert str(refused.value).startswith(message), str(refused.value)
+
+
+def test_a_scene_dict_that_holds_itself_is_refused():
+    table = _pendulum(lambda t: None)
+    table["study"]["again"] = table
+    with pytest.raises(ValueError, match="study: tables and lists nested more than"):
+        sdae.scene(table)
+
+
+# Values only the system, once built, or the initial state, once checked, refuse.
+REFUSED_WHEN_BUILT = [
+    (lambda t: t["system"]["pendulum"].update(length=-1.0), "length = -1: must be finite and > 0"),
+    (lambda t: t["system"]["pendulum"].update(length=0.0), "length = 0: must be finite and > 0"),
+    (lambda t: t["system"]["pendulum"].update(dim=4), "dim = 4: a pendulum is planar (2) or spherical (3)"),
+    (lambda t: t["initial"].update(position=[0.5, -1.0]), "initial state: position is off the manifold"),
+    (lambda t: t["initial"].update(velocity=[0.0, 1.0]), "initial state: velocity is not tangent"),
+]
+
+
+@pytest.mark.parametrize("change, message", REFUSED_WHEN_BUILT)
+def test_a_scene_is_refused_when_made_where_a_run_would_refuse_it(change, message):
+    table = _pendulum(change)
+    for make in (sdae.scene, sdae.Scene.from_dict):
+        with pytest.raises(ValueError, match="^scene pendulum: .*" + re.escape(message)):
+            make(table)
+    with pytest.raises(ValueError, match=re.escape(message)):
+        sdae.Scene.from_toml(_toml(table))
+
+
+@pytest.mark.parametrize("change, message", REFUSED_WHEN_BUILT[:1] + REFUSED_WHEN_BUILT[3:4])
+def test_a_scene_file_is_refused_when_read_as_the_command_line_refuses_it(
+    tmp_path, command_line, change, message
+):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(_toml(_pendulum(change)))
+    with pytest.raises(ValueError) as refused:
+        sdae.scene(bad)
+    run = subprocess.run(
+        [command_line, "trace", "--scene-file", str(bad), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode != 0
+    assert message in str(refused.value)
+    assert str(refused.value) in run.stderr

@@ -1,7 +1,9 @@
 """The studies from Python against the command line's reports, exact values and bad input."""
 
 import _thread
+import errno
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -121,7 +123,9 @@ def test_the_expectation_covers_the_rotors_closed_form():
     exact = 0.7417415778265619
     found = sdae.expectation("rotor", "cos_turn", eps=1e-2, seed=3, progress=False)
     low, high = found.interval
-    assert low - found.bias <= exact <= high + found.bias, (found.interval, found.bias)
+    assert low <= exact <= high, (found.interval, found.bias)
+    s_low, s_high = found.sampling_interval
+    assert low == s_low - found.bias and high == s_high + found.bias
     assert found.method in ("mlmc", "standard")
     predicted = found.predicted
     cheaper = "standard" if predicted["standard"] < predicted["mlmc"] else "mlmc"
@@ -148,6 +152,7 @@ def test_expectations_do_not_depend_on_the_threads(tmp_path, command_line):
         (lambda: sdae.convergence("pendulum", schemes=["nope"]), "schemes = \"nope\""),
         (lambda: sdae.convergence("pendulum", reference_scheme="nope"), "reference_scheme"),
         (lambda: sdae.convergence("pendulum", threads=0), "threads = 0"),
+        (lambda: sdae.convergence("pendulum", threads=1025), "threads = 1025: must be in 1..=1024"),
         (lambda: sdae.convergence("pendulum", t_end=-1.0), "t_end = -1"),
         (lambda: sdae.weak("fiber"), "has no [weak] table"),
         (lambda: sdae.weak("pendulum", randomizations=4), "randomizations = 4: needs qmc=True"),
@@ -164,6 +169,91 @@ def test_a_refused_setting_is_a_value_error_naming_it(call, name):
     with pytest.raises(ValueError) as refused:
         call()
     assert name in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    "schemes, expected",
+    [
+        ("half-explicit-practical", ["half-explicit-practical"]),
+        ("euler-maruyama, half-explicit-practical", ["euler-maruyama", "half-explicit-practical"]),
+        (("stochastic-heun",), ["stochastic-heun"]),
+        (np.array(["euler-maruyama"]), ["euler-maruyama"]),
+    ],
+)
+def test_schemes_may_be_one_string_of_names_as_on_the_command_line(schemes, expected):
+    report = sdae.convergence("pendulum", schemes=schemes, paths=4, levels=(2, 3), ref_level=5, progress=False)
+    assert sorted({row["scheme"] for row in report.rows}) == sorted(expected)
+
+
+def test_a_string_of_one_unknown_scheme_is_named_whole():
+    with pytest.raises(ValueError, match='^schemes = "half-explicit-practcal": not a built-in scheme'):
+        sdae.convergence("pendulum", schemes="half-explicit-practcal")
+    with pytest.raises(ValueError, match=r"^schemes = 'euler-maruyama,,stochastic-heun': holds an empty name"):
+        sdae.convergence("pendulum", schemes="euler-maruyama,,stochastic-heun")
+
+
+def test_eps_may_be_one_number_or_a_numpy_array(tmp_path, command_line):
+    one = sdae.mlmc("pendulum", quick=True, eps=0.05, standard=False, progress=False)
+    array = sdae.mlmc("pendulum", quick=True, eps=np.array([0.05]), standard=False, progress=False)
+    assert list(one.settings["spec"]["eps"]) == [0.05]
+    assert_same_numbers(command_line, tmp_path, one.to_json(), array.to_json())
+
+
+# A bool where a whole number goes, a string where a number goes, anything but names where
+# names go: a TypeError naming the keyword.
+WRONG_KINDS = [
+    (lambda: sdae.convergence("pendulum", paths=True), "paths = True: must be a whole number, not bool"),
+    (lambda: sdae.convergence("pendulum", seed=True), "seed = True"),
+    (lambda: sdae.convergence("pendulum", threads=True), "threads = True"),
+    (lambda: sdae.convergence("pendulum", levels=(True, 5)), "levels[0] = True"),
+    (lambda: sdae.convergence("pendulum", levels="3..5"), "levels = '3..5': must be a pair of whole numbers"),
+    (lambda: sdae.convergence("pendulum", ref_level=False), "ref_level = False"),
+    (lambda: sdae.convergence("pendulum", t_end="1"), "t_end = '1': must be a number, not str"),
+    (lambda: sdae.convergence("pendulum", p="2"), "p = '2': must be a number"),
+    (lambda: sdae.convergence("pendulum", p=True), "p = True: must be a number, not bool"),
+    (lambda: sdae.convergence("pendulum", schemes=[1]), "schemes[0] = 1: must be a name"),
+    (lambda: sdae.convergence("pendulum", reference_scheme=1), "reference_scheme = 1: must be a name"),
+    (lambda: sdae.convergence("pendulum", quick=1), "quick = 1: must be True or False"),
+    (lambda: sdae.weak("pendulum", paths=True), "paths = True"),
+    (lambda: sdae.weak("pendulum", qmc=True, randomizations=True), "randomizations = True"),
+    (lambda: sdae.weak("pendulum", qmc="yes"), "qmc = 'yes': must be True or False"),
+    (lambda: sdae.stability("stiff-fiber", seed=True), "seed = True"),
+    (lambda: sdae.mlmc("pendulum", eps="0.1"), "eps = '0.1': must be a number or a list of numbers"),
+    (lambda: sdae.mlmc("pendulum", eps=["0.1"]), "eps[0] = '0.1': must be a number, not str"),
+    (lambda: sdae.mlmc("pendulum", eps=[True]), "eps[0] = True: must be a number, not bool"),
+    (lambda: sdae.mlmc("pendulum", coarsest=True), "coarsest = True"),
+    (lambda: sdae.mlmc("pendulum", max_level=True), "max_level = True"),
+    (lambda: sdae.mlmc("pendulum", test_levels=True), "test_levels = True"),
+    (lambda: sdae.mlmc("pendulum", test_samples=True), "test_samples = True"),
+    (lambda: sdae.mlmc("pendulum", seed=True), "seed = True"),
+    (lambda: sdae.mlmc("pendulum", threads=True), "threads = True"),
+    (lambda: sdae.mlmc("pendulum", qmc=True, initial_points=True), "initial_points = True"),
+    (lambda: sdae.mlmc("pendulum", observable=["cos_angle"]), "observable = ['cos_angle']: must be a name"),
+    (lambda: sdae.expectation("pendulum", eps="0.1"), "eps = '0.1': must be a number, not str"),
+    (lambda: sdae.expectation("pendulum", eps=True), "eps = True: must be a number, not bool"),
+    (lambda: sdae.expectation("pendulum", eps=0.1, seed=True), "seed = True"),
+    (lambda: sdae.expectation("pendulum", eps=0.1, t_end="1"), "t_end = '1'"),
+    (lambda: sdae.expectation("pendulum", eps=0.1, scheme=3), "scheme = 3: must be a name"),
+]
+
+
+@pytest.mark.parametrize("call, message", WRONG_KINDS)
+def test_a_value_of_the_wrong_kind_is_a_type_error_naming_its_keyword(call, message):
+    with pytest.raises(TypeError) as refused:
+        call()
+    assert str(refused.value).startswith(message), str(refused.value)
+
+
+def test_a_report_that_cannot_be_written_names_the_folder_and_why(tmp_path):
+    report = sdae.convergence("pendulum", paths=4, levels=(2, 3), ref_level=5, progress=False)
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    folder = blocked / "out"
+    with pytest.raises(OSError) as refused:
+        report.write(folder)
+    message = str(refused.value)
+    assert message.startswith(f"cannot write the report to the folder {folder}: "), message
+    assert os.strerror(errno.ENOTDIR) in message or os.strerror(errno.ENOENT) in message, message
 
 
 def test_a_scene_value_is_named_by_its_key_in_the_scene_file():

@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Any, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
-from . import _sdae
+from . import _args, _sdae
 from ._sdae import Paths, Scene, __version__, built_in_scenes, schemes
 from .report import Expectation, Report
 
@@ -50,8 +50,14 @@ def scene(source: SceneLike) -> Scene:
     scene file, or a Scene (returned as it is).
 
     A path (an ``os.PathLike``, or a str that is not a built-in name and names a file, ends in
-    ``.toml`` or holds a path separator) is read as a file: OSError if it cannot be read. Raises
-    ValueError where the scene's checks refuse it, with the message the command line prints.
+    ``.toml`` or holds a path separator) is read as a file: OSError if it cannot be read. A dict
+    takes numbers where a scene file does (numpy scalars too) and lists or 1-D numpy arrays
+    where it has lists; NaN and infinity are refused, naming the key (``system.pendulum.length``).
+
+    The whole scene is checked here, as the command line checks it before a study: its values,
+    its system built from its parameters (a negative length, a pendulum of 4 dimensions) and
+    its initial state on the constraint. Raises ValueError where a check refuses it, naming the
+    key, with the message the command line prints.
     """
     if isinstance(source, Scene):
         return source
@@ -88,19 +94,29 @@ def simulate(
     m) (``multipliers``), float64 and C-contiguous. A path that failed holds NaN after its last
     completed step; ``failures`` says why. The arrays are read-only (copy one to change it). The
     interpreter's lock is released during the run, and Ctrl-C raises KeyboardInterrupt (signals
-    reach Python's main thread only). A negative count or seed, or a setting the library refuses
-    (including states that would not fit in memory), raises ValueError naming it. A progress
-    line is drawn on stderr for runs over a second where stderr is a terminal
-    (``progress=True`` always, ``False`` never).
+    reach Python's main thread only). ``threads`` is 1 to 1024, as on the command line; more
+    than one per path or 4 per available core are not started. A negative count or seed, or a
+    setting the library refuses (including states that would not fit in memory), raises
+    ValueError naming it; a bool or a float where a whole number goes, or anything but a string
+    for ``scheme``, raises TypeError naming it. A progress line is drawn on stderr for runs over
+    a second where stderr is a terminal (``progress=True`` always, ``False`` never).
     """
     return _sdae.simulate(
-        scene(source), scheme, paths, steps, seed, every, threads, _progress(progress)
+        scene(source),
+        _args.text("scheme", scheme),
+        _args.whole("paths", paths),
+        _args.whole("steps", steps),
+        _args.whole("seed", seed),
+        _args.whole("every", every),
+        _args.whole("threads", threads),
+        _progress(progress),
     )
 
 
 def _progress(progress: Optional[bool]) -> Optional[float]:
     """The seconds after which a run draws its progress line on stderr, or None for no line:
     by default after a second where stderr is a terminal; True draws it at once."""
+    progress = _args.optional_flag("progress", progress)
     if progress is None:
         stream = sys.stderr
         return 1.0 if stream is not None and getattr(stream, "isatty", lambda: False)() else None
@@ -109,11 +125,48 @@ def _progress(progress: Optional[bool]) -> Optional[float]:
 
 def _randomizations(qmc: bool, randomizations: Optional[int], default: int) -> Optional[int]:
     """The randomizations of a QMC run (None: Monte Carlo); given without qmc=True, refused."""
-    if not qmc:
+    randomizations = _args.optional_whole("randomizations", randomizations)
+    if not _args.flag("qmc", qmc):
         if randomizations is not None:
             raise ValueError(f"randomizations = {randomizations}: needs qmc=True")
         return None
     return default if randomizations is None else randomizations
+
+
+def _ensemble(paths: Any, seed: Any, threads: Any, quick: Any) -> Dict[str, Any]:
+    """The keywords of every study over paths, checked (``_args``)."""
+    return {
+        "paths": _args.optional_whole("paths", paths),
+        "seed": _args.optional_whole("seed", seed),
+        "threads": _args.optional_whole("threads", threads),
+        "quick": _args.flag("quick", quick),
+    }
+
+
+def _mlmc_keywords(
+    observable: Any,
+    scheme: Any,
+    antithetic: Any,
+    levels: Tuple[Any, Any, Any, Any],
+    run: Tuple[Any, Any, Any],
+) -> Dict[str, Any]:
+    """The keywords of the MLMC study and the expectation helper, checked (``_args``):
+    ``levels`` are coarsest, max_level, test_levels and test_samples, ``run`` t_end, seed and
+    threads."""
+    coarsest, max_level, test_levels, test_samples = levels
+    t_end, seed, threads = run
+    return {
+        "observable": _args.optional_text("observable", observable),
+        "scheme": _args.optional_text("scheme", scheme),
+        "antithetic": _args.flag("antithetic", antithetic),
+        "coarsest": _args.optional_whole("coarsest", coarsest),
+        "max_level": _args.optional_whole("max_level", max_level),
+        "test_levels": _args.optional_whole("test_levels", test_levels),
+        "test_samples": _args.optional_whole("test_samples", test_samples),
+        "t_end": _args.optional_real("t_end", t_end),
+        "seed": _args.whole("seed", seed),
+        "threads": _args.optional_whole("threads", threads),
+    }
 
 
 # The docstrings' common part.
@@ -123,13 +176,16 @@ _RUNS = """
     interpreter's lock is released during the run; Ctrl-C raises KeyboardInterrupt. A progress
     line is drawn on stderr for runs over a second where stderr is a terminal (``progress=True``
     always, ``False`` never). A refused setting raises ValueError naming its keyword (or the
-    scene file's key when the value came from the scene)."""
+    scene file's key when the value came from the scene); a value of the wrong kind (a bool or a
+    float where a whole number goes, a string where a number goes) raises TypeError naming its
+    keyword. ``threads`` is 1 to 1024, as on the command line (the studies over paths, as there,
+    start at most one per path and 4 per available core)."""
 
 
 def convergence(
     source: SceneLike = "pendulum",
     *,
-    schemes: Optional[Sequence[str]] = None,
+    schemes: Optional[Union[str, Sequence[str]]] = None,
     reference_scheme: Optional[str] = None,
     levels: Optional[Tuple[int, int]] = None,
     ref_level: Optional[int] = None,
@@ -143,20 +199,19 @@ def convergence(
 ) -> Report:
     """The convergence study (``sdae-study convergence``): strong errors of each scheme at
     N = 2^a..2^b steps (``levels=(a, b)``) against a reference on 2^r steps (``ref_level``) on
-    the same Brownian paths, with 95% intervals, observed orders and run time.
+    the same Brownian paths, with 95% intervals, observed orders and run time. ``schemes`` is a
+    list of names or one string, comma-separated as on the command line
+    (``"euler-maruyama,stochastic-heun"``).
     """
     native = _sdae.convergence(
         scene(source),
-        schemes=list(schemes) if schemes is not None else None,
-        reference_scheme=reference_scheme,
-        levels=tuple(levels) if levels is not None else None,
-        ref_level=ref_level,
-        t_end=t_end,
-        p=p,
-        paths=paths,
-        seed=seed,
-        threads=threads,
-        quick=quick,
+        schemes=_args.names("schemes", schemes) if schemes is not None else None,
+        reference_scheme=_args.optional_text("reference_scheme", reference_scheme),
+        levels=_args.levels("levels", levels) if levels is not None else None,
+        ref_level=_args.optional_whole("ref_level", ref_level),
+        t_end=_args.optional_real("t_end", t_end),
+        p=_args.optional_real("p", p),
+        **_ensemble(paths, seed, threads, quick),
         progress=_progress(progress),
     )
     return Report(native)
@@ -181,10 +236,7 @@ def weak(
     native = _sdae.weak(
         scene(source),
         randomizations=_randomizations(qmc, randomizations, 16),
-        paths=paths,
-        seed=seed,
-        threads=threads,
-        quick=quick,
+        **_ensemble(paths, seed, threads, quick),
         progress=_progress(progress),
     )
     return Report(native)
@@ -204,10 +256,7 @@ def stability(
     """
     native = _sdae.stability(
         scene(source),
-        paths=paths,
-        seed=seed,
-        threads=threads,
-        quick=quick,
+        **_ensemble(paths, seed, threads, quick),
         progress=_progress(progress),
     )
     return Report(native)
@@ -218,7 +267,7 @@ def mlmc(
     *,
     observable: Optional[str] = None,
     scheme: Optional[str] = None,
-    eps: Optional[Sequence[float]] = None,
+    eps: Optional[Union[float, Sequence[float]]] = None,
     antithetic: bool = False,
     coarsest: Optional[int] = None,
     max_level: Optional[int] = None,
@@ -236,28 +285,26 @@ def mlmc(
 ) -> Report:
     """The MLMC study (``sdae-study mlmc``) of E[f(X_T)] of a built-in ``observable``: the
     convergence test, the rates alpha, beta, gamma, the adaptive runs at each ``eps`` (the
-    complexity table), and a direct standard Monte Carlo run (``standard=False`` leaves it
-    out). ``qmc=True`` adds multilevel randomized QMC (``randomizations``, default 32,
-    ``initial_points``, default 32).
+    complexity table; a list, a 1-D numpy array or one number), and a direct standard Monte
+    Carlo run (``standard=False`` leaves it out). ``qmc=True`` adds multilevel randomized QMC
+    (``randomizations``, default 32, ``initial_points``, default 32).
     """
-    if not qmc and initial_points is not None:
+    initial_points = _args.optional_whole("initial_points", initial_points)
+    if not _args.flag("qmc", qmc) and initial_points is not None:
         raise ValueError(f"initial_points = {initial_points}: needs qmc=True")
     r = _randomizations(qmc, randomizations, 32)
     native = _sdae.mlmc(
         scene(source),
-        observable=observable,
-        scheme=scheme,
-        eps=[float(e) for e in eps] if eps is not None else None,
-        antithetic=antithetic,
-        coarsest=coarsest,
-        max_level=max_level,
-        test_levels=test_levels,
-        test_samples=test_samples,
-        t_end=t_end,
-        seed=seed,
-        threads=threads,
-        quick=quick,
-        standard=standard,
+        eps=_args.reals("eps", eps) if eps is not None else None,
+        **_mlmc_keywords(
+            observable,
+            scheme,
+            antithetic,
+            (coarsest, max_level, test_levels, test_samples),
+            (t_end, seed, threads),
+        ),
+        quick=_args.flag("quick", quick),
+        standard=_args.flag("standard", standard),
         randomizations=r,
         initial_points=(initial_points if initial_points is not None else 32) if qmc else None,
         progress=_progress(progress),
@@ -282,7 +329,7 @@ def expectation(
     progress: Optional[bool] = None,
 ) -> Expectation:
     """E[f(X_T)] of a built-in ``observable`` (default: the scene's) to root mean square
-    accuracy ``eps``, with its 95% interval and bias estimate.
+    accuracy ``eps``, with its interval (95% widened by the bias estimate) and bias estimate.
 
     A convergence test (``test_levels``, ``test_samples``: the scene's MLMC settings) predicts
     the work, in steps, of multilevel Monte Carlo and of standard Monte Carlo on the finest
@@ -291,17 +338,14 @@ def expectation(
     """
     native = _sdae.expectation(
         scene(source),
-        eps=float(eps),
-        observable=observable,
-        scheme=scheme,
-        antithetic=antithetic,
-        coarsest=coarsest,
-        max_level=max_level,
-        test_levels=test_levels,
-        test_samples=test_samples,
-        t_end=t_end,
-        seed=seed,
-        threads=threads,
+        eps=_args.real("eps", eps),
+        **_mlmc_keywords(
+            observable,
+            scheme,
+            antithetic,
+            (coarsest, max_level, test_levels, test_samples),
+            (t_end, seed, threads),
+        ),
         progress=_progress(progress),
     )
     return Expectation(native)

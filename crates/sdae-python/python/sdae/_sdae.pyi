@@ -15,7 +15,11 @@ def schemes() -> List[str]:
     """The names of the built-in schemes."""
 
 class Scene:
-    """A scene: a system, its parameters, the initial state, T and the study defaults."""
+    """A scene: a system, its parameters, the initial state, T and the study defaults.
+
+    Each way of making one checks the whole scene, as the command line does before a study:
+    its values, its system built from its parameters and its initial state on the constraint;
+    ValueError naming the key where a check refuses it."""
 
     @staticmethod
     def built_in(name: str) -> "Scene":
@@ -28,7 +32,10 @@ class Scene:
         """The scene of a TOML file; OSError if it cannot be read, ValueError if refused."""
     @staticmethod
     def from_dict(table: Dict[str, Any]) -> "Scene":
-        """The scene of a dict with the keys of a scene file; ValueError if refused."""
+        """The scene of a dict with the keys of a scene file (numpy scalars and 1-D arrays
+        taken as numbers and lists); ValueError naming the dotted key (``system.pendulum.length``)
+        of a value refused, NaN and infinity included; TypeError for a value no scene file
+        holds (a set, an object)."""
     @property
     def name(self) -> str: ...
     @property
@@ -76,7 +83,9 @@ def simulate(
     threads: int,
     progress: Optional[float] = None,
 ) -> Paths:
-    """Simulates paths of a scene; see ``sdae.simulate`` (every argument given)."""
+    """Simulates paths of a scene; see ``sdae.simulate`` (every argument given, checked there:
+    here a bool passes as an int). ``threads`` is 1 to 1024; at most one per path and 4 per
+    available core are started."""
 
 class Report:
     """A finished study's report as the command line writes it."""
@@ -93,11 +102,13 @@ class Report:
     def markdown(self) -> str:
         """The report in Markdown."""
     def write(self, folder: "str | os.PathLike[str]") -> None:
-        """Writes the command line's files of the study into ``folder``."""
+        """Writes the command line's files of the study into ``folder`` (made if missing);
+        OSError naming the folder or file that cannot be written, and why."""
 
 # The studies take the keywords of the package's functions of the same names (``sdae.convergence``
 # and so on), which document them; ``progress`` is here the seconds before the progress line is
-# drawn, or None for no line.
+# drawn, or None for no line. The package's functions check the keywords' kinds (``sdae._args``);
+# here a bool passes as an int.
 
 def convergence(scene: Scene, **options: Any) -> Report:
     """The convergence study; see ``sdae.convergence``."""

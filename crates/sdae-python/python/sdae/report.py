@@ -130,7 +130,8 @@ class Report:
         return self._native.markdown
 
     def write(self, folder: Union[str, "os.PathLike[str]"]) -> None:
-        """Writes the command line's files of the study into ``folder`` (made if missing)."""
+        """Writes the command line's files of the study into ``folder`` (made if missing);
+        OSError naming the folder, or the file, that cannot be written, and why."""
         self._native.write(os.fspath(folder))
 
     def _repr_markdown_(self) -> str:
@@ -142,9 +143,10 @@ class Report:
 
 
 class Expectation(Report):
-    """E[f(X_T)] to a requested accuracy: ``value``, its 95% ``interval`` (from the sampling
-    variance), the ``bias`` estimate at the finest level used, and how it was found (``method``
-    "mlmc" or "standard", ``predicted`` work of both in steps, ``level``, ``samples``)."""
+    """E[f(X_T)] to a requested accuracy: ``value``, its ``interval`` (the 95% sampling
+    interval widened by the ``bias`` estimate at the finest level used), the ``sampling_interval``
+    alone (an interval for the finest level's law), and how it was found (``method`` "mlmc" or
+    "standard", ``predicted`` work of both in steps, ``level``, ``samples``)."""
 
     @property
     def value(self) -> float:
@@ -153,7 +155,15 @@ class Expectation(Report):
 
     @property
     def interval(self) -> Tuple[float, float]:
-        """The 95% interval from the sampling variance (widen it by ``bias`` for the bias)."""
+        """The interval for E[f(X_T)]: the 95% sampling interval widened by ``bias`` on each
+        side."""
+        with_bias = self._fields()["with_bias"]
+        return float(with_bias["ci_low"]), float(with_bias["ci_high"])
+
+    @property
+    def sampling_interval(self) -> Tuple[float, float]:
+        """The 95% interval from the sampling variance alone: an interval for E[P_L], the
+        finest level's law, without its bias."""
         estimate = self._fields()["estimate"]
         return float(estimate["ci_low"]), float(estimate["ci_high"])
 

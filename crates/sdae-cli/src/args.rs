@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::builder::TypedValueParser;
 use clap::{Args, Parser, Subcommand};
 use sdae_study::convergence::{ConvergenceSettings, MAX_THREADS};
 use sdae_study::integrator::SchemeKind;
@@ -10,7 +10,7 @@ use sdae_study::options::{
     ConvergenceOptions, EnsembleOptions, MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS,
     WEAK_RANDOMIZATIONS, WeakOptions,
 };
-use sdae_study::scene::{BUILT_IN, Scene};
+use sdae_study::scene::{BUILT_IN, Scene, escaped};
 
 use crate::shard::ShardArg;
 
@@ -76,7 +76,7 @@ pub enum Command {
 pub struct SceneArgs {
     /// Built-in scenes, comma-separated (`list` shows them).
     #[arg(long, value_name = "NAMES", value_delimiter = ',',
-          value_parser = PossibleValuesParser::new(BUILT_IN.map(|(name, _)| name)))]
+          value_parser = OneOf(BUILT_IN.map(|(name, _)| name).to_vec()))]
     pub scene: Vec<String>,
     /// A scene file (TOML); may be repeated.
     #[arg(long = "scene-file", value_name = "PATH")]
@@ -133,8 +133,10 @@ pub struct CheckpointArgs {
     /// (without --resume or --fresh such a checkpoint is refused).
     #[arg(long)]
     pub fresh: bool,
-    /// Save what is finished every SECONDS while the study runs (0: after every block of
-    /// paths or samples; at most a year, 31536000).
+    /// Save what is finished every SECONDS while the study runs (at most a year, 31536000).
+    /// Each save is synced to disk, so a save waits too for 9 times as long as the last one
+    /// took: saving takes at most about a tenth of the run. 0 saves after every block of
+    /// paths or samples when the disk keeps up, else as often as that allows.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds)]
     pub checkpoint_every: f64,
 }
@@ -224,8 +226,50 @@ pub struct TraceArgs {
 }
 
 fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
-    PossibleValuesParser::new(SchemeKind::ALL.map(SchemeKind::name))
+    OneOf(SchemeKind::ALL.map(SchemeKind::name).to_vec())
         .map(|name| SchemeKind::from_name(&name).expect("one of the possible values"))
+}
+
+/// A value that must be one of these names. A refused value is shown with its control
+/// characters escaped ([`escaped`]), where clap would print it raw (a newline in a scene's
+/// name would break the message's line), with the possible values and the nearest one, or the
+/// first one it begins (`euler` for `euler-maruyama`).
+#[derive(Debug, Clone)]
+struct OneOf(Vec<&'static str>);
+
+impl TypedValueParser for OneOf {
+    type Value = String;
+
+    fn parse_ref(
+        &self, cmd: &clap::Command, arg: Option<&clap::Arg>, value: &std::ffi::OsStr,
+    ) -> Result<String, clap::Error> {
+        if let Some(name) = value.to_str().filter(|v| self.0.contains(v)) {
+            return Ok(name.to_string());
+        }
+        let flag = arg.map_or_else(|| "the value".to_string(), |a| format!("'{a}'"));
+        let value = value.to_string_lossy();
+        let begun = |n: &&&str| !value.is_empty() && n.starts_with(&*value);
+        let tip = sdae_study::observable::nearest(&value, &self.0)
+            .or_else(|| self.0.iter().find(begun).copied())
+            .map_or(String::new(), |n| {
+                format!("\n\n  tip: a similar value exists: '{n}'")
+            });
+        let message = format!(
+            "invalid value '{}' for {flag}\n  [possible values: {}]{tip}",
+            escaped(&value),
+            self.0.join(", ")
+        );
+        let mut cmd = cmd.clone();
+        Err(clap::Error::raw(clap::error::ErrorKind::InvalidValue, message).format(&mut cmd))
+    }
+
+    fn possible_values(
+        &self,
+    ) -> Option<Box<dyn Iterator<Item = clap::builder::PossibleValue> + '_>> {
+        Some(Box::new(
+            self.0.iter().map(|n| clap::builder::PossibleValue::new(*n)),
+        ))
+    }
 }
 
 fn thread_count(value: &str) -> Result<usize, String> {
@@ -244,6 +288,24 @@ pub fn typed(flag: &str) -> bool {
             arg.strip_prefix(flag)
                 .is_some_and(|rest| rest.is_empty() || rest.starts_with('='))
         })
+    })
+}
+
+/// The value the user typed for `flag` (`--flag V` or `--flag=V`; the last one if repeated),
+/// `None` if the flag was not typed with a value.
+pub fn typed_value(flag: &str) -> Option<String> {
+    let args: Vec<String> = std::env::args_os()
+        .skip(1)
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    args.iter().enumerate().rev().find_map(|(k, arg)| {
+        if arg == flag {
+            args.get(k + 1).cloned()
+        } else {
+            arg.strip_prefix(flag)
+                .and_then(|rest| rest.strip_prefix('='))
+                .map(str::to_string)
+        }
     })
 }
 
@@ -307,7 +369,10 @@ impl SceneArgs {
                     (sdae_study::StudyError::Invalid { scene, message }, Some(file)) => {
                         sdae_study::StudyError::Invalid {
                             scene,
-                            message: format!("{message} (scene file {})", file.display()),
+                            message: format!(
+                                "{message} (scene file {})",
+                                escaped(&file.display().to_string())
+                            ),
                         }
                     }
                     (e, _) => e,
@@ -460,29 +525,41 @@ pub struct MlmcArgs {
     pub no_standard: bool,
     /// Also run randomized quasi-Monte Carlo paths (scrambled Sobol' points, Brownian
     /// bridge): multilevel QMC at every eps beside MLMC, and single-level QMC beside the
-    /// direct standard run (docs/expectations.md).
-    #[arg(long, conflicts_with = "plan")]
+    /// direct standard run (docs/expectations.md). Not with --plan or --shard: multilevel QMC
+    /// is not sharded, it runs on one machine.
+    #[arg(long, conflicts_with_all = ["plan", "shard"])]
     pub qmc: bool,
     /// With --qmc: randomizations R per level (at least 2; their spread gives the interval).
-    #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS, requires = "qmc")]
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = MLQMC_RANDOMIZATIONS,
+        requires = "qmc",
+        conflicts_with = "plan"
+    )]
     pub randomizations: u32,
     /// With --qmc: points n_0 of each randomization when a level is first run (a power of two).
     #[arg(
         long = "initial-points",
         value_name = "N",
         default_value_t = MLQMC_INITIAL_POINTS,
-        requires = "qmc"
+        requires = "qmc",
+        conflicts_with = "plan"
     )]
     pub initial_points: u64,
     /// After the study, write the plan (levels and N_l) for the smallest eps, from the
-    /// convergence test, to this file (the pilot of a cluster run, docs/cluster.md).
-    #[arg(long = "write-plan", value_name = "FILE")]
+    /// convergence test, to this file (the pilot of a cluster run, docs/cluster.md). Not with
+    /// --quick, whose short convergence test cannot fix a plan. If the test's levels do not
+    /// bring the bias estimate below eps / sqrt(2), no plan is written (exit code 1, the
+    /// report written): test more levels (--test-levels).
+    #[arg(long = "write-plan", value_name = "FILE", conflicts_with = "plan")]
     pub write_plan: Option<PathBuf>,
     /// Run this plan (from --write-plan) instead of the study; with --shard, only a shard.
     #[arg(long, value_name = "FILE")]
     pub plan: Option<PathBuf>,
     /// With --plan: run the blocks b with b % N == I and write
-    /// <OUT>/mlmc/<scene>/mlmc-shard-I-of-N.json; `auto` reads a Slurm job array.
+    /// <OUT>/mlmc/<scene>/mlmc-shard-I-of-N.json; `auto` reads a Slurm job array. Only a plan
+    /// is sharded (not --qmc).
     #[arg(long, value_name = "I/N|auto", value_parser = ShardArg::parse, requires = "plan")]
     pub shard: Option<ShardArg>,
     #[command(flatten)]

@@ -16,6 +16,7 @@
 //!
 //! A [`RunLock`] keeps two runs from writing one checkpoint at the same time.
 
+pub(crate) mod changed;
 pub(crate) mod saves;
 pub(crate) mod segments;
 
@@ -239,13 +240,20 @@ impl Checkpoint {
         };
         let (header, records, torn) = self.parse(&bytes)?;
         if header.scene != *scene {
-            return Err(self.saved_by_another("scene"));
+            return Err(self.saved_by_another(&changed::scene_change(&header.scene, scene)));
         }
         if !header.settings.same_numbers(settings) {
-            return Err(self.saved_by_another("setting (paths, levels, seed, T, p or schemes)"));
+            let what = changed::convergence_change(&header.settings, settings)
+                .unwrap_or_else(|| "setting (paths, levels, seed, T, p or schemes)".into());
+            return Err(self.saved_by_another(&what));
         }
         if header.shard != shard {
-            return Err(self.saved_by_another("shard"));
+            let (a, b) = (header.shard, shard);
+            let what = changed::shard_change(
+                Some((a.0 as u64, a.1 as u64)),
+                Some((b.0 as u64, b.1 as u64)),
+            );
+            return Err(self.saved_by_another(&what));
         }
         check_records(&records, settings, shard, None).map_err(|reason| self.refuse(reason))?;
         Ok(Some(SavedPaths { records, torn }))

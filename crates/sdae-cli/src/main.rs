@@ -26,6 +26,7 @@ mod stopping;
 
 use clap::Parser;
 use sdae_study::StudyError;
+use sdae_study::scene::escaped;
 use std::process::ExitCode;
 
 use args::{Cli, Command};
@@ -53,14 +54,15 @@ pub enum Failure {
 
 impl Failure {
     /// A library error: wrong input is a usage error, the rest a failure. A setting is named
-    /// by its command-line flag when the user typed that flag, else by its scene-file key (or
-    /// settings field).
+    /// by the command-line flags the user typed that make it ([`named`]), else by its
+    /// scene-file key (or settings field); the names the user typed are shown escaped
+    /// ([`shown`]).
     pub fn from_study(e: StudyError) -> Failure {
+        let e = shown(e);
         match e {
-            StudyError::Setting { key, value, rule } => match flag(key) {
-                Some(flag) => Failure::Usage(format!("{flag} {value}: {rule}")),
-                None => Failure::Usage(format!("{key} = {value}: {rule}")),
-            },
+            StudyError::Setting { key, value, rule } => {
+                Failure::Usage(format!("{}: {rule}", named(key, &value)))
+            }
             StudyError::Format { .. }
             | StudyError::Io { .. }
             | StudyError::Invalid { .. }
@@ -96,6 +98,76 @@ impl Failure {
 impl From<StudyError> for Failure {
     fn from(e: StudyError) -> Failure {
         Failure::from_study(e)
+    }
+}
+
+/// `e` with what the user typed in it (a scene's or an observable's name, a setting's value, a
+/// scene file's name) shown with its control characters escaped ([`escaped`]): a name with a
+/// newline or a NUL prints as `pend\nulum`, on one line.
+fn shown(e: StudyError) -> StudyError {
+    match e {
+        StudyError::Setting { key, value, rule } => StudyError::Setting {
+            key,
+            value: escaped(&value),
+            rule,
+        },
+        StudyError::Unknown(name) => StudyError::Unknown(escaped(&name)),
+        StudyError::UnknownObservable {
+            scene,
+            name,
+            nearest,
+            known,
+        } => StudyError::UnknownObservable {
+            scene: escaped(&scene),
+            name: escaped(&name),
+            nearest,
+            known,
+        },
+        StudyError::Invalid { scene, message } => StudyError::Invalid {
+            scene: escaped(&scene),
+            message,
+        },
+        StudyError::Io { file, message } => StudyError::Io {
+            file: escaped(&file),
+            message,
+        },
+        StudyError::Format { file, message } => StudyError::Format {
+            file: escaped(&file),
+            message,
+        },
+        other => other,
+    }
+}
+
+/// How a refusal names the setting `key` of `value`: by the flags the user typed that make it,
+/// its own with `value` (`--eps 0`) and those of the other values it is made of with the values
+/// typed (`--max-level 30 with --coarsest 4`); by those others alone, the setting's key beside
+/// them, when its own flag was not typed (`--initial-points 1099511627776 (with
+/// mlqmc.randomizations = 32)`); else by its key (`mlmc.eps = 0`).
+fn named(key: &str, value: &str) -> String {
+    let others: Vec<String> = made_of(key)
+        .iter()
+        .filter_map(|f| args::typed_value(f).map(|v| format!("{f} {}", escaped(&v))))
+        .collect();
+    let others = others.join(" and ");
+    match (flag(key), others.is_empty()) {
+        (Some(flag), true) => format!("{flag} {value}"),
+        (Some(flag), false) => format!("{flag} {value} with {others}"),
+        (None, false) => format!("{others} (with {key} = {value})"),
+        (None, true) => format!("{key} = {value}"),
+    }
+}
+
+/// The flags of the other values a setting the library refuses as `key` is made of: the
+/// samples of R randomizations of n_0 points (`mlqmc.randomizations`), a weak QMC run's paths R n
+/// rounded from the scene's (`weak.paths`, when --paths is not typed), the finest level's
+/// 2^(k0 + L_max) steps (`mlmc.max_level`).
+fn made_of(key: &str) -> &'static [&'static str] {
+    match key {
+        "mlqmc.randomizations" => &["--initial-points"],
+        "weak.paths" => &["--randomizations"],
+        "mlmc.max_level" => &["--coarsest"],
+        _ => &[],
     }
 }
 

@@ -26,6 +26,7 @@ use std::sync::{Mutex, PoisonError};
 
 use serde::{Deserialize, Serialize};
 
+use crate::checkpoint::changed::{Setting, first_changed, scene_change, shard_change, switch};
 use crate::checkpoint::saves::Saves;
 #[cfg(test)]
 use crate::checkpoint::segments::{Appender, batches};
@@ -36,8 +37,8 @@ use sdae_mlmc::algorithm::Plan;
 use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
 use sdae_mlmc::sums::LevelSums;
 use sdae_study::StudyError;
-use sdae_study::mlmc::MlmcSettings;
-use sdae_study::scene::Scene;
+use sdae_study::mlmc::{MlmcSettings, QmcSettings};
+use sdae_study::scene::{Scene, escaped};
 
 /// The first line of an MLMC checkpoint file: its format and version.
 const MAGIC: &[u8] = b"sdae-study mlmc checkpoint 2\n";
@@ -115,7 +116,7 @@ impl MlmcCheckpoint {
         };
         let (header, records, torn) = self.parse(&bytes)?;
         if let Some(what) = difference(&header.run, run) {
-            return Err(self.saved_by_another(what));
+            return Err(self.saved_by_another(&what));
         }
         let mut blocks = BTreeMap::new();
         for (key, sums) in records {
@@ -164,33 +165,59 @@ impl MlmcCheckpoint {
     }
 }
 
-/// What of `saved` differs from `run` (the thread count aside), named for a message.
-fn difference(saved: &MlmcRun, run: &MlmcRun) -> Option<&'static str> {
+/// What of `saved` differs from `run` (the thread count aside), named for a message: the
+/// first differing setting by its flag with the saved and the asked value.
+fn difference(saved: &MlmcRun, run: &MlmcRun) -> Option<String> {
+    if saved.scene != run.scene {
+        return Some(scene_change(&saved.scene, &run.scene));
+    }
     let (a, b) = (&saved.settings, &run.settings);
-    let checks = [
-        (saved.scene == run.scene, "scene"),
-        (a.seed == b.seed, "seed"),
-        (a.spec.observable == b.spec.observable, "observable"),
-        (a.spec.scheme == b.spec.scheme, "scheme"),
-        (a.spec.antithetic == b.spec.antithetic, "antithetic setting"),
-        (
-            a.t_end.to_bits() == b.t_end.to_bits() && a.spec.coarsest == b.spec.coarsest,
-            "time grid (T or the coarsest level)",
-        ),
-        (
-            MlmcSettings {
-                threads: b.threads,
-                ..a.clone()
-            } == *b,
-            "setting (eps, levels, samples or the standard run)",
-        ),
-        (saved.plan == run.plan, "plan"),
-        (saved.shard == run.shard, "shard"),
-    ];
-    checks
-        .into_iter()
-        .find(|(same, _)| !same)
-        .map(|(_, what)| what)
+    let same = MlmcSettings {
+        threads: b.threads,
+        ..a.clone()
+    } == *b;
+    let setting = (!same).then(|| {
+        setting_change(a, b)
+            .unwrap_or_else(|| "setting (eps, levels, samples or the standard run)".into())
+    });
+    setting
+        .or_else(|| (saved.plan != run.plan).then(|| "plan".into()))
+        .or_else(|| (saved.shard != run.shard).then(|| shard_change(saved.shard, run.shard)))
+}
+
+/// The first setting of `saved` that differs from `asked`, by its flag with both values.
+fn setting_change(saved: &MlmcSettings, asked: &MlmcSettings) -> Option<String> {
+    let each = |name: &'static str, value: fn(&MlmcSettings) -> String| -> Setting {
+        (name, value(saved), value(asked))
+    };
+    fn qmc(s: &MlmcSettings, value: fn(&QmcSettings) -> String) -> String {
+        s.qmc.as_ref().map_or("none".into(), value)
+    }
+    first_changed(&[
+        each("--seed", |s| s.seed.to_string()),
+        each("--observable", |s| escaped(&s.spec.observable)),
+        each("--scheme", |s| escaped(&s.spec.scheme)),
+        each("--antithetic", |s| {
+            switch("--antithetic", s.spec.antithetic)
+        }),
+        each("--t-end", |s| format!("{:?}", s.t_end)),
+        each("--coarsest", |s| s.spec.coarsest.to_string()),
+        each("--max-level", |s| s.spec.max_level.to_string()),
+        each("--test-levels", |s| s.spec.test_levels.to_string()),
+        each("--test-samples", |s| s.spec.test_samples.to_string()),
+        each("--eps", |s| format!("{:?}", s.spec.eps)),
+        each("--qmc", |s| switch("--qmc", s.qmc.is_some())),
+        each("--randomizations", |s| {
+            qmc(s, |q| q.randomizations.to_string())
+        }),
+        each("--initial-points", |s| {
+            qmc(s, |q| q.initial_points.to_string())
+        }),
+        each("--no-standard", |s| {
+            switch("--no-standard", !s.standard_run)
+        }),
+        each("--quick", |s| format!("N_0 = {}", s.initial_samples)),
+    ])
 }
 
 /// Why block `key` with `sums` cannot belong to `run`, if it cannot.
@@ -395,6 +422,7 @@ mod tests {
         let mut sizes = Vec::new();
         for b in 0..20 {
             let (key, sums) = block(0, b);
+            journal.saves.forget_cost();
             journal.finished(key, &sums);
             journal.finished(key, &sums);
             sizes.push(std::fs::metadata(checkpoint.path()).unwrap().len());

@@ -18,10 +18,10 @@ use sdae_study::mlmc::study::{MlmcReport, MlmcSettings, run_mlmc};
 use sdae_study::mlmc::{caused_by_input, study_error};
 use sdae_study::options::MlmcOptions;
 
-use sdae_study::scene::Scene;
+use sdae_study::scene::{Scene, escaped};
 
 use crate::args::{MlmcArgs, MlmcMergeArgs};
-use crate::runs::{Resumable, Resumption, prepare, refused};
+use crate::runs::{Resumable, Resumption, prepare, refused, writable_out};
 use crate::{Failure, stopping};
 
 impl From<MlmcError> for Failure {
@@ -81,7 +81,10 @@ impl MlmcArgs {
                     MlmcError::Setting {
                         key,
                         value,
-                        rule: format!("{rule} (scene file {})", file.display()),
+                        rule: format!(
+                            "{rule} (scene file {})",
+                            escaped(&file.display().to_string())
+                        ),
                     }
                 }
                 (e, _) => e,
@@ -275,7 +278,7 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
         .map(|f| read_plan(f, &settings))
         .transpose()?;
     if let Some(file) = &args.write_plan {
-        check_plan_file(file)?;
+        check_plan_file(file, args.quick)?;
     }
     let shard = args.resolved_shard()?;
     let dir = args.out.out.join("mlmc").join(&scene.name);
@@ -341,7 +344,9 @@ fn note_study(scene: &Scene, settings: &MlmcSettings) {
 }
 
 /// Writes to `file` the plan for the smallest eps of `settings` from the study's `report`,
-/// and says where.
+/// and says where. The study has run: a plan its convergence test cannot fix (levels too few
+/// for the bias of that eps), or a file that cannot be written, is a failure (exit code 1)
+/// naming --write-plan, not a refusal.
 fn write_plan_file(
     file: &Path, scene: &Scene, settings: &MlmcSettings, report: &MlmcReport,
 ) -> Result<(), Failure> {
@@ -351,8 +356,22 @@ fn write_plan_file(
         .iter()
         .copied()
         .fold(f64::INFINITY, f64::min);
-    let plan = plan_for_eps(scene, settings, report, eps)?;
-    write_json(file, &plan)?;
+    let failed = |e: String| {
+        Failure::Failed(format!(
+            "--write-plan {}: no plan written (the study's report is): {e}",
+            escaped(&file.display().to_string())
+        ))
+    };
+    let plan = plan_for_eps(scene, settings, report, eps).map_err(|e| {
+        let flag = match e {
+            MlmcError::Levels { .. } => " (--test-levels)",
+            _ => "",
+        };
+        failed(format!(
+            "eps = {eps:e}, the smallest of the study's: {e}{flag}"
+        ))
+    })?;
+    write_json(file, &plan).map_err(|e| failed(e.to_string()))?;
     say!(
         "wrote {} (eps {eps:.0e}, N_l {:?}); run it with --plan, sharded with --shard",
         file.display(),
@@ -372,15 +391,25 @@ fn read_plan(file: &Path, settings: &MlmcSettings) -> Result<Plan, Failure> {
     Ok(plan)
 }
 
-/// Refuses a `--write-plan` file that cannot be written, before the study runs: its folder must
-/// be (or be made) a writable folder, and the file itself not a folder.
-fn check_plan_file(file: &Path) -> Result<(), Failure> {
+/// Refuses `--write-plan` before the study runs: with `quick` (a quick run's convergence test,
+/// two levels fewer on at most 1024 samples, is a check, too short to fix a plan), and a file
+/// that cannot be written: its folder must be (or be made) a writable folder, and the file
+/// itself not a folder.
+fn check_plan_file(file: &Path, quick: bool) -> Result<(), Failure> {
     let refuse = |why: String| {
         Failure::Usage(format!(
             "--write-plan {}: {why}; nothing was run",
-            file.display()
+            escaped(&file.display().to_string())
         ))
     };
+    if quick {
+        return Err(refuse(
+            "not with --quick: a plan is fixed by the study's convergence test, and --quick's \
+             (two levels fewer, at most 1024 samples per level) is too short for one; run the \
+             pilot without --quick (docs/cluster.md)"
+                .into(),
+        ));
+    }
     if file.is_dir() {
         return Err(refuse("is a folder".into()));
     }
@@ -456,6 +485,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 
 /// Merges the shard files of a plan into its report: exactly the unsharded run's sums.
 pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
+    writable_out(&args.out.out)?;
     let shards: Vec<MlmcShard> = shard_files(&args.dirs)?
         .iter()
         .map(|f| sdae_cli::shards::read_mlmc(f).map_err(refused))
@@ -473,6 +503,7 @@ pub fn mlmc_merge(args: &MlmcMergeArgs) -> Result<(), Failure> {
     settings.t_end = identity.t_end;
     settings.seed = identity.seed;
     let dir = args.out.out.join("mlmc").join(&identity.scene);
+    writable_out(&dir)?;
     let report = merged_report(&scene, &settings, identity, plan, sums)?;
     Ok(write_plan_report(&report, &dir)?)
 }

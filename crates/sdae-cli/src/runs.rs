@@ -17,7 +17,7 @@ use sdae_study::convergence::{
 use sdae_study::integrator::SchemeKind;
 use sdae_study::output::{print_summary, readable, write_report};
 use sdae_study::parallel::Control;
-use sdae_study::scene::{BUILT_IN, Scene};
+use sdae_study::scene::{BUILT_IN, Scene, escaped};
 use sdae_study::scene_load::key_in_table;
 use sdae_study::stability::{self, StabilityReport, StabilityScene};
 use sdae_study::{equipartition, trace, weak};
@@ -65,6 +65,19 @@ impl Resumption {
             every: Duration::try_from_secs_f64(args.checkpoint_every).unwrap_or(Duration::MAX),
         }
     }
+}
+
+/// Checks that `dir`, the output folder or a folder in it, can be written
+/// ([`check_writable`]), else refuses (exit code 2) naming where the folder came from: --out,
+/// or the SDAE_STUDY_OUT variable when --out was not typed.
+pub fn writable_out(dir: &Path) -> Result<(), Failure> {
+    check_writable(dir).map_err(|e| {
+        let from = match std::env::var_os("SDAE_STUDY_OUT") {
+            Some(_) if !crate::args::typed("--out") => "SDAE_STUDY_OUT",
+            _ => "--out",
+        };
+        refused(e).within(from)
+    })
 }
 
 /// A library error met before anything ran: a refusal (exit code 2), whatever its kind.
@@ -172,7 +185,7 @@ pub fn prepare<R: Resumable>(
 ) -> Result<(Option<R::Saved>, RunLock), Failure> {
     let path = checkpoint.file().to_path_buf();
     let dir = path.parent().unwrap_or(Path::new("."));
-    check_writable(dir).map_err(refused)?;
+    writable_out(dir)?;
     let lock = checkpoint.lock().map_err(refused)?;
     stopping::hold(lock.path().to_path_buf());
     if let Some(pid) = lock.took_over {
@@ -361,7 +374,7 @@ fn checked<'p>(
         let named = |e: StudyError| match e {
             StudyError::Setting { key, value, rule } if crate::flag(key).is_none() => {
                 let rule = match file(k) {
-                    Some(f) => format!("{rule} (scene file {})", f.display()),
+                    Some(f) => format!("{rule} (scene file {})", escaped(&f.display().to_string())),
                     None => rule,
                 };
                 StudyError::Setting {
@@ -540,6 +553,7 @@ fn shard_files(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, Failure> {
 /// of `shard-*.json` files, the weak-error report of `weak-shard-*.json` files (shards that
 /// measure observables).
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
+    writable_out(out)?;
     let mut by_study: BTreeMap<(String, bool), Vec<ConvergenceRun>> = BTreeMap::new();
     for file in shard_files(dirs)? {
         let shard = sdae_cli::shards::read_convergence(&file).map_err(refused)?;
@@ -553,6 +567,10 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
             .entry((shard.scene.name.clone(), weak))
             .or_default()
             .push(shard);
+    }
+    // Every scene's folder is checked before any is merged: a refusal writes nothing.
+    for (name, _) in by_study.keys() {
+        writable_out(&out.join(name))?;
     }
     let mut uncompared = Vec::new();
     for ((name, weak), shards) in by_study {

@@ -42,6 +42,21 @@ mod systems;
 
 pub use systems::{Built, SceneSystem, SystemVisitor};
 
+/// A name (or value) the user typed, as messages show it: its control characters escaped as
+/// Rust escapes them (`pend\nulum`, `a\0b`, `\u{1b}`), the rest as typed, so that a refused
+/// name prints on one line and cannot drive the terminal. Escaping twice changes nothing.
+pub fn escaped(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
 /// What a study of the scene computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -71,7 +71,7 @@ impl Scene {
         let (_, text) = BUILT_IN
             .iter()
             .find(|(n, _)| *n == name)
-            .ok_or_else(|| StudyError::Unknown(name.to_string()))?;
+            .ok_or_else(|| StudyError::Unknown(crate::scene::escaped(name)))?;
         Self::parse(text, &format!("scenes/{name}.toml"))
     }
 
@@ -121,10 +121,14 @@ impl Scene {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
         {
-            return Err(self.invalid(format!(
-                "name = '{}': use letters, digits, '-' and '_' (it names the report's files)",
-                self.name
-            )));
+            let name = crate::scene::escaped(&self.name);
+            return Err(StudyError::Invalid {
+                message: format!(
+                    "name = '{name}': use letters, digits, '-' and '_' (it names the report's \
+                     files)"
+                ),
+                scene: name,
+            });
         }
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
             return Err(self.invalid(format!("T = {}: must be finite and > 0", self.t_end)));
@@ -368,7 +372,9 @@ mod tests {
             "{message}"
         );
         let message = with("coarsest = 4294967295\nmax_level = 2");
-        assert!(message.contains("mlmc.max_level = 2"), "{message}");
+        assert!(message.contains("mlmc.coarsest = 4294967295"), "{message}");
+        let message = with("coarsest = 20\nmax_level = 12");
+        assert!(message.contains("mlmc.max_level = 12"), "{message}");
         let message = with("eps = [1e-2, 1e-300]");
         assert!(message.contains("mlmc.eps = 1e-300"), "{message}");
         let message = with("eps = []");

@@ -3,6 +3,12 @@
 //! first save of a process writes the whole file afresh (the header, the records it resumed
 //! from and the new ones), which also drops a torn tail an earlier, killed process left; every
 //! later save appends. So saving after every block costs time linear in the run.
+//!
+//! A save is synced to disk, which takes milliseconds on many disks, and a block of paths or
+//! samples can take microseconds: saving after each of them would spend most of the run
+//! waiting for the disk. So a save is due once the interval has passed *and* at least
+//! [`PATIENCE`] times as long as the last save took: saving never takes more than about a tenth
+//! of a run, whatever the interval asked for (0 included) and however slow the disk.
 
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -10,6 +16,10 @@ use std::time::{Duration, Instant};
 
 use super::segments::{Appender, batches};
 use sdae_study::StudyError;
+
+/// A save waits, after the last one, at least this many times as long as that save took (and
+/// at least the interval asked for): the saves take at most 1 / (1 + PATIENCE) of the run.
+pub(crate) const PATIENCE: u32 = 9;
 
 /// How a record is put into a segment's payload.
 pub(crate) type WriteRecord<R> = fn(&mut Vec<u8>, &R) -> std::io::Result<()>;
@@ -36,6 +46,8 @@ struct State<R> {
     written: u64,
     /// When the last save was.
     last: Instant,
+    /// How long the last save took.
+    cost: Duration,
 }
 
 impl<R> Saves<R> {
@@ -51,6 +63,7 @@ impl<R> Saves<R> {
             pending: resumed,
             written: 0,
             last: Instant::now(),
+            cost: Duration::ZERO,
         };
         Saves {
             path,
@@ -66,15 +79,17 @@ impl<R> Saves<R> {
         self.state.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Hands over finished records; saves them (and those waiting) if the interval has passed.
-    /// A failed periodic save is not fatal: the records wait for the next save, and the final
-    /// save says whether they could be written.
+    /// Hands over finished records; saves them (and those waiting) if a save is due: the
+    /// interval has passed, and [`PATIENCE`] times the last save's duration. A failed periodic
+    /// save is not fatal: the records wait for the next save, and the final save says whether
+    /// they could be written.
     pub(crate) fn finished(&self, records: impl IntoIterator<Item = R>) {
         let mut state = self.lock();
         let before = state.pending.len();
         state.pending.extend(records);
         state.added += state.pending.len() - before;
-        if state.last.elapsed() >= self.every {
+        let wait = self.every.max(state.cost.saturating_mul(PATIENCE));
+        if state.last.elapsed() >= wait {
             let _ = self.flush(&mut state);
         }
     }
@@ -90,14 +105,30 @@ impl<R> Saves<R> {
         self.lock().added
     }
 
+    /// Forgets how long the last save took, so that the next record handed over is saved at
+    /// once (at interval 0).
+    #[cfg(test)]
+    pub(crate) fn forget_cost(&self) {
+        self.lock().cost = Duration::ZERO;
+    }
+
     /// Bytes written to the file so far.
     #[cfg(test)]
     pub(crate) fn written(&self) -> u64 {
         self.lock().written
     }
 
+    /// Saves the records waiting, and when and how long it took.
     fn flush(&self, state: &mut State<R>) -> Result<u64, StudyError> {
+        let start = Instant::now();
+        let saved = self.append(state);
         state.last = Instant::now();
+        state.cost = state.last - start;
+        saved
+    }
+
+    /// Appends the records waiting to the file (writing it afresh at the first save).
+    fn append(&self, state: &mut State<R>) -> Result<u64, StudyError> {
         let body =
             batches(&state.pending, self.write).map_err(|e| StudyError::write(&self.path, e))?;
         let bytes = match &mut state.file {
@@ -145,8 +176,10 @@ mod tests {
         // The first save: the magic line, the header and the 11 records.
         let first = 2 + (FRAME + 2) as u64 + (FRAME + 11 * 40) as u64;
         assert_eq!(saves.written(), first);
-        // Every later save writes its new records and nothing else: linear in the run.
+        // Every later save writes its new records and nothing else: linear in the run (the
+        // saves' measured duration forgotten, so that each record is saved at once).
         for k in 1..=1000u64 {
+            saves.forget_cost();
             saves.finished([[3u8; 40]]);
             assert_eq!(saves.written(), first + k * (FRAME as u64 + 40));
         }
@@ -156,6 +189,35 @@ mod tests {
         assert_eq!(bytes.len() as u64, saves.written());
         let segments = read(&path, &bytes, b"m\n", &[]).unwrap();
         assert_eq!(segments.records.len(), 1001);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_slow_save_holds_the_next_ones_back() {
+        let dir = std::env::temp_dir().join(format!("sdae-saves-slow-{}", std::process::id()));
+        let path = dir.join("c.bin");
+        let saves = Saves::new(
+            path.clone(),
+            b"m\n",
+            Ok(b"{}".to_vec()),
+            write,
+            Duration::ZERO,
+            Vec::new(),
+        );
+        saves.finished([[1u8; 40]]);
+        let first = saves.written();
+        assert!(first > 0);
+        // A save that took an hour: the next is due nine hours later, even at interval 0.
+        saves.lock().cost = Duration::from_secs(3600);
+        for _ in 0..100 {
+            saves.finished([[2u8; 40]]);
+        }
+        assert_eq!(saves.written(), first);
+        // The final save writes them all, in one segment.
+        assert_eq!(saves.save().unwrap(), (FRAME + 100 * 40) as u64);
+        let bytes = std::fs::read(&path).unwrap();
+        let segments = read(&path, &bytes, b"m\n", &[]).unwrap();
+        assert_eq!(segments.records.len(), 2);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -792,7 +792,8 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
     )
     .unwrap();
     let scheme = &json["schemes"][0];
-    assert_eq!(scheme["unresolved"][0]["output"], "v");
+    let unresolved = scheme["unresolved"].as_array().unwrap();
+    assert!(unresolved.iter().any(|u| u["output"] == "v"), "{scheme}");
     assert!(scheme["observed_order"]["v"].is_null(), "{scheme}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

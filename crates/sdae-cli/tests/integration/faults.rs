@@ -220,7 +220,7 @@ fn a_checkpoint_is_neither_replaced_nor_resumed_by_another_run() {
     // With --resume, a run of other settings names what differs.
     refused(
         &mut quick(&dir, &["--resume"]),
-        &["cannot resume", "setting"],
+        &["cannot resume", "another --levels (saved 2..4, asked 3..7)"],
     );
     // A live run holds the lock: a second run in the folder is refused.
     let lock = scene_dir.join("checkpoint-0-of-1.bin.lock");

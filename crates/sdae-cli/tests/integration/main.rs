@@ -10,6 +10,7 @@ mod common;
 mod faults;
 mod mlmc_command_line;
 mod mlmc_resume;
+mod named_refusals;
 mod process;
 mod resume;
 mod sharding;

@@ -165,7 +165,11 @@ fn counts_levels_and_threads_are_bounded_before_anything_runs() {
     );
     run(
         &["--coarsest", "4294967295", "--max-level", "2"],
-        &["--max-level 2", "2^4294967297 steps", "above 2^24"],
+        &[
+            "--coarsest 4294967295",
+            "2^4294967297 steps",
+            "above the 2^24",
+        ],
     );
     run(&["--threads", "2000"], &["--threads", "at most 1024"]);
     run(&["--threads", "0"], &["--threads", "at least 1"]);
@@ -180,7 +184,7 @@ fn counts_levels_and_threads_are_bounded_before_anything_runs() {
         ("eps = [1e-300]", &["mlmc.eps = 1e-300"][..]),
         (
             "coarsest = 4294967295\nmax_level = 2",
-            &["mlmc.max_level = 2"][..],
+            &["mlmc.coarsest = 4294967295"][..],
         ),
     ] {
         let file = dir.join("scene.toml");
@@ -278,7 +282,6 @@ fn plans_and_plan_files_are_checked_before_anything_runs() {
     refused_before_running(
         &[
             "mlmc",
-            "--quick",
             "--write-plan",
             target.to_str().unwrap(),
             "--out",

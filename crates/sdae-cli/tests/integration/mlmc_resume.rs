@@ -10,6 +10,7 @@ use crate::process;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::{Duration, Instant};
 
 use bits::sampled_bits;
 use process::{binary, leftovers, numbers, signal, stderr, wait_for};
@@ -186,11 +187,18 @@ fn other_runs_and_forgotten_checkpoints_are_refused(out: &Path, eps: &str) {
     // Another seed or observable: refused, naming what differs.
     refused(
         &mut mlmc(out, eps, &["--resume", "--seed", "7"]),
-        &["cannot resume", "mlmc-checkpoint.bin", "another seed"],
+        &[
+            "cannot resume",
+            "mlmc-checkpoint.bin",
+            "another --seed (saved 2026, asked 7)",
+        ],
     );
     refused(
         &mut mlmc(out, eps, &["--resume", "--observable", "energy"]),
-        &["cannot resume", "another observable"],
+        &[
+            "cannot resume",
+            "another --observable (saved cos_angle, asked energy)",
+        ],
     );
     // Without --resume: refused, saying what the checkpoint holds.
     refused(
@@ -292,5 +300,117 @@ fn mlmc_shards_with_a_flipped_bit_or_a_block_not_whole_are_refused_by_merge() {
     // A shard of the format before checksums (bare JSON) is refused by name.
     std::fs::write(&file, serde_json::to_string(&short).unwrap()).unwrap();
     refused(&mut merge(), &["mlmc-shard-0-of-2.json", "older version"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Saving after every block of samples (`--checkpoint-every 0`) changes no number and costs
+/// at most about twice the default interval's run: a save synced to disk after each of the
+/// thousands of blocks made the run 25 times as long.
+#[test]
+fn saving_after_every_block_changes_no_number_and_costs_little() {
+    let dir = scratch("mlmc-save-often");
+    let timed = |name: &str, extra: &[&str]| {
+        let start = Instant::now();
+        let ran = binary()
+            .args([
+                "mlmc",
+                "--threads",
+                "1",
+                "--eps",
+                "1e-2,2e-3",
+                "--no-standard",
+            ])
+            .args(["--test-samples", "1024", "--out"])
+            .arg(dir.join(name))
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(ran.status.code(), Some(0), "{}", stderr(&ran));
+        start.elapsed()
+    };
+    let default = timed("default", &[]);
+    let often = timed("often", &["--checkpoint-every", "0"]);
+    assert_eq!(
+        report_numbers(&dir.join("default")),
+        report_numbers(&dir.join("often"))
+    );
+    assert!(
+        often <= 2 * default + Duration::from_secs(2),
+        "--checkpoint-every 0 took {often:?}, the default {default:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A resume with another --qmc setting or another R is refused naming the flag with the saved
+/// and the asked value, for MLMC and for the weak study.
+#[test]
+fn a_resume_with_other_qmc_settings_names_them() {
+    let dir = scratch("mlmc-resume-qmc");
+    let eps = "2e-2";
+    // A run whose report cannot be written (a folder in its place) keeps its checkpoint.
+    let out = dir.join("run");
+    let scene = out.join("mlmc/pendulum");
+    std::fs::create_dir_all(scene.join("report.json")).unwrap();
+    let qmc = ["--qmc", "--randomizations", "4"];
+    let failed = mlmc(&out, eps, &qmc).output().unwrap();
+    assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));
+    assert!(scene.join("mlmc-checkpoint.bin").exists());
+    refused(
+        &mut mlmc(&out, eps, &["--resume", "--qmc", "--randomizations", "8"]),
+        &[
+            "cannot resume",
+            "another --randomizations (saved 4, asked 8)",
+        ],
+    );
+    refused(
+        &mut mlmc(&out, eps, &["--resume"]),
+        &["another --qmc (saved with --qmc, asked without --qmc)"],
+    );
+    refused(
+        &mut mlmc(
+            &out,
+            eps,
+            &[
+                "--resume",
+                "--qmc",
+                "--randomizations",
+                "4",
+                "--initial-points",
+                "64",
+            ],
+        ),
+        &["another --initial-points (saved 32, asked 64)"],
+    );
+    // The weak study's randomized QMC paths.
+    let weak = |extra: &[&str]| {
+        let mut command = binary();
+        command
+            .args([
+                "weak",
+                "--quick",
+                "--paths",
+                "64",
+                "--threads",
+                "1",
+                "--out",
+            ])
+            .arg(&out)
+            .args(extra);
+        command
+    };
+    std::fs::create_dir_all(out.join("pendulum/weak.json")).unwrap();
+    let failed = weak(&["--qmc", "--randomizations", "4"]).output().unwrap();
+    assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));
+    refused(
+        &mut weak(&["--resume", "--qmc", "--randomizations", "8"]),
+        &[
+            "cannot resume",
+            "another --randomizations (saved 4, asked 8)",
+        ],
+    );
+    refused(
+        &mut weak(&["--resume"]),
+        &["another --qmc (saved with --qmc, asked without --qmc)"],
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -93,7 +93,7 @@ fn a_checkpoint_of_another_study_is_refused() {
     other.seed += 1;
     let err = checkpoint.load(&scene, &other, (0, 1)).unwrap_err();
     assert!(matches!(err, StudyError::Resume { .. }), "{err}");
-    assert!(err.to_string().contains("setting"), "{err}");
+    assert!(err.to_string().contains("another --seed (saved "), "{err}");
     assert!(checkpoint.load(&scene, &settings, (1, 2)).is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }

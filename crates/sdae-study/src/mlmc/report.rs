@@ -31,11 +31,13 @@ pub fn with_bias(i: &Interval, bias: f64) -> String {
     format!("{} (95% + bias {bias:.1e})", interval(i))
 }
 
-/// A ratio of times or works, "2.5x", or "- (too short to compare)" where it is not a finite
-/// positive number (seconds that round to 0).
+/// A ratio of times or works, "2.5x" ("1.6e-2x" below 0.1), or "- (too short to compare)"
+/// where it is not a finite positive number (seconds that round to 0).
 pub fn ratio(x: f64) -> String {
-    if x.is_finite() && x > 0.0 {
+    if x.is_finite() && x >= 0.1 {
         format!("{x:.1}x")
+    } else if x.is_finite() && x > 0.0 {
+        format!("{x:.1e}x")
     } else {
         "- (too short to compare)".into()
     }

@@ -1,7 +1,8 @@
 //! The intervals the MLMC study prints for E[f(X_T)] hold their bias: on a circle with friction
 //! whose mean kinetic energy has a closed form, the MLQMC interval and the direct standard
-//! run's cover it in at least 90 of 100 seeded runs, where the sampling intervals alone (for
-//! E[P_L], the finest level's law) do not.
+//! run's cover it in at least 90 of 100 seeded runs, where MLQMC's sampling interval alone (for
+//! E[P_L], the finest level's law) does not; and a level 0 that cannot run moves to one that
+//! can.
 //!
 //! The closed form: a unit mass on a circle in the plane with friction gamma and additive noise
 //! sigma dW has d|v|^2 = (-2 gamma |v|^2 + sigma^2) dt + 2 sigma v . dW (the constraint force is
@@ -116,4 +117,35 @@ fn standard_run_intervals_with_their_bias_cover_the_mean_kinetic_energy() {
         mlmc_covered >= 90,
         "MLMC: {mlmc_covered} of 100 cover {exact}"
     );
+}
+
+/// On a circle of radius 0.3 over T = 2, every path of level 0 on 4 steps fails (and most on 8
+/// and 16): the study moves level 0 to 2^5 steps, says so in its first warning and runs,
+/// where it used to stop with "level 0: 1024 of 1024 samples failed".
+#[test]
+fn a_level_0_that_cannot_run_moves_to_the_first_that_does() {
+    let small = Circle {
+        radius: 0.3,
+        friction: 0.5,
+        noise: 1.2,
+        speed: 1.0,
+        t_end: 2.0,
+    };
+    let (scene, _) = circle(small);
+    let mut settings = circle_settings(&scene, 2026, 2).quick();
+    settings.spec.eps = vec![2e-2];
+    settings.standard_run = false;
+    let control = RunControl::new(2).unwrap();
+    let report = run_mlmc(&scene, &settings, &control).unwrap();
+    let moved = report.coarsest_moved.as_ref().expect("level 0 moved");
+    assert_eq!((moved.asked, moved.ran), (2, 5), "{moved:?}");
+    assert_eq!(moved.failed.len(), 3);
+    assert!(moved.failed.iter().all(|f| f.failed * 10 > f.attempted));
+    assert_eq!(report.settings.spec.coarsest, 5);
+    assert_eq!(
+        report.settings.spec.coarsest + report.settings.spec.max_level,
+        settings.spec.coarsest + settings.spec.max_level
+    );
+    assert!(report.warnings[0].starts_with("level 0 moved from 2^2 to 2^5 steps"));
+    assert!(report.test.iter().all(|l| l.failed_fine * 10 <= l.samples));
 }

@@ -170,3 +170,34 @@ fn bad_qmc_settings_are_named_errors() {
         }
     }
 }
+
+/// At T = 1e-100 every path ends where it started: no variance at all. Standard Monte Carlo's
+/// work beside the single-level QMC run is two paths' (it was NaN steps), and no ratio of the
+/// unmeasurably short runs prints as NaN or 0.0x.
+#[test]
+fn a_run_without_variance_prints_no_nan() {
+    let (scene, _) = circle(UNIT_CIRCLE);
+    let mut settings = circle_settings(&scene, 1, 2).quick();
+    settings.t_end = 1e-100;
+    settings.qmc = Some(QmcSettings {
+        randomizations: 4,
+        initial_points: 32,
+    });
+    let control = RunControl::new(2).unwrap();
+    let report = run_mlmc(&scene, &settings, &control).unwrap();
+    let single = report.qmc.as_ref().unwrap().standard.as_ref().unwrap();
+    assert!(
+        single.standard_work.is_finite() && single.standard_work > 0.0,
+        "{single:?}"
+    );
+    for row in &report.complexity {
+        assert!(row.savings.is_finite() && row.savings > 0.0, "{row:?}");
+    }
+    let lines = [
+        sdae_study::mlmc::quasi_report::standard_line(single),
+        sdae_study::mlmc::report::standard_line(report.standard.as_ref().unwrap()),
+    ];
+    for line in lines {
+        assert!(!line.contains("NaN") && !line.contains(" 0.0x"), "{line}");
+    }
+}

@@ -74,3 +74,34 @@ fn quick_report_snapshot() {
     );
     insta::assert_snapshot!("pendulum_quick", text);
 }
+
+/// At T = 1e-100 the paths move by about 1e-100 and the errors of r and v, some 1e-114 at every
+/// N, are the rounding of that move: they are named unresolved and no order is fitted to them
+/// (they were fitted to orders -0.01 [-0.01, -0.01] and 0.00 [0.00, 0.00]).
+#[test]
+fn errors_at_the_rounding_level_of_the_state_get_no_order() {
+    let scene = Scene::built_in("pendulum").unwrap();
+    let settings = ConvergenceSettings {
+        paths: 8,
+        coarsest: 3,
+        finest: 7,
+        reference: Some(11),
+        threads: 1,
+        t_end: 1e-100,
+        schemes: vec![
+            sdae_study::integrator::SchemeKind::EulerMaruyama,
+            sdae_study::integrator::SchemeKind::HalfExplicitPractical,
+        ],
+        ..ConvergenceSettings::for_scene(&scene)
+    };
+    let report =
+        build_report(run_convergence(&scene, &settings, (0, 1), Control::default()).unwrap());
+    for scheme in &report.schemes {
+        assert!(scheme.observed_order.r.is_none(), "{}", scheme.name);
+        assert!(scheme.observed_order.v.is_none(), "{}", scheme.name);
+        for output in ["r", "v"] {
+            let named = scheme.unresolved.iter().filter(|u| u.output == output);
+            assert_eq!(named.count(), scheme.levels.len(), "{}", scheme.name);
+        }
+    }
+}

@@ -10,12 +10,13 @@
 //! E[|v_T|^2 / 2] = (u_0^2 e^(-2 gamma T) + sigma^2 (1 - e^(-2 gamma T)) / (2 gamma)) / 2,
 //! whatever the radius.
 
-use sdae_mlmc::qmc::{MlqmcEstimate, QuasiSampler, QuasiSettings, mlqmc};
-use sdae_mlmc::{LevelSampler, MlmcError, RunControl};
+use sdae_mlmc::RunControl;
+use sdae_mlmc::qmc::{MlqmcEstimate, QuasiSettings};
 use sdae_stats::Interval;
-use sdae_study::mlmc::study::{SamplerTask, run_mlmc, with_sampler};
+use sdae_study::mlmc::study::{run_mlmc, with_sampler};
 
 use crate::mlmc::{Circle, circle, circle_settings};
+use crate::qmc::Quasi;
 
 /// A circle no other test uses: radius 0.8, friction 1.5, noise 1.1, speed 1.4, T = 1.
 const CIRCLE: Circle = Circle {
@@ -31,19 +32,6 @@ const CIRCLE: Circle = Circle {
 fn kinetic_energy(c: Circle) -> f64 {
     let decay = (-2.0 * c.friction * c.t_end).exp();
     0.5 * (c.speed * c.speed * decay + c.noise * c.noise * (1.0 - decay) / (2.0 * c.friction))
-}
-
-/// Runs multilevel QMC on a scene's sampler.
-struct Quasi<'a, 'b> {
-    control: &'a RunControl<'b>,
-    settings: QuasiSettings,
-}
-
-impl SamplerTask for Quasi<'_, '_> {
-    type Output = MlqmcEstimate;
-    fn run<L: LevelSampler + QuasiSampler>(self, sampler: &L) -> Result<MlqmcEstimate, MlmcError> {
-        mlqmc(sampler, self.control, &self.settings)
-    }
 }
 
 /// How many of `intervals` contain `exact`.

@@ -11,9 +11,9 @@ use sdae_study::mlmc::study::{SamplerTask, run_mlmc, with_sampler};
 use crate::mlmc::{UNIT_CIRCLE, circle, circle_settings};
 
 /// Runs multilevel QMC on a scene's sampler.
-struct Quasi<'a, 'b> {
-    control: &'a RunControl<'b>,
-    settings: QuasiSettings,
+pub(crate) struct Quasi<'a, 'b> {
+    pub(crate) control: &'a RunControl<'b>,
+    pub(crate) settings: QuasiSettings,
 }
 
 impl SamplerTask for Quasi<'_, '_> {

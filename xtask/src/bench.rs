@@ -1,5 +1,5 @@
 //! `cargo xtask bench`: runs the criterion benchmarks of `sdae-bench` (step, mass, ensemble,
-//! fiber, molecule, inherent_ensemble) and summarizes the step and ensemble figures in
+//! fiber, molecule, inherent_ensemble, qmc) and summarizes the step and ensemble figures in
 //! `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
@@ -31,13 +31,14 @@ const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarks of `sdae-bench` that run (its `splitting` bench runs with
 /// `cargo bench -p sdae-bench --bench splitting`).
-const BENCHES: [&str; 6] = [
+const BENCHES: [&str; 7] = [
     "step",
     "mass",
     "ensemble",
     "fiber",
     "molecule",
     "inherent_ensemble",
+    "qmc",
 ];
 
 /// Solvers of the `inherent_ensemble` group (as in crates/sdae-bench/benches/inherent_ensemble.rs),

@@ -24,7 +24,8 @@
 //!   randomization r is point i of scrambled Sobol' points ([`SobolPoints`]) mapped to normals
 //!   by [`inverse_normal_cdf`] and ordered by a [`BrownianBridge`] per component, one path as an
 //!   [`IncrementSource`] ([`QuasiIncrements`]) or P at once in the ensembles' layout
-//!   ([`QuasiEnsembleIncrements`]), both from a [`QuasiBrownian`].
+//!   ([`QuasiEnsembleIncrements`]), made W paths at a time in SIMD lanes with the same numbers,
+//!   both from a [`QuasiBrownian`].
 //!
 //! The schemes and the path driver that consume these increments are in `sdae-model` and the
 //! crates above it; this crate depends on none of them.

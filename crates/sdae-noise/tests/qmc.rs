@@ -1,7 +1,9 @@
 //! Randomized quasi-Monte Carlo paths: the net property and uniformity of the scrambled Sobol'
 //! points, the unbiasedness and small variance of their means, the covariance of the bridge's
-//! increments, the padding beyond the quasi-random coordinates, and the ensemble layout.
+//! increments, the padding beyond the quasi-random coordinates, and the ensemble layout, made
+//! W paths at a time in lanes with the numbers of one path at a time.
 
+use sdae_lanes::LaneWidth;
 use sdae_noise::{
     BrownianBridge, Coarsened, IncrementSource, MAX_SOBOL_DIMS, NoiseError, QuasiBrownian,
     QuasiIncrements, SobolPoints, StandardNormals, inverse_normal_cdf,
@@ -360,4 +362,86 @@ fn increments_are_sqrt_h_times_the_unit_ones() {
         assert_eq!(dw, [h.sqrt() * unit[2 * k], h.sqrt() * unit[2 * k + 1]]);
         assert_eq!(path.remaining(), Some(4 - k));
     }
+}
+
+/// The unit increments of path `index` from the public pieces alone: coordinate c of point
+/// `index` of the scrambled Sobol' points, its normal, the bridge of component c % m.
+fn path_from_the_pieces(seed: u64, r: u64, dim: usize, steps: usize, index: u32) -> Vec<f64> {
+    let points = SobolPoints::scrambled(dim * steps, seed, r).unwrap();
+    let bridge = BrownianBridge::new(steps).unwrap();
+    let (mut out, mut w) = (vec![0.0; dim * steps], vec![0.0; steps + 1]);
+    for j in 0..dim {
+        let z: Vec<f64> = (0..steps)
+            .map(|k| inverse_normal_cdf(points.coordinate(index, k * dim + j)))
+            .collect();
+        bridge.fill_path(&z, &mut w);
+        for k in 0..steps {
+            out[k * dim + j] = w[k + 1] - w[k];
+        }
+    }
+    out
+}
+
+#[test]
+fn paths_in_lanes_are_the_paths_one_at_a_time_at_every_width() {
+    // The benchmark's paths (1024 steps, two components), indices out of order and up to
+    // 2^32 - 1, a count that leaves padding lanes (which repeat the first path).
+    let (dim, steps, r) = (2, 1024, 4);
+    let quasi = QuasiBrownian::new(SEED, r, dim, steps).unwrap();
+    let indices: Vec<u64> = vec![9, 0, 1, 2, 3, 1 << 20, 31, 5, 4_294_967_295, 64, 17];
+    let stride = sdae_lanes::lane_stride(indices.len());
+    let expected: Vec<Vec<f64>> = (0..stride)
+        .map(|p| *indices.get(p).unwrap_or(&indices[0]))
+        .map(|i| path_from_the_pieces(SEED, r, dim, steps, i as u32))
+        .collect();
+    let mut one = vec![0.0; dim * steps];
+    for (p, want) in expected.iter().enumerate().take(indices.len()) {
+        quasi.unit_increments(indices[p], &mut one).unwrap();
+        assert!(
+            one.iter()
+                .zip(want)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "path {p}"
+        );
+    }
+    for width in LaneWidth::ALL {
+        let mut unit = vec![f64::NAN; dim * steps * stride];
+        quasi.unit_ensemble(&indices, width, &mut unit).unwrap();
+        for (p, want) in expected.iter().enumerate() {
+            for (c, x) in want.iter().enumerate() {
+                let got = unit[c * stride + p];
+                assert_eq!(
+                    got.to_bits(),
+                    x.to_bits(),
+                    "{width:?}, lane {p}, coordinate {c}"
+                );
+            }
+        }
+        let lanes = quasi.ensemble_with_width(&indices, width).unwrap();
+        assert_eq!(lanes, quasi.ensemble(&indices).unwrap(), "{width:?}");
+    }
+}
+
+#[test]
+fn paths_in_lanes_refuse_bad_inputs_and_write_nothing() {
+    let quasi = QuasiBrownian::new(SEED, 0, 2, 4).unwrap();
+    let mut unit = vec![7.0; 2 * 4 * 8];
+    assert_eq!(
+        quasi.unit_ensemble(&[1, 1 << 32], LaneWidth::Best, &mut unit),
+        Err(NoiseError::InvalidSetting {
+            name: "path index",
+            value: 4_294_967_296.0,
+            reason: "quasi-random paths are points 0..2^32 of the Sobol' sequence",
+        })
+    );
+    assert_eq!(
+        quasi.unit_ensemble(&[1, 2], LaneWidth::Best, &mut unit[1..]),
+        Err(NoiseError::DimensionMismatch {
+            what: "increments of the paths (steps * dim * lane stride)",
+            expected: 64,
+            found: 63,
+        })
+    );
+    assert!(unit.iter().all(|&x| x == 7.0));
+    quasi.unit_ensemble(&[], LaneWidth::Best, &mut []).unwrap();
 }

@@ -2,6 +2,8 @@
 
 use std::collections::VecDeque;
 
+use sdae_lanes::Real;
+
 use crate::error::NoiseError;
 
 /// The Brownian-bridge construction of a standard Brownian path W on the grid t_n = n,
@@ -91,9 +93,25 @@ impl BrownianBridge {
             "a bridge over {steps} steps takes {steps} normals and fills {} nodes",
             steps + 1
         );
-        w[0] = 0.0;
-        for (b, &zk) in self.nodes.iter().zip(z) {
-            w[b.node] = b.left_weight * w[b.left] + b.right_weight * w[b.right] + b.sd * zk;
+        self.fill_strided(z, 0, 1, w);
+    }
+
+    /// `w[n]` = W(n), n = 0..=N, of one path (`f64`) or of W paths at once
+    /// ([`Lanes`](sdae_lanes::Lanes)), from the normals `normals[offset + k * step]` in
+    /// construction order: [`BrownianBridge::fill_path`] of the normals taken with a step, the
+    /// same operations in the same order, so that lane i is bit for bit the path of lane i's
+    /// normals. The caller checks the lengths (w: N + 1, normals: enough for N with the step).
+    #[inline(always)]
+    pub(crate) fn fill_strided<T: Real>(
+        &self, normals: &[T], offset: usize, step: usize, w: &mut [T],
+    ) {
+        let Some(first) = normals.get(offset) else {
+            return;
+        };
+        w[0] = first.splat_like(0.0);
+        for (k, b) in self.nodes.iter().enumerate() {
+            let zk = normals[offset + k * step];
+            w[b.node] = w[b.left] * b.left_weight + w[b.right] * b.right_weight + zk * b.sd;
         }
     }
 }

@@ -1,5 +1,7 @@
 //! The inverse of the standard normal distribution function, Wichura's algorithm AS 241.
 
+use sdae_lanes::{PathMask, Real};
+
 /// z = Phi^-1(u), the standard normal quantile of u in (0, 1), by Wichura's algorithm AS 241
 /// (PPND16, Applied Statistics 37, 1988), relative accuracy about 1e-16:
 ///
@@ -12,30 +14,92 @@
 /// coordinate of a point goes to one normal, its order kept). u = 0 and u = 1 give -inf and
 /// +inf, u outside [0, 1] or NaN gives NaN.
 pub fn inverse_normal_cdf(u: f64) -> f64 {
-    if !(0.0..=1.0).contains(&u) {
-        return f64::NAN;
-    }
-    if u == 0.0 || u == 1.0 {
-        return (u - 0.5).signum() * f64::INFINITY;
-    }
     let q = u - 0.5;
-    if q.abs() <= 0.425 {
-        let r = 0.180625 - q * q;
-        return q * polynomial(&A, r) / polynomial(&B, r);
-    }
-    let tail = if q < 0.0 { u } else { 1.0 - u };
-    let r = (-tail.ln()).sqrt();
-    let z = if r <= 5.0 {
-        polynomial(&C, r - 1.6) / polynomial(&D, r - 1.6)
+    if is_central(q) {
+        central_quantile(q)
     } else {
-        polynomial(&E, r - 5.0) / polynomial(&F, r - 5.0)
-    };
-    if q < 0.0 { -z } else { z }
+        tail_quantile(u, q, tail_log(u, q))
+    }
 }
 
-/// sum_k c_k x^k by Horner's rule (c_0 first).
-fn polynomial(c: &[f64; 8], x: f64) -> f64 {
-    c.iter().rev().fold(0.0, |acc, &ck| acc * x + ck)
+/// Whether q = u - 1/2 is in the central region |q| <= 0.425 (false for NaN).
+#[inline(always)]
+pub(crate) fn is_central(q: f64) -> bool {
+    q.abs() <= 0.425
+}
+
+/// ln min(u, 1 - u), as the tails take it: ln u where q = u - 1/2 < 0, else ln(1 - u).
+#[inline(always)]
+pub(crate) fn tail_log(u: f64, q: f64) -> f64 {
+    let tail = if q < 0.0 { u } else { 1.0 - u };
+    tail.ln()
+}
+
+/// q A(r) / B(r) with r = 0.180625 - q^2, the quantile of the central region, of one path's
+/// q (`f64`) or of W paths' ([`Lanes`](sdae_lanes::Lanes)): lane i computes exactly what
+/// `f64` computes for lane i's q.
+#[inline(always)]
+pub(crate) fn central_quantile<T: Real>(q: T) -> T {
+    let r = q.splat_like(0.180625) - q * q;
+    q * polynomial(&A, r) / polynomial(&B, r)
+}
+
+/// The quantile of u in the tails (|q| > 0.425, q = u - 1/2) from `log` = [`tail_log`]`(u,
+/// q)`, with the special values (u = 0 or 1, u outside [0, 1], NaN), of one path or of W
+/// paths (lane by lane the same operations). The logarithm is taken outside: it has no lane
+/// form with the standard library's rounding.
+#[inline(always)]
+pub(crate) fn tail_quantile<T: Real>(u: T, q: T, log: T) -> T {
+    let (zero, one) = (u.splat_like(0.0), u.splat_like(1.0));
+    let r = (-log).sqrt();
+    let near = r.at_most(r.splat_like(5.0));
+    let z = if near.all() {
+        near_tail(r)
+    } else if !near.any() {
+        far_tail(r)
+    } else {
+        T::select(near, near_tail(r), far_tail(r))
+    };
+    let z = T::select(q.less(zero), -z, z);
+    let open = zero.less(u).and(u.less(one));
+    if open.all() {
+        z
+    } else {
+        T::select(open, z, u.map_each(special_quantile))
+    }
+}
+
+/// C(r - 1.6) / D(r - 1.6), the tail r <= 5.
+#[inline(always)]
+fn near_tail<T: Real>(r: T) -> T {
+    let x = r - 1.6;
+    polynomial(&C, x) / polynomial(&D, x)
+}
+
+/// E(r - 5) / F(r - 5), the tail r > 5 (min(u, 1 - u) < exp(-25)).
+#[inline(always)]
+fn far_tail<T: Real>(r: T) -> T {
+    let x = r - 5.0;
+    polynomial(&E, x) / polynomial(&F, x)
+}
+
+/// The quantile of u outside (0, 1): -inf at 0, +inf at 1, NaN elsewhere (and for NaN).
+fn special_quantile(u: f64) -> f64 {
+    if !(0.0..=1.0).contains(&u) {
+        f64::NAN
+    } else {
+        (u - 0.5).signum() * f64::INFINITY
+    }
+}
+
+/// sum_k c_k x^k by Horner's rule (c_0 first), from 0 x + c_7.
+#[inline(always)]
+fn polynomial<T: Real>(c: &[f64; 8], x: T) -> T {
+    let mut acc = x.splat_like(0.0);
+    for &ck in c.iter().rev() {
+        acc = acc * x + ck;
+    }
+    acc
 }
 
 /// Numerator of the central region.
@@ -118,6 +182,92 @@ mod tests {
 
     fn reference(u: f64) -> f64 {
         Normal::standard().inverse_cdf(u)
+    }
+
+    /// AS 241 as published, branch by branch (the control flow the one-path code had before
+    /// its pieces were shared with the lanes): an independent reader of `inverse_normal_cdf`.
+    fn published(u: f64) -> f64 {
+        if !(0.0..=1.0).contains(&u) {
+            return f64::NAN;
+        }
+        if u == 0.0 || u == 1.0 {
+            return (u - 0.5).signum() * f64::INFINITY;
+        }
+        let q = u - 0.5;
+        if q.abs() <= 0.425 {
+            let r = 0.180625 - q * q;
+            return q * polynomial(&A, r) / polynomial(&B, r);
+        }
+        let r = (-(if q < 0.0 { u } else { 1.0 - u }).ln()).sqrt();
+        let z = if r <= 5.0 {
+            polynomial(&C, r - 1.6) / polynomial(&D, r - 1.6)
+        } else {
+            polynomial(&E, r - 5.0) / polynomial(&F, r - 5.0)
+        };
+        if q < 0.0 { -z } else { z }
+    }
+
+    /// u over the central region, both tails down to 1e-300, the region's boundaries and the
+    /// special values.
+    fn probes() -> Vec<f64> {
+        let mut u: Vec<f64> = (0..4000).map(|k| (k as f64 + 0.5) / 4000.0).collect();
+        u.extend((1..=300).flat_map(|e| [10f64.powi(-e), 1.0 - 10f64.powi(-e)]));
+        u.extend([
+            0.075,
+            0.925,
+            0.075 - 1e-17,
+            0.925 + 1e-16,
+            f64::MIN_POSITIVE,
+        ]);
+        u.extend([0.0, -0.0, 1.0, -0.5, 1.5, f64::NAN, f64::INFINITY]);
+        u
+    }
+
+    #[test]
+    fn the_shared_pieces_are_the_published_algorithm_bit_for_bit() {
+        for u in probes() {
+            let (got, want) = (inverse_normal_cdf(u), published(u));
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "u {u:e}: {got:e} vs {want:e}"
+            );
+        }
+    }
+
+    /// The quantiles of `u` in lanes of `simd` as the ensembles take them: the central region
+    /// in the lanes, the tails from their logarithms lane by lane.
+    fn in_lanes<S: pulp::Simd>(simd: S, u: &[f64]) -> Vec<f64> {
+        use sdae_lanes::Lanes;
+        let w = S::F64_LANES;
+        let mut out = vec![0.0; u.len()];
+        for (u, out) in u.chunks_exact(w).zip(out.chunks_exact_mut(w)) {
+            let lanes = Lanes::load(simd, u);
+            let q = lanes - 0.5;
+            let log = q.zip_map_each(lanes, |q, u| tail_log(u, q));
+            let central = central_quantile(q);
+            let tails = tail_quantile(lanes, q, log);
+            Lanes::select(q.abs().le(q.splat_like(0.425)), central, tails).store(out);
+        }
+        out
+    }
+
+    #[test]
+    fn lanes_give_the_one_path_numbers_at_every_width() {
+        let mut u = probes();
+        u.truncate(u.len() / 8 * 8);
+        for (w, got) in [
+            (1, in_lanes(pulp::Scalar, &u)),
+            (4, in_lanes(pulp::Scalar256b, &u)),
+            (8, in_lanes(pulp::Scalar512b, &u)),
+        ] {
+            for (u, z) in u.iter().zip(got) {
+                let want = inverse_normal_cdf(*u);
+                assert!(
+                    z.to_bits() == want.to_bits() || (z.is_nan() && want.is_nan()),
+                    "W = {w}, u {u:e}: {z:e} vs {want:e}"
+                );
+            }
+        }
     }
 
     #[test]

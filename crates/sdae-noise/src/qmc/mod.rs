@@ -13,7 +13,8 @@
 //! - [`QuasiBrownian`]: one randomization's paths (dimension m, N steps), padded with the
 //!   path's pseudo-random normals beyond the Sobol' dimensions; its paths as an
 //!   [`IncrementSource`](crate::IncrementSource), [`QuasiIncrements`], or many at once in the
-//!   ensembles' layout, [`QuasiEnsembleIncrements`].
+//!   ensembles' layout, [`QuasiEnsembleIncrements`], made W paths at a time in SIMD lanes
+//!   ([`QuasiBrownian::unit_ensemble`]) with the same numbers bit for bit.
 
 mod bridge;
 mod inverse_normal;
@@ -21,6 +22,7 @@ mod joe_kuo;
 mod quasi_brownian;
 mod quasi_ensemble;
 mod quasi_increments;
+mod quasi_lanes;
 mod scramble;
 mod seeds;
 mod sobol;

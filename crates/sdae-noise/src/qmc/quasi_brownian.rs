@@ -1,6 +1,7 @@
 //! Randomization r of the quasi-Monte Carlo Brownian paths of a study ([`QuasiBrownian`]).
 
 use rand::Rng;
+use sdae_lanes::Real;
 
 use crate::error::NoiseError;
 use crate::path_streams::{PathStreams, StandardNormals};
@@ -8,7 +9,7 @@ use crate::qmc::bridge::BrownianBridge;
 use crate::qmc::inverse_normal::inverse_normal_cdf;
 use crate::qmc::joe_kuo::MAX_SOBOL_DIMS;
 use crate::qmc::seeds::{Family, family_rng};
-use crate::qmc::sobol::SobolPoints;
+use crate::qmc::sobol::{SobolPoints, unit_interval};
 
 /// Randomization r of the quasi-Monte Carlo Brownian paths of a study with seed `seed`: paths
 /// of an m-dimensional Brownian motion over N steps, path i the image of point i of the
@@ -125,29 +126,48 @@ impl QuasiBrownian {
                 found: out.len(),
             });
         }
+        let mut bits = vec![0; self.quasi_dims()];
         let mut normals = vec![0.0; steps * dim];
-        let quasi = self.quasi_dims();
-        for (c, z) in normals[..quasi].iter_mut().enumerate() {
-            *z = inverse_normal_cdf(self.points.coordinate(point, c));
+        self.uniforms(point, index, &mut bits, &mut normals);
+        for z in &mut normals[..bits.len()] {
+            *z = inverse_normal_cdf(*z);
         }
-        if quasi < normals.len() {
-            self.padding_streams(index)
-                .fill_scaled(1.0, &mut normals[quasi..]);
-        }
-        self.bridge_increments(&normals, out);
+        let mut w = vec![0.0; steps + 1];
+        self.bridge_increments(&normals, &mut w, out);
         Ok(())
     }
 
-    /// out[k m + j] = W_j(k + 1) - W_j(k), W_j the bridge of the normals[k m + j], k = 0..N.
-    fn bridge_increments(&self, normals: &[f64], out: &mut [f64]) {
+    /// The coordinates of path `index` (point `point` of the Sobol' points) before the
+    /// inverse normal: `out[c]` = u_c, c < [`QuasiBrownian::quasi_dims`] (`bits` holds the
+    /// Sobol' words on return, its length that number), and beyond them the padding normals.
+    #[inline(always)]
+    pub(crate) fn uniforms(&self, point: u32, index: u64, bits: &mut [u64], out: &mut [f64]) {
+        let quasi = bits.len();
+        self.sobol_bits(point, 0, bits);
+        for (u, x) in out.iter_mut().zip(bits.iter()) {
+            *u = unit_interval(*x);
+        }
+        if quasi < out.len() {
+            self.padding_streams(index)
+                .fill_scaled(1.0, &mut out[quasi..]);
+        }
+    }
+
+    /// The Sobol' words of coordinates `first..first + bits.len()` of point `point`
+    /// ([`SobolPoints::fill_bits`]).
+    #[inline(always)]
+    pub(crate) fn sobol_bits(&self, point: u32, first: usize, bits: &mut [u64]) {
+        self.points.fill_bits(point, first, bits);
+    }
+
+    /// `out[k m + j]` = W_j(k + 1) - W_j(k), W_j the bridge ([`BrownianBridge`]) of the
+    /// normals `normals[k m + j]`, k = 0..N, of one path or of W paths in lanes (the same
+    /// operations); `w` holds N + 1 values of scratch.
+    #[inline(always)]
+    pub(crate) fn bridge_increments<T: Real>(&self, normals: &[T], w: &mut [T], out: &mut [T]) {
         let (steps, dim) = (self.steps(), self.dim);
-        let mut z = vec![0.0; steps];
-        let mut w = vec![0.0; steps + 1];
         for j in 0..dim {
-            for (k, zk) in z.iter_mut().enumerate() {
-                *zk = normals[k * dim + j];
-            }
-            self.bridge.fill_path(&z, &mut w);
+            self.bridge.fill_strided(normals, j, dim, w);
             for k in 0..steps {
                 out[k * dim + j] = w[k + 1] - w[k];
             }
@@ -178,7 +198,7 @@ fn coordinates(dim: usize, steps: usize) -> Result<usize, NoiseError> {
 }
 
 /// The Sobol' index of path `index`; fails if it is >= 2^32.
-fn point_index(index: u64) -> Result<u32, NoiseError> {
+pub(crate) fn point_index(index: u64) -> Result<u32, NoiseError> {
     u32::try_from(index).map_err(|_| NoiseError::InvalidSetting {
         name: "path index",
         value: index as f64,

@@ -1,7 +1,7 @@
 //! The quasi-Monte Carlo increments of P paths in the ensembles' layout
 //! ([`QuasiEnsembleIncrements`]).
 
-use sdae_lanes::lane_stride;
+use sdae_lanes::{LaneWidth, lane_stride};
 
 use crate::error::{NoiseError, check_step_size, whole_rows};
 use crate::qmc::quasi_brownian::QuasiBrownian;
@@ -11,7 +11,7 @@ use crate::qmc::quasi_brownian::QuasiBrownian;
 /// coordinate j < m, path p at `dw[(k * m + j) * stride + p]`, stride =
 /// [`lane_stride`]`(P)`, the padding lanes p >= P repeating path 0. Path p's numbers are bit
 /// for bit those of [`QuasiBrownian::path`]`(indices[p])`: all N steps are computed up front,
-/// one path at a time.
+/// W paths at a time in SIMD lanes ([`QuasiBrownian::unit_ensemble`]).
 ///
 /// ```
 /// use sdae_noise::{IncrementSource, QuasiBrownian};
@@ -43,23 +43,23 @@ pub struct QuasiEnsembleIncrements {
 
 impl QuasiBrownian {
     /// The increments of the paths `indices` (points `indices[p]` of the Sobol' points) in
-    /// the ensembles' layout; fails if an index is >= 2^32.
+    /// the ensembles' layout, made W at a time at the processor's widest lane width
+    /// ([`QuasiBrownian::unit_ensemble`]); fails if an index is >= 2^32.
     pub fn ensemble(&self, indices: &[u64]) -> Result<QuasiEnsembleIncrements, NoiseError> {
-        let (steps, dim) = (self.steps(), self.dim());
+        self.ensemble_with_width(indices, LaneWidth::Best)
+    }
+
+    /// [`QuasiBrownian::ensemble`] at lane width `width`: the same numbers at every width.
+    pub fn ensemble_with_width(
+        &self, indices: &[u64], width: LaneWidth,
+    ) -> Result<QuasiEnsembleIncrements, NoiseError> {
         let stride = lane_stride(indices.len());
-        let mut unit = vec![0.0; steps * dim * stride];
-        let mut path = vec![0.0; steps * dim];
-        for lane in 0..stride {
-            let index = indices.get(lane).unwrap_or(&indices[0]);
-            self.unit_increments(*index, &mut path)?;
-            for (c, xi) in path.iter().enumerate() {
-                unit[c * stride + lane] = *xi;
-            }
-        }
+        let mut unit = vec![0.0; self.steps() * self.dim() * stride];
+        self.unit_ensemble(indices, width, &mut unit)?;
         Ok(QuasiEnsembleIncrements {
             unit,
             paths: indices.len(),
-            dim,
+            dim: self.dim(),
             stride,
             position: 0,
         })

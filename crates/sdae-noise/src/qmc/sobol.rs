@@ -30,8 +30,10 @@ use crate::qmc::joe_kuo::{INDEX_BITS, MAX_SOBOL_DIMS, direction_numbers};
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SobolPoints {
-    /// v_(j,k) of dimension j, k = 1..32, left-aligned in 64 bits (randomized ones if scrambled).
-    pub(crate) directions: Vec<[u64; INDEX_BITS]>,
+    /// v_(j,k) of dimension j, k = 1..32, left-aligned in 64 bits (randomized ones if
+    /// scrambled), bit by bit: v_(j,k) at `(k - 1) * dims + j`, so that the coordinates of a
+    /// point are XORs of whole rows ([`SobolPoints::fill_bits`]).
+    by_bit: Vec<u64>,
     /// The digital shift e_j of dimension j (0 for the plain sequence).
     pub(crate) shifts: Vec<u64>,
 }
@@ -40,28 +42,62 @@ impl SobolPoints {
     /// The plain Sobol' points in `dims` dimensions, 1 <= `dims` <= [`MAX_SOBOL_DIMS`].
     pub fn new(dims: usize) -> Result<Self, NoiseError> {
         check_dims(dims)?;
-        Ok(Self {
-            directions: (0..dims).map(direction_numbers).collect(),
-            shifts: vec![0; dims],
-        })
+        let directions: Vec<_> = (0..dims).map(direction_numbers).collect();
+        Ok(Self::from_parts(&directions, vec![0; dims]))
+    }
+
+    /// The points of the direction numbers `directions[j]` and the shifts `shifts[j]` of
+    /// each dimension j (of equal lengths).
+    pub(crate) fn from_parts(directions: &[[u64; INDEX_BITS]], shifts: Vec<u64>) -> Self {
+        let dims = directions.len();
+        let mut by_bit = vec![0; INDEX_BITS * dims];
+        for (j, v) in directions.iter().enumerate() {
+            for (k, vk) in v.iter().enumerate() {
+                by_bit[k * dims + j] = *vk;
+            }
+        }
+        Self { by_bit, shifts }
     }
 
     /// The number of dimensions.
     pub fn dims(&self) -> usize {
-        self.directions.len()
+        self.shifts.len()
+    }
+
+    /// v_(j,k+1), direction number k + 1 of dimension j (k < 32).
+    pub(crate) fn direction(&self, dim: usize, k: usize) -> u64 {
+        self.by_bit[k * self.dims() + dim]
     }
 
     /// x_(i,j), coordinate `dim` of point `index` as a 64-bit binary fraction (the formula of
     /// [`SobolPoints`]). Panics if `dim` >= [`SobolPoints::dims`].
     pub fn coordinate_bits(&self, index: u32, dim: usize) -> u64 {
-        let v = &self.directions[dim];
+        assert!(dim < self.dims(), "dimension {dim} of {}", self.dims());
         let mut x = self.shifts[dim];
         let mut gray = index ^ (index >> 1);
         while gray != 0 {
-            x ^= v[gray.trailing_zeros() as usize];
+            x ^= self.direction(dim, gray.trailing_zeros() as usize);
             gray &= gray - 1;
         }
         x
+    }
+
+    /// out_j = x_(i,first+j), coordinates `first..first + out.len()` of point `index` as 64-bit
+    /// binary fractions: the shifts XOR the rows of direction numbers of the set bits of g(i),
+    /// a pass over out per set bit (the same numbers as [`SobolPoints::coordinate_bits`]).
+    /// Panics if first + out.len() exceeds [`SobolPoints::dims`].
+    #[inline(always)]
+    pub fn fill_bits(&self, index: u32, first: usize, out: &mut [u64]) {
+        let (dims, end) = (self.dims(), first + out.len());
+        out.copy_from_slice(&self.shifts[first..end]);
+        let mut gray = index ^ (index >> 1);
+        while gray != 0 {
+            let row = gray.trailing_zeros() as usize * dims;
+            for (x, v) in out.iter_mut().zip(&self.by_bit[row + first..row + end]) {
+                *x ^= v;
+            }
+            gray &= gray - 1;
+        }
     }
 
     /// u_(i,j) = [`unit_interval`](x_(i,j)), coordinate `dim` of point `index` in (0, 1).
@@ -83,9 +119,16 @@ impl SobolPoints {
 /// binary fraction x falls in. It lies in [2^-53, 1 - 2^-53], never 0 or 1, and is exact, so
 /// u(!x) = 1 - u(x) and floor(u 2^m) = x >> (64 - m) for m <= 52. (With 53 bits,
 /// (floor(x / 2^11) + 1/2) 2^-53 would round the top cell's midpoint to 1.)
+#[inline(always)]
 pub fn unit_interval(x: u64) -> f64 {
-    ((x >> 12) as f64 + 0.5) * UNIT_CELL
+    // floor(x / 2^12) < 2^52 as a double, exactly: the bits of 2^52 + it, less 2^52 (the
+    // conversion without a branch on the sign bit, so that it runs in SIMD lanes).
+    let cell = f64::from_bits(TWO_52.to_bits() | (x >> 12)) - TWO_52;
+    (cell + 0.5) * UNIT_CELL
 }
+
+/// 2^52, whose doubles' last bit is worth 1.
+const TWO_52: f64 = (1u64 << 52) as f64;
 
 /// 2^-52, the width of the cells of [`unit_interval`].
 const UNIT_CELL: f64 = 1.0 / (1u64 << 52) as f64;
@@ -142,11 +185,30 @@ mod tests {
     }
 
     #[test]
+    fn rows_of_a_point_are_its_coordinates() {
+        let points = SobolPoints::scrambled(300, 5, 2).unwrap();
+        for index in [0, 1, 2, 7, 1000, 0x8000_0001, u32::MAX] {
+            for (first, len) in [(0, 300), (17, 100), (299, 1), (40, 0)] {
+                let mut bits = vec![0; len];
+                points.fill_bits(index, first, &mut bits);
+                for (c, x) in (first..).zip(bits) {
+                    assert_eq!(
+                        x,
+                        points.coordinate_bits(index, c),
+                        "point {index}, dim {c}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn unit_interval_is_open_exact_and_symmetric() {
         assert_eq!(unit_interval(0), 2f64.powi(-53));
         assert_eq!(unit_interval(u64::MAX), 1.0 - 2f64.powi(-53));
         for x in [0, 1, 1 << 12, 0x8000_0000_0000_0000, u64::MAX / 3, u64::MAX] {
             assert_eq!(unit_interval(!x), 1.0 - unit_interval(x));
+            assert_eq!(unit_interval(x), ((x >> 12) as f64 + 0.5) * UNIT_CELL);
             assert_eq!((unit_interval(x) * 2f64.powi(20)).floor() as u64, x >> 44);
         }
     }

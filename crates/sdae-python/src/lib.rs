@@ -17,6 +17,7 @@ mod args;
 mod errors;
 mod interrupt;
 mod paths;
+mod paths_io;
 mod report;
 mod scene;
 mod scene_dict;

@@ -3,9 +3,11 @@
 //! - `study`: the convergence study (the project's main job), results in `target/study/`.
 //! - `bench`: speed benchmarks of the stepper and a summary in `target/bench/summary.json`.
 //! - `cluster-check`: the Slurm job-array recipe of docs/cluster.md on a one-node cluster.
+//! - `docs-check`: every page of `docs/` within its limit in lines.
 
 mod bench;
 mod cluster;
+mod docs;
 mod study;
 
 use std::fmt;
@@ -42,6 +44,9 @@ tasks:
         (as root) install Slurm and munge if missing, start a one-node cluster, run the
         quick study as a 4-task job array, merge, compare with the unsharded run, stop
         the daemons (docs/cluster.md)
+  docs-check
+        every page of docs/ within its limit in lines (performance.md 200, stability.md
+        300, the others 600; xtask/src/docs.rs); exit code 1 names the pages over
   bench [--quick] [-- <criterion options>]
         run every benchmark of sdae-scheme and sdae-systems and write target/bench/summary.json
         (--quick: short warm-up and measurement times)
@@ -110,6 +115,7 @@ fn main() -> ExitCode {
         "study" => study::run(rest),
         "bench" => bench::run(rest),
         "cluster-check" => cluster::run_check(rest),
+        "docs-check" => docs::run(rest),
         "help" | "-h" | "--help" => {
             println!("{USAGE}");
             return ExitCode::SUCCESS;

@@ -61,8 +61,12 @@ struct Track {
     kinetic: (f64, f64),
     /// The weighted sum of the plan's time-averaged observable (weights as `kinetic`).
     averaged: f64,
-    /// The track's time after its last step (its own clock or the grid's).
+    /// The track's time after its last step (its own clock where a time average reads it,
+    /// else the grid's).
     time: f64,
+    /// The steps the path has taken (its diagnostics' count, kept here so that a step reads
+    /// no diagnostics).
+    steps: usize,
     outcome: TrackOutcome,
 }
 
@@ -202,6 +206,7 @@ struct Clock {
 /// |a - b|^2 (the sup of distances is taken on squares: sqrt is monotone and correctly
 /// rounded, so sqrt(max d^2) is max d exactly, with one square root per path instead of one per
 /// grid point).
+#[inline(always)]
 fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>()
 }
@@ -277,12 +282,24 @@ impl<S: System> Compare<'_, S> {
     }
 }
 
-/// (max |g(r)|, max |Dg(r) v|); `scratch` has length m.
+/// (max |g(r)|, max |Dg(r) v|); `scratch` has length m. Inlined into the loop over a block's
+/// paths, where n may be a constant.
+#[inline(always)]
 fn residuals<C: Constraint>(c: &C, r: &[f64], v: &[f64], scratch: &mut [f64]) -> (f64, f64) {
     c.value(r, scratch);
-    let position = max_abs(scratch);
+    let position = largest_magnitude(scratch);
     c.jacobian_mul(r, v, scratch);
-    (position, max_abs(scratch))
+    (position, largest_magnitude(scratch))
+}
+
+/// max_i |x_i| as [`max_abs`] gives it (NaN if an entry is NaN); one constraint's |x_0|
+/// directly, which is the same value.
+#[inline(always)]
+fn largest_magnitude(x: &[f64]) -> f64 {
+    match x {
+        [one] => one.abs(),
+        _ => max_abs(x),
+    }
 }
 
 /// The kinetic energy v^T M v / 2; `scratch` has length n.
@@ -350,8 +367,6 @@ struct Lockstep<'a> {
     /// chunks (l * stride each), and the fine steps summed so far.
     pending: Vec<LineVec<f64>>,
     pending_fine: Vec<usize>,
-    /// Steps each path had taken before the current stretch.
-    before: Vec<usize>,
     /// The comparison's buffers.
     scratch: Scratch,
     /// Fine steps the reference has taken (whole chunks).
@@ -406,7 +421,6 @@ impl<'a> Lockstep<'a> {
             snapshot: vec![0.0; dims.row() * live],
             pending: vec![LineVec::from_elem(0.0, dims.l * stride); tracks],
             pending_fine: vec![0; tracks],
-            before: vec![0; paths],
             scratch: Scratch {
                 residuals: vec![0.0; dims.m],
                 momentum: vec![0.0; dims.n],
@@ -591,9 +605,6 @@ impl<'a> Lockstep<'a> {
             .observing
             .as_ref()
             .map_or(0, |o| 1usize << level.saturating_sub(o.grid_level));
-        for &p in &active {
-            self.before[p] = diagnostics_of(ensemble, p).steps;
-        }
         // The run time charged to a path that took every step so far (each step's time shared
         // by the paths that took it), added to a track when it stops or the stretch ends.
         let mut charged = 0.0;
@@ -690,18 +701,20 @@ impl<'a> Lockstep<'a> {
         };
         let mut stopped = 0;
         for (&p, snapshot) in active.iter().zip(snapshots.chunks_exact(row)) {
-            // A path that goes on took one more step.
-            self.before[p] += 1;
-            let steps = self.before[p];
-            debug_assert_eq!(steps, diagnostics_of(ensemble, p).steps);
             let track = &mut tracks[p];
+            // A path that goes on took one more step.
+            track.steps += 1;
+            let steps = track.steps;
+            debug_assert_eq!(steps, diagnostics_of(ensemble, p).steps);
             // The record at the end of step t: the reference's record (t + 1) per - 1.
             let record = has_reference.then(|| {
                 let at = (((t + 1) * per - 1) * self.paths + p) * row;
                 &self.records[at..at + row]
             });
             let grid_time = steps as f64 * h;
-            let clock = if own_clock {
+            // Only time averages read the clock: the clock lag (the path's diagnostics) only
+            // where they are taken.
+            let clock = if own_clock && self.plan.kinetic_after.is_some() {
                 let time = grid_time - diagnostics_of(ensemble, p).clock_lag;
                 let weight = time - track.time;
                 Clock { time, weight }

@@ -5,7 +5,8 @@
 //!   quantile its t intervals are built with;
 //! - [`mean_interval`]: the mean of independent samples with its t interval;
 //! - [`lp_error`]: the L^p norm over paths of per-path errors, with a studentized bootstrap
-//!   interval on the log scale, scaled by the largest error so that no p underflows;
+//!   interval on the log scale, scaled by the largest error so that no p underflows
+//!   ([`lp_estimate`]: the same estimate without its interval);
 //! - [`fit_order`]: the observed order of convergence from the per-path errors of all levels
 //!   of one set of paths, with its interval from the paired bootstrap of whole paths
 //!   ([`bootstrap`]) and the local slopes with theirs, so that curvature is flagged as
@@ -39,7 +40,7 @@ pub mod weak_order;
 
 pub use estimates::{
     INDICATIVE_BELOW, LocalSlope, OrderFit, PathErrors, effective_paths, fit_order,
-    fit_order_and_errors, lp_error, mean_interval,
+    fit_order_and_errors, lp_error, lp_estimate, mean_interval,
 };
 pub use interval::{Interval, t975};
 

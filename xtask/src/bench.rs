@@ -31,7 +31,7 @@ const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarks of `sdae-bench` that run (its `splitting` bench runs with
 /// `cargo bench -p sdae-bench --bench splitting`).
-const BENCHES: [&str; 7] = [
+const BENCHES: [&str; 8] = [
     "step",
     "mass",
     "ensemble",
@@ -39,6 +39,7 @@ const BENCHES: [&str; 7] = [
     "molecule",
     "inherent_ensemble",
     "qmc",
+    "expr",
 ];
 
 /// Solvers of the `inherent_ensemble` group (as in crates/sdae-bench/benches/inherent_ensemble.rs),

@@ -18,7 +18,7 @@ use sdae_stats::Interval;
 use sdae_stats::memory;
 use sdae_stats::{
     INDICATIVE_BELOW, OrderFit, PathErrors, effective_paths, fit_order_and_errors, lp_error,
-    mean_interval,
+    lp_estimate, mean_interval,
 };
 
 /// The most worker threads a study starts.
@@ -529,6 +529,9 @@ pub struct LevelReport {
     /// Mean wall-clock seconds of stepping per path.
     #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_path: f64,
+    /// The spread of the repeated timings behind `seconds_per_path` ([`TimeSpread`]).
+    #[serde(default)]
+    pub seconds: TimeSpread,
     /// Steps per second of stepping.
     #[serde(with = "sdae_stats::json_f64")]
     pub steps_per_second: f64,
@@ -560,6 +563,40 @@ pub struct LevelReport {
     /// Largest |Dg(r_k) v_k| on the grid.
     #[serde(with = "sdae_stats::json_f64")]
     pub max_velocity_residual: f64,
+}
+
+/// Repeated timings of one level: a block of paths is stepped together and each of its paths
+/// is charged the block's time shared among them, so the run times per path of the finished
+/// paths are one timing per block; their median and range (min..max) show how much a run time
+/// per path varies between blocks (all 0 in reports written before it was recorded).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TimeSpread {
+    /// Median seconds per path.
+    #[serde(with = "sdae_stats::json_f64")]
+    pub median: f64,
+    /// Smallest seconds per path.
+    #[serde(with = "sdae_stats::json_f64")]
+    pub min: f64,
+    /// Largest seconds per path.
+    #[serde(with = "sdae_stats::json_f64")]
+    pub max: f64,
+}
+
+impl TimeSpread {
+    /// The median and range of `seconds` (all 0 when empty; NaN timings left out).
+    pub fn of(mut seconds: Vec<f64>) -> Self {
+        seconds.retain(|s| !s.is_nan());
+        seconds.sort_by(f64::total_cmp);
+        let n = seconds.len();
+        if n == 0 {
+            return Self::default();
+        }
+        Self {
+            median: 0.5 * (seconds[(n - 1) / 2] + seconds[n / 2]),
+            min: seconds[0],
+            max: seconds[n - 1],
+        }
+    }
 }
 
 /// One scheme over all levels.
@@ -788,10 +825,11 @@ fn level_report<'a>(
     let (mut steps_total, mut truncated, mut iterations) = (0, 0, 0);
     let (mut homotopy, mut rounding, mut lag) = (0, 0, 0.0);
     let (mut max_g, mut max_dgv) = (0.0_f64, 0.0_f64);
-    let mut kinetic = Vec::new();
+    let (mut kinetic, mut finished_seconds, mut all_seconds) = (Vec::new(), Vec::new(), Vec::new());
     for p in paths {
         count += 1;
         seconds += p.seconds;
+        all_seconds.push(p.seconds);
         truncated += p.truncated_steps;
         iterations += p.newton_iterations;
         steps_total += p.steps;
@@ -802,8 +840,9 @@ fn level_report<'a>(
         max_dgv = max_dgv.max(p.max_velocity_residual);
         if let Some(kind) = p.failure {
             failures.push(kind);
-        } else if let Some(k) = p.kinetic_energy {
-            kinetic.push(k);
+        } else {
+            finished_seconds.push(p.seconds);
+            kinetic.extend(p.kinetic_energy);
         }
     }
     let per_step = |x: usize| x as f64 / steps_total.max(1) as f64;
@@ -822,6 +861,12 @@ fn level_report<'a>(
         },
         kinetic_energy: mean_interval(&kinetic),
         seconds_per_path: seconds / count.max(1) as f64,
+        // The finished paths took every step; failed ones only where all failed.
+        seconds: TimeSpread::of(if finished_seconds.is_empty() {
+            all_seconds
+        } else {
+            finished_seconds
+        }),
         steps_per_second: if seconds > 0.0 {
             steps_total as f64 / seconds
         } else {
@@ -922,8 +967,9 @@ fn scheme_report(
         // not fitted.
         let mut fitted = Vec::new();
         for &j in &fittable {
-            let error = lp_error(&distances(&common, s, j, count, c), settings.p)
-                .map_or(f64::NAN, |e| e.estimate);
+            // The estimate alone: its interval comes from the fit's bootstrap below.
+            let error =
+                lp_estimate(&distances(&common, s, j, count, c), settings.p).unwrap_or(f64::NAN);
             if (underflowed(error) || at_rounding_level(error, scale[c])) && !error.is_nan() {
                 unresolved.push(Unresolved {
                     output: OUTPUT_NAMES[c],

@@ -11,8 +11,6 @@ use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::Serialize;
 
 use sdae_reference::CurvedSystem;
@@ -28,7 +26,7 @@ use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::parallel::Control;
-use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, log_range};
+use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
 use crate::scene::{Prepared, Scene};
 use sdae_stats::Interval;
 
@@ -327,17 +325,10 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
 /// `equipartition.svg`: per scene, the temperature ratio against h, one line per scheme and
 /// C_eta, with 95% error bars and the line ratio = 1.
 pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), StudyError> {
-    let count = scenes.len().max(1);
-    let root = SVGBackend::new(path, (560 * count as u32, 460)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled("measured over set temperature", ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    for (area, sc) in root.split_evenly((1, count)).iter().zip(scenes) {
-        scene_panel(area, sc).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))
+    let panels: Vec<Panel> = scenes.iter().map(scene_panel).collect();
+    let mut figure = Figure::row("measured over set temperature", panels);
+    figure.panel_size = (520, 460);
+    render(&figure, path).map(|_| ())
 }
 
 /// The y range of a scene's panel: every finite interval bound and 0.9..1.1, padded, on a log
@@ -361,74 +352,39 @@ fn ratio_range(sc: &EquipartitionScene) -> Range<f64> {
     lo..hi
 }
 
-/// A scene's panel: the line ratio = 1, one line per variant with its error bars, the legend.
-fn scene_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>, sc: &EquipartitionScene,
-) -> DrawResult<()> {
-    let xs = log_range(sc.rows.iter().map(|r| r.h));
-    let ys = ratio_range(sc);
-    let mut chart = ChartBuilder::on(area)
-        .caption(&sc.scene, ("sans-serif", 15))
-        .margin(10)
-        .x_label_area_size(32)
-        .y_label_area_size(48)
-        .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())?;
-    chart
-        .configure_mesh()
-        .light_line_style(RGBColor(245, 245, 245))
-        .x_desc("h")
-        .y_desc("T measured / T")
-        .y_label_formatter(&|v| format!("{v:.2}"))
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()?;
-    chart.draw_series(LineSeries::new(
-        [(xs.start, 1.0), (xs.end, 1.0)],
-        BLACK.mix(0.5),
-    ))?;
+/// A scene's panel: the line ratio = 1, one line per variant with its 95% error bars where its
+/// interval is finite and positive (two or more paths finished), kept within the y range.
+fn scene_panel(sc: &EquipartitionScene) -> Panel {
     let mut labels: Vec<&str> = sc.rows.iter().map(|r| r.scheme.as_str()).collect();
     labels.dedup();
-    for (k, name) in labels.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        draw_variant(&mut chart, sc, name, colour, &ys)?;
-    }
-    draw_legend(&mut chart, 10, SeriesLabelPosition::UpperLeft)
-}
-
-/// The temperature ratio of the variant `name` against h in `colour`, clamped to `ys`, with 95%
-/// error bars where its interval is finite (two or more paths finished).
-fn draw_variant(
-    chart: &mut LogChart<'_, '_>, sc: &EquipartitionScene, name: &str, colour: RGBColor,
-    ys: &Range<f64>,
-) -> DrawResult<()> {
-    let (lo, hi) = (ys.start, ys.end);
-    let rows: Vec<(f64, Interval)> = sc
-        .rows
+    let (h0, h1) = sc.rows.iter().fold((f64::INFINITY, 0.0_f64), |(a, b), r| {
+        (a.min(r.h), b.max(r.h))
+    });
+    let series = labels
         .iter()
-        .filter(|r| r.scheme == name)
-        .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
-        .filter(|(_, t)| t.estimate.is_finite() && t.estimate > 0.0)
+        .map(|name| {
+            let points = sc
+                .rows
+                .iter()
+                .filter(|r| r.scheme == *name)
+                .filter_map(|r| r.temperature_ratio.map(|t| (r.h, t)))
+                .filter(|(_, t)| t.estimate.is_finite() && t.estimate > 0.0)
+                .map(|(h, t)| Point {
+                    y_bar: (t.ci_low.is_finite() && t.ci_high.is_finite() && t.ci_low > 0.0)
+                        .then_some((t.ci_low, t.ci_high)),
+                    ..Point::at(h, t.estimate)
+                })
+                .collect();
+            Series::new(*name, points)
+        })
         .collect();
-    chart
-        .draw_series(LineSeries::new(
-            rows.iter().map(|(h, t)| (*h, t.estimate.clamp(lo, hi))),
-            colour.stroke_width(2),
-        ))?
-        .label(name)
-        .legend(move |(a, b)| PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2)));
-    let bounded = rows
-        .iter()
-        .filter(|(_, t)| t.ci_low.is_finite() && t.ci_high.is_finite() && t.ci_low > 0.0);
-    chart.draw_series(bounded.map(|(h, t)| {
-        ErrorBar::new_vertical(
-            *h,
-            t.ci_low.clamp(lo, hi),
-            t.estimate.clamp(lo, hi),
-            t.ci_high.clamp(lo, hi),
-            colour.filled(),
-            5,
-        )
-    }))?;
-    Ok(())
+    Panel {
+        title: sc.scene.clone(),
+        x: FigureAxis::log("h"),
+        y: FigureAxis::log("T measured / T").within(ratio_range(sc)),
+        series,
+        guides: vec![vec![(h0 / 1.5, 1.0), (h1 * 1.5, 1.0)]],
+    }
 }
 
 /// Writes `report.json`, `report.md`, `equipartition.svg` and `bias.svg` into `dir`.

@@ -23,6 +23,8 @@
 //! - [`options`]: what a caller changes of a scene's study settings (the command line's flags,
 //!   the Python package's keywords), turned into settings by one piece of code.
 //! - [`simulate`]: many paths of a scene with one scheme, recorded every k-th step, as arrays.
+//! - [`trajectory`]: the paths as files for ParaView, VMD and OVITO (extended XYZ, VTK, CSV),
+//!   written as they are simulated.
 //! - [`trace`]: a picture of one path of a scene (a pendulum's path, a fiber's shapes).
 //! - [`plots`], [`output`]: SVG plots and the report files (the statistics, intervals, orders
 //!   and the paired bootstrap over paths, are [`sdae_stats`]).
@@ -49,6 +51,7 @@ pub mod scene_load;
 pub mod simulate;
 pub mod stability;
 pub mod trace;
+pub mod trajectory;
 pub mod weak;
 
 pub use error::StudyError;

@@ -1,31 +1,19 @@
 //! SVG plots of a convergence study: strong error against step size (with the fitted slopes)
-//! and against run time per path, one panel per component (r, v, mu), one line per scheme, on
-//! log-log axes with 95% error bars.
+//! and against run time per path (the median of repeated timings, with their range), one panel
+//! per component (r, v, mu), one line per scheme, on log-log axes with 95% error bars; and the
+//! one style of every study's plots ([`style`], drawn by [`figure::render`]).
+
+pub mod figure;
+pub mod style;
 
 use std::io::Write as _;
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
-
 use crate::convergence::{ConvergenceReport, Errors, LevelReport, Orders, SchemeReport};
 use crate::error::StudyError;
+use figure::{Axis as FigureAxis, Figure, Panel, Point, Series};
 use sdae_stats::Interval;
 use sdae_stats::OrderFit;
-
-/// One colour per line (in report order).
-pub const COLOURS: [RGBColor; 10] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
-];
 
 /// A component: its name, how to pick its error from a level and its fit from the orders.
 #[derive(Clone, Copy)]
@@ -52,26 +40,6 @@ const COMPONENTS: [Component; 3] = [
         fit: |o| o.mu.as_ref(),
     },
 ];
-
-/// What drawing into an SVG chart gives back.
-pub type DrawResult<T> = Result<T, DrawingAreaErrorKind<std::io::Error>>;
-
-/// A chart with logarithmic x and y axes drawn into an SVG file.
-pub type LogChart<'a, 'b> =
-    ChartContext<'a, SVGBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
-
-/// Draws the legend of `chart` at `position`: its labels in `font_size` on a light, framed box.
-pub fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(
-    chart: &mut ChartContext<'a, SVGBackend<'b>, CT>, font_size: u32, position: SeriesLabelPosition,
-) -> DrawResult<()> {
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", font_size))
-        .position(position)
-        .draw()
-}
 
 /// The smallest value a logarithmic axis draws. Smaller ones (subnormal, or within a few
 /// hundred decades of it) are left out of the plots with a note: an axis must stay a finite,
@@ -107,37 +75,39 @@ enum Axis {
 }
 
 impl Axis {
-    fn of(self, l: &LevelReport) -> f64 {
+    /// A level's point on this axis: its step size, or the median of its repeated timings
+    /// with their range (the mean where no spread was recorded).
+    fn of(self, l: &LevelReport) -> (f64, Option<(f64, f64)>) {
         match self {
-            Axis::StepSize => l.h,
-            Axis::RunTime => l.seconds_per_path,
+            Axis::StepSize => (l.h, None),
+            Axis::RunTime if l.seconds.max > 0.0 => {
+                (l.seconds.median, Some((l.seconds.min, l.seconds.max)))
+            }
+            Axis::RunTime => (l.seconds_per_path, None),
         }
     }
     fn label(self) -> &'static str {
         match self {
             Axis::StepSize => "step size h",
-            Axis::RunTime => "seconds per path",
+            Axis::RunTime => "seconds per path (median, range of the blocks' timings)",
         }
     }
 }
 
-/// Every point (x, error) of a scheme for a component with an error.
-fn all_points(
-    s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis,
-) -> Vec<(f64, Interval)> {
+/// Every point of a scheme for a component with an error: x with its bar (the range of the
+/// timings), the error with its 95% interval.
+fn all_points(s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis) -> Vec<Point> {
     s.levels
         .iter()
-        .filter_map(|l| pick(&l.error).map(|e| (axis.of(l), e)))
-        .collect()
-}
-
-/// The points (x, error) of a scheme for a component that can be drawn ([`drawable`]).
-fn points(
-    s: &SchemeReport, pick: fn(&Errors) -> Option<Interval>, axis: Axis,
-) -> Vec<(f64, Interval)> {
-    all_points(s, pick, axis)
-        .into_iter()
-        .filter(|(x, e)| drawable(*x) && drawable(e.estimate))
+        .filter_map(|l| {
+            let (x, x_bar) = axis.of(l);
+            pick(&l.error).map(|e| Point {
+                x,
+                y: e.estimate,
+                x_bar,
+                y_bar: Some((e.ci_low, e.ci_high)),
+            })
+        })
         .collect()
 }
 
@@ -166,105 +136,37 @@ fn fitted_line(
         .collect()
 }
 
-/// One panel: the error of `component` against `axis`, one line per scheme with its error bars
-/// (and its fitted slope against h), and the legend.
-fn panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>, report: &ConvergenceReport, component: Component,
-    axis: Axis,
-) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(component.name, e);
-    let mut chart = panel_chart(area, report, component, axis).map_err(|e| err(&e))?;
-    for (k, scheme) in report.schemes.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        draw_scheme(&mut chart, scheme, component, axis, colour).map_err(|e| err(&e))?;
-    }
-    let position = match axis {
-        Axis::StepSize => SeriesLabelPosition::LowerRight,
-        Axis::RunTime => SeriesLabelPosition::UpperRight,
+/// A scheme's line for `component` against `axis`: its errors with their 95% intervals,
+/// against h its fitted slope, against run time the range of the timings.
+fn scheme_series(scheme: &SchemeReport, component: Component, axis: Axis) -> Series {
+    let points = all_points(scheme, component.pick, axis);
+    let guide = match (axis, (component.fit)(&scheme.observed_order)) {
+        (Axis::StepSize, Some(fit)) => fitted_line(scheme, component.pick, fit),
+        _ => Vec::new(),
     };
-    draw_legend(&mut chart, 11, position).map_err(|e| err(&e))
+    Series {
+        guide,
+        ..Series::new(scheme.name.clone(), points)
+    }
 }
 
-/// A panel's log-log chart with its mesh, its axes covering every scheme's points.
-fn panel_chart<'a, 'b>(
-    area: &'a DrawingArea<SVGBackend<'b>, Shift>, report: &ConvergenceReport, component: Component,
-    axis: Axis,
-) -> DrawResult<LogChart<'a, 'b>> {
-    let all: Vec<(f64, Interval)> = report
-        .schemes
+/// The fitted orders of a scheme, "order r 1.01, v 1.32, mu 1.09", for the legend.
+fn orders_text(scheme: &SchemeReport, components: &[Component]) -> Option<String> {
+    let orders: Vec<String> = components
         .iter()
-        .flat_map(|s| points(s, component.pick, axis))
+        .filter_map(|c| {
+            let fit = (c.fit)(&scheme.observed_order)?;
+            fit.order
+                .estimate
+                .is_finite()
+                .then(|| format!("{} {:.2}", c.name, fit.order.estimate))
+        })
         .collect();
-    let xs = log_range(all.iter().map(|p| p.0));
-    let ys = log_range(
-        all.iter()
-            .flat_map(|p| [p.1.ci_low, p.1.ci_high, p.1.estimate]),
-    );
-    let mut chart = ChartBuilder::on(area)
-        .caption(format!("error of {}", component.name), ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(xs.log_scale(), ys.log_scale())?;
-    chart
-        .configure_mesh()
-        .light_line_style(RGBColor(245, 245, 245))
-        .x_labels(6)
-        .y_labels(8)
-        .x_desc(axis.label())
-        .y_desc(format!("L^{} norm of the sup error", report.p))
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()?;
-    Ok(chart)
+    (!orders.is_empty()).then(|| format!("order {}", orders.join(", ")))
 }
 
-/// A scheme's line in `colour` (labelled with its fitted order against h), its 95% error bars
-/// and, against h, its fitted slope; nothing if it has no point.
-fn draw_scheme(
-    chart: &mut LogChart<'_, '_>, scheme: &SchemeReport, component: Component, axis: Axis,
-    colour: RGBColor,
-) -> DrawResult<()> {
-    let pts = points(scheme, component.pick, axis);
-    if pts.is_empty() {
-        return Ok(());
-    }
-    let fit = (component.fit)(&scheme.observed_order);
-    let label = match (axis, fit) {
-        (Axis::StepSize, Some(f)) if f.order.estimate.is_finite() => {
-            format!("{} ({:.2})", scheme.name, f.order.estimate)
-        }
-        _ => scheme.name.to_string(),
-    };
-    chart
-        .draw_series(LineSeries::new(
-            pts.iter().map(|(x, e)| (*x, e.estimate)),
-            colour.stroke_width(2),
-        ))?
-        .label(label)
-        .legend(move |(a, b)| PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2)));
-    chart.draw_series(pts.iter().map(|(x, i)| {
-        ErrorBar::new_vertical(
-            *x,
-            i.ci_low.clamp(MIN_DRAWN, i.estimate),
-            i.estimate,
-            i.ci_high.clamp(i.estimate, MAX_DRAWN),
-            colour.filled(),
-            5,
-        )
-    }))?;
-    if let (Axis::StepSize, Some(fit)) = (axis, fit) {
-        chart.draw_series(LineSeries::new(
-            fitted_line(scheme, component.pick, fit),
-            colour.mix(0.45).stroke_width(1),
-        ))?;
-    }
-    Ok(())
-}
-
-fn draw(
-    report: &ConvergenceReport, path: &Path, title: &str, axis: Axis,
-) -> Result<(), StudyError> {
+/// The figure of `report` against `axis`: one panel per component with an error.
+fn figure(report: &ConvergenceReport, title: &str, axis: Axis) -> Figure {
     let components: Vec<Component> = COMPONENTS
         .into_iter()
         .filter(|c| {
@@ -274,24 +176,35 @@ fn draw(
                 .any(|s| s.levels.iter().any(|l| (c.pick)(&l.error).is_some()))
         })
         .collect();
-    let width = 480 * components.len().max(1) as u32;
-    let root = SVGBackend::new(path, (width, 480)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(title, ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    let panels = root.split_evenly((1, components.len().max(1)));
-    let mut left_out = 0;
-    for (area, component) in panels.iter().zip(components) {
-        panel(area, report, component, axis)?;
-        left_out += report
+    let panels = components
+        .iter()
+        .map(|&c| Panel {
+            title: format!("error of {}", c.name),
+            x: FigureAxis::log(axis.label()),
+            y: FigureAxis::log(format!("L^{} norm of the sup error", report.p)),
+            series: report
+                .schemes
+                .iter()
+                .map(|s| scheme_series(s, c, axis))
+                .collect(),
+            guides: Vec::new(),
+        })
+        .collect();
+    let mut figure = Figure::row(title, panels);
+    if let Axis::StepSize = axis {
+        figure.details = report
             .schemes
             .iter()
-            .flat_map(|s| all_points(s, component.pick, axis))
-            .filter(|(x, e)| !(drawable(*x) && drawable(e.estimate)))
-            .count();
+            .filter_map(|s| Some((s.name.clone(), orders_text(s, &components)?)))
+            .collect();
     }
+    figure
+}
+
+fn draw(
+    report: &ConvergenceReport, path: &Path, title: &str, axis: Axis,
+) -> Result<(), StudyError> {
+    let left_out = figure::render(&figure(report, title, axis), path)?;
     if left_out > 0 {
         // A closed standard error ends the note, not the plot.
         let _ = writeln!(
@@ -301,7 +214,7 @@ fn draw(
             path.display()
         );
     }
-    root.present().map_err(|e| err(&e))
+    Ok(())
 }
 
 /// Writes `error_vs_h.svg` and `error_vs_time.svg` into `dir`.

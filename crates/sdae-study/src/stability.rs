@@ -6,7 +6,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::prelude::*;
 use serde::Serialize;
 
 use sdae_reference::CurvedSystem;
@@ -19,7 +18,7 @@ use crate::files::{write_atomically, write_json};
 use crate::integrator::StudyScheme;
 use crate::lockstep::Limits;
 use crate::parallel::Control;
-use crate::plots::{COLOURS, draw_legend, log_range};
+use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
 use crate::scene::{Prepared, Scene};
 
 /// The stability settings of a scene (`None` if it has no `[stability]` table); `quick` keeps
@@ -212,57 +211,44 @@ fn scene_section(sc: &StabilityScene) -> String {
     s
 }
 
-/// `stability.svg`: per scene, the share of paths that finish against h, one line per scheme.
+/// `stability.svg`: per scene, the share of paths that finish against h, one line per scheme
+/// (each scheme's line nudged by its place in the figure, so that coinciding lines stay apart).
 pub fn plot(report: &StabilityReport, path: &Path) -> Result<(), StudyError> {
-    let count = report.scenes.len().max(1);
-    let cols = count.min(3);
-    let rows = count.div_ceil(cols);
-    let root =
-        SVGBackend::new(path, (420 * cols as u32, 340 * rows as u32 + 40)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled("share of paths that finish", ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    for (area, sc) in root.split_evenly((rows, cols)).iter().zip(&report.scenes) {
-        let r = &sc.report;
-        let xs = log_range(r.schemes.iter().flat_map(|s| s.levels.iter().map(|l| l.h)));
-        let mut chart = ChartBuilder::on(area)
-            .caption(&r.scene, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(32)
-            .y_label_area_size(40)
-            .build_cartesian_2d(xs.log_scale(), -0.05..1.05)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .light_line_style(RGBColor(245, 245, 245))
-            .x_desc("h")
-            .x_labels(5)
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(|e| err(&e))?;
-        for (k, scheme) in r.schemes.iter().enumerate() {
-            let colour = COLOURS[k % COLOURS.len()];
-            // Offset the lines slightly so that coinciding schemes stay visible.
-            let offset = 0.012 * (k as f64 - 3.0);
-            chart
-                .draw_series(LineSeries::new(
-                    scheme
-                        .levels
-                        .iter()
-                        .map(|l| (l.h, l.finished_fraction + offset)),
-                    colour.stroke_width(2),
-                ))
-                .map_err(|e| err(&e))?
-                .label(scheme.name.as_str())
-                .legend(move |(a, b)| {
-                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
-                });
+    let mut names: Vec<&str> = Vec::new();
+    for s in report.scenes.iter().flat_map(|sc| &sc.report.schemes) {
+        if !names.contains(&s.name.as_str()) {
+            names.push(&s.name);
         }
-        draw_legend(&mut chart, 10, SeriesLabelPosition::LowerLeft).map_err(|e| err(&e))?;
     }
-    root.present().map_err(|e| err(&e))
+    let nudge = |name: &str| {
+        let k = names.iter().position(|n| *n == name).unwrap_or(0);
+        0.008 * (k as f64 - 0.5 * (names.len() as f64 - 1.0))
+    };
+    let panels = report
+        .scenes
+        .iter()
+        .map(|sc| Panel {
+            title: sc.report.scene.clone(),
+            x: FigureAxis::log("h"),
+            y: FigureAxis::linear("share of paths that finish").within(-0.1..1.1),
+            series: sc
+                .report
+                .schemes
+                .iter()
+                .map(|s| {
+                    let points = s.levels.iter();
+                    let points =
+                        points.map(|l| Point::at(l.h, l.finished_fraction + nudge(&s.name)));
+                    Series::new(s.name.clone(), points.collect())
+                })
+                .collect(),
+            guides: Vec::new(),
+        })
+        .collect::<Vec<_>>();
+    let mut figure = Figure::row("share of paths that finish", panels);
+    figure.columns = figure.panels.len().clamp(1, 3);
+    figure.panel_size = (420, 340);
+    render(&figure, path).map(|_| ())
 }
 
 /// Writes `report.json`, `report.md` and `stability.svg` into `dir`.

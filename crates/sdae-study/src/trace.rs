@@ -6,18 +6,19 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::prelude::*;
 use sdae_model::{Recorder, TimeGrid, run_path};
 use sdae_noise::GaussianIncrements;
 use sdae_reference::CurvedSystem;
 use sdae_scheme::{Stepper, StepperConfig};
 
 use crate::error::StudyError;
-use crate::plots::COLOURS;
+use crate::plots::figure::{Axis, Figure, Panel, Point, Series, render};
 use crate::scene::{Prepared, Scene, SceneRunner};
 
 /// Shapes drawn for a scene of several particles.
 const SHAPES: usize = 6;
+/// Particles of a shape drawn with a marker each, at most.
+const MARKED: usize = 40;
 /// Recorded states of a path, at most.
 const RECORDS: usize = 400;
 /// Recorded coordinates of a path, at most (a 10^4-bead fiber gets fewer states).
@@ -156,9 +157,9 @@ fn point(r: &[f64], dim: usize, i: usize) -> (f64, f64) {
     (p[0], p[dim - 1])
 }
 
-/// Draws the trace: the path of a single particle, or the shapes of several at a few times.
+/// Draws the trace: the path of a single particle, or the shapes of several at a few times
+/// (with a marker on each particle when there are at most 40).
 pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
     let dim = trace.particle_dim;
     let particles = trace.states.first().map_or(0, |s| s.1.len() / dim);
     let all: Vec<(f64, f64)> = trace
@@ -181,53 +182,37 @@ pub fn plot(trace: &Trace, title: &str, path: &Path) -> Result<(), StudyError> {
     // Equal scales on both axes, with a margin.
     let half = 0.55 * (x1 - x0).max(y1 - y0).max(1e-9);
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let root = SVGBackend::new(path, (560, 560)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 16))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(48)
-        .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .light_line_style(RGBColor(245, 245, 245))
-        .x_desc("x")
-        .y_desc(if dim == 3 { "z" } else { "y" })
-        .draw()
-        .map_err(|e| err(&e))?;
-    if particles == 1 {
-        chart
-            .draw_series(LineSeries::new(
-                all.iter().copied(),
-                COLOURS[0].stroke_width(1),
-            ))
-            .map_err(|e| err(&e))?;
+    let series = if particles == 1 {
+        let points = all.iter().map(|&(x, y)| Point::at(x, y)).collect();
+        vec![Series {
+            no_markers: true,
+            thin: true,
+            ..Series::new("", points)
+        }]
     } else {
         let count = trace.states.len();
-        for k in 0..SHAPES {
-            let Some((t, r)) = trace.states.get(k * (count - 1) / (SHAPES - 1).max(1)) else {
-                continue;
-            };
-            let colour = COLOURS[k % COLOURS.len()];
-            chart
-                .draw_series(LineSeries::new(
-                    (0..particles).map(|i| point(r, dim, i)),
-                    colour.stroke_width(2),
-                ))
-                .map_err(|e| err(&e))?
-                .label(format!("t = {t:.3}"))
-                .legend(move |(a, b)| {
-                    PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
+        (0..SHAPES)
+            .filter_map(|k| trace.states.get(k * (count - 1) / (SHAPES - 1).max(1)))
+            .map(|(t, r)| {
+                let points = (0..particles).map(|i| {
+                    let (x, y) = point(r, dim, i);
+                    Point::at(x, y)
                 });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))
+                Series {
+                    no_markers: particles > MARKED,
+                    ..Series::new(format!("t = {t:.3}"), points.collect())
+                }
+            })
+            .collect()
+    };
+    let panel = Panel {
+        title: String::new(),
+        x: Axis::linear("x").within(cx - half..cx + half),
+        y: Axis::linear(if dim == 3 { "z" } else { "y" }).within(cy - half..cy + half),
+        series,
+        guides: Vec::new(),
+    };
+    let mut figure = Figure::row(title, vec![panel]);
+    figure.panel_size = (540, 520);
+    render(&figure, path).map(|_| ())
 }

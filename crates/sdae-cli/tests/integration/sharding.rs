@@ -14,6 +14,7 @@ fn numbers(report: &ConvergenceReport) -> String {
     for scheme in &mut report.schemes {
         for level in &mut scheme.levels {
             level.seconds_per_path = 0.0;
+            level.seconds = Default::default();
             level.steps_per_second = 0.0;
         }
     }

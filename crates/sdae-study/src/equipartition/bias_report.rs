@@ -4,13 +4,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
-
 use super::EquipartitionScene;
 use super::bias::{BiasStudy, ReferenceKind};
 use crate::error::StudyError;
-use crate::plots::{COLOURS, DrawResult, draw_legend, log_range};
+use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
 use sdae_stats::Interval;
 
 /// An interval as "estimate [low, high]" in scientific notation, or "-".
@@ -86,73 +83,38 @@ pub fn markdown(study: &BiasStudy) -> String {
 /// `bias.svg`: per scene and time average, |bias| against seconds per path, one line per
 /// scheme (levels with a bias estimate of 0 are left out of the log scale).
 pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), StudyError> {
-    let panels: Vec<(&str, &BiasStudy)> = scenes
+    let panels = scenes
         .iter()
         .flat_map(|sc| {
             sc.configurational
                 .iter()
                 .chain(&sc.kinetic)
-                .map(move |b| (sc.scene.as_str(), b))
+                .map(move |b| panel(&sc.scene, b))
         })
         .collect();
-    let count = panels.len().max(1);
-    let root = SVGBackend::new(path, (520 * count as u32, 440)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(
-            "invariant-measure bias against run time",
-            ("sans-serif", 20),
-        )
-        .map_err(|e| err(&e))?;
-    for (area, (scene, study)) in root.split_evenly((1, count)).iter().zip(&panels) {
-        panel(area, scene, study).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))
+    let mut figure = Figure::row("invariant-measure bias against run time", panels);
+    figure.panel_size = (500, 440);
+    render(&figure, path).map(|_| ())
 }
 
 /// One panel: |bias| against s/path for every scheme.
-fn panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>, scene: &str, study: &BiasStudy,
-) -> DrawResult<()> {
-    let points = |k: usize| -> Vec<(f64, f64)> {
-        study.schemes[k]
-            .levels
-            .iter()
-            .filter_map(|l| Some((l.seconds, l.bias?.estimate.abs())))
-            .filter(|(t, b)| *t > 0.0 && *b > 0.0 && b.is_finite())
-            .collect()
-    };
-    let all: Vec<(f64, f64)> = (0..study.schemes.len()).flat_map(points).collect();
-    let xs = log_range(all.iter().map(|p| p.0));
-    let ys = log_range(all.iter().map(|p| p.1));
-    let mut chart = ChartBuilder::on(area)
-        .caption(format!("{scene}: {}", study.quantity), ("sans-serif", 15))
-        .margin(10)
-        .x_label_area_size(32)
-        .y_label_area_size(52)
-        .build_cartesian_2d(xs.log_scale(), ys.log_scale())?;
-    chart
-        .configure_mesh()
-        .light_line_style(RGBColor(245, 245, 245))
-        .x_desc("seconds per path")
-        .y_desc("|bias|")
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .draw()?;
-    for (k, scheme) in study.schemes.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        chart
-            .draw_series(LineSeries::new(points(k), colour.stroke_width(2)))?
-            .label(scheme.scheme.as_str())
-            .legend(move |(a, b)| {
-                PathElement::new(vec![(a, b), (a + 14, b)], colour.stroke_width(2))
-            });
-        chart.draw_series(
-            points(k)
-                .into_iter()
-                .map(|p| Circle::new(p, 3, colour.filled())),
-        )?;
+fn panel(scene: &str, study: &BiasStudy) -> Panel {
+    let series = study
+        .schemes
+        .iter()
+        .map(|scheme| {
+            let points = scheme
+                .levels
+                .iter()
+                .filter_map(|l| Some(Point::at(l.seconds, l.bias?.estimate.abs())));
+            Series::new(scheme.scheme.clone(), points.collect())
+        })
+        .collect();
+    Panel {
+        title: format!("{scene}: {}", study.quantity),
+        x: FigureAxis::log("seconds per path"),
+        y: FigureAxis::log("|bias|"),
+        series,
+        guides: Vec::new(),
     }
-    draw_legend(&mut chart, 9, SeriesLabelPosition::LowerLeft)
 }

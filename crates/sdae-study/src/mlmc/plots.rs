@@ -5,22 +5,19 @@
 
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
-
 use super::study::MlmcReport;
 use crate::error::StudyError;
-use crate::plots::COLOURS;
+use crate::plots::figure::{self, Axis, Figure, Point, Series};
 
 /// How an axis's numbers are labelled: as they are, or as the power of 10 they are the
 /// logarithm of.
-type Format = fn(&f64) -> String;
+type Format = fn(f64) -> String;
 
-fn plain(v: &f64) -> String {
+fn plain(v: f64) -> String {
     format!("{v:.0}")
 }
 
-fn power_of_ten(v: &f64) -> String {
+fn power_of_ten(v: f64) -> String {
     format!("1e{v:.0}")
 }
 
@@ -56,10 +53,8 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo - pad..hi + pad
 }
 
-fn draw_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>, panel: &Panel, path: &Path,
-) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
+/// A panel of the figure: linear axes over the drawable points (the values are logarithms).
+fn figure_panel(panel: &Panel) -> figure::Panel {
     let points = || {
         panel
             .lines
@@ -67,59 +62,32 @@ fn draw_panel(
             .flat_map(|(_, p)| p.iter())
             .filter(|p| drawable(**p))
     };
-    let mut chart = ChartBuilder::on(area)
-        .caption(&panel.title, ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(range(points().map(|p| p.0)), range(points().map(|p| p.1)))
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .light_line_style(RGBColor(245, 245, 245))
-        .x_desc(panel.axes.0)
-        .y_desc(panel.axes.1)
-        .x_label_formatter(&panel.formats.0)
-        .y_label_formatter(&panel.formats.1)
-        .draw()
-        .map_err(|e| err(&e))?;
-    for (k, (label, line)) in panel.lines.iter().enumerate() {
-        let colour = COLOURS[k % COLOURS.len()];
-        let finite: Vec<(f64, f64)> = line.iter().copied().filter(|p| drawable(*p)).collect();
-        chart
-            .draw_series(LineSeries::new(finite.clone(), colour.stroke_width(2)))
-            .map_err(|e| err(&e))?
-            .label(label)
-            .legend(move |(a, b)| {
-                PathElement::new(vec![(a, b), (a + 18, b)], colour.stroke_width(2))
-            });
-        chart
-            .draw_series(finite.iter().map(|p| Circle::new(*p, 3, colour.filled())))
-            .map_err(|e| err(&e))?;
+    let axis = |name: &str, format: Format, range: std::ops::Range<f64>| {
+        Axis::linear(name).within(range).formatted(format)
+    };
+    figure::Panel {
+        title: panel.title.clone(),
+        x: axis(panel.axes.0, panel.formats.0, range(points().map(|p| p.0))),
+        y: axis(panel.axes.1, panel.formats.1, range(points().map(|p| p.1))),
+        series: panel
+            .lines
+            .iter()
+            .map(|(label, line)| {
+                let finite = line.iter().copied().filter(|p| drawable(*p));
+                Series::new(
+                    label.clone(),
+                    finite.map(|(x, y)| Point::at(x, y)).collect(),
+                )
+            })
+            .collect(),
+        guides: Vec::new(),
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 11))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| err(&e))?;
-    Ok(())
 }
 
 /// Draws `panels` side by side into `path`.
 fn draw(path: &Path, title: &str, panels: &[Panel]) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    let root = SVGBackend::new(path, (480 * panels.len() as u32, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(title, ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    for (area, panel) in root.split_evenly((1, panels.len())).iter().zip(panels) {
-        draw_panel(area, panel, path)?;
-    }
-    root.present().map_err(|e| err(&e))
+    let figure = Figure::row(title, panels.iter().map(figure_panel).collect());
+    figure::render(&figure, path).map(|_| ())
 }
 
 /// Writes `levels.svg` (log2 variance and log2 |mean| per level), `samples.svg` (N_l per

@@ -6,14 +6,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
-
 use super::{Basis, ObservableReport, WeakLevel, WeakOrder, WeakReport, WeakScheme};
 use crate::error::StudyError;
 use crate::files::{write_atomically, write_json};
 use crate::output::{decades, left_out, readable};
-use crate::plots::{COLOURS, DrawResult, LogChart, draw_legend, drawable, log_range};
+use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
 use sdae_stats::Interval;
 
 /// "order [low, high]", then the levels left out of the fit and why (unresolved,
@@ -385,98 +382,55 @@ impl Axis {
 }
 
 /// One panel per observable: |final-time error| of every row on log-log axes, with 95% error
-/// bars clipped to positive values; extrapolated rows dashed in the colour of their scheme.
+/// bars; extrapolated rows thin, in the colour of their scheme.
 fn draw(report: &WeakReport, path: &Path, axis: Axis) -> Result<(), StudyError> {
-    let err = |e: &dyn std::fmt::Display| StudyError::write(path, e);
-    let panels = report.observables.len().max(1);
-    let root = SVGBackend::new(path, (480 * panels as u32, 480)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
     let title = match axis {
         Axis::StepSize => format!("{}: weak error at T against step size", report.scene),
         Axis::RunTime => format!("{}: weak error at T against run time", report.scene),
     };
-    let root = root
-        .titled(&title, ("sans-serif", 20))
-        .map_err(|e| err(&e))?;
-    for (area, o) in root
-        .split_evenly((1, panels))
+    let panels = report
+        .observables
         .iter()
-        .zip(&report.observables)
-    {
-        observable_panel(area, o, axis).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))
+        .map(|o| observable_panel(o, axis))
+        .collect();
+    render(&Figure::row(title, panels), path).map(|_| ())
 }
 
-/// An observable's panel: every row's |error| against `axis`, its error bars, the legend.
-fn observable_panel(
-    area: &DrawingArea<SVGBackend<'_>, Shift>, o: &ObservableReport, axis: Axis,
-) -> DrawResult<()> {
-    let levels = || o.schemes.iter().flat_map(|r| r.levels.iter());
-    let x_range = log_range(levels().map(|l| axis.of(l)));
-    let y_range = log_range(levels().flat_map(|l| [l.error.estimate.abs(), upper_bound(&l.error)]));
-    let mut chart = ChartBuilder::on(area)
-        .caption(&o.name, ("sans-serif", 16))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(x_range.log_scale(), y_range.clone().log_scale())?;
-    chart
-        .configure_mesh()
-        .x_desc(match axis {
+/// An observable's panel: every row's |error| against `axis` with its error bars.
+fn observable_panel(o: &ObservableReport, axis: Axis) -> Panel {
+    Panel {
+        title: o.name.clone(),
+        x: FigureAxis::log(match axis {
             Axis::StepSize => "h",
             Axis::RunTime => "seconds per path",
-        })
-        .y_desc("|weak error| at T")
-        .x_label_formatter(&|x| format!("{x:.0e}"))
-        .y_label_formatter(&|y| format!("{y:.0e}"))
-        .draw()?;
-    for (k, row) in o.schemes.iter().enumerate() {
-        let colour = COLOURS[(k / 2) % COLOURS.len()];
-        draw_row(&mut chart, row, axis, colour, y_range.clone())?;
+        }),
+        y: FigureAxis::log("|weak error| at T"),
+        series: o.schemes.iter().map(|row| row_series(row, axis)).collect(),
+        guides: Vec::new(),
     }
-    draw_legend(&mut chart, 9, SeriesLabelPosition::LowerRight)
 }
 
-/// A row's |error| against `axis` and its error bars, kept within the axis `range` (levels
-/// whose x cannot be drawn left out): in `colour`, thinner and lighter if extrapolated.
-fn draw_row(
-    chart: &mut LogChart<'_, '_>, row: &WeakScheme, axis: Axis, colour: RGBColor,
-    range: std::ops::Range<f64>,
-) -> DrawResult<()> {
-    let (floor, ceiling) = (range.start, range.end);
-    let within = |v: f64| {
-        if v.is_nan() {
-            floor
-        } else {
-            v.clamp(floor, ceiling)
-        }
-    };
-    let levels = || row.levels.iter().filter(|l| drawable(axis.of(l)));
-    let style = if row.extrapolated {
-        colour.mix(0.6).stroke_width(1)
-    } else {
-        colour.stroke_width(2)
-    };
-    let points: Vec<(f64, f64)> = levels()
-        .map(|l| (axis.of(l), within(l.error.estimate.abs())))
+/// A row's |error| against `axis`, its 95% interval folded onto |error| (from |error| less
+/// the half-width to the largest |bound|); thin if extrapolated.
+fn row_series(row: &WeakScheme, axis: Axis) -> Series {
+    let points = row
+        .levels
+        .iter()
+        .map(|l| {
+            let y = l.error.estimate.abs();
+            Point {
+                y_bar: Some((
+                    y - 0.5 * (l.error.ci_high - l.error.ci_low),
+                    upper_bound(&l.error),
+                )),
+                ..Point::at(axis.of(l), y)
+            }
+        })
         .collect();
-    chart
-        .draw_series(LineSeries::new(points, style))?
-        .label(&row.name)
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-    chart.draw_series(levels().map(|l| {
-        let low = within(l.error.estimate.abs() - 0.5 * (l.error.ci_high - l.error.ci_low));
-        ErrorBar::new_vertical(
-            axis.of(l),
-            low,
-            within(l.error.estimate.abs()),
-            within(upper_bound(&l.error)),
-            style,
-            4,
-        )
-    }))?;
-    Ok(())
+    Series {
+        thin: row.extrapolated,
+        ..Series::new(row.name.clone(), points)
+    }
 }
 
 /// Writes `weak.json`, `weak.csv`, `weak.md`, `weak_error_vs_h.svg` and

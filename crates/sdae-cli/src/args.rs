@@ -55,6 +55,9 @@ pub enum Command {
     /// One path of each scene as <OUT>/trace/<scene>.svg and .csv (default: every built-in
     /// scene).
     Trace(TraceArgs),
+    /// Paths of a scene with one scheme as trajectory files, written as they are simulated:
+    /// extended XYZ (VMD, OVITO), VTK (ParaView) or CSV; writes <OUT>/simulate/<scene>/.
+    Simulate(crate::simulate_cli::SimulateArgs),
     /// The built-in scenes and the schemes.
     List,
     /// Multilevel Monte Carlo of E[f(X_T)] (Giles): convergence test, rates, complexity
@@ -65,6 +68,10 @@ pub enum Command {
     Mlmc(MlmcArgs),
     /// Merge the shard files of `mlmc --plan FILE --shard I/N` runs into the plan's report.
     MlmcMerge(MlmcMergeArgs),
+    /// E[f(X_T)] to an accuracy eps by whichever of standard Monte Carlo, randomized QMC,
+    /// MLMC and multilevel QMC a short pilot predicts cheapest (default: the pendulum's
+    /// E[cos phi_T]); writes <OUT>/expect/<scene>/report.json, report.md and report.csv.
+    Expect(crate::expect_cli::ExpectArgs),
     /// Compare the numbers of two reports or shards (JSON), leaving out what differs between
     /// runs (timings, thread counts): exit code 0 if they are equal, 1 with the first
     /// difference.
@@ -225,7 +232,7 @@ pub struct TraceArgs {
     pub out: OutArgs,
 }
 
-fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
+pub(crate) fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
     OneOf(SchemeKind::ALL.map(SchemeKind::name).to_vec())
         .map(|name| SchemeKind::from_name(&name).expect("one of the possible values"))
 }
@@ -272,7 +279,7 @@ impl TypedValueParser for OneOf {
     }
 }
 
-fn thread_count(value: &str) -> Result<usize, String> {
+pub(crate) fn thread_count(value: &str) -> Result<usize, String> {
     match value.parse::<usize>() {
         Ok(0) => Err("must be at least 1".into()),
         Ok(n) if n > MAX_THREADS => Err(format!("must be at most {MAX_THREADS}")),
@@ -529,21 +536,26 @@ pub struct MlmcArgs {
     /// is not sharded, it runs on one machine.
     #[arg(long, conflicts_with_all = ["plan", "shard"])]
     pub qmc: bool,
-    /// With --qmc: randomizations R per level (at least 2; their spread gives the interval).
+    /// `mlqmc`: multilevel QMC alone at every eps (no MLMC, no convergence test), written to
+    /// <OUT>/mlmc/<scene>/mlqmc.json and mlqmc.md; `mlmc` (the default): the study.
+    #[arg(long, value_name = "NAME", default_value = "mlmc", value_parser = ["mlmc", "mlqmc"],
+          conflicts_with_all = ["plan", "shard", "write_plan", "resume"])]
+    pub method: String,
+    /// With --qmc or --method mlqmc: randomizations R per level (at least 2; their spread
+    /// gives the interval).
     #[arg(
         long,
         value_name = "R",
         default_value_t = MLQMC_RANDOMIZATIONS,
-        requires = "qmc",
         conflicts_with = "plan"
     )]
     pub randomizations: u32,
-    /// With --qmc: points n_0 of each randomization when a level is first run (a power of two).
+    /// With --qmc or --method mlqmc: points n_0 of each randomization when a level is first
+    /// run (a power of two).
     #[arg(
         long = "initial-points",
         value_name = "N",
         default_value_t = MLQMC_INITIAL_POINTS,
-        requires = "qmc",
         conflicts_with = "plan"
     )]
     pub initial_points: u64,

@@ -19,9 +19,11 @@ macro_rules! note {
 }
 
 mod args;
+mod expect_cli;
 mod mlmc_cli;
 mod runs;
 mod shard;
+mod simulate_cli;
 mod stopping;
 
 use clap::Parser;
@@ -227,6 +229,14 @@ fn main() -> ExitCode {
             mlmc_cli::mlmc(&args, &STOP)
         }
         Some(Command::MlmcMerge(args)) => mlmc_cli::mlmc_merge(&args),
+        Some(Command::Expect(args)) => {
+            catch_signals();
+            expect_cli::expect(&args, &STOP)
+        }
+        Some(Command::Simulate(args)) => {
+            catch_signals();
+            simulate_cli::simulate(&args, &STOP)
+        }
         Some(Command::Compare(args)) => runs::compare(&args.first, &args.second),
         Some(Command::List) => {
             runs::list();

@@ -3,7 +3,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use sdae_cli::checkpoint::RunLock;
 use sdae_cli::folders::check_writable;
 use sdae_cli::mlmc_checkpoint::{Journal, MlmcCheckpoint, MlmcRun, SavedBlocks};
@@ -21,8 +20,12 @@ use sdae_study::options::MlmcOptions;
 use sdae_study::scene::{Scene, escaped};
 
 use crate::args::{MlmcArgs, MlmcMergeArgs};
+use crate::expect_cli::{run_expectation, spinner};
 use crate::runs::{Resumable, Resumption, prepare, refused, writable_out};
 use crate::{Failure, stopping};
+use sdae_mlmc::expectation::{CostMeasure, Method};
+use sdae_study::mlmc::ExpectRequest;
+use sdae_study::mlmc::expect_report::{markdown as expect_markdown, summary};
 
 impl From<MlmcError> for Failure {
     fn from(e: MlmcError) -> Failure {
@@ -59,12 +62,34 @@ impl MlmcArgs {
             threads: self.threads,
             quick: self.quick,
             standard_run: !self.no_standard,
-            qmc: self.qmc.then_some(QmcSettings {
+            qmc: (self.qmc || self.mlqmc_alone()).then_some(QmcSettings {
                 randomizations: self.randomizations,
                 initial_points: self.initial_points,
             }),
         }
         .settings(scene)
+    }
+
+    /// Whether `--method mlqmc` asks for multilevel QMC alone.
+    fn mlqmc_alone(&self) -> bool {
+        self.method == "mlqmc"
+    }
+
+    /// Refuses the QMC design's flags without --qmc or --method mlqmc, which use them.
+    fn check_quasi_flags(&self) -> Result<(), Failure> {
+        if self.qmc || self.mlqmc_alone() {
+            return Ok(());
+        }
+        match ["--randomizations", "--initial-points"]
+            .into_iter()
+            .find(|f| crate::args::typed(f))
+        {
+            Some(flag) => Err(Failure::Usage(format!(
+                "{flag} sets the design of the quasi-Monte Carlo runs: it needs --qmc or \
+                 --method mlqmc"
+            ))),
+            None => Ok(()),
+        }
     }
 
     /// The settings of `scene` with the command line's changes, checked against the scene: a
@@ -103,15 +128,6 @@ impl MlmcArgs {
             .map_err(Failure::Usage)?
             .map(|(i, n)| (i as u64, n as u64)))
     }
-}
-
-/// A spinner counting samples on stderr.
-fn spinner(scene: &str) -> ProgressBar {
-    let template = format!("  {{spinner}} {scene}: {{pos}} samples, {{elapsed}} elapsed");
-    ProgressBar::new_spinner().with_style(
-        ProgressStyle::with_template(&template)
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    )
 }
 
 /// A run's control: `threads` workers, the progress callback, the stop flag.
@@ -271,7 +287,11 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
             scenes.len()
         )));
     };
+    args.check_quasi_flags()?;
     let settings = args.checked_settings(scene)?;
+    if args.mlqmc_alone() {
+        return mlqmc_alone(args, scene, &settings, stop);
+    }
     let plan = args
         .plan
         .as_deref()
@@ -324,6 +344,38 @@ pub fn mlmc(args: &MlmcArgs, stop: &AtomicBool) -> Result<(), Failure> {
     if let Some(file) = &args.write_plan {
         write_plan_file(file, scene, &settings, &report)?;
     }
+    Ok(())
+}
+
+/// `mlmc --method mlqmc`: multilevel QMC alone at every eps of `settings` (as `expect
+/// --method mlqmc` runs it), written to <OUT>/mlmc/<scene>/mlqmc.json (the list of
+/// expectations) and mlqmc.md, with a summary of each.
+fn mlqmc_alone(
+    args: &MlmcArgs, scene: &Scene, settings: &MlmcSettings, stop: &AtomicBool,
+) -> Result<(), Failure> {
+    let dir = args.out.out.join("mlmc").join(&scene.name);
+    writable_out(&dir)?;
+    let mut eps = settings.spec.eps.clone();
+    eps.sort_by(|a, b| b.total_cmp(a));
+    let mut runs = Vec::with_capacity(eps.len());
+    let mut markdown = String::new();
+    for eps in eps {
+        let request = ExpectRequest {
+            eps,
+            by: CostMeasure::Work,
+            method: Some(Method::Mlqmc),
+        };
+        let found = run_expectation(scene, settings, &request, stop)?;
+        for line in summary(&found) {
+            say!("{line}");
+        }
+        markdown.push_str(&expect_markdown(&found));
+        markdown.push('\n');
+        runs.push(found);
+    }
+    write_json(&dir.join("mlqmc.json"), &runs)?;
+    write_atomically(&dir.join("mlqmc.md"), &markdown)?;
+    say!("wrote {}", dir.join("mlqmc.md").display());
     Ok(())
 }
 

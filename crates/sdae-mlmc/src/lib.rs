@@ -14,8 +14,8 @@
 //!   keeps finished blocks (a checkpoint: a resumed run folds exactly the uninterrupted sums).
 //! - [`algorithm`]: Giles's adaptive algorithm, plans with fixed N_l, standard Monte Carlo on
 //!   one level.
-//! - [`mod@expectation`]: E\[P\] to a requested accuracy by whichever of MLMC and standard Monte
-//!   Carlo a short convergence test predicts cheaper.
+//! - [`mod@expectation`]: E\[P\] to a requested accuracy by whichever of standard Monte Carlo,
+//!   randomized QMC, MLMC and multilevel QMC a short pilot predicts cheapest.
 //! - [`shard`]: a plan's run split into shards (on the nodes of a cluster) and merged into
 //!   exactly the sums of the unsharded run.
 //! - [`fit`]: the rates alpha, beta, gamma of the convergence test with intervals.
@@ -45,7 +45,10 @@ pub use algorithm::{
     AdaptiveSettings, MlmcEstimate, Plan, adaptive, run_plan, standard_monte_carlo,
 };
 pub use error::MlmcError;
-pub use expectation::{Expectation, ExpectationSettings, Method, expectation};
+pub use expectation::{
+    CostMeasure, Expectation, ExpectationSettings, Method, Prediction, expectation,
+    expectation_quasi,
+};
 pub use fit::{Rates, fit_rates};
 pub use qmc::{
     MlqmcEstimate, QuasiEstimate, QuasiLevel, QuasiSampler, QuasiSettings, cost_exponent,

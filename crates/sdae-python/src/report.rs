@@ -10,6 +10,7 @@ use pyo3::prelude::*;
 use sdae_study::StudyError;
 use sdae_study::convergence::ConvergenceReport;
 use sdae_study::files::{write_atomically, write_json};
+use sdae_study::mlmc::expect_report;
 use sdae_study::mlmc::{MlmcReport, SceneExpectation};
 use sdae_study::stability::StabilityReport;
 use sdae_study::weak::WeakReport;
@@ -61,7 +62,7 @@ impl Study {
             Study::Weak(r) => sdae_study::weak::report::csv(r),
             Study::Stability(r) => stability_csv(r),
             Study::Mlmc(r) => sdae_study::mlmc::report::csv(r),
-            Study::Expectation(r) => expectation_csv(r),
+            Study::Expectation(r) => expect_report::csv(r),
         }
     }
 
@@ -72,7 +73,7 @@ impl Study {
             Study::Weak(r) => sdae_study::weak::report::markdown(r),
             Study::Stability(r) => sdae_study::stability::markdown(r),
             Study::Mlmc(r) => sdae_study::mlmc::report::markdown(r),
-            Study::Expectation(r) => format!("{}\n", expectation_line(r)),
+            Study::Expectation(r) => expect_report::markdown(r),
         }
     }
 
@@ -97,7 +98,7 @@ impl Study {
             Study::Mlmc(r) => sdae_study::mlmc::report::write_report(r, dir),
             Study::Expectation(r) => {
                 write_json(&dir.join("expectation.json"), r)?;
-                write_atomically(&dir.join("expectation.csv"), &expectation_csv(r))
+                write_atomically(&dir.join("expectation.csv"), &expect_report::csv(r))
             }
         }
     }
@@ -121,70 +122,6 @@ fn stability_csv(report: &StabilityReport) -> String {
         }
     }
     out
-}
-
-/// An expectation as one CSV row.
-fn expectation_csv(e: &SceneExpectation) -> String {
-    let f = &e.found;
-    let (mlmc, standard) = f
-        .predicted
-        .map_or((f64::NAN, f64::NAN), |p| (p.mlmc, p.standard));
-    format!(
-        "scene,observable,scheme,T,eps,method,estimate,ci_low,ci_high,low_with_bias,\
-         high_with_bias,bias,level,failed,test_work,work,predicted_mlmc_work,\
-         predicted_standard_work,seconds\n\
-         {},{},{},{:e},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{:e},{:e},{:e},{:e},{:e}\n",
-        e.scene,
-        e.observable,
-        e.scheme,
-        e.t_end,
-        f.eps,
-        f.method,
-        f.estimate.estimate,
-        f.estimate.ci_low,
-        f.estimate.ci_high,
-        f.with_bias.ci_low,
-        f.with_bias.ci_high,
-        f.bias,
-        f.level,
-        f.failed,
-        f.test_work,
-        f.work,
-        mlmc,
-        standard,
-        f.seconds
-    )
-}
-
-/// An expectation in one sentence.
-fn expectation_line(e: &SceneExpectation) -> String {
-    let f = &e.found;
-    let how = match f.method {
-        sdae_mlmc::Method::Mlmc => "multilevel Monte Carlo",
-        sdae_mlmc::Method::Standard => "standard Monte Carlo",
-    };
-    let predicted = f.predicted.map_or(
-        " (the convergence test did not resolve the bias, so the adaptive algorithm ran)".into(),
-        |p| {
-            format!(
-                " (predicted work {:.3e} steps by MLMC, {:.3e} by standard Monte Carlo)",
-                p.mlmc, p.standard
-            )
-        },
-    );
-    format!(
-        "{}: E[{}(X_T)] = {:.6} [{:.6}, {:.6}] (95% + bias), bias estimate {:.2e}, eps = {:e}, \
-         by {how} on levels 0..={} with {}{predicted}",
-        e.scene,
-        e.observable,
-        f.with_bias.estimate,
-        f.with_bias.ci_low,
-        f.with_bias.ci_high,
-        f.bias,
-        f.eps,
-        f.level,
-        e.scheme,
-    )
 }
 
 /// A study's report: `kind`, its JSON (`to_json`), CSV tables (`csv`) and Markdown

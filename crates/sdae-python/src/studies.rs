@@ -1,5 +1,6 @@
 //! The studies from Python: convergence, weak, stability and MLMC runs with the command line's
-//! options ([`sdae_study::options`]), and the expectation helper; each returns a [`PyReport`].
+//! options ([`sdae_study::options`]), and the expectation helper (the estimator a pilot predicts
+//! cheapest); each returns a [`PyReport`].
 //!
 //! A keyword left at None keeps the scene's value, as an option not typed on the command line
 //! does. A setting the library refuses is a `ValueError` named by its keyword when the caller
@@ -7,12 +8,14 @@
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use sdae_mlmc::expectation::{CostMeasure, Method};
 use sdae_mlmc::{MlmcError, RunControl};
 use sdae_study::StudyError;
 use sdae_study::convergence::{ConvergenceSettings, build_report, run_convergence};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::mlmc::{
-    MlmcSettings, QmcSettings, caused_by_input, run_mlmc, scene_expectation, study_error,
+    ExpectRequest, MlmcSettings, QmcSettings, caused_by_input, run_mlmc, scene_expectation_with,
+    study_error,
 };
 use sdae_study::options::{
     ConvergenceOptions, EnsembleOptions, MlmcOptions, WeakOptions, option_of,
@@ -286,14 +289,7 @@ pub fn mlmc(
     let scene = &scene.scene;
     let qmc = match (randomizations, initial_points) {
         (None, None) => None,
-        (r, n) => Some(QmcSettings {
-            randomizations: r.map_or(Ok(sdae_study::options::MLQMC_RANDOMIZATIONS), |r| {
-                whole("randomizations", r)
-            })?,
-            initial_points: n.map_or(Ok(sdae_study::options::MLQMC_INITIAL_POINTS), |n| {
-                whole("initial_points", n)
-            })?,
-        }),
+        (r, n) => Some(quasi_design(r, n)?),
     };
     let mut keywords = mlmc_keywords(
         observable,
@@ -357,18 +353,22 @@ fn mlmc_keywords(
     Ok(MlmcKeywords { options, given })
 }
 
-/// E[f(X_T)] of `scene`'s observable to root mean square accuracy `eps`, by MLMC or standard
-/// Monte Carlo, whichever a convergence test predicts cheaper.
+/// E[f(X_T)] of `scene`'s observable to root mean square accuracy `eps`, by whichever of
+/// standard Monte Carlo, randomized QMC, MLMC and multilevel QMC a short pilot predicts
+/// cheapest by `pick_by` ("work" or "seconds"), or by `method` ("mlmc", "mlqmc", "standard",
+/// "rqmc") whatever the prediction; `randomizations` and `initial_points` are the QMC design.
 #[pyfunction]
 #[pyo3(signature = (scene, *, eps, observable=None, scheme=None, antithetic=false,
     coarsest=None, max_level=None, test_levels=None, test_samples=None, t_end=None, seed=2026,
-    threads=None, progress=None))]
+    threads=None, method=None, pick_by=None, randomizations=None, initial_points=None,
+    progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn expectation(
     py: Python<'_>, scene: &PyScene, eps: f64, observable: Option<String>, scheme: Option<String>,
     antithetic: bool, coarsest: Option<i128>, max_level: Option<i128>, test_levels: Option<i128>,
     test_samples: Option<i128>, t_end: Option<f64>, seed: i128, threads: Option<i128>,
-    progress: Option<f64>,
+    method: Option<String>, pick_by: Option<String>, randomizations: Option<i128>,
+    initial_points: Option<i128>, progress: Option<f64>,
 ) -> PyResult<PyReport> {
     let scene = &scene.scene;
     let mut keywords = mlmc_keywords(
@@ -380,10 +380,49 @@ pub fn expectation(
         seed,
         threads,
     )?;
+    keywords.options.qmc = Some(quasi_design(randomizations, initial_points)?);
     keywords.given.push("eps");
+    for (name, set) in [
+        ("randomizations", randomizations.is_some()),
+        ("initial_points", initial_points.is_some()),
+    ] {
+        if set {
+            keywords.given.push(name);
+        }
+    }
+    let request = ExpectRequest {
+        eps,
+        by: pick_by.map_or(Ok(CostMeasure::Work), |b| {
+            b.parse()
+                .map_err(|e| PyValueError::new_err(format!("pick_by = {b:?}: {e}")))
+        })?,
+        method: method
+            .map(|m| {
+                m.parse::<Method>()
+                    .map_err(|e| PyValueError::new_err(format!("method = {m:?}: {e}")))
+            })
+            .transpose()?,
+    };
     let settings = keywords.settings(scene)?;
     let found = keywords.run(py, scene, &settings, "expectation", progress, |control| {
-        scene_expectation(scene, &settings, eps, control)
+        scene_expectation_with(scene, &settings, &request, control)
     })?;
     PyReport::new(Study::Expectation(Box::new(found)))
+}
+
+/// The QMC design of R randomizations of n_0 points, the command line's defaults for those
+/// not given.
+fn quasi_design(
+    randomizations: Option<i128>, initial_points: Option<i128>,
+) -> PyResult<QmcSettings> {
+    Ok(QmcSettings {
+        randomizations: randomizations
+            .map_or(Ok(sdae_study::options::MLQMC_RANDOMIZATIONS), |r| {
+                whole("randomizations", r)
+            })?,
+        initial_points: initial_points
+            .map_or(Ok(sdae_study::options::MLQMC_INITIAL_POINTS), |n| {
+                whole("initial_points", n)
+            })?,
+    })
 }

@@ -14,12 +14,14 @@
 //! - [`study`], [`report`] (with [`quasi_report`]), [`plots`]: the whole study of a scene and its files.
 //! - [`shard`]: runs with a fixed plan, sharded and merged into exactly the unsharded sums (the
 //!   command saves and reads the shards' files).
-//! - [`expectation`]: E[f(X_T)] to a requested accuracy by MLMC or standard Monte Carlo,
-//!   whichever the convergence test predicts cheaper.
+//! - [`expectation`]: E[f(X_T)] to a requested accuracy by whichever of standard Monte Carlo,
+//!   randomized QMC, MLMC and multilevel QMC a short pilot predicts cheapest, and
+//!   [`expect_report`] its report.
 //! - [`plan_runs`]: a scene's plans through its sampler (derived, run, merged).
 
 pub mod coarsest;
 pub mod coupled;
+pub mod expect_report;
 pub mod expectation;
 pub mod plan_runs;
 pub mod plots;
@@ -31,7 +33,7 @@ pub mod shard;
 pub mod study;
 
 pub use coupled::CoupledSampler;
-pub use expectation::{SceneExpectation, scene_expectation};
+pub use expectation::{ExpectRequest, SceneExpectation, scene_expectation, scene_expectation_with};
 pub use quasi::{QmcReport, QmcSettings};
 pub use settings::{MlmcSpec, caused_by_input, study_error};
 pub use study::{

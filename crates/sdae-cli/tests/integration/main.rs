@@ -6,6 +6,7 @@
 mod bits;
 mod cli;
 mod command_line;
+mod expect_command;
 mod common;
 mod faults;
 mod mlmc_command_line;
@@ -14,4 +15,5 @@ mod named_refusals;
 mod process;
 mod resume;
 mod sharding;
+mod simulate_command;
 mod stop_anywhere;

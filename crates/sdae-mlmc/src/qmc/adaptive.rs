@@ -194,10 +194,29 @@ fn reduce_variance<Q: QuasiSampler>(
 pub fn mlqmc<Q: QuasiSampler>(
     sampler: &Q, control: &RunControl<'_>, settings: &QuasiSettings,
 ) -> Result<MlqmcEstimate, MlmcError> {
-    let eps = check_settings(settings)?;
-    let mut levels = (0..=settings.min_levels)
+    check_settings(settings)?;
+    let levels = (0..=settings.min_levels)
         .map(|l| first_points(sampler, control, settings, l))
         .collect::<Result<Vec<_>, _>>()?;
+    mlqmc_from(sampler, control, settings, levels)
+}
+
+/// The adaptive MLQMC algorithm carried on from `levels` (levels 0..=L already run with
+/// `settings.randomizations` randomizations each, a pilot's): the doublings and levels it
+/// still needs, as [`mlqmc`] adds them. Levels added get `settings.initial_points` points.
+pub fn mlqmc_from<Q: QuasiSampler>(
+    sampler: &Q, control: &RunControl<'_>, settings: &QuasiSettings, mut levels: Vec<QuasiLevel>,
+) -> Result<MlqmcEstimate, MlmcError> {
+    let eps = check_settings(settings)?;
+    let r = settings.randomizations as usize;
+    if levels.is_empty() || levels.iter().any(|q| q.randomizations.len() != r) {
+        return Err(MlmcError::Levels {
+            reason: format!(
+                "MLQMC carries on from levels with {r} randomizations each, got {} levels",
+                levels.len()
+            ),
+        });
+    }
     loop {
         reduce_variance(sampler, control, eps, &mut levels)?;
         let means: Vec<(f64, f64)> = levels.iter().map(|q| (q.mean, q.variance.sqrt())).collect();

@@ -34,7 +34,7 @@ pub mod adaptive;
 pub mod cost;
 pub mod level;
 
-pub use adaptive::{MlqmcEstimate, QuasiSettings, level_to_double, mlqmc};
+pub use adaptive::{MlqmcEstimate, QuasiSettings, level_to_double, mlqmc, mlqmc_from};
 pub use cost::{cost_exponent, cost_exponent_of};
 pub use level::{QuasiEstimate, QuasiLevel, standard_quasi_monte_carlo};
 

@@ -62,11 +62,9 @@ impl LevelSampler for Independent {
 
 fn settings(eps: f64) -> ExpectationSettings {
     ExpectationSettings {
-        eps,
         test_levels: 5,
-        test_samples: 4096,
-        initial_samples: 1024,
         max_level: 10,
+        ..ExpectationSettings::new(eps)
     }
 }
 
@@ -129,15 +127,18 @@ fn coupled_levels_take_multilevel_monte_carlo() {
     let eps = 5e-3;
     let control = RunControl::new(2).unwrap();
     let found = expectation(&linear, &control, &settings(eps)).unwrap();
-    let predicted = found.predicted.expect("the test's levels reach the bias");
+    assert!(found.resolved, "the test's levels reach the bias");
+    let mlmc = found.prediction(Method::Mlmc).unwrap();
+    let standard = found.prediction(Method::Standard).unwrap();
     assert_eq!(found.method, Method::Mlmc);
     assert_eq!(
         found.method,
-        exact_verdict(&linear, &linear, predicted.level, eps, true)
+        exact_verdict(&linear, &linear, mlmc.level, eps, true)
     );
-    assert!(predicted.standard > 2.0 * predicted.mlmc, "{predicted:?}");
+    assert!(standard.work > 2.0 * mlmc.work, "{standard:?} {mlmc:?}");
     assert_covers(&found, &linear);
-    assert_eq!(found.test.len(), 6);
+    // The test stops at the first level whose bias estimate is within eps / sqrt(2).
+    assert_eq!(found.test.len() as u32, mlmc.level + 1);
 }
 
 #[test]
@@ -152,7 +153,8 @@ fn independent_levels_take_standard_monte_carlo() {
         ..settings(eps)
     };
     let found = expectation(&sampler, &control, &settings).unwrap();
-    let predicted = found.predicted.expect("the test's levels reach the bias");
+    assert!(found.resolved, "the test's levels reach the bias");
+    let predicted = found.prediction(Method::Standard).unwrap();
     assert_eq!(found.method, Method::Standard);
     assert_eq!(
         found.method,
@@ -160,7 +162,7 @@ fn independent_levels_take_standard_monte_carlo() {
     );
     let level = predicted.level as usize;
     assert!(found.samples[..level].iter().all(|&n| n == 0));
-    assert!(found.samples[level] as f64 * 2f64.powi(1 + level as i32) >= predicted.standard);
+    assert!(found.samples[level] as f64 * 2f64.powi(1 + level as i32) >= predicted.work);
     assert_covers(&found, &linear);
 }
 

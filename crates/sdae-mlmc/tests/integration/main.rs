@@ -6,6 +6,7 @@
 
 mod expectation;
 mod linear;
+mod pick;
 mod qmc;
 mod rates;
 mod shard;

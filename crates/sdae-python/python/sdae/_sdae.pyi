@@ -1,6 +1,7 @@
 """Type stubs of the native module ``sdae._sdae``."""
 
 import os
+import pathlib
 from typing import Any, Dict, List, Optional
 
 import numpy as np
@@ -48,7 +49,9 @@ class Scene:
         """The scene as a dict with the keys of a scene file."""
 
 class Paths:
-    """Recorded paths: arrays over (paths, times, coordinates)."""
+    """Recorded paths: arrays over (paths, times, coordinates), with the scene, scheme, seed,
+    steps and ``every`` of the run; saved to ``.npz`` files, picklable, and written as XYZ and
+    VTK trajectories."""
 
     @property
     def scheme(self) -> str: ...
@@ -72,6 +75,47 @@ class Paths:
     @property
     def diagnostics(self) -> Dict[str, npt.NDArray[Any]]:
         """Per-path diagnostics, read-only arrays of length P."""
+    @property
+    def scene(self) -> Scene:
+        """The scene the paths were simulated on."""
+    @property
+    def seed(self) -> int:
+        """Path i drew its increments from the stream (seed, i)."""
+    @property
+    def steps(self) -> int:
+        """N: the step was h = T / N."""
+    @property
+    def every(self) -> int:
+        """t_0, every ``every``-th step and t_N were recorded."""
+    def save(self, path: "str | os.PathLike[str]") -> None:
+        """Writes the paths to ``path`` as a ``.npz`` file (the name as given): every array,
+        the failures, the diagnostics, the scene, the scheme, the seed, ``steps`` and
+        ``every``; OSError if it cannot be written. ``numpy.load`` reads it without pickled
+        objects."""
+    @staticmethod
+    def load(path: "str | os.PathLike[str]") -> "Paths":
+        """The paths of a file written by ``save``, equal to the saved ones; OSError if it
+        cannot be read, ValueError naming the file and what is wrong if it holds anything
+        else."""
+    def to_xyz(self, folder: "str | os.PathLike[str]") -> List[pathlib.Path]:
+        """Writes extended XYZ files into ``folder`` (made if missing), one per path,
+        ``<scene>.path-<p>.xyz``, a frame per recorded time (VMD, OVITO, ASE); returns them. A
+        failed path's NaN states are left out. OSError naming a file that cannot be written;
+        ValueError for a scene whose coordinates are not points."""
+    def to_vtk(self, folder: "str | os.PathLike[str]") -> List[pathlib.Path]:
+        """Writes VTK files into ``folder`` (made if missing): an unstructured grid per
+        recorded time, ``<scene>.<j>.vtu``, each path's chain of beads a polyline, and the
+        collection ``<scene>.pvd`` that ParaView opens as one time series; returns the
+        collection, then the grids by time. ValueError for a scene that is not a chain of beads
+        in 3-D (a fiber, a chain molecule); OSError as ``to_xyz``."""
+    @staticmethod
+    def _from_state(state: Dict[str, Any]) -> "Paths":
+        """The paths of the state a pickle holds (``__reduce__``)."""
+    def __reduce__(self) -> Any:
+        """Pickles as the entries ``save`` writes."""
+    def __eq__(self, other: object) -> bool:
+        """The same scheme, h, scene, seed, steps, every and failures, and arrays equal element
+        by element (NaN equal to NaN)."""
 
 def simulate(
     scene: Scene,

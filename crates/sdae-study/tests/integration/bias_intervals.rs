@@ -29,7 +29,7 @@ const CIRCLE: Circle = Circle {
 
 /// E[|v_T|^2 / 2] of a unit mass on a circle with friction `gamma` and noise `sigma`, started
 /// at speed `u0` (the module's closed form).
-fn kinetic_energy(c: Circle) -> f64 {
+pub(crate) fn kinetic_energy(c: Circle) -> f64 {
     let decay = (-2.0 * c.friction * c.t_end).exp();
     0.5 * (c.speed * c.speed * decay + c.noise * c.noise * (1.0 - decay) / (2.0 * c.friction))
 }

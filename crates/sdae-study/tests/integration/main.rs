@@ -5,6 +5,7 @@
 
 mod bias_intervals;
 mod equipartition;
+mod expect_coverage;
 mod invariant_bias;
 /// The scalar linear SDEs of sdae-mlmc's suite (which uses the rest of the module).
 #[allow(dead_code)]
@@ -12,6 +13,7 @@ mod invariant_bias;
 mod linear;
 mod lockstep;
 mod mlmc;
+mod plots;
 mod qmc;
 mod quick_report;
 mod scenes;

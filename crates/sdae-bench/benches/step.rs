@@ -24,7 +24,7 @@ mod verify;
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use sdae_lanes::Lanes;
+use sdae_lanes::Real;
 use sdae_manifold::{BeadChain, IdentityMass};
 use sdae_model::PathEnsemble;
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, Scheme, System};
@@ -65,19 +65,9 @@ const PENDULUM_H: f64 = 1e-3;
 struct Gravity;
 
 impl Drift for Gravity {
-    #[inline]
-    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
-        for bead in out.chunks_exact_mut(3) {
-            bead[0] = 0.0;
-            bead[1] = 0.0;
-            bead[2] = -1.0;
-        }
-    }
-    /// The same in W lanes, for a chain of any length.
+    /// For one path or W lanes, for a chain of any length.
     #[inline(always)]
-    fn drift_lanes<S: pulp::Simd>(
-        &self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
         let (zero, down) = (v[0].splat_like(0.0), v[0].splat_like(-1.0));
         for bead in out.chunks_exact_mut(3) {
             bead[0] = zero;

@@ -353,6 +353,15 @@ pub trait Real:
     fn map_each(self, f: impl FnMut(f64) -> f64) -> Self;
     /// `f` of each path's pair of values ([`Lanes::zip_map_each`]).
     fn zip_map_each(self, other: Self, f: impl FnMut(f64, f64) -> f64) -> Self;
+    /// A function of one path's coordinates evaluated on every path: for one path, `f` on the
+    /// slices themselves; for lanes, lane by lane ([`per_lane`]: lane k computes exactly what
+    /// `f` computes for path k alone). `out` holds its values before the call (so `f` may add
+    /// to them). Returns `false`, leaving `out` alone, where lanes have no such evaluation (a
+    /// slice longer than [`PER_LANE_MAX_DIM`]); one path always has it. This is how a closure
+    /// written for one path serves a method generic over `Real`.
+    fn each_path<const K: usize>(
+        inputs: [&[Self]; K], out: &mut [Self], f: impl FnMut([&[f64]; K], &mut [f64]),
+    ) -> bool;
 }
 
 /// A boolean per path: `bool` for one path, [`LaneMask`] for W.
@@ -459,6 +468,13 @@ impl Real for f64 {
     fn zip_map_each(self, other: Self, mut f: impl FnMut(f64, f64) -> f64) -> Self {
         f(self, other)
     }
+    #[inline(always)]
+    fn each_path<const K: usize>(
+        inputs: [&[Self]; K], out: &mut [Self], mut f: impl FnMut([&[f64]; K], &mut [f64]),
+    ) -> bool {
+        f(inputs, out);
+        true
+    }
 }
 
 impl<S: Simd> Real for Lanes<S> {
@@ -513,6 +529,12 @@ impl<S: Simd> Real for Lanes<S> {
     #[inline(always)]
     fn zip_map_each(self, other: Self, f: impl FnMut(f64, f64) -> f64) -> Self {
         Lanes::zip_map_each(self, other, f)
+    }
+    #[inline(always)]
+    fn each_path<const K: usize>(
+        inputs: [&[Self]; K], out: &mut [Self], f: impl FnMut([&[f64]; K], &mut [f64]),
+    ) -> bool {
+        per_lane(inputs, out, f)
     }
 }
 

@@ -9,7 +9,7 @@
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LaneMask, Lanes, LineVec, per_path};
+use sdae_lanes::{LaneMask, Lanes, LineVec};
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{MatrixFactor, Sphere};
@@ -25,7 +25,7 @@ use crate::newton_root::NewtonRoot;
 use crate::scheme::Scheme;
 use crate::sphere_lanes::SphereKernels;
 use crate::sphere_root::SphereRoot;
-use crate::system::System;
+use crate::system::{System, add_noise_over_lanes, drift_over_lanes};
 
 /// How the lanes' kernel applies M^-1 and makes the constrained update: the sphere's closed
 /// form or Newton over a lane form.
@@ -56,23 +56,13 @@ impl<S: System, Sd: Simd, L: LaneConstraint<Sd>> StepKernel<Lanes<Sd>> for Lanew
     }
     #[inline(always)]
     fn drift(&mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>]) {
-        let system = self.system;
-        if !system.drift_lanes(r, v, out) {
-            per_path([r, v], out, self.scratch, |[r, v], out| {
-                system.drift(r, v, out)
-            });
-        }
+        drift_over_lanes(self.system, r, v, out, self.scratch);
     }
     #[inline(always)]
     fn add_noise(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) {
-        let system = self.system;
-        if !system.add_noise_lanes(r, v, dw, out) {
-            per_path([r, v, dw], out, self.scratch, |[r, v, dw], out| {
-                system.add_noise(r, v, dw, out)
-            });
-        }
+        add_noise_over_lanes(self.system, r, v, dw, out, self.scratch);
     }
     #[inline(always)]
     fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {

@@ -112,7 +112,7 @@ pub use observer::{Interpolation, NoObserver, Observer, Recorder};
 pub use scheme::{Scheme, StepOutcome, StepResult};
 pub use system::{
     AdditiveNoise, ClosureNoise, Drift, LangevinForm, MechanicalSystem, NoNoise, Noise, System,
-    ZeroDrift, check_dimensions, check_step_input,
+    ZeroDrift, add_noise_over_lanes, check_dimensions, check_step_input, drift_over_lanes,
 };
 pub use tangent::{KappaProblem, TangentProjector, lambda_right_hand_side, project_state};
 

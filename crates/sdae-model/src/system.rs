@@ -1,7 +1,7 @@
 //! The system of seed eq. 1.1: M dv = a(r, v) dt + B(r, v) dw + grad g(r) dmu, g(r) = 0.
 
 use pulp::Simd;
-use sdae_lanes::{Lanes, per_lane};
+use sdae_lanes::{Lanes, Real, per_path};
 use sdae_manifold::{Constraint, Mass};
 
 use crate::error::{ModelError, check_dim, check_step_size};
@@ -16,37 +16,51 @@ pub trait System {
     fn constraint(&self) -> &Self::Constraint;
     /// The mass matrix M.
     fn mass(&self) -> &Self::Mass;
-    /// out = a(r, v).
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
+    /// out = a(r, v), for one path (`T = f64`) or W paths at once (`T` = [`Lanes`](
+    /// sdae_lanes::Lanes): coordinate i of every path in `r[i]`, `v[i]`, `out[i]`, lane k
+    /// computing exactly what one path computes). Returns `false` where the lanes have no
+    /// evaluation (a closure beyond [`PER_LANE_MAX_DIM`](sdae_lanes::PER_LANE_MAX_DIM)
+    /// coordinates, [`Real::each_path`]): an ensemble then steps its paths one at a time. One
+    /// path always returns `true`.
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool;
     /// The dimension l of the Brownian motion (0: deterministic, no random numbers drawn).
     fn noise_dim(&self) -> usize;
-    /// out += B(r, v) dw.
-    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
-    /// out = a(r, v) for W paths at once: coordinate i of every path in `r[i]`, `v[i]`,
-    /// `out[i]`. The default evaluates [`System::drift`] lane by lane ([`per_lane`]: the
-    /// same numbers, slower than a lane form); it returns `false` (no lane form: an ensemble
-    /// then steps its paths one at a time) beyond
-    /// [`PER_LANE_MAX_DIM`](sdae_lanes::PER_LANE_MAX_DIM) coordinates.
-    #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))
-    }
-    /// out += B(r, v) dw for W paths at once (layout of [`System::drift_lanes`]). The default
-    /// evaluates [`System::add_noise`] lane by lane, as [`System::drift_lanes`] does.
-    #[inline(always)]
-    fn add_noise_lanes<S: Simd>(
-        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
-        per_lane([r, v, dw], out, |[r, v, dw], out| {
-            self.add_noise(r, v, dw, out)
-        })
-    }
+    /// out += B(r, v) dw, for one path or W paths at once (layout and result of
+    /// [`System::drift`]).
+    fn add_noise<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool;
     /// The system's Langevin form, if it has one: a(r, v) = a(r, 0) - gamma v with a constant
     /// friction gamma >= 0 and additive noise B = sigma I ([`LangevinForm`]), which splitting
     /// schemes (BAOAB) need to take the force F(r) = a(r, 0) apart from the friction and to
     /// update the velocity by the exact Ornstein-Uhlenbeck law. The default has none.
     fn langevin(&self) -> Option<LangevinForm> {
         None
+    }
+}
+
+/// out = a(r, v) for W paths: the system's evaluation over lanes ([`System::drift`]), or path
+/// by path on contiguous copies in `scratch` where the lanes have none. Lane k is path k's
+/// drift either way.
+#[inline(always)]
+pub fn drift_over_lanes<S: System + ?Sized, Sd: Simd>(
+    system: &S, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>], scratch: &mut Vec<f64>,
+) {
+    if !system.drift(r, v, out) {
+        per_path([r, v], out, scratch, |[r, v], out| {
+            system.drift(r, v, out);
+        });
+    }
+}
+
+/// out += B(r, v) dw for W paths, as [`drift_over_lanes`] evaluates the drift.
+#[inline(always)]
+pub fn add_noise_over_lanes<S: System + ?Sized, Sd: Simd>(
+    system: &S, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    scratch: &mut Vec<f64>,
+) {
+    if !system.add_noise(r, v, dw, out) {
+        per_path([r, v, dw], out, scratch, |[r, v, dw], out| {
+            system.add_noise(r, v, dw, out);
+        });
     }
 }
 
@@ -63,14 +77,10 @@ pub struct LangevinForm {
 
 /// The drift a(r, v).
 pub trait Drift {
-    /// out = a(r, v).
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]);
-    /// out = a(r, v) for W paths at once ([`System::drift_lanes`]). The default (e.g. for a
-    /// closure) evaluates [`Drift::drift`] lane by lane ([`per_lane`]).
-    #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        per_lane([r, v], out, |[r, v], out| self.drift(r, v, out))
-    }
+    /// out = a(r, v), for one path or W paths at once ([`System::drift`]). A closure
+    /// `f(r, v, out)` for one path is a drift, evaluated lane by lane over lanes
+    /// ([`Real::each_path`]).
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool;
     /// The constant friction gamma if the drift is a(r, v) = a(r, 0) - gamma v; the default
     /// (e.g. for a closure) says nothing (`None`).
     fn friction(&self) -> Option<f64> {
@@ -79,8 +89,9 @@ pub trait Drift {
 }
 
 impl<F: Fn(&[f64], &[f64], &mut [f64])> Drift for F {
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
-        self(r, v, out)
+    #[inline(always)]
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool {
+        T::each_path([r, v], out, |[r, v], out| self(r, v, out))
     }
 }
 
@@ -89,12 +100,8 @@ impl<F: Fn(&[f64], &[f64], &mut [f64])> Drift for F {
 pub struct ZeroDrift;
 
 impl Drift for ZeroDrift {
-    #[inline]
-    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
-        out.fill(0.0);
-    }
     #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
         for (o, vi) in out.iter_mut().zip(v) {
             *o = vi.splat_like(0.0);
         }
@@ -110,16 +117,8 @@ impl Drift for ZeroDrift {
 pub trait Noise {
     /// The dimension l of the Brownian motion.
     fn dim(&self) -> usize;
-    /// out += B(r, v) dw.
-    fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]);
-    /// out += B(r, v) dw for W paths at once ([`System::add_noise_lanes`]). The default (e.g.
-    /// for a closure) evaluates [`Noise::add`] lane by lane ([`per_lane`]).
-    #[inline(always)]
-    fn add_lanes<S: Simd>(
-        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
-        per_lane([r, v, dw], out, |[r, v, dw], out| self.add(r, v, dw, out))
-    }
+    /// out += B(r, v) dw, for one path or W paths at once ([`System::add_noise`]).
+    fn add<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool;
     /// sigma if the noise is additive, B = sigma I; the default (e.g. for a closure) says
     /// nothing (`None`).
     fn amplitude(&self) -> Option<f64> {
@@ -136,11 +135,7 @@ impl Noise for NoNoise {
         0
     }
     #[inline(always)]
-    fn add(&self, _r: &[f64], _v: &[f64], _dw: &[f64], _out: &mut [f64]) {}
-    #[inline(always)]
-    fn add_lanes<S: Simd>(
-        &self, _r: &[Lanes<S>], _v: &[Lanes<S>], _dw: &[Lanes<S>], _out: &mut [Lanes<S>],
-    ) -> bool {
+    fn add<T: Real>(&self, _r: &[T], _v: &[T], _dw: &[T], _out: &mut [T]) -> bool {
         true
     }
     /// sigma = 0.
@@ -181,16 +176,8 @@ impl Noise for AdditiveNoise {
     fn dim(&self) -> usize {
         self.dim
     }
-    #[inline]
-    fn add(&self, _r: &[f64], _v: &[f64], dw: &[f64], out: &mut [f64]) {
-        for (o, w) in out.iter_mut().zip(dw) {
-            *o += self.sigma * w;
-        }
-    }
     #[inline(always)]
-    fn add_lanes<S: Simd>(
-        &self, _r: &[Lanes<S>], _v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
+    fn add<T: Real>(&self, _r: &[T], _v: &[T], dw: &[T], out: &mut [T]) -> bool {
         for (o, &w) in out.iter_mut().zip(dw) {
             *o = *o + w * self.sigma;
         }
@@ -219,8 +206,9 @@ impl<F: Fn(&[f64], &[f64], &[f64], &mut [f64])> Noise for ClosureNoise<F> {
     fn dim(&self) -> usize {
         self.dim
     }
-    fn add(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
-        (self.f)(r, v, dw, out)
+    #[inline(always)]
+    fn add<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool {
+        T::each_path([r, v, dw], out, |[r, v, dw], out| (self.f)(r, v, dw, out))
     }
 }
 
@@ -265,26 +253,16 @@ impl<C: Constraint, M: Mass, A: Drift, B: Noise> System for MechanicalSystem<C, 
     fn mass(&self) -> &M {
         &self.mass
     }
-    #[inline]
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
+    #[inline(always)]
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool {
         self.drift.drift(r, v, out)
     }
     fn noise_dim(&self) -> usize {
         self.noise.dim()
     }
-    #[inline]
-    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
+    #[inline(always)]
+    fn add_noise<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool {
         self.noise.add(r, v, dw, out)
-    }
-    #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        self.drift.drift_lanes(r, v, out)
-    }
-    #[inline(always)]
-    fn add_noise_lanes<S: Simd>(
-        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
-        self.noise.add_lanes(r, v, dw, out)
     }
     /// The Langevin form where the drift has a constant friction and the noise is additive.
     fn langevin(&self) -> Option<LangevinForm> {

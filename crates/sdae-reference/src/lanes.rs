@@ -255,7 +255,7 @@ impl<S: System, Sd: Simd, const N: usize> InherentKernel<Lanes<Sd>> for SphereLa
         let mut ok = gram.is_finite().and(!gram.eq(zero));
         let inverse_gram = zero.splat_like(1.0) / gram;
         let mut force = [zero; N];
-        if !self.system.drift_lanes(r, v, &mut force) {
+        if !self.system.drift(r, v, &mut force) {
             return Err(NoLaneForm);
         }
         parts.mu_rate[0] = sde.constrain(r, v, inverse_gram, force, true, parts.accel);
@@ -265,7 +265,7 @@ impl<S: System, Sd: Simd, const N: usize> InherentKernel<Lanes<Sd>> for SphereLa
             parts.noise_mu.fill(zero);
         } else {
             let mut force = [zero; N];
-            if !self.system.add_noise_lanes(r, v, dw, &mut force) {
+            if !self.system.add_noise(r, v, dw, &mut force) {
                 return Err(NoLaneForm);
             }
             parts.noise_mu[0] = sde.constrain(r, v, inverse_gram, force, false, parts.noise_v);

@@ -22,8 +22,7 @@
 
 use std::time::Instant;
 
-use pulp::Simd;
-use sdae_lanes::{LaneWidth, Lanes, Real};
+use sdae_lanes::{LaneWidth, Real};
 use sdae_manifold::{DiagonalMass, Hypersurface, Roundoff, Surface, check_state};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem, PathEnsemble, PathState};
 use sdae_noise::{GaussianIncrements, IncrementSource};
@@ -71,10 +70,7 @@ impl Torus {
 struct Gravity;
 
 impl Drift for Gravity {
-    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
-        out.copy_from_slice(&[0.0, 0.0, -1.0]);
-    }
-    fn drift_lanes<S: Simd>(&self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
         for (k, o) in out.iter_mut().enumerate() {
             *o = v[0].splat_like(if k == 2 { -1.0 } else { 0.0 });
         }

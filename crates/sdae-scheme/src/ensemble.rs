@@ -21,9 +21,9 @@ use crate::stepper::Stepper;
 /// (scalar), 4 (AVX2) or 8 (AVX-512). For a sphere constraint (the pendulums) with a diagonal
 /// mass the step is the closed form of [`Stepper`] written once over [`Lanes`](sdae_lanes::Lanes) (which
 /// [`Stepper`]'s own step of one path runs at W = 1), with the
-/// system's drift and noise in lanes ([`System::drift_lanes`], [`System::add_noise_lanes`]: the
-/// built-in systems' lane forms, or a user's drift and noise evaluated path by path within the
-/// lanes, which gives the same numbers); a lane the closed form does not decide (no root, a
+/// system's drift and noise over lanes ([`System::drift`], [`System::add_noise`], written once
+/// over `Real`; a user's closures are evaluated path by path within the lanes, which gives
+/// the same numbers); a lane the closed form does not decide (no root, a
 /// root outside the ball or not contracting, a non-finite value) finishes its step through the
 /// scalar [`Stepper`], which reports the failure exactly as for one path. For a constraint
 /// that offers its formulas over lanes ([`Constraint::lane_form`](sdae_manifold::Constraint::lane_form) with a

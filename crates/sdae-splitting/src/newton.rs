@@ -13,13 +13,13 @@
 
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, LineVec, per_path};
+use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, LineVec};
 use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
 use sdae_manifold::{GramShape, GramStructure, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot, WideKernel,
 };
-use sdae_model::{Scheme, System};
+use sdae_model::{Scheme, System, drift_over_lanes};
 
 use crate::config::{SplittingConfig, StepSizes};
 use crate::kernel::{
@@ -225,14 +225,7 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
     /// The system's lane form of F(r), else path by path.
     #[inline(always)]
     fn evaluate_force<S: System>(&mut self, system: &S, r: &[Lanes<Sd>]) -> Result<(), NoLaneForm> {
-        if !system.drift_lanes(r, &self.zero, &mut self.force) {
-            per_path(
-                [r, &self.zero],
-                &mut self.force,
-                &mut self.scratch,
-                |[r, v], out| system.drift(r, v, out),
-            );
-        }
+        drift_over_lanes(system, r, &self.zero, &mut self.force, &mut self.scratch);
         Ok(())
     }
     #[inline(always)]

@@ -121,7 +121,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     #[inline(always)]
     fn evaluate_force<S: System>(&mut self, system: &S, r: &[Lanes<Sd>]) -> Result<(), NoLaneForm> {
         let zero = [r[0].splat_like(0.0); N];
-        if system.drift_lanes(r, &zero, &mut self.force) {
+        if system.drift(r, &zero, &mut self.force) {
             Ok(())
         } else {
             Err(NoLaneForm)

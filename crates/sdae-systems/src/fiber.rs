@@ -63,8 +63,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use pulp::Simd;
-use sdae_lanes::{Lanes, Real};
+use sdae_lanes::Real;
 use sdae_manifold::{BeadChain, DiagonalMass};
 use sdae_model::System;
 use serde::{Deserialize, Serialize};
@@ -95,7 +94,7 @@ impl AirFlow {
         self.velocity_at(x)
     }
 
-    /// u(x) for one path (`f64`) or W paths ([`Lanes`]).
+    /// u(x) for one path (`f64`) or W paths ([`Lanes`](sdae_lanes::Lanes)).
     #[inline(always)]
     fn velocity_at<T: Real>(&self, x: Vec3<T>) -> Vec3<T> {
         let s = &self.shear;
@@ -312,7 +311,7 @@ impl Fiber {
         d
     }
 
-    /// out = a(r, v) (see [`System::drift`]), for one path (`f64`) or W paths ([`Lanes`]).
+    /// out = a(r, v) (see [`System::drift`]), for one path (`f64`) or W paths ([`Lanes`](sdae_lanes::Lanes)).
     #[inline(always)]
     fn forces<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) {
         let (c1, c2) = (self.params.linear_drag, self.params.quadratic_drag);
@@ -336,7 +335,7 @@ impl Fiber {
     }
 
     /// out += B(r, v) dw (see [`System::add_noise`]), for one path (`f64`) or W paths
-    /// ([`Lanes`]).
+    /// ([`Lanes`](sdae_lanes::Lanes)).
     #[inline(always)]
     fn turbulence<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) {
         let (sigma, alpha) = (self.params.turbulence, self.params.turbulence_gain);
@@ -360,27 +359,17 @@ impl System for Fiber {
         &self.mass
     }
     /// a_j = -(EI / ds^3)(D_{j-1} - 2 D_j + D_{j+1}) + m_j g_vec - (c1 + c2 |w_j|) w_j, one pass.
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
+    #[inline(always)]
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool {
         self.forces(r, v, out);
+        true
     }
     fn noise_dim(&self) -> usize {
         self.noise_dimension()
     }
     /// out_j += sigma_0 (1 + alpha |v_j - u(x_j)|) dw_j.
-    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
-        self.turbulence(r, v, dw, out);
-    }
-    /// [`System::drift`] in W lanes.
     #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        self.forces(r, v, out);
-        true
-    }
-    /// [`System::add_noise`] in W lanes.
-    #[inline(always)]
-    fn add_noise_lanes<S: Simd>(
-        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
+    fn add_noise<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool {
         self.turbulence(r, v, dw, out);
         true
     }

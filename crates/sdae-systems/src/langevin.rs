@@ -39,8 +39,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use pulp::Simd;
-use sdae_lanes::Lanes;
+use sdae_lanes::Real;
 use sdae_manifold::{BeadChain, Constraint, DiagonalMass, Mass, RigidBonds};
 use sdae_model::{AdditiveNoise, LangevinForm, Noise, System};
 use serde::{Deserialize, Serialize};
@@ -148,37 +147,22 @@ impl<C: Constraint, P: Potential> System for Langevin<C, P> {
     fn mass(&self) -> &DiagonalMass {
         &self.mass
     }
-    /// a(r, v) = -grad V(r) - gamma v.
-    #[inline]
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
-        for (o, vi) in out.iter_mut().zip(v) {
-            *o = -self.friction * vi;
+    /// a(r, v) = -grad V(r) - gamma v: the friction, then the potential's force
+    /// ([`Potential::add_force`]; `false` where the lanes have no evaluation of it).
+    #[inline(always)]
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool {
+        for (o, &vi) in out.iter_mut().zip(v) {
+            *o = vi * -self.friction;
         }
-        self.potential.add_force(r, out);
+        self.potential.add_force(r, out)
     }
     fn noise_dim(&self) -> usize {
         self.noise_dimension()
     }
     /// out += sigma dw.
-    #[inline]
-    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
-        self.noise.add(r, v, dw, out);
-    }
-    /// a(r, v) = -grad V(r) - gamma v in W lanes: the friction in lanes, the force from the
-    /// potential's lane form ([`Potential::add_force_lanes`]; `false` where it has none).
     #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
-        for (o, &vi) in out.iter_mut().zip(v) {
-            *o = vi * -self.friction;
-        }
-        self.potential.add_force_lanes(r, out)
-    }
-    /// out += sigma dw in W lanes.
-    #[inline(always)]
-    fn add_noise_lanes<S: Simd>(
-        &self, r: &[Lanes<S>], v: &[Lanes<S>], dw: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
-        self.noise.add_lanes(r, v, dw, out)
+    fn add_noise<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool {
+        self.noise.add(r, v, dw, out)
     }
     /// a(r, v) = -grad V(r) - gamma v, B = sqrt(2 gamma kT) I.
     fn langevin(&self) -> Option<LangevinForm> {

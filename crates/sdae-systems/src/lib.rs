@@ -18,10 +18,10 @@
 //!   turbulent forcing ([`FiberParams`]);
 //! - [`potential`]: [`BondAngles`], [`Torsions`], [`HarmonicTrap`], composable as tuples.
 //!
-//! Every built-in system also evaluates its drift and noise for W paths at once, in SIMD lanes
-//! ([`System::drift_lanes`](sdae_model::System::drift_lanes),
-//! [`System::add_noise_lanes`](sdae_model::System::add_noise_lanes)), lane i computing exactly
-//! what the scalar functions compute for path i: the ensemble engine of `sdae-scheme` steps many
+//! Every built-in system writes its drift and noise once over [`Real`](sdae_lanes::Real)
+//! ([`System::drift`](sdae_model::System::drift),
+//! [`System::add_noise`](sdae_model::System::add_noise)), so that W paths at once, in SIMD
+//! lanes, compute in lane i exactly what one path computes for path i: the ensemble engine of `sdae-scheme` steps many
 //! paths with them.
 //!
 //! Parameter structs derive serde (unknown and missing fields are errors that name the field;

@@ -1,8 +1,7 @@
 //! The stochastic pendulum of seed Section 5.1, planar (d = 2) or spherical (d = 3):
 //! dv = (-c_g e_d - gamma v) dt + sigma dw - r dmu / rho^2, |r| = rho, unit mass.
 
-use pulp::Simd;
-use sdae_lanes::Lanes;
+use sdae_lanes::Real;
 use sdae_manifold::{IdentityMass, Sphere};
 use sdae_model::{AdditiveNoise, Drift, MechanicalSystem};
 use serde::{Deserialize, Serialize};
@@ -19,17 +18,8 @@ pub struct PendulumDrift {
 }
 
 impl Drift for PendulumDrift {
-    #[inline]
-    fn drift(&self, _r: &[f64], v: &[f64], out: &mut [f64]) {
-        for (o, vi) in out.iter_mut().zip(v) {
-            *o = -self.friction * vi;
-        }
-        if let Some(last) = out.last_mut() {
-            *last -= self.gravity;
-        }
-    }
     #[inline(always)]
-    fn drift_lanes<S: Simd>(&self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>]) -> bool {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
         for (o, &vi) in out.iter_mut().zip(v) {
             *o = vi * -self.friction;
         }

@@ -4,12 +4,11 @@
 //! Terms compose: `(A, B)` is the sum of two potentials, `Option<P>` is P or nothing (and
 //! `None` costs nothing), `()` is V = 0. Every term is O(number of atoms it acts on).
 //!
-//! Every built-in term also adds its force for W paths at once
-//! ([`Potential::add_force_lanes`]), lane i computing exactly what [`Potential::add_force`]
-//! computes for path i; the sines and arc tangents are taken lane by lane.
+//! Every built-in term adds its force for one path or for W paths at once
+//! ([`Potential::add_force`] over [`Real`]), lane i computing exactly what one path computes
+//! for path i; the sines and arc tangents are taken lane by lane.
 
-use pulp::Simd;
-use sdae_lanes::{Lanes, PathMask, Real, per_lane};
+use sdae_lanes::{PathMask, Real};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SystemError, finite, finite_entries, non_negative};
@@ -19,16 +18,11 @@ use crate::vec3::{Vec3, add_to, atom, cross, dot, sub};
 pub trait Potential {
     /// V(x).
     fn energy(&self, x: &[f64]) -> f64;
-    /// force += -grad V(x).
-    fn add_force(&self, x: &[f64], force: &mut [f64]);
-    /// force += -grad V(x) for W paths at once: coordinate i of every path in `x[i]` and
-    /// `force[i]`. The default evaluates [`Potential::add_force`] lane by lane ([`per_lane`]);
-    /// it returns `false` (no lane form: `force` is then to be recomputed path by path) beyond
-    /// [`PER_LANE_MAX_DIM`](sdae_lanes::PER_LANE_MAX_DIM) coordinates.
-    #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        per_lane([x], force, |[x], force| self.add_force(x, force))
-    }
+    /// force += -grad V(x), for one path (`f64`) or W paths at once ([`sdae_lanes::Lanes`]:
+    /// coordinate i of every path in `x[i]` and `force[i]`). Returns `false` where the lanes
+    /// have no evaluation (`force` is then to be recomputed path by path, [`Real::each_path`]);
+    /// one path always returns `true`.
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool;
     /// The smallest configuration dimension n the term can act on (3 x (largest atom index +
     /// 1)); 0 if it fits any.
     fn min_dim(&self) -> usize {
@@ -42,9 +36,7 @@ impl Potential for () {
         0.0
     }
     #[inline(always)]
-    fn add_force(&self, _x: &[f64], _force: &mut [f64]) {}
-    #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, _x: &[Lanes<S>], _force: &mut [Lanes<S>]) -> bool {
+    fn add_force<T: Real>(&self, _x: &[T], _force: &mut [T]) -> bool {
         true
     }
 }
@@ -54,15 +46,9 @@ impl<P: Potential> Potential for Option<P> {
     fn energy(&self, x: &[f64]) -> f64 {
         self.as_ref().map_or(0.0, |p| p.energy(x))
     }
-    #[inline]
-    fn add_force(&self, x: &[f64], force: &mut [f64]) {
-        if let Some(p) = self {
-            p.add_force(x, force);
-        }
-    }
     #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        self.as_ref().is_none_or(|p| p.add_force_lanes(x, force))
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool {
+        self.as_ref().is_none_or(|p| p.add_force(x, force))
     }
     fn min_dim(&self) -> usize {
         self.as_ref().map_or(0, P::min_dim)
@@ -74,35 +60,13 @@ impl<A: Potential, B: Potential> Potential for (A, B) {
     fn energy(&self, x: &[f64]) -> f64 {
         self.0.energy(x) + self.1.energy(x)
     }
-    #[inline]
-    fn add_force(&self, x: &[f64], force: &mut [f64]) {
-        self.0.add_force(x, force);
-        self.1.add_force(x, force);
-    }
     #[inline(always)]
-    fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-        self.0.add_force_lanes(x, force) && self.1.add_force_lanes(x, force)
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool {
+        self.0.add_force(x, force) && self.1.add_force(x, force)
     }
     fn min_dim(&self) -> usize {
         self.0.min_dim().max(self.1.min_dim())
     }
-}
-
-/// `add_force` and `add_force_lanes` of a term whose force is written once over [`Real`] as
-/// `fn force<T: Real>(&self, x: &[T], force: &mut [T])`.
-macro_rules! forces_written_once {
-    () => {
-        #[inline]
-        fn add_force(&self, x: &[f64], force: &mut [f64]) {
-            self.force(x, force);
-        }
-
-        #[inline(always)]
-        fn add_force_lanes<S: Simd>(&self, x: &[Lanes<S>], force: &mut [Lanes<S>]) -> bool {
-            self.force(x, force);
-            true
-        }
-    };
 }
 
 /// Checks that the atoms of one term are distinct; returns 3 (largest index + 1).
@@ -206,11 +170,11 @@ impl BondAngles {
     }
 }
 
-impl BondAngles {
-    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`]; the arc tangent lane
+impl Potential for BondAngles {
+    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`](sdae_lanes::Lanes); the arc tangent lane
     /// by lane).
     #[inline(always)]
-    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool {
         let AngleParams {
             stiffness,
             equilibrium,
@@ -243,10 +207,8 @@ impl BondAngles {
             ];
             add_to(force, b, fb, skip);
         }
+        true
     }
-}
-
-impl Potential for BondAngles {
     fn energy(&self, x: &[f64]) -> f64 {
         let AngleParams {
             stiffness,
@@ -262,8 +224,6 @@ impl Potential for BondAngles {
             })
             .sum()
     }
-
-    forces_written_once!();
 
     fn min_dim(&self) -> usize {
         self.min_dim
@@ -358,11 +318,11 @@ impl Torsions {
     }
 }
 
-impl Torsions {
-    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`]; the arc tangent and
+impl Potential for Torsions {
+    /// force += -grad V(x), for one path (`f64`) or W paths ([`Lanes`](sdae_lanes::Lanes); the arc tangent and
     /// the sine lane by lane).
     #[inline(always)]
-    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool {
         let TorsionParams {
             stiffness,
             multiplicity,
@@ -406,10 +366,8 @@ impl Torsions {
             add_to(force, c, fc, skip);
             add_to(force, d, fd, skip);
         }
+        true
     }
-}
-
-impl Potential for Torsions {
     fn energy(&self, x: &[f64]) -> f64 {
         let TorsionParams {
             stiffness,
@@ -424,8 +382,6 @@ impl Potential for Torsions {
             })
             .sum()
     }
-
-    forces_written_once!();
 
     fn min_dim(&self) -> usize {
         self.min_dim
@@ -474,20 +430,18 @@ impl HarmonicTrap {
     }
 }
 
-impl HarmonicTrap {
-    /// force_a += -k (x_a - c), for one path (`f64`) or W paths ([`Lanes`]).
+impl Potential for HarmonicTrap {
+    /// force_a += -k (x_a - c), for one path (`f64`) or W paths ([`Lanes`](sdae_lanes::Lanes)).
     #[inline(always)]
-    fn force<T: Real>(&self, x: &[T], force: &mut [T]) {
+    fn add_force<T: Real>(&self, x: &[T], force: &mut [T]) -> bool {
         let TrapParams { stiffness, center } = self.params;
         for (f, p) in force.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
             for k in 0..3 {
                 f[k] = f[k] - (p[k] - center[k]) * stiffness;
             }
         }
+        true
     }
-}
-
-impl Potential for HarmonicTrap {
     fn energy(&self, x: &[f64]) -> f64 {
         let TrapParams { stiffness, center } = self.params;
         0.5 * stiffness
@@ -498,8 +452,6 @@ impl Potential for HarmonicTrap {
                 })
                 .sum::<f64>()
     }
-
-    forces_written_once!();
 }
 
 #[cfg(test)]

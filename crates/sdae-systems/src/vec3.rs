@@ -1,6 +1,6 @@
 //! Vectors of R^3 of one path or of W paths: coordinate k of atom (or bead) a in `x[3a + k]`,
 //! an `f64` for one path, a [`Lanes`](sdae_lanes::Lanes) for W paths (the layout of
-//! [`System::drift_lanes`](sdae_model::System::drift_lanes)).
+//! [`System::drift`](sdae_model::System::drift) over lanes).
 //!
 //! The systems write their forces once over [`Real`], so that lane i of the lane form performs
 //! the scalar form's floating-point operations for path i in the same order, bit for bit. The
@@ -81,9 +81,9 @@ pub(crate) mod check {
                 };
                 let (r, v, dw) = (rows(0), rows(1), rows(2));
                 let mut drift = vec![Lanes::splat(simd, f64::NAN); r.len()];
-                assert!(self.system.drift_lanes(&r, &v, &mut drift), "a lane form");
+                assert!(self.system.drift(&r, &v, &mut drift), "a lane form");
                 let mut noise = drift.clone();
-                assert!(self.system.add_noise_lanes(&r, &v, &dw, &mut noise));
+                assert!(self.system.add_noise(&r, &v, &dw, &mut noise));
                 for (k, [r, v, dw]) in group.iter().enumerate() {
                     let mut expected = vec![0.0; r.len()];
                     self.system.drift(r, v, &mut expected);

@@ -5,7 +5,7 @@
 //! forms evaluated path by path and those of one with lane forms in lanes.
 
 use crate::common::lane_configs;
-use sdae_lanes::{LaneWidth, Lanes};
+use sdae_lanes::{LaneWidth, Real};
 use sdae_manifold::{
     BeadChain, Constraint, DiagonalMass, IdentityMass, Mass, RigidBonds, TheoryBound,
 };
@@ -29,14 +29,7 @@ const KICK: f64 = 60.0;
 struct Gravity;
 
 impl Drift for Gravity {
-    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
-        for bead in out.chunks_exact_mut(3) {
-            bead.copy_from_slice(&[0.0, 0.0, -1.0]);
-        }
-    }
-    fn drift_lanes<S: pulp::Simd>(
-        &self, _r: &[Lanes<S>], v: &[Lanes<S>], out: &mut [Lanes<S>],
-    ) -> bool {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
         for (k, o) in out.iter_mut().enumerate() {
             *o = v[0].splat_like(if k % 3 == 2 { -1.0 } else { 0.0 });
         }
@@ -46,7 +39,7 @@ impl Drift for Gravity {
 
 /// Gravity as a closure: no lane form, evaluated path by path.
 fn closure_gravity(_r: &[f64], _v: &[f64], out: &mut [f64]) {
-    Gravity.drift(_r, _v, out)
+    Gravity.drift(_r, _v, out);
 }
 
 /// Each path's final (r, v, mu) as bits, its diagnostics' counts and its failure.

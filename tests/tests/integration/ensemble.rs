@@ -541,14 +541,7 @@ impl sdae_model::Noise for ThreeComponentNoise {
     fn dim(&self) -> usize {
         3
     }
-    fn add(&self, _r: &[f64], _v: &[f64], dw: &[f64], out: &mut [f64]) {
-        out[0] += dw[0] + 0.5 * dw[2];
-        out[1] += dw[1] - 0.5 * dw[2];
-    }
-    fn add_lanes<S: pulp::Simd>(
-        &self, _r: &[sdae_lanes::Lanes<S>], _v: &[sdae_lanes::Lanes<S>],
-        dw: &[sdae_lanes::Lanes<S>], out: &mut [sdae_lanes::Lanes<S>],
-    ) -> bool {
+    fn add<T: sdae_lanes::Real>(&self, _r: &[T], _v: &[T], dw: &[T], out: &mut [T]) -> bool {
         out[0] = out[0] + (dw[0] + dw[2] * 0.5);
         out[1] = out[1] + (dw[1] - dw[2] * 0.5);
         true

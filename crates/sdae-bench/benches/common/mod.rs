@@ -1,6 +1,7 @@
 //! What the systems' ensemble benchmarks share: an ensemble stepped with fresh increments, and
 //! a system seen through its scalar functions only.
 
+use sdae_lanes::Real;
 use sdae_model::{PathEnsemble, System};
 use sdae_noise::EnsembleIncrements;
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
@@ -25,14 +26,18 @@ impl<S: System> System for PathByPath<S> {
     fn mass(&self) -> &S::Mass {
         self.0.mass()
     }
-    fn drift(&self, r: &[f64], v: &[f64], out: &mut [f64]) {
-        self.0.drift(r, v, out)
+    fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) -> bool {
+        T::each_path([r, v], out, |[r, v], out| {
+            self.0.drift(r, v, out);
+        })
     }
     fn noise_dim(&self) -> usize {
         self.0.noise_dim()
     }
-    fn add_noise(&self, r: &[f64], v: &[f64], dw: &[f64], out: &mut [f64]) {
-        self.0.add_noise(r, v, dw, out)
+    fn add_noise<T: Real>(&self, r: &[T], v: &[T], dw: &[T], out: &mut [T]) -> bool {
+        T::each_path([r, v, dw], out, |[r, v, dw], out| {
+            self.0.add_noise(r, v, dw, out);
+        })
     }
 }
 

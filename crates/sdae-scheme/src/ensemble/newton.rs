@@ -15,14 +15,14 @@
 //! outside the ball, implausible or not contracting, a non-finite value) finishes its step
 //! through the scalar stepper, with its homotopy fallback and its failures.
 //!
-//! The system's drift and noise come from [`System::drift_lanes`] and
-//! [`System::add_noise_lanes`] where the system has lane forms of any size, else from its
-//! scalar functions path by path ([`per_path`]).
+//! The system's drift and noise come from [`System::drift`] and [`System::add_noise`] over
+//! lanes, or path by path where the lanes have no evaluation of them
+//! ([`drift_over_lanes`](sdae_model::drift_over_lanes)).
 
 use std::convert::Infallible;
 
 use pulp::{Simd, WithSimd};
-use sdae_lanes::{LaneMask, Lanes, per_path};
+use sdae_lanes::{LaneMask, Lanes};
 use sdae_manifold::MatrixFactor;
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm};
 use sdae_manifold::vector::sum_squares;
@@ -30,7 +30,7 @@ use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,
     WideKernel,
 };
-use sdae_model::{Scheme, System};
+use sdae_model::{Scheme, System, add_noise_over_lanes, drift_over_lanes};
 
 use crate::config::StepperConfig;
 use crate::step::{HalfExplicitKernel, Update, half_explicit_step, lane_record};
@@ -247,27 +247,14 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> HalfExplicitKernel<Lanes<Sd>>
     fn drift(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) -> Result<(), Infallible> {
-        let system = self.system;
-        if !system.drift_lanes(r, v, out) {
-            per_path([r, v], out, &mut self.kernel.scratch, |[r, v], out| {
-                system.drift(r, v, out)
-            });
-        }
+        drift_over_lanes(self.system, r, v, out, &mut self.kernel.scratch);
         Ok(())
     }
     #[inline(always)]
     fn add_noise(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) -> Result<(), Infallible> {
-        let system = self.system;
-        if !system.add_noise_lanes(r, v, dw, out) {
-            per_path(
-                [r, v, dw],
-                out,
-                &mut self.kernel.scratch,
-                |[r, v, dw], out| system.add_noise(r, v, dw, out),
-            );
-        }
+        add_noise_over_lanes(self.system, r, v, dw, out, &mut self.kernel.scratch);
         Ok(())
     }
     #[inline(always)]

@@ -165,7 +165,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
     fn drift(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) -> Result<(), NoLaneForm> {
-        if self.system.drift_lanes(r, v, out) {
+        if self.system.drift(r, v, out) {
             Ok(())
         } else {
             Err(NoLaneForm)
@@ -175,7 +175,7 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
     fn add_noise(
         &mut self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], dw: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
     ) -> Result<(), NoLaneForm> {
-        if self.system.add_noise_lanes(r, v, dw, out) {
+        if self.system.add_noise(r, v, dw, out) {
             Ok(())
         } else {
             Err(NoLaneForm)

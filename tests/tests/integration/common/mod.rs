@@ -12,12 +12,14 @@ use sdae_systems::{Pendulum, PendulumParams, pendulum};
 pub struct Gravity(pub f64);
 
 impl Drift for Gravity {
-    fn drift(&self, _r: &[f64], _v: &[f64], out: &mut [f64]) {
+    fn drift<T: Real>(&self, _r: &[T], v: &[T], out: &mut [T]) -> bool {
+        let (zero, down) = (v[0].splat_like(0.0), v[0].splat_like(-self.0));
         for bead in out.chunks_exact_mut(3) {
-            bead[0] = 0.0;
-            bead[1] = 0.0;
-            bead[2] = -self.0;
+            bead[0] = zero;
+            bead[1] = zero;
+            bead[2] = down;
         }
+        true
     }
 }
 

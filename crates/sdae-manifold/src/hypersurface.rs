@@ -38,13 +38,14 @@ use pulp::Simd;
 use sdae_lanes::{Lanes, Real};
 
 use crate::constraint::{Constraint, Curvature};
-use crate::gram::{Scalar, ScalarGram};
+use crate::gram::ScalarGram;
 use crate::lane_form::{
     ConstraintLanes, Evaluation, Factor, InverseMass, Jacobian, LaneForm, LaneFormVisitor,
     PointLanes, base_coords,
 };
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
+use crate::shape::Scalar;
 
 /// The formulas of a hypersurface g(x) = 0 in R^N (one equation), over any [`Real`]: `f64` for
 /// one path, lanes for W paths. [`Hypersurface`] turns them into a constraint.

@@ -25,9 +25,9 @@ use sdae_lanes::{LaneMask, Lanes};
 
 use crate::constraint::Constraint;
 use crate::factor::MatrixFactor;
-use crate::gram::GramShape;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
+use crate::shape::GramShape;
 use crate::sphere::Sphere;
 use crate::vector::sum_squares;
 

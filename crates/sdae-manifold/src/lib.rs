@@ -35,6 +35,7 @@ mod hypersurface;
 pub mod lane_form;
 mod mass;
 mod roundoff;
+mod shape;
 mod sphere;
 mod sphere_constraint;
 mod state;
@@ -55,13 +56,11 @@ pub use factor::{
     DENSE_FAER_THRESHOLD, DenseFactor, Factorize, LuFactor, MatrixFactor, PIVOT_TOLERANCE,
     RightHandSide, ScalarFactor, Solve, ThomasFactor, TridiagonalFactor,
 };
-pub use gram::{
-    Dense, DenseGram, GramMatrix, GramShape, GramStructure, Scalar, ScalarGram, SquareMatrix,
-    Tridiagonal, TridiagonalGram,
-};
+pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, SquareMatrix, TridiagonalGram};
 pub use hypersurface::{CurvedSurface, Hypersurface, Surface};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use roundoff::Roundoff;
+pub use shape::{Dense, GramShape, Scalar, Tridiagonal};
 pub use sphere::Sphere;
 pub use state::{DEFAULT_STATE_TOLERANCE, StateResiduals, check_state, state_residuals};

@@ -9,7 +9,7 @@
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
-use sdae_lanes::{LaneMask, Lanes, LineVec};
+use sdae_lanes::{LaneMask, LaneWidth, Lanes, LineVec};
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{MatrixFactor, Sphere};
@@ -19,11 +19,14 @@ use crate::kernel_scheme::{
     Constrained, KernelNext, KernelScheme, KernelState, Kernelized, StepKernel, lane_record, radius,
 };
 use crate::lane_diagnostics::LaneRecord;
-use crate::lane_ensemble::{GroupState, LaneKernel, LaneRows, LaneStep, LaneStore, WideKernel};
-use crate::newton_lanes::NewtonKernels;
+use crate::lane_ensemble::{
+    GroupState, LaneKernel, LanePaths, LaneRows, LaneScheme, LaneStep, LaneStore, StepInput,
+    WideKernel,
+};
+use crate::newton_lanes::{NewtonKernels, step_offered_newton_lanes};
 use crate::newton_root::NewtonRoot;
 use crate::scheme::Scheme;
-use crate::sphere_lanes::SphereKernels;
+use crate::sphere_lanes::{SphereKernels, step_sphere_lanes};
 use crate::sphere_root::SphereRoot;
 use crate::system::{System, add_noise_over_lanes, drift_over_lanes};
 
@@ -175,6 +178,17 @@ impl<Sd: Simd, C: ConstraintLanes> LaneConstraint<Sd> for NewtonConstraint<'_, S
             contraction: root.contraction,
             kappa_norm: root.norm,
         }
+    }
+}
+
+impl<K: KernelScheme> LaneScheme for Kernelized<K> {
+    /// The sphere's closed form in lanes where the constraint is a sphere of dimension <= 3
+    /// with a diagonal mass, Newton in lanes where it offers formulas over lanes; `false`
+    /// (every path through the one-path step) otherwise.
+    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
+        let input = StepInput { h, dw };
+        step_sphere_lanes(self, OnSphere, paths, width, input)
+            || step_offered_newton_lanes(self, paths, width, input)
     }
 }
 

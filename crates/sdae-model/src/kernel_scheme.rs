@@ -16,17 +16,15 @@
 
 use pulp::Simd;
 use sdae_ift::{BallSolver, Certificate, SolverSettings};
-use sdae_lanes::{LaneWidth, Lanes, Real};
+use sdae_lanes::{Lanes, Real};
 use sdae_manifold::vector::{max_abs, norm2_squared};
 use sdae_manifold::{Constraint, Mass, scratch_len};
 
 use crate::constrained::{UpdateBuffers, constrained_update};
 use crate::error::{FailureKind, StepFailure};
 use crate::lane_diagnostics::LaneRecord;
-use crate::lane_ensemble::{LanePaths, LaneScheme, LaneStore, StepInput};
-use crate::newton_lanes::step_offered_newton_lanes;
+use crate::lane_ensemble::LaneStore;
 use crate::scheme::{Scheme, StepOutcome, StepResult};
-use crate::sphere_lanes::step_sphere_lanes;
 use crate::system::{System, check_dimensions, check_step_input};
 
 /// What a [`KernelScheme`]'s step calls on its paths: one path (`T = f64`) or W lanes.
@@ -146,7 +144,7 @@ pub trait KernelScheme: Clone + Send + Sync + 'static {
 }
 
 /// A [`KernelScheme`] as a [`Scheme`] (one path at a time, with typed failures) and a
-/// [`LaneScheme`] (an ensemble's paths in lanes where the constraint offers a lane form for a
+/// [`LaneScheme`](crate::LaneScheme) (an ensemble's paths in lanes where the constraint offers a lane form for a
 /// diagonal mass: a sphere of dimension 2 or 3, or [`ConstraintLanes`](sdae_manifold::ConstraintLanes)).
 #[derive(Debug, Clone)]
 pub struct Kernelized<K: KernelScheme> {
@@ -237,17 +235,6 @@ impl<K: KernelScheme> Scheme for Kernelized<K> {
     fn multiplier_increment(&self) -> &[f64] {
         let (n, m) = self.dims;
         &self.buffers[4 * n..4 * n + m]
-    }
-}
-
-impl<K: KernelScheme> LaneScheme for Kernelized<K> {
-    /// The sphere's closed form in lanes where the constraint is a sphere of dimension <= 3
-    /// with a diagonal mass, Newton in lanes where it offers formulas over lanes; `false`
-    /// (every path through the one-path step) otherwise.
-    fn step_lanes(&mut self, paths: &mut LanePaths, width: LaneWidth, h: f64, dw: &[f64]) -> bool {
-        let input = StepInput { h, dw };
-        step_sphere_lanes(self, crate::kernel_lanes::OnSphere, paths, width, input)
-            || step_offered_newton_lanes(self, paths, width, input)
     }
 }
 

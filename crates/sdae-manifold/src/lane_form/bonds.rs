@@ -13,7 +13,8 @@ use sdae_lanes::Lanes;
 
 use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
 use crate::factor::LuFactor;
-use crate::gram::{Dense, DenseGram};
+use crate::gram::DenseGram;
+use crate::shape::Dense;
 
 /// The network's formulas over lanes, each with the operations of the one-path method it
 /// names.

@@ -9,7 +9,8 @@ use sdae_lanes::{LaneMask, Lanes};
 
 use super::{ConstraintLanes, Evaluation, InverseMass, PointLanes, base_coords};
 use crate::factor::ThomasFactor;
-use crate::gram::{Tridiagonal, TridiagonalGram};
+use crate::gram::TridiagonalGram;
+use crate::shape::Tridiagonal;
 use crate::thomas::ThomasSweep;
 use crate::vector::{distance_value, dot3};
 

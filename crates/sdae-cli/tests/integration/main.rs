@@ -6,8 +6,8 @@
 mod bits;
 mod cli;
 mod command_line;
-mod expect_command;
 mod common;
+mod expect_command;
 mod faults;
 mod mlmc_command_line;
 mod mlmc_resume;

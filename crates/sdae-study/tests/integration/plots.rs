@@ -358,9 +358,8 @@ fn gibbs() -> EquipartitionScene {
 #[test]
 fn equipartition_and_bias_plots_tell_every_variant_apart() {
     let all = gibbs();
-    let drawn = |r: &equipartition::EquipartitionRow| {
-        r.temperature_ratio.is_some_and(|t| t.estimate > 0.0)
-    };
+    let drawn =
+        |r: &equipartition::EquipartitionRow| r.temperature_ratio.is_some_and(|t| t.estimate > 0.0);
     let first = all.rows.iter().find(|r| drawn(r)).unwrap().scheme.clone();
     let last = all.rows.iter().rfind(|r| drawn(r)).unwrap().scheme.clone();
     let mut some = all.clone();

@@ -7,7 +7,7 @@ use clap::{Args, Parser, Subcommand};
 use sdae_study::convergence::{ConvergenceSettings, MAX_THREADS};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::options::{
-    ConvergenceOptions, EnsembleOptions, MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS,
+    ConvergenceOptions, EnsembleOptions, MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS, MlmcOptions,
     WEAK_RANDOMIZATIONS, WeakOptions,
 };
 use sdae_study::scene::{BUILT_IN, Scene, escaped};
@@ -479,6 +479,40 @@ mod tests {
     }
 }
 
+/// The levels of a multilevel run and its convergence test (`mlmc`, `expect`).
+#[derive(Debug, Clone, Args)]
+pub struct LevelArgs {
+    /// Antithetic fine paths in the pairs (for multiplicative noise).
+    #[arg(long)]
+    pub antithetic: bool,
+    /// Level 0 on 2^K steps (default: the scene's, 2).
+    #[arg(long, value_name = "K")]
+    pub coarsest: Option<u32>,
+    /// The finest level a multilevel run may add (default: the scene's, 12).
+    #[arg(long = "max-level", value_name = "L")]
+    pub max_level: Option<u32>,
+    /// The convergence test runs levels 0..=L (default: the scene's, 6).
+    #[arg(long = "test-levels", value_name = "L")]
+    pub test_levels: Option<u32>,
+    /// Samples per level of the convergence test (default: the scene's, 4096).
+    #[arg(long = "test-samples", value_name = "N")]
+    pub test_samples: Option<u64>,
+}
+
+impl LevelArgs {
+    /// MLMC options with these levels, the others at their defaults.
+    pub fn options(&self) -> MlmcOptions {
+        MlmcOptions {
+            antithetic: self.antithetic,
+            coarsest: self.coarsest,
+            max_level: self.max_level,
+            test_levels: self.test_levels,
+            test_samples: self.test_samples,
+            ..MlmcOptions::default()
+        }
+    }
+}
+
 /// Options of `mlmc`.
 #[derive(Debug, Clone, Args)]
 pub struct MlmcArgs {
@@ -499,21 +533,8 @@ pub struct MlmcArgs {
         allow_negative_numbers = true
     )]
     pub eps: Vec<f64>,
-    /// Antithetic fine paths (for multiplicative noise).
-    #[arg(long)]
-    pub antithetic: bool,
-    /// Level 0 on 2^K steps (default: the scene's, 2).
-    #[arg(long, value_name = "K")]
-    pub coarsest: Option<u32>,
-    /// The finest level the algorithm may add (default: the scene's, 12).
-    #[arg(long = "max-level", value_name = "L")]
-    pub max_level: Option<u32>,
-    /// The convergence test runs levels 0..=L (default: the scene's, 6).
-    #[arg(long = "test-levels", value_name = "L")]
-    pub test_levels: Option<u32>,
-    /// Samples per level of the convergence test (default: the scene's, 4096).
-    #[arg(long = "test-samples", value_name = "N")]
-    pub test_samples: Option<u64>,
+    #[command(flatten)]
+    pub levels: LevelArgs,
     /// Final time (default: the scene's).
     #[arg(long = "t-end", alias = "T", value_name = "T")]
     pub t_end: Option<f64>,

@@ -15,7 +15,7 @@ use sdae_study::options::{MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS, MlmcOption
 use sdae_study::scene::Scene;
 
 use crate::Failure;
-use crate::args::{OutArgs, SceneArgs};
+use crate::args::{LevelArgs, OutArgs, SceneArgs};
 use crate::runs::writable_out;
 
 /// Options of `expect`.
@@ -41,22 +41,9 @@ pub struct ExpectArgs {
     /// thread count) or `seconds` (steps at the measured seconds per step of each kind of path).
     #[arg(long = "pick-by", value_name = "MEASURE", default_value = "work", value_parser = measure)]
     pub pick_by: CostMeasure,
-    /// Antithetic fine paths in MLMC's pairs (for multiplicative noise).
-    #[arg(long)]
-    pub antithetic: bool,
-    /// Level 0 on 2^K steps (default: the scene's, 2).
-    #[arg(long, value_name = "K")]
-    pub coarsest: Option<u32>,
-    /// The finest level the multilevel methods may add (default: the scene's, 12).
-    #[arg(long = "max-level", value_name = "L")]
-    pub max_level: Option<u32>,
-    /// The pilot's convergence test adds levels up to 0..=L while the bias needs them
-    /// (default: the scene's, 6).
-    #[arg(long = "test-levels", value_name = "L")]
-    pub test_levels: Option<u32>,
-    /// Samples per level of the pilot's convergence test (default: the scene's, 4096).
-    #[arg(long = "test-samples", value_name = "N")]
-    pub test_samples: Option<u64>,
+    // The pilot's convergence test adds levels up to 0..=L only while the bias needs them.
+    #[command(flatten)]
+    pub levels: LevelArgs,
     /// Randomizations R of the QMC methods (at least 2).
     #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS)]
     pub randomizations: u32,
@@ -94,11 +81,6 @@ impl ExpectArgs {
             observable: self.observable.clone(),
             scheme: self.scheme.clone(),
             eps: self.eps.into_iter().collect(),
-            antithetic: self.antithetic,
-            coarsest: self.coarsest,
-            max_level: self.max_level,
-            test_levels: self.test_levels,
-            test_samples: self.test_samples,
             t_end: self.t_end,
             seed: self.seed,
             threads: self.threads,
@@ -108,6 +90,7 @@ impl ExpectArgs {
                 randomizations: self.randomizations,
                 initial_points: self.initial_points,
             }),
+            ..self.levels.options()
         }
         .settings(scene);
         settings

@@ -52,11 +52,6 @@ impl MlmcArgs {
             observable: self.observable.clone(),
             scheme: self.scheme.clone(),
             eps: self.eps.clone(),
-            antithetic: self.antithetic,
-            coarsest: self.coarsest,
-            max_level: self.max_level,
-            test_levels: self.test_levels,
-            test_samples: self.test_samples,
             t_end: self.t_end,
             seed: self.seed,
             threads: self.threads,
@@ -66,6 +61,7 @@ impl MlmcArgs {
                 randomizations: self.randomizations,
                 initial_points: self.initial_points,
             }),
+            ..self.levels.options()
         }
         .settings(scene)
     }

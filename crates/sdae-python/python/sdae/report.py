@@ -145,8 +145,10 @@ class Report:
 class Expectation(Report):
     """E[f(X_T)] to a requested accuracy: ``value``, its ``interval`` (the 95% sampling
     interval widened by the ``bias`` estimate at the finest level used), the ``sampling_interval``
-    alone (an interval for the finest level's law), and how it was found (``method`` "mlmc" or
-    "standard", ``predicted`` work of both in steps, ``level``, ``samples``)."""
+    alone (an interval for the finest level's law), and how it was found (``method`` "mlmc",
+    "mlqmc", "standard" or "rqmc", the one the pilot predicted cheapest unless forced;
+    ``predicted``, the predicted cost of each estimator in steps and seconds; ``level``,
+    ``samples``)."""
 
     @property
     def value(self) -> float:

@@ -5,7 +5,7 @@
 /// from them (an MLMC report's costs in seconds, speed-up, the slope of its seconds per sample
 /// and its standard run's predicted seconds), the thread count, and a shard file's checksum
 /// (which covers its timings).
-pub const RUN_DEPENDENT: [&str; 13] = [
+pub const RUN_DEPENDENT: [&str; 14] = [
     "seconds_per_path",
     "steps_per_second",
     "threads",
@@ -18,6 +18,7 @@ pub const RUN_DEPENDENT: [&str; 13] = [
     "gamma_seconds",
     "predicted_seconds",
     "cap_seconds",
+    "wall_seconds",
     "crc32",
 ];
 

@@ -32,8 +32,8 @@ for scheme in ("half-explicit-practical", "projected-euler-maruyama"):
     half = 1.96 * cos_phi.std(ddof=1) / np.sqrt(cos_phi.size)
     print(f"{scheme}: E[cos phi_T] = {mean:.5f} +- {half:.5f} ({seconds:.2f} s)")
 
-# The same expectation to root mean square accuracy 0.01, by MLMC or standard Monte Carlo,
-# whichever the convergence test predicts cheaper.
+# The same expectation to root mean square accuracy 0.01, by the estimator a short pilot
+# predicts cheapest: standard Monte Carlo, randomized QMC, MLMC or MLQMC.
 found = sdae.expectation(scene, "cos_angle", eps=1e-2)
 print(found)
 

@@ -933,6 +933,30 @@ impl Errors {
     }
 }
 
+/// The levels of `fittable` whose error of output `c` is resolved, to be fitted; the others,
+/// whose error underflowed or lies at the rounding level of the state (of size `scale`), are
+/// named in `unresolved`. Only the estimate is computed here: the fitted levels' intervals
+/// come from the fit's bootstrap.
+fn resolved(
+    fittable: &[usize], c: usize, scale: f64, p: f64, errors_of: impl Fn(usize) -> Vec<f64>,
+    unresolved: &mut Vec<Unresolved>,
+) -> Vec<usize> {
+    let mut fitted = Vec::new();
+    for &j in fittable {
+        let error = lp_estimate(&errors_of(j), p).unwrap_or(f64::NAN);
+        if (underflowed(error) || at_rounding_level(error, scale)) && !error.is_nan() {
+            unresolved.push(Unresolved {
+                output: OUTPUT_NAMES[c],
+                level: j,
+                error,
+            });
+        } else {
+            fitted.push(j);
+        }
+    }
+    fitted
+}
+
 /// The report of scheme `s` (named `name`) from the paths whose reference finished. The
 /// fitted levels' error intervals come from their order fit's bootstrap (the same intervals
 /// [`lp_error`] gives, one bootstrap for all levels), the others' from [`lp_error`].
@@ -963,23 +987,15 @@ fn scheme_report(
     let mut fits: [Option<OrderFit>; 3] = [None, None, None];
     let mut unresolved = Vec::new();
     for (c, fit) in fits.iter_mut().enumerate().filter(|(c, _)| outputs[*c]) {
-        // Levels whose error underflowed or lies at the rounding level of the state are named,
-        // not fitted.
-        let mut fitted = Vec::new();
-        for &j in &fittable {
-            // The estimate alone: its interval comes from the fit's bootstrap below.
-            let error =
-                lp_estimate(&distances(&common, s, j, count, c), settings.p).unwrap_or(f64::NAN);
-            if (underflowed(error) || at_rounding_level(error, scale[c])) && !error.is_nan() {
-                unresolved.push(Unresolved {
-                    output: OUTPUT_NAMES[c],
-                    level: j,
-                    error,
-                });
-            } else {
-                fitted.push(j);
-            }
-        }
+        let errors_of = |j: usize| distances(&common, s, j, count, c);
+        let fitted = resolved(
+            &fittable,
+            c,
+            scale[c],
+            settings.p,
+            errors_of,
+            &mut unresolved,
+        );
         let h: Vec<f64> = fitted.iter().map(|&j| reports[j].h).collect();
         let errors: Vec<Vec<f64>> = fitted
             .iter()

@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use clap::builder::TypedValueParser;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
+use sdae_mlmc::expectation::{CostMeasure, Method};
 use sdae_study::convergence::{ConvergenceSettings, MAX_THREADS};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::options::{
@@ -11,6 +12,7 @@ use sdae_study::options::{
     WEAK_RANDOMIZATIONS, WeakOptions,
 };
 use sdae_study::scene::{BUILT_IN, Scene, escaped};
+use sdae_study::trajectory::TrajectoryFormat;
 
 use crate::shard::ShardArg;
 
@@ -57,7 +59,7 @@ pub enum Command {
     Trace(TraceArgs),
     /// Paths of a scene with one scheme as trajectory files, written as they are simulated:
     /// extended XYZ (VMD, OVITO), VTK (ParaView) or CSV; writes <OUT>/simulate/<scene>/.
-    Simulate(crate::simulate_cli::SimulateArgs),
+    Simulate(SimulateArgs),
     /// The built-in scenes and the schemes.
     List,
     /// Multilevel Monte Carlo of E[f(X_T)] (Giles): convergence test, rates, complexity
@@ -71,7 +73,7 @@ pub enum Command {
     /// E[f(X_T)] to an accuracy eps by whichever of standard Monte Carlo, randomized QMC,
     /// MLMC and multilevel QMC a short pilot predicts cheapest (default: the pendulum's
     /// E[cos phi_T]); writes <OUT>/expect/<scene>/report.json, report.md and report.csv.
-    Expect(crate::expect_cli::ExpectArgs),
+    Expect(ExpectArgs),
     /// Compare the numbers of two reports or shards (JSON), leaving out what differs between
     /// runs (timings, thread counts): exit code 0 if they are equal, 1 with the first
     /// difference.
@@ -232,7 +234,7 @@ pub struct TraceArgs {
     pub out: OutArgs,
 }
 
-pub(crate) fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
+fn scheme_parser() -> impl TypedValueParser<Value = SchemeKind> {
     OneOf(SchemeKind::ALL.map(SchemeKind::name).to_vec())
         .map(|name| SchemeKind::from_name(&name).expect("one of the possible values"))
 }
@@ -279,7 +281,7 @@ impl TypedValueParser for OneOf {
     }
 }
 
-pub(crate) fn thread_count(value: &str) -> Result<usize, String> {
+fn thread_count(value: &str) -> Result<usize, String> {
     match value.parse::<usize>() {
         Ok(0) => Err("must be at least 1".into()),
         Ok(n) if n > MAX_THREADS => Err(format!("must be at most {MAX_THREADS}")),
@@ -441,6 +443,112 @@ impl ConvergenceArgs {
             p: self.p,
         }
         .settings(scene)
+    }
+}
+
+/// Options of `expect`.
+#[derive(Debug, Clone, Args)]
+pub struct ExpectArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (default: the
+    /// scene's, else cos_angle).
+    #[arg(long, value_name = "NAME")]
+    pub observable: Option<String>,
+    /// Scheme on the paths (default: the scene's, half-explicit-practical).
+    #[arg(long, value_name = "NAME")]
+    pub scheme: Option<String>,
+    /// Root mean square accuracy eps (default: the smallest of the scene's [mlmc] eps).
+    #[arg(long, value_name = "EPS", allow_negative_numbers = true)]
+    pub eps: Option<f64>,
+    /// Run this estimator whatever the prediction: mlmc, mlqmc, standard or rqmc (default: the
+    /// cheapest predicted).
+    #[arg(long, value_name = "NAME", value_parser = method)]
+    pub method: Option<Method>,
+    /// What the cheapest is judged by: `work` (steps; the same choice on every machine and
+    /// thread count) or `seconds` (steps at the measured seconds per step of each kind of path).
+    #[arg(long = "pick-by", value_name = "MEASURE", default_value = "work", value_parser = measure)]
+    pub pick_by: CostMeasure,
+    // The pilot's convergence test adds levels up to 0..=L only while the bias needs them.
+    #[command(flatten)]
+    pub levels: LevelArgs,
+    /// Randomizations R of the QMC methods (at least 2).
+    #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS)]
+    pub randomizations: u32,
+    /// Points n_0 of each randomization when an MLQMC level is first run, the QMC pilot's
+    /// largest (a power of two).
+    #[arg(long = "initial-points", value_name = "N", default_value_t = MLQMC_INITIAL_POINTS)]
+    pub initial_points: u64,
+    /// Final time (default: the scene's).
+    #[arg(long = "t-end", alias = "T", value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Seed of the sample streams.
+    #[arg(long, value_name = "S", default_value_t = 2026)]
+    pub seed: u64,
+    /// Worker threads, 1 to 1024 (default: the available cores).
+    #[arg(long, value_name = "K")]
+    pub threads: Option<usize>,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// An estimator's name on the command line.
+fn method(value: &str) -> Result<Method, String> {
+    value.parse()
+}
+
+/// A cost measure's name on the command line.
+fn measure(value: &str) -> Result<CostMeasure, String> {
+    value.parse()
+}
+
+/// Options of `simulate`.
+#[derive(Debug, Clone, Args)]
+pub struct SimulateArgs {
+    /// The scene: one built-in scene (--scene) or one scene file (--scene-file); default: the
+    /// pendulum.
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    /// The scheme.
+    #[arg(long, value_name = "NAME", default_value = "half-explicit-practical",
+          value_parser = scheme_parser())]
+    pub scheme: SchemeKind,
+    /// Paths P.
+    #[arg(long, value_name = "P", default_value_t = 1, value_parser = at_least_one)]
+    pub paths: usize,
+    /// Steps N over the scene's T (default: 2^B, B the scene's finest study level).
+    #[arg(long, value_name = "N", value_parser = at_least_one)]
+    pub steps: Option<usize>,
+    /// Record t_0, every K-th step and t_N (default: N / 256, at least 1; 1 keeps every step).
+    #[arg(long, value_name = "K", value_parser = at_least_one)]
+    pub every: Option<usize>,
+    /// Seed of the path streams: path i draws from the stream (seed, i), as in every study.
+    #[arg(long, value_name = "S", default_value_t = 2026)]
+    pub seed: u64,
+    /// Worker threads, 1 to 1024 (default: the available cores); the numbers do not depend
+    /// on it.
+    #[arg(long, value_name = "K", value_parser = thread_count)]
+    pub threads: Option<usize>,
+    /// File format: xyz (extended XYZ, one file per path: VMD, OVITO, ASE), vtk (an XML grid
+    /// of polylines per recorded time and a .pvd collection: ParaView; chains of beads in 3-D
+    /// only) or csv (path, step, time, r). Default: vtk for fibers, xyz for the rest.
+    #[arg(long, value_name = "FORMAT", value_parser = format_parser())]
+    pub format: Option<TrajectoryFormat>,
+    /// Files go to <OUT>/simulate/<scene>/.
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+fn format_parser() -> impl TypedValueParser<Value = TrajectoryFormat> {
+    PossibleValuesParser::new(TrajectoryFormat::ALL.map(TrajectoryFormat::name))
+        .map(|name| TrajectoryFormat::from_name(&name).expect("one of the possible values"))
+}
+
+fn at_least_one(value: &str) -> Result<usize, String> {
+    match value.parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
     }
 }
 

@@ -5,74 +5,16 @@
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use sdae_mlmc::expectation::{CostMeasure, Method};
 use sdae_mlmc::{MlmcError, RunControl};
 use sdae_study::mlmc::expect_report::{summary, write_expect_report};
 use sdae_study::mlmc::{ExpectRequest, MlmcSettings, QmcSettings, scene_expectation_with};
-use sdae_study::options::{MLQMC_INITIAL_POINTS, MLQMC_RANDOMIZATIONS, MlmcOptions};
+use sdae_study::options::MlmcOptions;
 use sdae_study::scene::Scene;
 
-use crate::Failure;
-use crate::args::{LevelArgs, OutArgs, SceneArgs};
+use crate::args::ExpectArgs;
+use crate::failure::Failure;
 use crate::runs::writable_out;
-
-/// Options of `expect`.
-#[derive(Debug, Clone, Args)]
-pub struct ExpectArgs {
-    #[command(flatten)]
-    pub scenes: SceneArgs,
-    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (default: the
-    /// scene's, else cos_angle).
-    #[arg(long, value_name = "NAME")]
-    pub observable: Option<String>,
-    /// Scheme on the paths (default: the scene's, half-explicit-practical).
-    #[arg(long, value_name = "NAME")]
-    pub scheme: Option<String>,
-    /// Root mean square accuracy eps (default: the smallest of the scene's [mlmc] eps).
-    #[arg(long, value_name = "EPS", allow_negative_numbers = true)]
-    pub eps: Option<f64>,
-    /// Run this estimator whatever the prediction: mlmc, mlqmc, standard or rqmc (default: the
-    /// cheapest predicted).
-    #[arg(long, value_name = "NAME", value_parser = method)]
-    pub method: Option<Method>,
-    /// What the cheapest is judged by: `work` (steps; the same choice on every machine and
-    /// thread count) or `seconds` (steps at the measured seconds per step of each kind of path).
-    #[arg(long = "pick-by", value_name = "MEASURE", default_value = "work", value_parser = measure)]
-    pub pick_by: CostMeasure,
-    // The pilot's convergence test adds levels up to 0..=L only while the bias needs them.
-    #[command(flatten)]
-    pub levels: LevelArgs,
-    /// Randomizations R of the QMC methods (at least 2).
-    #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS)]
-    pub randomizations: u32,
-    /// Points n_0 of each randomization when an MLQMC level is first run, the QMC pilot's
-    /// largest (a power of two).
-    #[arg(long = "initial-points", value_name = "N", default_value_t = MLQMC_INITIAL_POINTS)]
-    pub initial_points: u64,
-    /// Final time (default: the scene's).
-    #[arg(long = "t-end", alias = "T", value_name = "T")]
-    pub t_end: Option<f64>,
-    /// Seed of the sample streams.
-    #[arg(long, value_name = "S", default_value_t = 2026)]
-    pub seed: u64,
-    /// Worker threads, 1 to 1024 (default: the available cores).
-    #[arg(long, value_name = "K")]
-    pub threads: Option<usize>,
-    #[command(flatten)]
-    pub out: OutArgs,
-}
-
-/// An estimator's name on the command line.
-fn method(value: &str) -> Result<Method, String> {
-    value.parse()
-}
-
-/// A cost measure's name on the command line.
-fn measure(value: &str) -> Result<CostMeasure, String> {
-    value.parse()
-}
 
 impl ExpectArgs {
     /// The MLMC settings of `scene` with the command line's changes, checked.

@@ -34,7 +34,8 @@ use crate::checkpoint::{
     CheckpointFile, Reader, parse_file, read_bytes, torn_note, write_f64, write_varint,
 };
 use sdae_mlmc::algorithm::Plan;
-use sdae_mlmc::sampler::{BLOCK, BlockKey, BlockStore};
+use sdae_mlmc::block::{BLOCK, BlockKey};
+use sdae_mlmc::sampler::BlockStore;
 use sdae_mlmc::sums::LevelSums;
 use sdae_study::StudyError;
 use sdae_study::mlmc::{MlmcSettings, QmcSettings};

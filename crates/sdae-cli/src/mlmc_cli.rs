@@ -21,8 +21,9 @@ use sdae_study::scene::{Scene, escaped};
 
 use crate::args::{MlmcArgs, MlmcMergeArgs};
 use crate::expect_cli::{run_expectation, spinner};
+use crate::failure::Failure;
 use crate::runs::{Resumable, Resumption, prepare, refused, writable_out};
-use crate::{Failure, stopping};
+use crate::stopping;
 use sdae_mlmc::expectation::{CostMeasure, Method};
 use sdae_study::mlmc::ExpectRequest;
 use sdae_study::mlmc::expect_report::{markdown as expect_markdown, summary};
@@ -97,7 +98,7 @@ impl MlmcArgs {
                 // A value from the scene file (not typed) is named with the file, as the scene
                 // file's own checks name it.
                 (MlmcError::Setting { key, value, rule }, Some(file))
-                    if crate::flag(key).is_none() =>
+                    if crate::failure::flag(key).is_none() =>
                 {
                     MlmcError::Setting {
                         key,

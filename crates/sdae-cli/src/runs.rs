@@ -23,8 +23,9 @@ use sdae_study::stability::{self, StabilityReport, StabilityScene};
 use sdae_study::{equipartition, trace, weak};
 
 use crate::args::{CheckpointArgs, ConvergenceArgs, EnsembleArgs, TraceArgs, WeakArgs};
+use crate::failure::Failure;
 use crate::shard::ShardArg;
-use crate::{Failure, stopping};
+use crate::stopping;
 
 /// A progress bar of `len` items on stderr, drawn when stderr is a terminal (CI logs stay
 /// clean).
@@ -372,7 +373,7 @@ fn checked<'p>(
     for (k, (scene, s)) in scenes.iter().zip(settings).enumerate() {
         // Whatever the library calls it, a setting it refuses is a usage error.
         let named = |e: StudyError| match e {
-            StudyError::Setting { key, value, rule } if crate::flag(key).is_none() => {
+            StudyError::Setting { key, value, rule } if crate::failure::flag(key).is_none() => {
                 let rule = match file(k) {
                     Some(f) => format!("{rule} (scene file {})", escaped(&f.display().to_string())),
                     None => rule,

@@ -4,11 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use clap::Args;
-use clap::builder::{PossibleValuesParser, TypedValueParser};
 use indicatif::{ProgressBar, ProgressStyle};
 use sdae_study::StudyError;
-use sdae_study::integrator::SchemeKind;
 use sdae_study::scene::Scene;
 use sdae_study::simulate::{SimulateSettings, Streaming, check_streaming, simulate_streaming};
 use sdae_study::trace;
@@ -16,62 +13,12 @@ use sdae_study::trajectory::{
     MAX_OPEN_FILES, Particles, TrajectoryFormat, TrajectoryWriter, check_room,
 };
 
-use crate::Failure;
-use crate::args::{OutArgs, SceneArgs, scheme_parser, thread_count};
+use crate::args::SimulateArgs;
+use crate::failure::Failure;
 use crate::runs::{refused, writable_out};
 
 /// Recorded times of a run, at most, where --every is not given.
 const DEFAULT_RECORDS: usize = 256;
-
-/// Options of `simulate`.
-#[derive(Debug, Clone, Args)]
-pub struct SimulateArgs {
-    /// The scene: one built-in scene (--scene) or one scene file (--scene-file); default: the
-    /// pendulum.
-    #[command(flatten)]
-    pub scenes: SceneArgs,
-    /// The scheme.
-    #[arg(long, value_name = "NAME", default_value = "half-explicit-practical",
-          value_parser = scheme_parser())]
-    pub scheme: SchemeKind,
-    /// Paths P.
-    #[arg(long, value_name = "P", default_value_t = 1, value_parser = at_least_one)]
-    pub paths: usize,
-    /// Steps N over the scene's T (default: 2^B, B the scene's finest study level).
-    #[arg(long, value_name = "N", value_parser = at_least_one)]
-    pub steps: Option<usize>,
-    /// Record t_0, every K-th step and t_N (default: N / 256, at least 1; 1 keeps every step).
-    #[arg(long, value_name = "K", value_parser = at_least_one)]
-    pub every: Option<usize>,
-    /// Seed of the path streams: path i draws from the stream (seed, i), as in every study.
-    #[arg(long, value_name = "S", default_value_t = 2026)]
-    pub seed: u64,
-    /// Worker threads, 1 to 1024 (default: the available cores); the numbers do not depend
-    /// on it.
-    #[arg(long, value_name = "K", value_parser = thread_count)]
-    pub threads: Option<usize>,
-    /// File format: xyz (extended XYZ, one file per path: VMD, OVITO, ASE), vtk (an XML grid
-    /// of polylines per recorded time and a .pvd collection: ParaView; chains of beads in 3-D
-    /// only) or csv (path, step, time, r). Default: vtk for fibers, xyz for the rest.
-    #[arg(long, value_name = "FORMAT", value_parser = format_parser())]
-    pub format: Option<TrajectoryFormat>,
-    /// Files go to <OUT>/simulate/<scene>/.
-    #[command(flatten)]
-    pub out: OutArgs,
-}
-
-fn format_parser() -> impl TypedValueParser<Value = TrajectoryFormat> {
-    PossibleValuesParser::new(TrajectoryFormat::ALL.map(TrajectoryFormat::name))
-        .map(|name| TrajectoryFormat::from_name(&name).expect("one of the possible values"))
-}
-
-fn at_least_one(value: &str) -> Result<usize, String> {
-    match value.parse::<usize>() {
-        Ok(0) => Err("must be at least 1".into()),
-        Ok(n) => Ok(n),
-        Err(e) => Err(e.to_string()),
-    }
-}
 
 /// What a run writes: the settings, the format, the folder and the paths in flight.
 struct Plan {

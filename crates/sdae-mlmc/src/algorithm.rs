@@ -11,9 +11,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{MlmcError, check_eps, samples_exceed_memory};
+use crate::block::BLOCK;
+use crate::error::{MlmcError, check_eps};
 use crate::fit::{LogPoint, asymptotic_decay, fit_slope, resolved_mean};
-use crate::sampler::{BLOCK, LevelSampler, RunControl};
+use crate::memory::samples_exceed_memory;
+use crate::sampler::{LevelSampler, RunControl};
 use crate::sums::{LevelStats, LevelSums};
 use sdae_stats::PRE_ASYMPTOTIC_TOLERANCE;
 use sdae_stats::{Interval, t975};

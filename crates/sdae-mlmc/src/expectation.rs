@@ -33,9 +33,9 @@ use crate::algorithm::{
 use crate::error::{MlmcError, check_eps};
 use crate::qmc::adaptive::doubled;
 use crate::qmc::{MlqmcEstimate, QuasiLevel, QuasiSampler, QuasiSettings, mlqmc, mlqmc_from};
-use crate::sampler::{LevelSampler, RunControl};
-use crate::sums::{LevelStats, LevelSums, level_stats};
-pub use predict::{CostMeasure, PilotLevel, Prediction, cheapest};
+use crate::sampler::{LevelSampler, RunControl, level_stats};
+use crate::sums::{LevelStats, LevelSums};
+pub use predict::{CostMeasure, Method, PilotLevel, Prediction, cheapest};
 use sdae_stats::Interval;
 
 /// What an expectation is asked for.
@@ -78,66 +78,6 @@ impl ExpectationSettings {
             by: CostMeasure::Work,
             method: None,
         }
-    }
-}
-
-/// The estimator that ran.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// Multilevel Monte Carlo (Giles's adaptive algorithm).
-    Mlmc,
-    /// Multilevel randomized QMC (Giles and Waterhouse).
-    Mlqmc,
-    /// Standard Monte Carlo on one level.
-    Standard,
-    /// Randomized QMC on one level.
-    Rqmc,
-}
-
-impl Method {
-    /// Every estimator, in the order of preference on equal costs.
-    pub const ALL: [Method; 4] = [Method::Mlmc, Method::Mlqmc, Method::Standard, Method::Rqmc];
-
-    /// Its name: `mlmc`, `mlqmc`, `standard`, `rqmc`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Mlmc => "mlmc",
-            Method::Mlqmc => "mlqmc",
-            Method::Standard => "standard",
-            Method::Rqmc => "rqmc",
-        }
-    }
-
-    /// Its name in words.
-    pub fn words(self) -> &'static str {
-        match self {
-            Method::Mlmc => "multilevel Monte Carlo",
-            Method::Mlqmc => "multilevel quasi-Monte Carlo",
-            Method::Standard => "standard Monte Carlo",
-            Method::Rqmc => "randomized quasi-Monte Carlo",
-        }
-    }
-
-    /// Whether its paths are quasi-random.
-    pub fn quasi(self) -> bool {
-        matches!(self, Method::Mlqmc | Method::Rqmc)
-    }
-}
-
-impl std::fmt::Display for Method {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| format!("'{s}' is not one of mlmc, mlqmc, standard, rqmc"))
     }
 }
 

@@ -1,5 +1,5 @@
-//! What MLMC asks of a model: the samples of a level, block by block, and the deterministic
-//! parallel driver that runs the blocks on a thread pool.
+//! What MLMC asks of a model (the samples of a level, block by block), the deterministic
+//! parallel driver that runs the blocks on a thread pool, and the statistics of each level.
 //!
 //! Sample i of level l draws from its own stream (seed, l, i). Samples are taken in blocks of
 //! [`BLOCK`] consecutive indices starting at multiples of [`BLOCK`]; each block's samples are
@@ -13,11 +13,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::block::{BLOCK, BlockKey};
 use crate::error::MlmcError;
-use crate::sums::{LevelSums, Sample};
-
-/// Samples per block (a multiple of the widest SIMD width).
-pub const BLOCK: u64 = 32;
+use crate::sums::{LevelStats, LevelSums, Sample};
 
 /// A model MLMC can sample: pairs of paths on levels l and l - 1 driven by one Brownian path.
 pub trait LevelSampler: Sync {
@@ -37,19 +35,6 @@ pub trait LevelSampler: Sync {
     /// Steps of one sample of level l: the fine path (twice with the antithetic option) and
     /// the coarse path.
     fn pair_steps(&self, level: u32) -> u64;
-}
-
-/// One block of samples: its level, its index b (samples b BLOCK .. (b + 1) BLOCK), and
-/// whether its samples are pairs (`coupled`) or fine paths alone (standard Monte Carlo).
-/// Its sums depend on nothing else (and the seed and the sampler's settings).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct BlockKey {
-    /// Level l.
-    pub level: u32,
-    /// Block index b.
-    pub block: u64,
-    /// Pairs of paths (true) or the fine path alone (false).
-    pub coupled: bool,
 }
 
 /// Where a run keeps the sums of its blocks (a checkpoint): blocks it has are not run again,
@@ -214,29 +199,35 @@ pub fn shard_blocks(samples: u64, shard: (u64, u64)) -> Vec<u64> {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::test_sampler::ValueSampler;
-
-    #[test]
-    fn after_a_stop_the_blocks_left_end_without_building_a_worker() {
-        let sampler = ValueSampler::new(|_| 1.0);
-        let stop = AtomicBool::new(false);
-        let mut control = RunControl::new(2).unwrap();
-        control.stop = Some(&stop);
-        let mut sums = LevelSums::default();
-        control
-            .extend(&sampler, 3, &mut sums, 0, 64 * BLOCK, false)
-            .unwrap();
-        assert_eq!(sums.attempted(), 64 * BLOCK);
-        let built = sampler.workers();
-        assert!(built >= 1);
-        // A direct standard run of a million blocks, stopped: no block runs, no worker is
-        // built (each used to build one before it looked at the stop flag).
-        stop.store(true, Ordering::SeqCst);
-        let stopped = control.extend(&sampler, 3, &mut sums, 0, 1 << 25, false);
-        assert_eq!(stopped, Err(MlmcError::Interrupted));
-        assert_eq!(sampler.workers(), built);
+/// The statistics of each level from its sums, with the steps of `sampler`'s paths.
+pub fn level_stats<L: LevelSampler>(sums: &[LevelSums], sampler: &L) -> Vec<LevelStats> {
+    let mut out: Vec<LevelStats> = Vec::with_capacity(sums.len());
+    for (l, s) in sums.iter().enumerate() {
+        let n = s.samples as f64;
+        let consistency = match out.last() {
+            Some(prev) => {
+                let scale =
+                    3.0 * (s.var_y().sqrt() + s.var_p().sqrt() + prev.var_p.sqrt()) / n.sqrt();
+                (s.mean_y() - s.mean_p() + prev.mean_p).abs() / scale
+            }
+            None => 0.0,
+        };
+        out.push(LevelStats {
+            level: l as u32,
+            steps: sampler.path_steps(l as u32),
+            work_per_sample: sampler.pair_steps(l as u32),
+            samples: s.samples,
+            failed_fine: s.failed_fine,
+            failed_coarse: s.failed_coarse,
+            mean_y: s.mean_y(),
+            var_y: s.var_y(),
+            se_y: (s.var_y() / n).sqrt(),
+            mean_p: s.mean_p(),
+            var_p: s.var_p(),
+            kurtosis: s.kurtosis(),
+            consistency,
+            seconds_per_sample: s.seconds / s.attempted().max(1) as f64,
+        });
     }
+    out
 }

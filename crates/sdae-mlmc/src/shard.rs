@@ -12,7 +12,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::MlmcError;
 use crate::algorithm::Plan;
-use crate::sampler::{BLOCK, LevelSampler, RunControl, shard_blocks};
+use crate::block::BLOCK;
+use crate::sampler::{LevelSampler, RunControl, shard_blocks};
 use crate::sums::LevelSums;
 
 /// The sums of one block of a level.

@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::sampler::LevelSampler;
+use crate::block::BLOCK;
 
 /// One sample of a level: the fine value P_l and the coarse value P_{l-1} (0 on level 0 and
 /// for a single path), or which path of the pair failed.
@@ -114,11 +114,10 @@ impl LevelSums {
     }
 
     /// Checks the sums of one block as a run makes them, for resuming a checkpoint and for
-    /// merging shards: [`BLOCK`](super::sampler::BLOCK) samples attempted, no more failures on
-    /// either path than failed samples, sums of squares and the run time not negative. The
-    /// error says what is wrong ("counts ...", to follow the block's name).
+    /// merging shards: [`BLOCK`] samples attempted, no more failures on either path than
+    /// failed samples, sums of squares and the run time not negative. The error says what is
+    /// wrong ("counts ...", to follow the block's name).
     pub fn check_block(&self) -> Result<(), String> {
-        use crate::sampler::BLOCK;
         let counts = self.samples.checked_add(self.failed) == Some(BLOCK)
             && self.failed_fine <= self.failed
             && self.failed_coarse <= self.failed;
@@ -205,7 +204,7 @@ pub struct LevelStats {
     /// Steps of the fine path, 2^(k0 + l).
     pub steps: u64,
     /// Work per sample in steps: the fine path (twice with the antithetic option) and the
-    /// coarse path ([`LevelSampler::pair_steps`]).
+    /// coarse path ([`LevelSampler::pair_steps`](crate::sampler::LevelSampler::pair_steps)).
     pub work_per_sample: u64,
     /// Samples with a value.
     pub samples: u64,
@@ -239,39 +238,6 @@ pub struct LevelStats {
     /// Measured seconds per sample (both paths of the pair).
     #[serde(with = "sdae_stats::json_f64")]
     pub seconds_per_sample: f64,
-}
-
-/// The statistics of each level from its sums, with the steps of `sampler`'s paths.
-pub fn level_stats<L: LevelSampler>(sums: &[LevelSums], sampler: &L) -> Vec<LevelStats> {
-    let mut out: Vec<LevelStats> = Vec::with_capacity(sums.len());
-    for (l, s) in sums.iter().enumerate() {
-        let n = s.samples as f64;
-        let consistency = match out.last() {
-            Some(prev) => {
-                let scale =
-                    3.0 * (s.var_y().sqrt() + s.var_p().sqrt() + prev.var_p.sqrt()) / n.sqrt();
-                (s.mean_y() - s.mean_p() + prev.mean_p).abs() / scale
-            }
-            None => 0.0,
-        };
-        out.push(LevelStats {
-            level: l as u32,
-            steps: sampler.path_steps(l as u32),
-            work_per_sample: sampler.pair_steps(l as u32),
-            samples: s.samples,
-            failed_fine: s.failed_fine,
-            failed_coarse: s.failed_coarse,
-            mean_y: s.mean_y(),
-            var_y: s.var_y(),
-            se_y: (s.var_y() / n).sqrt(),
-            mean_p: s.mean_p(),
-            var_p: s.var_p(),
-            kurtosis: s.kurtosis(),
-            consistency,
-            seconds_per_sample: s.seconds / s.attempted().max(1) as f64,
-        });
-    }
-    out
 }
 
 #[cfg(test)]

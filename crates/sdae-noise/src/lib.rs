@@ -63,14 +63,16 @@ mod increments;
 mod normals;
 mod path_streams;
 mod qmc;
+mod seeding;
 mod ziggurat;
 
 pub use ensemble_noise::EnsembleNoise;
 pub use error::NoiseError;
 pub use increments::{Coarsened, GaussianIncrements, IncrementSource, RecordedIncrements};
 pub use normals::EnsembleIncrements;
-pub use path_streams::{PathStreams, StandardNormals, path_rng};
+pub use path_streams::{PathStreams, StandardNormals};
 pub use qmc::{
     BrownianBridge, MAX_SOBOL_DIMS, QuasiBrownian, QuasiEnsembleIncrements, QuasiIncrements,
     SobolPoints, inverse_normal_cdf, unit_interval,
 };
+pub use seeding::path_rng;

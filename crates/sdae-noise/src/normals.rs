@@ -554,7 +554,7 @@ fn store_words<S: Simd>(v: S::u64s, to: &mut [u64]) {
 mod tests {
     use super::*;
     use crate::increments::{GaussianIncrements, IncrementSource};
-    use crate::path_streams::path_rng;
+    use crate::seeding::path_rng;
 
     #[test]
     fn the_lanes_fast_path_is_the_one_words() {

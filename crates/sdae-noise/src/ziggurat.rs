@@ -106,7 +106,7 @@ fn open_uniform(word: u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path_streams::path_rng;
+    use crate::seeding::path_rng;
     use statrs::function::erf::erfc;
 
     /// f(x) = exp(-x^2 / 2).

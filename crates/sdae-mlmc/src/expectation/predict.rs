@@ -14,12 +14,12 @@
 //!
 //! Each prediction is in work (steps) and in seconds: the work times the seconds per step the
 //! pilot measured for that kind of path (pseudo-random pairs and paths from the test,
-//! quasi-random ones from the QMC pilot), all threads together.
+//! quasi-random ones from the QMC pilot), all threads together. The estimators are named by
+//! [`Method`].
 
 use serde::Serialize;
 
 use crate::algorithm::{optimal_counts, whole_blocks};
-use crate::expectation::Method;
 use crate::qmc::{QuasiLevel, level_to_double};
 use crate::sums::LevelStats;
 
@@ -51,6 +51,66 @@ impl std::str::FromStr for CostMeasure {
             "seconds" => Ok(CostMeasure::Seconds),
             other => Err(format!("'{other}' is not work or seconds")),
         }
+    }
+}
+
+/// The estimator that ran.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Multilevel Monte Carlo (Giles's adaptive algorithm).
+    Mlmc,
+    /// Multilevel randomized QMC (Giles and Waterhouse).
+    Mlqmc,
+    /// Standard Monte Carlo on one level.
+    Standard,
+    /// Randomized QMC on one level.
+    Rqmc,
+}
+
+impl Method {
+    /// Every estimator, in the order of preference on equal costs.
+    pub const ALL: [Method; 4] = [Method::Mlmc, Method::Mlqmc, Method::Standard, Method::Rqmc];
+
+    /// Its name: `mlmc`, `mlqmc`, `standard`, `rqmc`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Mlmc => "mlmc",
+            Method::Mlqmc => "mlqmc",
+            Method::Standard => "standard",
+            Method::Rqmc => "rqmc",
+        }
+    }
+
+    /// Its name in words.
+    pub fn words(self) -> &'static str {
+        match self {
+            Method::Mlmc => "multilevel Monte Carlo",
+            Method::Mlqmc => "multilevel quasi-Monte Carlo",
+            Method::Standard => "standard Monte Carlo",
+            Method::Rqmc => "randomized quasi-Monte Carlo",
+        }
+    }
+
+    /// Whether its paths are quasi-random.
+    pub fn quasi(self) -> bool {
+        matches!(self, Method::Mlqmc | Method::Rqmc)
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| format!("'{s}' is not one of mlmc, mlqmc, standard, rqmc"))
     }
 }
 

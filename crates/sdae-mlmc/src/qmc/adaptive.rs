@@ -15,7 +15,8 @@ use sdae_stats::{Interval, mean_interval};
 use super::QuasiSampler;
 use super::level::{QuasiLevel, check_design};
 use crate::algorithm::bias_estimate;
-use crate::error::{MlmcError, check_eps, samples_exceed_memory};
+use crate::error::{MlmcError, check_eps};
+use crate::memory::samples_exceed_memory;
 use crate::sampler::RunControl;
 
 /// Settings of the adaptive MLQMC algorithm.

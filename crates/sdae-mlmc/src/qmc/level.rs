@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 use sdae_stats::{Interval, mean_interval};
 
 use super::QuasiSampler;
-use crate::error::{MlmcError, samples_exceed_memory};
+use crate::error::MlmcError;
+use crate::memory::samples_exceed_memory;
 use crate::sampler::RunControl;
 use crate::sums::LevelSums;
 

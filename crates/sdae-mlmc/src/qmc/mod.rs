@@ -26,8 +26,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::block::BLOCK;
 use crate::error::MlmcError;
-use crate::sampler::{BLOCK, RunControl};
+use crate::sampler::RunControl;
 use crate::sums::{LevelSums, Sample};
 
 pub mod adaptive;
@@ -182,7 +183,6 @@ pub(crate) mod interval_serde {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_sampler::ValueSampler;
 
     #[test]
     fn blocks_are_cut_at_multiples_of_the_block_size() {
@@ -193,29 +193,5 @@ mod tests {
             vec![BLOCK - 1..BLOCK, BLOCK..2 * BLOCK, 2 * BLOCK..2 * BLOCK + 3]
         );
         assert!(point_blocks(5..5).is_empty());
-    }
-
-    #[test]
-    fn points_are_summed_per_randomization_with_progress_and_stop() {
-        use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-        let index = ValueSampler::new(|i| i as f64);
-        let done = AtomicU64::new(0);
-        let progress = |n: u64| {
-            done.fetch_add(n, Ordering::SeqCst);
-        };
-        let stop = AtomicBool::new(false);
-        let mut control = RunControl::new(2).unwrap();
-        control.progress = Some(&progress);
-        control.stop = Some(&stop);
-        let sums = control.sample_points(&index, 2, 3, 10..100, true).unwrap();
-        assert_eq!(sums.len(), 3);
-        for s in &sums {
-            assert_eq!(s.samples, 90);
-            assert_eq!(s.y1, (10..100).sum::<u64>() as f64);
-        }
-        assert_eq!(done.load(Ordering::SeqCst), 3 * 90);
-        stop.store(true, Ordering::SeqCst);
-        let stopped = control.sample_points(&index, 2, 3, 0..64, true);
-        assert_eq!(stopped, Err(MlmcError::Interrupted));
     }
 }

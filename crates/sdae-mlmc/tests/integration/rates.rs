@@ -4,7 +4,7 @@
 use sdae_mlmc::RunControl;
 use sdae_mlmc::algorithm::{AdaptiveSettings, adaptive, run_plan};
 use sdae_mlmc::fit::fit_rates;
-use sdae_mlmc::sums::level_stats;
+use sdae_mlmc::sampler::level_stats;
 
 use crate::linear::Linear;
 

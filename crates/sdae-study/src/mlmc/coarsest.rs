@@ -12,7 +12,8 @@ use serde::Serialize;
 use sdae_mlmc::sampler::probe_level;
 use sdae_mlmc::{LevelSampler, LevelSums, MlmcError};
 
-use super::study::{MlmcSettings, SamplerTask, with_sampler};
+use super::run_settings::MlmcSettings;
+use super::sampler::{SamplerTask, with_sampler};
 use crate::scene::Scene;
 use sdae_mlmc::qmc::QuasiSampler;
 

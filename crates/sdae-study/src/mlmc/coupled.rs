@@ -16,8 +16,9 @@ use sdae_noise::{EnsembleIncrements, EnsembleNoise, MAX_SOBOL_DIMS, QuasiBrownia
 use crate::integrator::{BoxedEnsemble, StudyScheme};
 use crate::observable::Observable;
 use sdae_mlmc::MlmcError;
+use sdae_mlmc::block::BLOCK;
 use sdae_mlmc::qmc::QuasiSampler;
-use sdae_mlmc::sampler::{BLOCK, LevelSampler};
+use sdae_mlmc::sampler::LevelSampler;
 use sdae_mlmc::sums::Sample;
 
 /// Fine steps drawn at once.

@@ -7,7 +7,8 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::coarsest::{CoarsestMoved, first_level_that_runs};
-use super::study::{MlmcSettings, SamplerTask, with_sampler};
+use super::run_settings::MlmcSettings;
+use super::sampler::{SamplerTask, with_sampler};
 use crate::scene::Scene;
 use sdae_mlmc::expectation::{
     CostMeasure, Expectation, ExpectationSettings, Method, expectation_quasi,

@@ -4,8 +4,10 @@
 //! These take a scene, not a sampler, so that the samplers of the built-in systems are
 //! compiled here once and not again in every program that calls them.
 
+use super::run_settings::MlmcSettings;
+use super::sampler::{SamplerTask, with_sampler};
 use super::shard::{Identity, MlmcShard, PlanReport, plan_report, run_shard};
-use super::study::{MlmcReport, MlmcSettings, SamplerTask, with_sampler};
+use super::study::MlmcReport;
 use crate::scene::Scene;
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::plan_from_test;

@@ -176,7 +176,7 @@ fn samples_panel(report: &MlmcReport) -> Panel {
 /// The panel of `cost.svg`: log10 of eps^2 x work against log10 eps, of MLMC, standard MC
 /// and, with `--qmc`, MLQMC.
 fn cost_panel(report: &MlmcReport) -> Panel {
-    let cost = |pick: fn(&super::study::ComplexityRow) -> f64| {
+    let cost = |pick: fn(&super::rows::ComplexityRow) -> f64| {
         report
             .complexity
             .iter()

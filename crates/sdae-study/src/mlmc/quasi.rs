@@ -12,48 +12,17 @@
 //!   run, to the same accuracy (R n paths, n doubled until the variance V of the estimate is at
 //!   most eps^2 / 2), its work capped as standard Monte Carlo's is.
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use sdae_mlmc::MlmcError;
-use sdae_mlmc::qmc::level::check_design;
 use sdae_mlmc::qmc::{
     MlqmcEstimate, QuasiLevel, QuasiSampler, QuasiSettings, cost_exponent, cost_exponent_of, mlqmc,
 };
 use sdae_mlmc::sampler::RunControl;
 use sdae_stats::Interval;
 
-use super::study::{ComplexityRow, MlmcSettings, StandardRun};
-
-/// The randomized QMC part of an MLMC study.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct QmcSettings {
-    /// Randomizations R per level (at least 2; Giles and Waterhouse take 32).
-    pub randomizations: u32,
-    /// Points n_0 of each randomization when a level is first run (a power of two).
-    pub initial_points: u64,
-}
-
-impl Default for QmcSettings {
-    /// R = 32 randomizations of n_0 = 32 points (one block of paths per randomization).
-    fn default() -> Self {
-        Self {
-            randomizations: 32,
-            initial_points: 32,
-        }
-    }
-}
-
-impl QmcSettings {
-    /// Checks R >= 2 and n_0 a power of two.
-    pub fn validate(&self) -> Result<(), MlmcError> {
-        check_design(
-            self.randomizations,
-            self.initial_points,
-            "mlqmc.initial_points",
-        )
-    }
-}
+use super::rows::{ComplexityRow, StandardRun};
+use super::run_settings::{MlmcSettings, QmcSettings};
 
 /// An MLQMC run beside the MLMC run at the same eps.
 #[derive(Debug, Clone, PartialEq, Serialize)]

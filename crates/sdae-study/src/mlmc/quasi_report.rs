@@ -3,8 +3,8 @@
 
 use std::fmt::Write as _;
 
+use super::cells::{bias_cell, csv_interval, interval, ratio, with_bias};
 use super::quasi::{QmcReport, QuasiStandardRun};
-use super::report::{bias_cell, csv_interval, interval, ratio, with_bias};
 use sdae_stats::Interval;
 
 /// "c [low, high]", "c (no interval from two eps)", or "-" (fewer than two eps).
@@ -199,7 +199,8 @@ pub fn csv(qmc: &QmcReport) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mlmc::quasi::{PathCoordinates, QmcSettings};
+    use crate::mlmc::quasi::PathCoordinates;
+    use crate::mlmc::run_settings::QmcSettings;
 
     /// Levels whose paths take more coordinates than the Sobol' dimensions are named with how
     /// many were quasi-random.

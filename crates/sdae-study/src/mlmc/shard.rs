@@ -4,12 +4,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::report::{LevelColumn, interval, level_table};
-use super::study::MlmcSettings;
+use super::cells::{LevelColumn, interval, level_table};
+use super::run_settings::MlmcSettings;
 use sdae_mlmc::MlmcError;
 use sdae_mlmc::algorithm::{MlmcEstimate, Plan, estimate_of_plan};
-use sdae_mlmc::sampler::LevelSampler;
-use sdae_mlmc::sums::{LevelStats, LevelSums, level_stats};
+use sdae_mlmc::sampler::{LevelSampler, level_stats};
+use sdae_mlmc::sums::{LevelStats, LevelSums};
 
 pub use sdae_mlmc::shard::{BlockSums, merge, run_shard};
 

@@ -5,7 +5,8 @@
 
 use sdae_mlmc::algorithm::{AdaptiveSettings, Plan, adaptive, run_plan};
 use sdae_mlmc::fit::fit_rates;
-use sdae_mlmc::sums::{LevelStats, level_stats};
+use sdae_mlmc::sampler::level_stats;
+use sdae_mlmc::sums::LevelStats;
 use sdae_mlmc::{LevelSampler, LevelSums, MlmcError, RunControl};
 use sdae_study::StudyError;
 use sdae_study::mlmc::shard::{Identity, merge, run_shard};

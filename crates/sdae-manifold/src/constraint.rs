@@ -9,6 +9,7 @@ use crate::gram::{DenseGram, TridiagonalGram};
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
+use crate::shape::ByProducts;
 use sdae_lanes::Real;
 
 /// The size of the motion of eq. 3.2, max(w, w^2, alpha), from a speed w and an acceleration
@@ -148,22 +149,7 @@ pub const fn scratch_len(n: usize, m: usize) -> usize {
 pub fn assemble_dense_by_columns<C: Constraint + ?Sized, M: Mass>(
     constraint: &C, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut DenseGram,
 ) {
-    let n = constraint.dim();
-    let m = constraint.n_constraints();
-    let (column_n, rest) = scratch.split_at_mut(n);
-    let (unit, rest) = rest.split_at_mut(m);
-    let column_m = &mut rest[..m];
-    unit.fill(0.0);
-    for j in 0..m {
-        unit[j] = 1.0;
-        constraint.jacobian_transpose_mul(x2, unit, column_n);
-        mass.apply_inverse(column_n);
-        constraint.jacobian_mul(x1, column_n, column_m);
-        for (i, value) in column_m.iter().enumerate() {
-            out.set(i, j, *value);
-        }
-        unit[j] = 0.0;
-    }
+    assemble_by_products(constraint, x1, x2, mass, scratch, out);
 }
 
 /// Assembles a tridiagonal Dg(x1) M^-1 grad g(x2) with three probe vectors (columns j = c mod 3
@@ -172,29 +158,23 @@ pub fn assemble_tridiagonal_by_probing<C: Constraint + ?Sized, M: Mass>(
     constraint: &C, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64],
     out: &mut TridiagonalGram,
 ) {
+    assemble_by_products(constraint, x1, x2, mass, scratch, out);
+}
+
+/// Dg(x1) M^-1 grad g(x2) into `out` from the products p -> Dg(x1) M^-1 grad g(x2) p
+/// ([`ByProducts`]), with n + 2m entries of `scratch`.
+fn assemble_by_products<C: Constraint + ?Sized, M: Mass>(
+    constraint: &C, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64],
+    out: &mut impl ByProducts<f64>,
+) {
     let n = constraint.dim();
     let m = constraint.n_constraints();
-    let (probe_n, rest) = scratch.split_at_mut(n);
-    let (probe_m, rest) = rest.split_at_mut(m);
-    let image = &mut rest[..m];
-    for colour in 0..3 {
-        for (j, p) in probe_m.iter_mut().enumerate() {
-            *p = if j % 3 == colour { 1.0 } else { 0.0 };
-        }
-        constraint.jacobian_transpose_mul(x2, probe_m, probe_n);
-        mass.apply_inverse(probe_n);
-        constraint.jacobian_mul(x1, probe_n, image);
-        for (i, value) in image.iter().enumerate() {
-            // Row i of the image holds A[i][j] for the one j in {i-1, i, i+1} with j = colour mod 3.
-            for j in i.saturating_sub(1)..(i + 2).min(m) {
-                if j % 3 == colour {
-                    match j.cmp(&i) {
-                        std::cmp::Ordering::Less => out.lower[j] = *value,
-                        std::cmp::Ordering::Equal => out.diag[i] = *value,
-                        std::cmp::Ordering::Greater => out.upper[i] = *value,
-                    }
-                }
-            }
-        }
-    }
+    let (column, rest) = scratch.split_at_mut(n);
+    let (probe, rest) = rest.split_at_mut(m);
+    let mut product = |p: &[f64], image: &mut [f64]| {
+        constraint.jacobian_transpose_mul(x2, p, column);
+        mass.apply_inverse(column);
+        constraint.jacobian_mul(x1, column, image);
+    };
+    out.assemble_by_products(probe, &mut rest[..m], &mut product);
 }

@@ -5,9 +5,12 @@
 //! form) or itself with its mass as a [`LaneForm`]: its [`ConstraintLanes`] formulas over lanes
 //! for the Newton iteration of the kappa system (seed eq. 3.1, upper part) and the velocity
 //! update (lower part). The default offers none, and an engine then steps the paths one at a
-//! time. Any crate can implement [`ConstraintLanes`] for its own constraint; the built-in ones
-//! are the bead chain's ([`BeadChain`](crate::BeadChain), with Thomas' algorithm for its
-//! tridiagonal Newton matrix) and rigid bonds' ([`RigidBonds`](crate::RigidBonds), with an LU
+//! time. A constraint written once over [`Real`](sdae_lanes::Real) as
+//! [`Equations`](crate::Equations) has its lane form by a blanket impl
+//! (`crates/sdae-scheme/examples/custom_constraint.rs`: a double pendulum); a crate can also
+//! implement [`ConstraintLanes`] for its own constraint; the built-in ones are the bead
+//! chain's ([`BeadChain`](crate::BeadChain), with Thomas' algorithm for its tridiagonal
+//! Newton matrix) and rigid bonds' ([`RigidBonds`](crate::RigidBonds), with an LU
 //! factorization with partial pivoting per lane). The Newton
 //! matrix and its factorization are the one-path storage and code run over lanes, named by
 //! the structure ([`GramShape`]): a constraint with one equation names
@@ -264,6 +267,20 @@ impl InverseMass {
 pub trait PointLanes<Sd: Simd> {
     /// Coordinates k..k + N.
     fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N];
+    /// The coordinates as stored rows, where the point is stored; `None` (the default) where
+    /// it is formed where it is read.
+    #[inline(always)]
+    fn stored(&self) -> Option<&[Lanes<Sd>]> {
+        None
+    }
+    /// Coordinates 0..out.len() into `out` (the point formed once, for formulas that read it
+    /// as a slice).
+    #[inline(always)]
+    fn write_to(&self, out: &mut [Lanes<Sd>]) {
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.coords::<1>(k)[0];
+        }
+    }
 }
 
 impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
@@ -272,6 +289,10 @@ impl<Sd: Simd> PointLanes<Sd> for [Lanes<Sd>] {
         *self[k..]
             .first_chunk::<N>()
             .expect("the point has coordinates k..k + N")
+    }
+    #[inline(always)]
+    fn stored(&self) -> Option<&[Lanes<Sd>]> {
+        Some(self)
     }
 }
 

@@ -4,13 +4,16 @@
 //! - [`Constraint`]: g, Dg applied to vectors, and the matrices Dg(x1) M^-1 grad g(x2) in the
 //!   storage ([`ScalarGram`], [`TridiagonalGram`], [`DenseGram`]) that fits the constraint;
 //!   [`Curvature`] adds D^2 g, [`TheoryBound`] the constant C_g of eq. 2.2.
+//! - [`Equations`]: a constraint of any number of equations written once over
+//!   [`Real`](sdae_lanes::Real) (g, Dg u, Dg^T z, D^2 g(u, w)), which is then a [`Constraint`],
+//!   a [`Curvature`] and, for a diagonal mass, steps in SIMD lanes with the one-path numbers.
 //! - [`Mass`]: [`IdentityMass`] (free), [`DiagonalMass`], [`DenseMass`] (checked SPD).
 //! - Built-in manifolds: [`Sphere`] (the pendulum of Section 5.1) and [`BeadChain`] (the
 //!   inextensible fiber of Section 5.3); [`ClosureConstraint`] for anything else.
 //! - [`check_state`]: is (r, v) on the tangent bundle?
 //! - [`lane_form`]: a constraint's formulas over SIMD lanes, offered to an ensemble engine
-//!   through [`Constraint::lane_form`] (built in for [`BeadChain`] and [`RigidBonds`]; open to
-//!   any constraint).
+//!   through [`Constraint::lane_form`] (built in for [`BeadChain`] and [`RigidBonds`], and for
+//!   every [`Equations`] type; open to any constraint).
 //!
 //! ```
 //! use sdae_manifold::{BeadChain, Constraint, IdentityMass, TheoryBound, check_state};
@@ -28,6 +31,7 @@ mod chain;
 mod closure;
 mod constraint;
 mod dense_lu;
+mod equations;
 mod error;
 mod factor;
 mod gram;
@@ -49,6 +53,7 @@ pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
     motion_measure, scratch_len,
 };
+pub use equations::Equations;
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
 };
@@ -61,6 +66,6 @@ pub use hypersurface::{CurvedSurface, Hypersurface, Surface};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use roundoff::Roundoff;
-pub use shape::{Dense, GramShape, Scalar, Tridiagonal};
+pub use shape::{ByProducts, Dense, GramShape, Product, Scalar, Tridiagonal};
 pub use sphere::Sphere;
 pub use state::{DEFAULT_STATE_TOLERANCE, StateResiduals, check_state, state_residuals};

@@ -1,0 +1,444 @@
+//! A holonomic constraint of any number m of equations written once over the number type
+//! ([`Equations`]): `f64` for one path, [`Lanes`] for W paths. Blanket impls make every
+//! `Equations` type a [`Constraint`], a [`Curvature`] and, for a diagonal mass, a
+//! [`ConstraintLanes`] whose formulas are the same functions run over lanes, so that an
+//! ensemble's lanes take the one-path numbers bit for bit.
+//!
+//! What the half-explicit step needs of g (seed eq. 3.1) is built here from g, Dg u, Dg^T z
+//! and D^2 g(u, w):
+//!
+//! - the kappa system R(gamma) = g(y + M^-1 grad g(r) gamma) = 0 (upper part) with its Newton
+//!   matrix J(gamma) = Dg(x) M^-1 grad g(r) at x = y + M^-1 grad g(r) gamma, assembled from
+//!   the products p -> Dg(x) M^-1 grad g(r) p in the storage the constraint names
+//!   ([`Equations::Shape`], [`ByProducts`]);
+//! - the lambda system Dg(r') M^-1 grad g(r) lambda = -Dg(r') v~ (lower part) and the update
+//!   v' = v~ + M^-1 grad g(r) lambda;
+//! - where m = 1 and g is quadratic ([`Equations::is_quadratic`]), R(gamma) = c0 + c1 gamma +
+//!   c2 gamma^2 with c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(w, w) / 2, w = M^-1 grad g(r): the
+//!   root is then taken in closed form ([`Constraint::kappa_quadratic`]).
+//!
+//! ```
+//! use sdae_lanes::Real;
+//! use sdae_manifold::{Constraint, Equations, Tridiagonal};
+//!
+//! /// Two unit rods in the plane hinged at the origin and at p1: |p1| = 1, |p2 - p1| = 1, as
+//! /// g = ((|p1|^2 - 1) / 2, (|p2 - p1|^2 - 1) / 2).
+//! #[derive(Debug, Clone, Copy)]
+//! struct Rods;
+//!
+//! impl Equations for Rods {
+//!     type Shape = Tridiagonal;
+//!     fn dim(&self) -> usize { 4 }
+//!     fn n_constraints(&self) -> usize { 2 }
+//!     #[inline(always)]
+//!     fn value<T: Real>(&self, x: &[T], out: &mut [T]) {
+//!         let (dx, dy) = (x[2] - x[0], x[3] - x[1]);
+//!         out[0] = (x[0] * x[0] + x[1] * x[1] - 1.0) * 0.5;
+//!         out[1] = (dx * dx + dy * dy - 1.0) * 0.5;
+//!     }
+//!     #[inline(always)]
+//!     fn jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]) {
+//!         out[0] = x[0] * u[0] + x[1] * u[1];
+//!         out[1] = (x[2] - x[0]) * (u[2] - u[0]) + (x[3] - x[1]) * (u[3] - u[1]);
+//!     }
+//!     #[inline(always)]
+//!     fn jacobian_transpose_mul<T: Real>(&self, x: &[T], z: &[T], out: &mut [T]) {
+//!         let (dx, dy) = ((x[2] - x[0]) * z[1], (x[3] - x[1]) * z[1]);
+//!         out.copy_from_slice(&[x[0] * z[0] - dx, x[1] * z[0] - dy, dx, dy]);
+//!     }
+//!     #[inline(always)]
+//!     fn second_derivative<T: Real>(&self, _x: &[T], u: &[T], w: &[T], out: &mut [T]) {
+//!         out[0] = u[0] * w[0] + u[1] * w[1];
+//!         out[1] = (u[2] - u[0]) * (w[2] - w[0]) + (u[3] - u[1]) * (w[3] - w[1]);
+//!     }
+//! }
+//!
+//! let mut g = [1.0; 2];
+//! Constraint::value(&Rods, &[0.6, 0.8, 0.6, 1.8], &mut g);
+//! assert_eq!(g, [0.0, 0.0]);
+//! ```
+
+use std::any::Any;
+use std::cell::RefCell;
+
+use pulp::Simd;
+use sdae_lanes::{Lanes, Real};
+
+use crate::constraint::{Constraint, Curvature, displace_in_passes};
+use crate::error::ManifoldError;
+use crate::gram::SquareMatrix;
+use crate::lane_form::{
+    ConstraintLanes, Evaluation, Factor, InverseMass, Jacobian, LaneForm, LaneFormVisitor,
+    PointLanes,
+};
+use crate::mass::Mass;
+use crate::roundoff::Roundoff;
+use crate::shape::{ByProducts, GramShape, Product};
+
+/// A holonomic constraint g: R^n -> R^m written once over the number type: `f64` for one
+/// path, `Lanes<S>` for W paths. Every `Equations` type is a [`Constraint`], a [`Curvature`]
+/// and (for a diagonal mass) has a lane form ([`ConstraintLanes`]), through blanket impls in
+/// sdae-manifold: the one-path and the lane numbers are the same functions' and agree bit for
+/// bit, provided each method takes the same operations in the same order for every `T` (as
+/// code written once over `T` does).
+///
+/// Mark the four generic methods `#[inline(always)]`: the lanes run inside functions compiled
+/// for their instruction set, and a method not inlined there takes each lane operation through
+/// a call. With both this trait and [`Constraint`] in scope, name the trait of a method that
+/// both have (`Equations::dim(&g)`).
+pub trait Equations: Clone + Send + Sync + 'static {
+    /// The structure of Dg(x1) M^-1 grad g(x2) ([`Scalar`](crate::Scalar) for m = 1,
+    /// [`Tridiagonal`](crate::Tridiagonal), [`Dense`](crate::Dense)).
+    type Shape: GramShape;
+    /// Dimension n of the configuration space.
+    fn dim(&self) -> usize;
+    /// Number m of equations.
+    fn n_constraints(&self) -> usize;
+    /// out = g(x), m entries.
+    fn value<T: Real>(&self, x: &[T], out: &mut [T]);
+    /// out = Dg(x) u, m entries.
+    fn jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]);
+    /// out = grad g(x) z = Dg(x)^T z, n entries (overwritten).
+    fn jacobian_transpose_mul<T: Real>(&self, x: &[T], z: &[T], out: &mut [T]);
+    /// out = D^2 g(x)(u, w), m entries.
+    fn second_derivative<T: Real>(&self, x: &[T], u: &[T], w: &[T], out: &mut [T]);
+    /// g is a quadratic polynomial (D^2 g constant): with m = 1 the kappa root is taken in
+    /// closed form ([`Constraint::kappa_quadratic`]). Default false.
+    fn is_quadratic(&self) -> bool {
+        false
+    }
+    /// The kind of g's rounding floor ([`Constraint::roundoff`]); none known by default.
+    fn roundoff(&self) -> Roundoff {
+        Roundoff::Unknown
+    }
+    /// Checks that `mass` fits the storage [`Equations::Shape`] ([`Constraint::check_mass`]):
+    /// every mass by default.
+    fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
+        let _ = mass;
+        Ok(())
+    }
+}
+
+/// The one-path forms: the [`Equations`] methods at T = f64, the Gram matrix assembled from
+/// the Jacobian products ([`ByProducts`]), the displacement in three passes.
+impl<E: Equations> Constraint for E {
+    type Gram = <E::Shape as GramShape>::Gram;
+    fn dim(&self) -> usize {
+        Equations::dim(self)
+    }
+    fn n_constraints(&self) -> usize {
+        Equations::n_constraints(self)
+    }
+    #[inline]
+    fn value(&self, x: &[f64], out: &mut [f64]) {
+        Equations::value(self, x, out);
+    }
+    #[inline]
+    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+        Equations::jacobian_mul(self, x, u, out);
+    }
+    #[inline]
+    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
+        Equations::jacobian_transpose_mul(self, x, z, out);
+    }
+    fn new_gram(&self) -> Self::Gram {
+        SquareMatrix::zeros_like(0.0, Equations::n_constraints(self))
+    }
+    /// `cross_gram` with M^-1 applied by `mass`.
+    #[inline]
+    fn cross_gram<M: Mass>(
+        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut Self::Gram,
+    ) {
+        cross_gram(self, x1, x2, &OnePath(mass), scratch, out);
+    }
+    /// `displace_in_passes`: grad g(r) z, then M^-1, then + y.
+    #[inline]
+    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
+        displace_in_passes(self, r, z, mass, y, out);
+    }
+    /// `kappa_coefficients` where m = 1 and g is quadratic.
+    #[inline]
+    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
+        if !has_kappa_quadratic(self) {
+            return None;
+        }
+        let mut scratch = Scratch::take(0.0, Equations::dim(self));
+        Some(kappa_coefficients(
+            self,
+            r,
+            y,
+            &OnePath(mass),
+            scratch.entries(),
+        ))
+    }
+    fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
+        Equations::check_mass(self, mass)
+    }
+    /// The [`ConstraintLanes`] below, for a diagonal mass.
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        if !M::DIAGONAL {
+            return visitor.none();
+        }
+        visitor.newton(|| LaneForm::new(self, mass))
+    }
+    fn roundoff(&self) -> Roundoff {
+        Equations::roundoff(self)
+    }
+}
+
+impl<E: Equations> Curvature for E {
+    #[inline]
+    fn second_derivative(&self, x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
+        Equations::second_derivative(self, x, u, w, out);
+    }
+}
+
+/// The one-path formulas over lanes: the same generic functions at T = `Lanes<Sd>`, with the
+/// diagonal M^-1 entry by entry ([`InverseMass`]: x (M^-1)_kk, the one-path product). Every
+/// step is `#[inline(always)]` (no closures), so that the lanes' arithmetic is compiled for
+/// the engine's instruction set; so should the [`Equations`] methods be.
+impl<E: Equations> ConstraintLanes for E {
+    type Shape = E::Shape;
+
+    /// g(x1), then Dg(x1) M^-1 grad g(r) (`cross_gram`), then the largest |g_i| and the
+    /// factorization ([`Evaluation::reduce_and_factor`]).
+    #[inline(always)]
+    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
+        jacobian: &mut Jacobian<Sd, Self>, factor: &mut Factor<Sd, Self>, step: &mut [Lanes<Sd>],
+    ) -> Evaluation<Sd> {
+        let (n, m) = (Equations::dim(self), Equations::n_constraints(self));
+        let mut scratch = Scratch::take(r[0], point_len(x1, n) + n + 2 * m);
+        let (x1, rest) = point(x1, scratch.entries(), n);
+        Equations::value(self, x1, values);
+        cross_gram(self, x1, r, w, rest, jacobian);
+        Evaluation::reduce_and_factor(values, jacobian, factor, step)
+    }
+    /// grad g(r) z into `out` (or a scratch where `out` is its own base), then each entry
+    /// (M^-1)_kk (grad g(r) z)_k + base_k: the operations of `displace_in_passes`.
+    #[inline(always)]
+    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
+        out: &mut [Lanes<Sd>],
+    ) {
+        if let Some(base) = base {
+            Equations::jacobian_transpose_mul(self, r, z, out);
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = w.apply(k, *o) + base.coords::<1>(k)[0];
+            }
+            return;
+        }
+        let mut scratch = Scratch::take(r[0], Equations::dim(self));
+        let step = scratch.entries();
+        Equations::jacobian_transpose_mul(self, r, z, step);
+        for (k, (o, s)) in out.iter_mut().zip(step.iter()).enumerate() {
+            *o = w.apply(k, *s) + *o;
+        }
+    }
+    /// -(Dg(x) u), entry by entry.
+    #[inline(always)]
+    fn negated_jacobian_mul<Sd: Simd>(
+        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
+    ) {
+        Equations::jacobian_mul(self, x, u, out);
+        for o in out.iter_mut() {
+            *o = -*o;
+        }
+    }
+    /// `kappa_coefficients` where m = 1 and g is quadratic, as `Constraint::kappa_quadratic`.
+    #[inline(always)]
+    fn kappa_quadratic_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+        &self, w: &InverseMass, r: &[Lanes<Sd>], y: &P,
+    ) -> Option<[Lanes<Sd>; 3]> {
+        if !has_kappa_quadratic(self) {
+            return None;
+        }
+        let n = Equations::dim(self);
+        let mut scratch = Scratch::take(r[0], point_len(y, n) + n);
+        let (y, rest) = point(y, scratch.entries(), n);
+        Some(kappa_coefficients(self, r, y, w, rest))
+    }
+}
+
+/// Whether the kappa system of `equations` is a quadratic in gamma: m = 1 and g quadratic.
+#[inline(always)]
+fn has_kappa_quadratic<E: Equations>(equations: &E) -> bool {
+    equations.is_quadratic() && Equations::n_constraints(equations) == 1
+}
+
+/// x <- M^-1 x over numbers of type T.
+trait ApplyInverse<T> {
+    fn apply_inverse(&self, x: &mut [T]);
+}
+
+/// One path's mass.
+struct OnePath<'a, M>(&'a M);
+
+impl<M: Mass> ApplyInverse<f64> for OnePath<'_, M> {
+    #[inline(always)]
+    fn apply_inverse(&self, x: &mut [f64]) {
+        self.0.apply_inverse(x);
+    }
+}
+
+/// A diagonal M^-1 over lanes, entry by entry.
+impl<Sd: Simd> ApplyInverse<Lanes<Sd>> for InverseMass {
+    #[inline(always)]
+    fn apply_inverse(&self, x: &mut [Lanes<Sd>]) {
+        for (k, xk) in x.iter_mut().enumerate() {
+            *xk = self.apply(k, *xk);
+        }
+    }
+}
+
+/// The map p -> Dg(x1) M^-1 grad g(x2) p, with its n-entry column.
+struct CrossProduct<'a, E, T, W> {
+    equations: &'a E,
+    x1: &'a [T],
+    x2: &'a [T],
+    inverse_mass: &'a W,
+    column: &'a mut [T],
+}
+
+impl<E: Equations, T: Real, W: ApplyInverse<T>> Product<T> for CrossProduct<'_, E, T, W> {
+    /// grad g(x2) p, then M^-1 in place, then Dg(x1) of that.
+    #[inline(always)]
+    fn product(&mut self, p: &[T], image: &mut [T]) {
+        Equations::jacobian_transpose_mul(self.equations, self.x2, p, self.column);
+        self.inverse_mass.apply_inverse(self.column);
+        Equations::jacobian_mul(self.equations, self.x1, self.column, image);
+    }
+}
+
+/// out = Dg(x1) M^-1 grad g(x2) (seed Section 2.1; the Newton matrix of the kappa system and
+/// the matrix of the lambda system of eq. 3.1) from the products p -> Dg(x1) M^-1 grad g(x2)
+/// p ([`ByProducts`]). `scratch` has n + 2m entries at least.
+#[inline(always)]
+fn cross_gram<E: Equations, T: Real, W: ApplyInverse<T>>(
+    equations: &E, x1: &[T], x2: &[T], inverse_mass: &W, scratch: &mut [T],
+    out: &mut impl ByProducts<T>,
+) {
+    let (n, m) = (
+        Equations::dim(equations),
+        Equations::n_constraints(equations),
+    );
+    let (column, rest) = scratch.split_at_mut(n);
+    let (probe, rest) = rest.split_at_mut(m);
+    let mut product = CrossProduct {
+        equations,
+        x1,
+        x2,
+        inverse_mass,
+        column,
+    };
+    out.assemble_by_products(probe, &mut rest[..m], &mut product);
+}
+
+/// [c0, c1, c2] of the kappa system of one equation where g is quadratic (seed eq. 3.1, upper
+/// part): R(gamma) = g(y + gamma w) = c0 + c1 gamma + c2 gamma^2 with w = M^-1 grad g(r) (into
+/// `w`, n entries), c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(y)(w, w) / 2 (computed as the product
+/// with 0.5).
+#[inline(always)]
+fn kappa_coefficients<E: Equations, T: Real, W: ApplyInverse<T>>(
+    equations: &E, r: &[T], y: &[T], inverse_mass: &W, w: &mut [T],
+) -> [T; 3] {
+    let one = [r[0].splat_like(1.0)];
+    let w = &mut w[..Equations::dim(equations)];
+    Equations::jacobian_transpose_mul(equations, r, &one, w);
+    inverse_mass.apply_inverse(w);
+    let mut c = [[r[0]]; 3];
+    Equations::value(equations, y, &mut c[0]);
+    Equations::jacobian_mul(equations, y, w, &mut c[1]);
+    Equations::second_derivative(equations, y, w, w, &mut c[2]);
+    [c[0][0], c[1][0], c[2][0] * 0.5]
+}
+
+/// The scratch entries [`point`] takes: none where `x` is stored, n where it is formed.
+#[inline(always)]
+fn point_len<Sd: Simd, P: PointLanes<Sd> + ?Sized>(x: &P, n: usize) -> usize {
+    if x.stored().is_some() { 0 } else { n }
+}
+
+/// The n coordinates of `x` as a slice: `x` itself where it is stored, else formed into the
+/// first n entries of `scratch`; and the rest of `scratch`.
+#[inline(always)]
+fn point<'a, Sd: Simd, P: PointLanes<Sd> + ?Sized>(
+    x: &'a P, scratch: &'a mut [Lanes<Sd>], n: usize,
+) -> (&'a [Lanes<Sd>], &'a mut [Lanes<Sd>]) {
+    match x.stored() {
+        Some(x) => (&x[..n], scratch),
+        None => {
+            let (formed, rest) = scratch.split_at_mut(n);
+            x.write_to(formed);
+            (formed, rest)
+        }
+    }
+}
+
+thread_local! {
+    /// Each thread's scratch buffers, one per number type (`Vec<T>`), kept between calls.
+    static SCRATCH: RefCell<Vec<Box<dyn Any>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// At most this many scratch values live on the stack ([`Scratch`]); more take the thread's
+/// buffer.
+const SMALL_SCRATCH: usize = 16;
+
+/// Scratch values of type T: on the stack where they are few, else the thread's buffer for
+/// T ([`Scratch::take`]), given back when dropped; so a steady state allocates nothing.
+/// While the thread's buffer is taken, another of the same type (a nested use) is a buffer
+/// of its own.
+enum Scratch<T: Real> {
+    /// `len` <= [`SMALL_SCRATCH`] values on the stack.
+    Small([T; SMALL_SCRATCH], usize),
+    /// The thread's buffer and `len`.
+    Thread(Vec<T>, usize),
+}
+
+impl<T: Real> Scratch<T> {
+    /// `len` values of the kind of `like` (their content unspecified).
+    #[inline(always)]
+    fn take(like: T, len: usize) -> Self {
+        let zero = like.splat_like(0.0);
+        if len <= SMALL_SCRATCH {
+            return Self::Small([zero; SMALL_SCRATCH], len);
+        }
+        let mut buffer: Vec<T> = SCRATCH.with_borrow_mut(|buffers| {
+            buffers
+                .iter_mut()
+                .find_map(|b| b.downcast_mut::<Vec<T>>())
+                .map(std::mem::take)
+                .unwrap_or_default()
+        });
+        if buffer.len() < len {
+            buffer.resize(len, zero);
+        }
+        Self::Thread(buffer, len)
+    }
+    /// The values.
+    #[inline(always)]
+    fn entries(&mut self) -> &mut [T] {
+        match self {
+            Self::Small(values, len) => &mut values[..*len],
+            Self::Thread(buffer, len) => &mut buffer[..*len],
+        }
+    }
+}
+
+impl<T: Real> Drop for Scratch<T> {
+    /// The thread's buffer back to the thread, where it is the larger.
+    #[inline(always)]
+    fn drop(&mut self) {
+        let Self::Thread(buffer, _) = self else {
+            return;
+        };
+        let buffer = std::mem::take(buffer);
+        SCRATCH.with_borrow_mut(|buffers| {
+            match buffers.iter_mut().find_map(|b| b.downcast_mut::<Vec<T>>()) {
+                Some(slot) if slot.capacity() < buffer.capacity() => *slot = buffer,
+                Some(_) => {}
+                None => buffers.push(Box::new(buffer)),
+            }
+        });
+    }
+}

@@ -1,7 +1,7 @@
 //! The built-in scenes, shipped as TOML files in `scenes/` and compiled into the library.
 
 /// The built-in scenes: (name, file contents).
-pub const BUILT_IN: [(&str, &str); 15] = [
+pub const BUILT_IN: [(&str, &str); 20] = [
     ("pendulum", include_str!("../scenes/pendulum.toml")),
     (
         "spherical-pendulum",
@@ -41,4 +41,18 @@ pub const BUILT_IN: [(&str, &str); 15] = [
     ("drag-fiber", include_str!("../scenes/drag-fiber.toml")),
     ("long-fiber", include_str!("../scenes/long-fiber.toml")),
     ("rotor", include_str!("../scenes/rotor.toml")),
+    (
+        "double-pendulum",
+        include_str!("../scenes/double-pendulum.toml"),
+    ),
+    ("torus", include_str!("../scenes/torus.toml")),
+    ("water", include_str!("../scenes/water.toml")),
+    (
+        "pendulum-expressions",
+        include_str!("../scenes/pendulum-expressions.toml"),
+    ),
+    (
+        "chain-expressions",
+        include_str!("../scenes/chain-expressions.toml"),
+    ),
 ];

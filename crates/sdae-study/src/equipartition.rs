@@ -392,5 +392,11 @@ pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), Stu
     write_json(&dir.join("report.json"), scenes)?;
     write_atomically(&dir.join("report.md"), &markdown(scenes))?;
     plot(scenes, &dir.join("equipartition.svg"))?;
-    bias_report::plot(scenes, &dir.join("bias.svg"))
+    let studies = scenes.iter().flat_map(|sc| {
+        sc.configurational
+            .iter()
+            .chain(&sc.kinetic)
+            .map(|b| (sc.scene.as_str(), b))
+    });
+    bias_report::plot(studies, &dir.join("bias.svg"))
 }

@@ -1,8 +1,10 @@
 //! Observables: scalar functions f(r, v) of a path's state whose expectations E[f(X_t)] the weak
 //! study measures.
 //!
-//! A scene names its observables in its `[weak]` table; each system kind has built-in ones
-//! ([`names_for`]), built by [`built_in`] from the scene and its prepared system. A user's own
+//! A scene names its observables in its `[weak]` table; each system kind has built-in ones, and
+//! a system written as expressions (`[system.expressions]`) has those its spec names as
+//! expressions f(q, v) ([`names_for`]); [`built_in`] builds them from the scene and its prepared
+//! system. A user's own
 //! observable is a closure of (r, v) ([`Observable::new`]), passed to the studies' `*_on`
 //! functions beside a user's own system and schemes. Only the observables a study is given are
 //! evaluated, at the grid points of its coarsest level (see
@@ -28,17 +30,31 @@ use kinds::Function;
 pub use kinds::{FIBER, MOLECULE, PENDULUM, TRIATOMIC};
 pub use sdae_lockstep::Observable;
 
-/// The built-in observables of a system kind (none for a system built in code: its observables
-/// are the user's closures).
-pub fn names_for(system: &SystemSpec) -> &'static [&'static str] {
+/// The observables of a system kind: a built-in kind's built-in ones, an expression system's
+/// own by name and the kinetic energy (none for a system built in code: its observables are the
+/// user's closures).
+pub fn names_for(system: &SystemSpec) -> Vec<String> {
     struct Names;
     impl SystemVisitor for Names {
-        type Output = &'static [&'static str];
+        type Output = Vec<String>;
         fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
             kind.observables()
         }
     }
-    system.visit(Names).unwrap_or(&[])
+    system.visit(Names).unwrap_or_default()
+}
+
+/// The outputs the observable `name` of the scene's system reads ([`needs`] for a built-in one;
+/// an expression observable reads the velocity where it names one, `v_<coordinate>`).
+pub fn needs_in(system: &SystemSpec, name: &str) -> &'static [Output] {
+    struct Needs<'a>(&'a str);
+    impl SystemVisitor for Needs<'_> {
+        type Output = &'static [Output];
+        fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
+            kind.observable_needs(self.0)
+        }
+    }
+    system.visit(Needs(name)).unwrap_or_else(|_| needs(name))
 }
 
 /// The outputs a built-in observable reads: the position, the velocity or both.
@@ -78,12 +94,12 @@ fn edit_distance(a: &str, b: &str) -> usize {
     row[b.len()]
 }
 
-/// Checks that `name` is a built-in observable of the scene's system and that the scene computes
-/// the outputs it reads (a system built in code takes any name: its observables come as
-/// closures).
+/// Checks that `name` is an observable of the scene's system ([`names_for`]) and that the scene
+/// computes the outputs it reads (a system built in code takes any name: its observables come
+/// as closures).
 pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
     check_known(scene, name)?;
-    if let Some(output) = needs(name)
+    if let Some(output) = needs_in(&scene.system, name)
         .iter()
         .find(|o| !scene.wants(**o) && !matches!(scene.system, SystemSpec::Custom(_)))
     {
@@ -96,19 +112,20 @@ pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
     Ok(())
 }
 
-/// Checks that `name` is a built-in observable of the scene's system (any name for a system
-/// built in code), whatever outputs the scene computes: a time average reads the state as the
+/// Checks that `name` is an observable of the scene's system (any name for a system built in
+/// code), whatever outputs the scene computes: a time average reads the state as the
 /// paths go, not a recorded output.
 pub fn check_known(scene: &Scene, name: &str) -> Result<(), StudyError> {
     if matches!(scene.system, SystemSpec::Custom(_)) {
         return Ok(());
     }
     let known = names_for(&scene.system);
-    if !known.contains(&name) {
+    if !known.iter().any(|k| k == name) {
+        let candidates: Vec<&str> = known.iter().map(String::as_str).collect();
         return Err(StudyError::UnknownObservable {
             scene: scene.name.clone(),
             name: name.to_string(),
-            nearest: nearest(name, known).map(str::to_string),
+            nearest: nearest(name, &candidates).map(str::to_string),
             known: known.join(", "),
         });
     }
@@ -125,7 +142,7 @@ fn output_key(output: Output) -> &'static str {
     }
 }
 
-/// The built-in observables `names` of the scene's system (checked with [`check`]).
+/// The observables `names` of the scene's system (checked with [`check`]).
 pub fn built_in_all<S>(
     scene: &Scene, prepared: &Prepared<S>, names: &[String],
 ) -> Result<Vec<Observable>, StudyError>
@@ -138,7 +155,7 @@ where
         .collect()
 }
 
-/// The built-in observable `name` of the scene's system, from its parameters and initial state
+/// The observable `name` of the scene's system, from its parameters and initial state
 /// (checked with [`check`]: the scene computes the outputs it reads).
 pub fn built_in<S>(
     scene: &Scene, prepared: &Prepared<S>, name: &str,

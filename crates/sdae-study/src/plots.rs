@@ -6,6 +6,8 @@
 pub mod figure;
 pub mod style;
 
+pub use figure::{MAX_DRAWN, MIN_DRAWN, drawable};
+
 use std::io::Write as _;
 use std::path::Path;
 
@@ -40,19 +42,6 @@ const COMPONENTS: [Component; 3] = [
         fit: |o| o.mu.as_ref(),
     },
 ];
-
-/// The smallest value a logarithmic axis draws. Smaller ones (subnormal, or within a few
-/// hundred decades of it) are left out of the plots with a note: an axis must stay a finite,
-/// bounded range for the plotting library to place its ticks.
-pub const MIN_DRAWN: f64 = 1e-300;
-
-/// The largest value a logarithmic axis draws (see [`MIN_DRAWN`]).
-pub const MAX_DRAWN: f64 = 1e300;
-
-/// Whether a logarithmic axis can draw `v`: finite and within [`MIN_DRAWN`]..=[`MAX_DRAWN`].
-pub fn drawable(v: f64) -> bool {
-    (MIN_DRAWN..=MAX_DRAWN).contains(&v)
-}
 
 /// Padded logarithmic range covering the values that can be drawn ([`drawable`]): always
 /// finite, positive and within a factor 1.5 of [`MIN_DRAWN`]..[`MAX_DRAWN`].

@@ -25,6 +25,7 @@
 //! # Ok::<(), sdae_study::StudyError>(())
 //! ```
 
+use sdae_expr_system::ExpressionSpec;
 use sdae_manifold::{BeadChain, check_state};
 use sdae_model::{INITIAL_STATE_TOLERANCE, project_state};
 use sdae_reference::CurvedSystem;
@@ -38,9 +39,10 @@ use crate::integrator::SchemeConstants;
 
 pub use crate::catalog::BUILT_IN;
 
+mod expressions;
 mod systems;
 
-pub use systems::{Built, SceneSystem, SystemVisitor};
+pub use systems::{Built, BuiltRunner, SceneSystem, SystemVisitor};
 
 /// A name (or value) the user typed, as messages show it: its control characters escaped as
 /// Rust escapes them (`pend\nulum`, `a\0b`, `\u{1b}`), the rest as typed, so that a refused
@@ -84,6 +86,11 @@ pub enum SystemSpec {
     Triatomic(RigidTriatomicParams),
     /// An inextensible fiber in turbulent air (seed 5.3).
     Fiber(FiberParams),
+    /// A system written as expressions (`[system.expressions]`, the keys of
+    /// [`ExpressionSpec`]): coordinates, masses, parameters, constraints g(q) = 0, a potential,
+    /// forces, friction and kT or noise, observables, and the initial state, which the spec
+    /// gives itself: a scene with an expression system takes no `[initial]` table.
+    Expressions(Box<ExpressionSpec>),
     /// A system built in code (named here), run through the library API with
     /// [`Scene::prepare_custom`] and the studies' `*_on` functions; a scene file cannot build it.
     Custom(String),
@@ -413,7 +420,7 @@ impl Scene {
             },
             ..self.clone()
         };
-        scene.prepare(system, position, None)
+        scene.prepare(system, position, None, None)
     }
 
     /// Builds the scene's system, initial state and scheme constants and drops them: a
@@ -445,8 +452,18 @@ impl Scene {
         impl<R: SceneRunner> SystemVisitor for Run<'_, R> {
             type Output = Result<R::Output, StudyError>;
             fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
-                let built = kind.build(self.scene)?;
-                let mut prepared = self.scene.prepare(built.system, built.rest, built.theory)?;
+                kind.build_into(self.scene, self)?
+            }
+        }
+        impl<R: SceneRunner> BuiltRunner for Run<'_, R> {
+            type Output = Result<R::Output, StudyError>;
+            fn run<S>(self, built: Built<S>) -> Self::Output
+            where
+                S: CurvedSystem + Clone + Send + Sync + 'static,
+            {
+                let mut prepared =
+                    self.scene
+                        .prepare(built.system, built.rest, built.velocity, built.theory)?;
                 prepared.kinetic_target = built.kinetic_target;
                 Ok(self.runner.run(self.scene, prepared))
             }
@@ -478,9 +495,12 @@ impl Scene {
         }
     }
 
-    /// The initial state (checked or projected) and the constants for `system`.
+    /// The initial state (checked or projected) and the constants for `system`: the scene's
+    /// `[initial]` values, else `rest` and the system's own initial velocity `own_velocity`
+    /// (default: at rest).
     fn prepare<S>(
-        &self, system: S, rest: Vec<f64>, theory: Option<(f64, f64)>,
+        &self, system: S, rest: Vec<f64>, own_velocity: Option<Vec<f64>>,
+        theory: Option<(f64, f64)>,
     ) -> Result<Prepared<S>, StudyError>
     where
         S: CurvedSystem,
@@ -491,6 +511,7 @@ impl Scene {
             .initial
             .velocity
             .clone()
+            .or(own_velocity)
             .unwrap_or_else(|| vec![0.0; n]);
         for (name, x) in [("position", &position), ("velocity", &velocity)] {
             if x.len() != n {

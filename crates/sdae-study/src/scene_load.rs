@@ -133,6 +133,7 @@ impl Scene {
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
             return Err(self.invalid(format!("T = {}: must be finite and > 0", self.t_end)));
         }
+        self.check_expressions()?;
         if self.initial.shape.is_some() && self.initial.position.is_some() {
             return Err(self.invalid("initial: give either shape or position, not both"));
         }

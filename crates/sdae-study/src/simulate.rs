@@ -3,7 +3,7 @@
 //! Python package's `simulate`). Path i draws its increments from the stream (seed, i), as in
 //! every study, so its numbers do not depend on the number of paths, the threads or the
 //! blocks. [`simulate_streaming`] runs the same paths but hands each recorded state to a sink
-//! as it is produced (the trajectory files of [`crate::trajectory`]), so that memory does not
+//! as it is produced (the trajectory files of the `trajectory` module), so that memory does not
 //! grow with the number of steps.
 //!
 //! ```
@@ -32,7 +32,6 @@ use crate::convergence::MAX_THREADS;
 use crate::error::StudyError;
 use crate::integrator::{SchemeKind, StudyScheme};
 use crate::scene::{Prepared, Scene, SceneRunner};
-use crate::trajectory::Frame;
 
 /// Paths stepped together in one ensemble (a multiple of every lane width).
 const BLOCK_PATHS: usize = 64;
@@ -464,6 +463,22 @@ pub struct StreamedPaths {
     pub diagnostics: Vec<PathDiagnostics>,
     /// Why a path stopped, or `None`.
     pub failures: Vec<Option<String>>,
+}
+
+/// One recorded state of one path, as [`simulate_streaming`] hands it to its sink (and as the
+/// trajectory writers take it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame<'a> {
+    /// The path's index.
+    pub path: usize,
+    /// The step k of the grid.
+    pub step: usize,
+    /// Its time t_k.
+    pub time: f64,
+    /// r, n coordinates.
+    pub position: &'a [f64],
+    /// v, n coordinates.
+    pub velocity: &'a [f64],
 }
 
 /// The sink [`simulate_streaming`] hands each recorded state to.

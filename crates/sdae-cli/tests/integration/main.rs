@@ -8,6 +8,7 @@ mod cli;
 mod command_line;
 mod common;
 mod expect_command;
+mod expression_refusals;
 mod faults;
 mod mlmc_command_line;
 mod mlmc_resume;

@@ -4,7 +4,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::EquipartitionScene;
 use super::bias::{BiasStudy, ReferenceKind};
 use crate::error::StudyError;
 use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
@@ -80,18 +79,13 @@ pub fn markdown(study: &BiasStudy) -> String {
     s
 }
 
-/// `bias.svg`: per scene and time average, |bias| against seconds per path, one line per
-/// scheme (levels with a bias estimate of 0 are left out of the log scale).
-pub fn plot(scenes: &[EquipartitionScene], path: &Path) -> Result<(), StudyError> {
-    let panels = scenes
-        .iter()
-        .flat_map(|sc| {
-            sc.configurational
-                .iter()
-                .chain(&sc.kinetic)
-                .map(move |b| panel(&sc.scene, b))
-        })
-        .collect();
+/// `bias.svg`: one panel per bias study (a scene's time average, with the scene's name),
+/// |bias| against seconds per path, one line per scheme (levels with a bias estimate of 0 are
+/// left out of the log scale).
+pub fn plot<'a>(
+    studies: impl Iterator<Item = (&'a str, &'a BiasStudy)>, path: &Path,
+) -> Result<(), StudyError> {
+    let panels = studies.map(|(scene, b)| panel(scene, b)).collect();
     let mut figure = Figure::row("invariant-measure bias against run time", panels);
     figure.panel_size = (500, 440);
     render(&figure, path).map(|_| ())

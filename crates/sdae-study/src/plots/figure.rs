@@ -8,8 +8,20 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::style::{self, Canvas, DrawResult, Entry, LineStyle};
-use super::{MAX_DRAWN, MIN_DRAWN};
 use crate::error::StudyError;
+
+/// The smallest value a logarithmic axis draws. Smaller ones (subnormal, or within a few
+/// hundred decades of it) are left out of the plots with a note: an axis must stay a finite,
+/// bounded range for the plotting library to place its ticks.
+pub const MIN_DRAWN: f64 = 1e-300;
+
+/// The largest value a logarithmic axis draws (see [`MIN_DRAWN`]).
+pub const MAX_DRAWN: f64 = 1e300;
+
+/// Whether a logarithmic axis can draw `v`: finite and within [`MIN_DRAWN`]..=[`MAX_DRAWN`].
+pub fn drawable(v: f64) -> bool {
+    (MIN_DRAWN..=MAX_DRAWN).contains(&v)
+}
 
 /// How an axis maps values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,7 +85,7 @@ impl Axis {
     fn map(&self, v: f64) -> Option<f64> {
         match self.scale {
             Scale::Linear => v.is_finite().then_some(v),
-            Scale::Log => (MIN_DRAWN..=MAX_DRAWN).contains(&v).then(|| v.log10()),
+            Scale::Log => drawable(v).then(|| v.log10()),
         }
     }
 

@@ -1,9 +1,10 @@
 //! The registry of the systems a scene file can name. Each `[system.<kind>]` table's
 //! parameters build their system, its rest position, the theory's constants and the
-//! equipartition value here ([`SceneSystem`]), and name its built-in observables, their
-//! functions and their closed-form averages at equilibrium; [`SystemSpec::visit`] is the one
-//! place that lists the kinds: adding a system is a variant of [`SystemSpec`], its arm in
-//! `visit` and its [`SceneSystem`] implementation.
+//! equipartition value here ([`SceneSystem`]), and name its observables, their functions and
+//! their closed-form averages at equilibrium; [`SystemSpec::visit`] is the one place that lists
+//! the kinds: adding a system is a variant of [`SystemSpec`], its arm in `visit` and its
+//! [`SceneSystem`] implementation. The built-in kinds are here, the system written as
+//! expressions in `scene/expressions.rs`.
 
 use sdae_manifold::TheoryBound;
 use sdae_model::System;
@@ -14,7 +15,7 @@ use sdae_systems::{
     RigidTriatomic, RigidTriatomicParams, chain_molecule, pendulum, rigid_triatomic,
 };
 
-use super::{Scene, SystemSpec};
+use super::{Output, Scene, SystemSpec};
 use crate::error::StudyError;
 use crate::gibbs;
 use crate::observable::kinds::{
@@ -28,20 +29,62 @@ pub struct Built<S> {
     pub system: S,
     /// Its rest position (the initial position where the scene names none).
     pub rest: Vec<f64>,
+    /// Its own initial velocity (where the scene names none; `None`: at rest).
+    pub velocity: Option<Vec<f64>>,
     /// The theory's (C_eta, C_kappa) (Thm 3.4) where the constraint bounds C_g.
     pub theory: Option<(f64, f64)>,
     /// The equipartition value (n - m) kT / 2 of E[v^T M v / 2] for Langevin systems.
     pub kinetic_target: Option<f64>,
 }
 
-/// The parameters of a built-in system kind, as a scene file gives them.
+impl<S> Built<S> {
+    /// The system, and the rest without it.
+    pub(crate) fn take(self) -> (S, Built<()>) {
+        let Built {
+            system,
+            rest,
+            velocity,
+            theory,
+            kinetic_target,
+        } = self;
+        let others = Built {
+            system: (),
+            rest,
+            velocity,
+            theory,
+            kinetic_target,
+        };
+        (system, others)
+    }
+}
+
+impl Built<()> {
+    /// The rest with `system`.
+    pub(crate) fn with<S>(self, system: S) -> Built<S> {
+        Built {
+            system,
+            rest: self.rest,
+            velocity: self.velocity,
+            theory: self.theory,
+            kinetic_target: self.kinetic_target,
+        }
+    }
+}
+
+/// The parameters of a system kind (built in, or written as expressions), as a scene file gives
+/// them.
 pub trait SceneSystem {
     /// The system they build.
     type System: CurvedSystem + Clone + Send + Sync + 'static;
     /// The number of coordinates of the system they build (saturating).
     fn coordinates(&self) -> usize;
-    /// The names of the system's built-in observables ([`crate::observable`]).
-    fn observables(&self) -> &'static [&'static str];
+    /// The names of the system's observables ([`crate::observable`]): a built-in kind's
+    /// built-in ones, an expression system's own (and the kinetic energy).
+    fn observables(&self) -> Vec<String>;
+    /// The outputs the observable `name` reads (the position, the velocity or both).
+    fn observable_needs(&self, name: &str) -> &'static [Output] {
+        crate::observable::needs(name)
+    }
     /// The function f(r, v) of the built-in observable `name`, given the path's initial
     /// position `r0`; None for a name the system does not have and for the kinetic energy
     /// v^T M v / 2, which every system computes from its mass matrix.
@@ -59,9 +102,27 @@ pub trait SceneSystem {
     /// Builds the system (a parameter it refuses is an error of `scene`), with its rest
     /// position in the scene's initial shape.
     fn build(&self, scene: &Scene) -> Result<Built<Self::System>, StudyError>;
+    /// Builds the system and hands it to `runner`: the system of [`SceneSystem::build`], or,
+    /// for a kind whose system's type is known only once it is built (the Gram structure of a
+    /// system written as expressions), that type.
+    fn build_into<R: BuiltRunner>(
+        &self, scene: &Scene, runner: R,
+    ) -> Result<R::Output, StudyError> {
+        Ok(runner.run(self.build(scene)?))
+    }
 }
 
-/// Work with the parameters of whichever built-in system a scene names.
+/// Work with a system built from a scene's table, whatever its type.
+pub trait BuiltRunner {
+    /// What the work returns.
+    type Output;
+    /// Does the work with `built`.
+    fn run<S>(self, built: Built<S>) -> Self::Output
+    where
+        S: CurvedSystem + Clone + Send + Sync + 'static;
+}
+
+/// Work with the parameters of whichever system kind a scene names.
 pub trait SystemVisitor {
     /// What the work returns.
     type Output;
@@ -70,7 +131,7 @@ pub trait SystemVisitor {
 }
 
 impl SystemSpec {
-    /// Hands the parameters of the built-in system to `visitor`, or returns the name of a
+    /// Hands the parameters of the scene's system kind to `visitor`, or returns the name of a
     /// system built in code. The one list of the kinds.
     pub fn visit<V: SystemVisitor>(&self, visitor: V) -> Result<V::Output, &str> {
         match self {
@@ -78,6 +139,7 @@ impl SystemSpec {
             SystemSpec::ChainMolecule(p) => Ok(visitor.visit(p)),
             SystemSpec::Triatomic(p) => Ok(visitor.visit(p)),
             SystemSpec::Fiber(p) => Ok(visitor.visit(p)),
+            SystemSpec::Expressions(spec) => Ok(visitor.visit(&**spec)),
             SystemSpec::Custom(name) => Err(name),
         }
     }
@@ -108,6 +170,11 @@ where
         .and_then(|c| c.c_eta.map(|c_eta| (c_eta, c.c_kappa)))
 }
 
+/// Names as owned strings.
+fn owned(names: &[&str]) -> Vec<String> {
+    names.iter().map(|n| n.to_string()).collect()
+}
+
 /// A system's refusal of its parameters, as an error of `scene`.
 fn refused(scene: &Scene, e: impl std::fmt::Display) -> StudyError {
     scene.invalid(format!("system: {e}"))
@@ -119,8 +186,8 @@ impl SceneSystem for PendulumParams {
     fn coordinates(&self) -> usize {
         self.dim
     }
-    fn observables(&self) -> &'static [&'static str] {
-        &PENDULUM
+    fn observables(&self) -> Vec<String> {
+        owned(&PENDULUM)
     }
     fn observable(&self, name: &str, r0: &[f64]) -> Option<Box<Function>> {
         observable::pendulum(self, name, r0)
@@ -136,6 +203,7 @@ impl SceneSystem for PendulumParams {
             theory: theory_constants(&system),
             system,
             rest,
+            velocity: None,
             // Langevin: kT = sigma^2 / (2 gamma), d - 1 degrees of freedom.
             kinetic_target: (self.friction > 0.0)
                 .then(|| (self.dim - 1) as f64 * self.noise * self.noise / (4.0 * self.friction)),
@@ -149,8 +217,8 @@ impl SceneSystem for ChainMoleculeParams {
     fn coordinates(&self) -> usize {
         self.atoms.saturating_mul(3)
     }
-    fn observables(&self) -> &'static [&'static str] {
-        &MOLECULE
+    fn observables(&self) -> Vec<String> {
+        owned(&MOLECULE)
     }
     fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
         observable::chain(name)
@@ -169,6 +237,7 @@ impl SceneSystem for ChainMoleculeParams {
             kinetic_target: Some(system.equipartition_energy()),
             system,
             rest,
+            velocity: None,
         })
     }
 }
@@ -179,8 +248,8 @@ impl SceneSystem for RigidTriatomicParams {
     fn coordinates(&self) -> usize {
         9
     }
-    fn observables(&self) -> &'static [&'static str] {
-        &TRIATOMIC
+    fn observables(&self) -> Vec<String> {
+        owned(&TRIATOMIC)
     }
     fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
         observable::triatomic(self, name)
@@ -194,6 +263,7 @@ impl SceneSystem for RigidTriatomicParams {
             theory: theory_constants(&system),
             kinetic_target: Some(system.equipartition_energy()),
             rest: system.initial_state().0,
+            velocity: None,
             system,
         })
     }
@@ -205,8 +275,8 @@ impl SceneSystem for FiberParams {
     fn coordinates(&self) -> usize {
         self.beads.saturating_mul(3)
     }
-    fn observables(&self) -> &'static [&'static str] {
-        &FIBER
+    fn observables(&self) -> Vec<String> {
+        owned(&FIBER)
     }
     fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
         observable::fiber(name)
@@ -222,6 +292,7 @@ impl SceneSystem for FiberParams {
             kinetic_target: None,
             system,
             rest,
+            velocity: None,
         })
     }
 }

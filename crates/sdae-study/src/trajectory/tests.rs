@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::integrator::SchemeKind;
-use crate::simulate::{SimulateSettings, simulate};
+use crate::simulate::{SimulateSettings, SimulatedPaths, simulate};
 
 /// A fresh folder for one test.
 fn folder(name: &str) -> PathBuf {

@@ -6,6 +6,7 @@
 mod bias_intervals;
 mod equipartition;
 mod expect_coverage;
+mod expression_law;
 mod expression_scenes;
 mod invariant_bias;
 /// The scalar linear SDEs of sdae-mlmc's suite (which uses the rest of the module).

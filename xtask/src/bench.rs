@@ -1,6 +1,6 @@
 //! `cargo xtask bench`: runs the criterion benchmarks of `sdae-bench` (step, mass, ensemble,
-//! fiber, molecule, inherent_ensemble, qmc) and summarizes the step and ensemble figures in
-//! `target/bench/summary.json`.
+//! fiber, molecule, inherent_ensemble, qmc, expr, expr_system) and summarizes the step and
+//! ensemble figures in `target/bench/summary.json`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -31,7 +31,7 @@ const MOLECULE_ENSEMBLE_PATHS: u64 = 64;
 
 /// The benchmarks of `sdae-bench` that run (its `splitting` bench runs with
 /// `cargo bench -p sdae-bench --bench splitting`).
-const BENCHES: [&str; 8] = [
+const BENCHES: [&str; 9] = [
     "step",
     "mass",
     "ensemble",
@@ -40,6 +40,7 @@ const BENCHES: [&str; 8] = [
     "inherent_ensemble",
     "qmc",
     "expr",
+    "expr_system",
 ];
 
 /// Solvers of the `inherent_ensemble` group (as in crates/sdae-bench/benches/inherent_ensemble.rs),

@@ -372,20 +372,10 @@ impl SceneArgs {
     pub fn load(&self, default: fn(&Scene) -> bool) -> Result<Vec<Scene>, sdae_study::StudyError> {
         let scenes = self.read(default)?;
         for (k, scene) in scenes.iter().enumerate() {
-            scene
-                .check_system()
-                .map_err(|e| match (e, self.file_of(k)) {
-                    (sdae_study::StudyError::Invalid { scene, message }, Some(file)) => {
-                        sdae_study::StudyError::Invalid {
-                            scene,
-                            message: format!(
-                                "{message} (scene file {})",
-                                escaped(&file.display().to_string())
-                            ),
-                        }
-                    }
-                    (e, _) => e,
-                })?;
+            scene.check_system().map_err(|e| match self.file_of(k) {
+                Some(file) => e.in_scene_file(&escaped(&file.display().to_string())),
+                None => e,
+            })?;
         }
         Ok(scenes)
     }

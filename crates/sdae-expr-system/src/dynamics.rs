@@ -23,12 +23,22 @@ pub(crate) enum NoiseForm {
     Expressions(Program),
 }
 
+/// The force -grad V(q) + a(q, v).
+#[derive(Debug, Clone)]
+enum Force {
+    /// Zero.
+    Zero,
+    /// Constants (a uniform field: the program's outputs, without evaluating it).
+    Constant(Vec<f64>),
+    /// The compiled program.
+    Program(Program),
+}
+
 /// The compiled drift and noise.
 #[derive(Debug, Clone)]
 pub(crate) struct Dynamics {
     n: usize,
-    /// -grad V(q) + a(q, v), where it is not zero.
-    force: Option<Program>,
+    force: Force,
     /// Whether the forces read the velocities.
     force_uses_velocity: bool,
     /// gamma.
@@ -71,13 +81,19 @@ impl Dynamics {
             .iter()
             .any(|&f| graph.inputs_of(f).iter().any(|v| v.slot == V));
         let (friction, noise) = noise(graph, table, spec, n)?;
+        let force = match zero {
+            true => Force::Zero,
+            false => {
+                let program = compile(graph, &force, "forces")?;
+                match program.constant_outputs() {
+                    Some(values) => Force::Constant(values),
+                    None => Force::Program(program),
+                }
+            }
+        };
         Ok(Self {
             n,
-            force: if zero {
-                None
-            } else {
-                Some(compile(graph, &force, "forces")?)
-            },
+            force,
             force_uses_velocity,
             friction,
             noise,
@@ -89,8 +105,13 @@ impl Dynamics {
     pub(crate) fn drift<T: Real>(&self, r: &[T], v: &[T], out: &mut [T]) {
         let out = &mut out[..self.n];
         match &self.force {
-            Some(program) => scratch::eval(program, &[r, v], out),
-            None => {
+            Force::Program(program) => scratch::eval(program, &[r, v], out),
+            Force::Constant(values) => {
+                for ((o, vi), &c) in out.iter_mut().zip(v).zip(values) {
+                    *o = vi.splat_like(c);
+                }
+            }
+            Force::Zero => {
                 for (o, vi) in out.iter_mut().zip(v) {
                     *o = vi.splat_like(0.0);
                 }

@@ -101,10 +101,12 @@
 //!
 //! # Evaluation
 //!
-//! Each program runs on registers lent by a per-thread pool (per number type, a few buffers
-//! kept between calls): no heap allocation per call once a thread has evaluated each program
-//! once, no `unsafe`, and the tape runs in the caller's frame, so over lanes it is compiled
-//! with the caller's instruction set.
+//! A program of a few registers (a pendulum's) runs on an array on the caller's stack; a
+//! larger one on registers lent by a per-thread pool (per number type, a few buffers kept
+//! between calls): no heap allocation per call once a thread has evaluated each program once,
+//! no `unsafe`, and the tape runs in the caller's frame, so over lanes it is compiled with the
+//! caller's instruction set. A force that is constant (a uniform field's -grad V) is stored as
+//! its values and not evaluated.
 //!
 //! # Limits
 //!

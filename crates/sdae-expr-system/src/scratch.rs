@@ -1,13 +1,15 @@
-//! Registers for [`Program::eval`] without a heap allocation per call: each thread keeps, per
-//! number type, a few buffers of registers, lent out for one evaluation and taken back after.
+//! Registers for [`Program::eval_in`] without a heap allocation per call: on the caller's stack
+//! for the small programs, else lent by a per-thread pool.
 //!
-//! A program's evaluation needs a `Vec<T>` of its registers. The methods that evaluate take
-//! `&self` and run on many threads at once, so the buffers cannot live in the system; a
-//! thread-local pool of `Vec<T>` per type `T` (found by `TypeId`, downcast with `Any`: no
-//! `unsafe`) lends one out. The evaluation itself runs in the caller's frame (the buffer is
-//! moved out of the pool and back, three words each way), so that over lanes it is compiled
-//! with the caller's instruction set. A buffer whose length is the program's register count
-//! is preferred: [`Program::eval`] then only writes the constants before running the tape.
+//! A program's evaluation needs its registers. The methods that evaluate take `&self` and run
+//! on many threads at once, so the registers cannot live in the system. A program of at most
+//! [`STACK_REGISTERS`] registers (a pendulum's g, Dg u, Dg^T z and D^2 g(u, w) have 8 to 14)
+//! runs on an array in the caller's frame, of [`SMALL_REGISTERS`] or [`STACK_REGISTERS`]
+//! entries, written once per call (a store per register, cheaper than finding a buffer); a
+//! larger one on a buffer of the thread's pool, a stack of
+//! idle `Vec<T>` per number type (found by `TypeId`, downcast with `Any`: no `unsafe`), taken
+//! and given back (a nested use takes a second buffer). Either way the evaluation runs in the
+//! caller's frame, so that over lanes it is compiled with the caller's instruction set.
 //! Buffers are allocated on a thread's first evaluations only.
 
 use std::any::{Any, TypeId};
@@ -16,35 +18,36 @@ use std::cell::RefCell;
 use sdae_expr::Program;
 use sdae_lanes::Real;
 
-/// The most buffers a thread keeps per number type (a system evaluates a handful of programs
-/// of different sizes; more are dropped when given back).
-const KEPT_PER_TYPE: usize = 16;
+/// The most registers of a program evaluated on the smaller array of the caller's stack.
+const SMALL_REGISTERS: usize = 16;
+
+/// The most registers of a program evaluated on the caller's stack.
+const STACK_REGISTERS: usize = 32;
+
+/// The most idle buffers a thread keeps per number type (more are dropped when given back).
+const KEPT_PER_TYPE: usize = 8;
 
 thread_local! {
     /// Per number type: its `Vec<Vec<T>>` of idle buffers.
     static POOLS: RefCell<Vec<(TypeId, Box<dyn Any>)>> = const { RefCell::new(Vec::new()) };
 }
 
-/// A buffer of `T` from this thread's pool, preferably of length `len` (else any, else a new
-/// empty one).
-fn take<T: Real>(len: usize) -> Vec<T> {
-    POOLS
+/// A buffer of at least `len` values of `T` from this thread's pool (a new one if none is
+/// idle).
+fn take<T: Real>(len: usize, seed: T) -> Vec<T> {
+    let mut buffer = POOLS
         .try_with(|pools| {
             let mut pools = pools.try_borrow_mut().ok()?;
-            let idle = pools
-                .iter_mut()
-                .find(|(id, _)| *id == TypeId::of::<T>())?
-                .1
-                .downcast_mut::<Vec<Vec<T>>>()?;
-            let at = idle
-                .iter()
-                .position(|b| b.len() == len)
-                .or_else(|| idle.len().checked_sub(1))?;
-            Some(idle.swap_remove(at))
+            let (_, idle) = pools.iter_mut().find(|(id, _)| *id == TypeId::of::<T>())?;
+            idle.downcast_mut::<Vec<Vec<T>>>()?.pop()
         })
         .ok()
         .flatten()
-        .unwrap_or_default()
+        .unwrap_or_default();
+    if buffer.len() < len {
+        buffer.resize(len, seed);
+    }
+    buffer
 }
 
 /// Gives `buffer` back to this thread's pool (dropped if the pool is full).
@@ -69,20 +72,39 @@ fn give_back<T: Real>(buffer: Vec<T>) {
     });
 }
 
-/// `program.eval(inputs, out)` with registers lent by this thread's pool.
+/// `program.eval_in(inputs, out, registers)` with registers on the stack where they are few,
+/// else lent by this thread's pool.
 #[inline(always)]
 pub(crate) fn eval<T: Real>(program: &Program, inputs: &[&[T]], out: &mut [T]) {
-    let mut registers = take::<T>(program.registers());
-    program.eval(inputs, out, &mut registers);
-    give_back(registers);
+    let Some(&seed) = out.first() else {
+        return program.eval_in(inputs, out, &mut []);
+    };
+    // One evaluation on whichever array fits (the tape's code once per caller); each array
+    // is written only where it is chosen.
+    let (mut small, mut large);
+    let mut pooled = None;
+    let registers: &mut [T] = match program.registers() {
+        len if len <= SMALL_REGISTERS => {
+            small = [seed; SMALL_REGISTERS];
+            &mut small
+        }
+        len if len <= STACK_REGISTERS => {
+            large = [seed; STACK_REGISTERS];
+            &mut large
+        }
+        len => pooled.insert(take(len, seed)),
+    };
+    program.eval_in(inputs, out, registers);
+    if let Some(buffer) = pooled {
+        give_back(buffer);
+    }
 }
 
 /// `f` with a buffer of `len` values of `T` (their values unspecified: `seed` or left over),
 /// lent by this thread's pool.
 #[inline(always)]
 pub(crate) fn with_buffer<T: Real, R>(len: usize, seed: T, f: impl FnOnce(&mut [T]) -> R) -> R {
-    let mut buffer = take::<T>(len);
-    buffer.resize(len, seed);
+    let mut buffer = take(len, seed);
     let result = f(&mut buffer[..len]);
     give_back(buffer);
     result

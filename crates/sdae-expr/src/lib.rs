@@ -79,8 +79,10 @@
 //! x * 1, x * -1 = -x, 0 / x = 0, x / 1, x^0 = 1, x^1 and --x are rewritten. (x * 0 = 0 and
 //! 0 / x = 0 also where x would be infinite or NaN: the algebra of the expression, not of IEEE
 //! special values.) The compiler then computes each distinct operation on the same operands
-//! once (common subexpression elimination, a + b and b + a alike) and keeps each distinct
-//! constant once. Structural zeros of a Jacobian are its entries that simplify to the
+//! once (common subexpression elimination, a + b and b + a alike), keeps each distinct
+//! constant once, and makes only rewrites exact for every input, signed zeros included:
+//! negations folded into the sums, products and quotients that read them (a + (-b) as a - b),
+//! a division by a power of two as the product with its reciprocal. Structural zeros of a Jacobian are its entries that simplify to the
 //! constant 0; a second derivative is constant when it simplifies to a number.
 //!
 //! # Limits
@@ -91,6 +93,7 @@
 //! [`MAX_SLOTS`] input slots in a table, [`MAX_GRAPH_NODES`] nodes in a graph (derivatives
 //! included), [`MAX_PROGRAM_OPS`] operations in a program.
 
+mod compile;
 mod diff;
 mod error;
 mod func;
@@ -104,5 +107,5 @@ pub use error::ExprError;
 pub use func::{CONSTANTS, FUNCTIONS, Func, MAX_INTEGER_POWER, atan2, powf, powi};
 pub use graph::{ExprId, Graph, MAX_GRAPH_NODES, Node};
 pub use parse::{BinaryOp, MAX_DEPTH, MAX_SYNTAX_NODES, MAX_TEXT_BYTES, Syntax, SyntaxNode};
-pub use symbols::{MAX_SLOTS, MAX_SYMBOLS, Symbol, SymbolTable, Var, is_identifier};
+pub use symbols::{MAX_SLOTS, MAX_SYMBOLS, Symbol, SymbolTable, Var, edit_distance, is_identifier};
 pub use tape::{CompileOptions, MAX_PROGRAM_OPS, Op, Program};

@@ -172,8 +172,13 @@ pub fn is_identifier(name: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-/// The Levenshtein distance of two names.
-fn edit_distance(a: &str, b: &str) -> usize {
+/// The Levenshtein distance of two names: the fewest insertions, deletions and substitutions
+/// of characters that turn `a` into `b`.
+///
+/// ```
+/// assert_eq!(sdae_expr::edit_distance("kitten", "sitting"), 3);
+/// ```
+pub fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut row: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {

@@ -4,10 +4,10 @@
 
 use std::path::{Path, PathBuf};
 
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use sdae_study::StudyError;
-use sdae_study::scene::{BUILT_IN, Scene};
+use sdae_study::scene::{BUILT_IN, Scene, SystemSpec};
 
 use crate::errors::to_py;
 use crate::scene_dict::scene_of_dict;
@@ -101,14 +101,19 @@ impl PyScene {
 impl PyScene {
     /// `scene` once its system is built and its initial state checked
     /// ([`Scene::check_system`]), as the command line checks a scene before a study; a refusal
-    /// of a scene read from `file` names the file, as there.
+    /// of a scene read from `file` names the file, as there. A system built in code is refused
+    /// here: from Python no code can build it.
     fn checked(scene: Scene, file: Option<&Path>) -> PyResult<Self> {
-        scene.check_system().map_err(|e| match (e, file) {
-            (StudyError::Invalid { scene, message }, Some(file)) => to_py(StudyError::Invalid {
-                scene,
-                message: format!("{message} (scene file {})", file.display()),
-            }),
-            (e, _) => to_py(e),
+        if let SystemSpec::Custom(name) = &scene.system {
+            return Err(PyValueError::new_err(format!(
+                "system.custom = {name:?}: a system built in code runs from Rust only \
+                 (Scene::prepare_custom); from Python, write the system as expressions in \
+                 system.expressions (docs/custom-systems.md)"
+            )));
+        }
+        scene.check_system().map_err(|e| match file {
+            Some(file) => to_py(e.in_scene_file(&file.display().to_string())),
+            None => to_py(e),
         })?;
         Ok(Self { scene })
     }

@@ -3,8 +3,10 @@
 //!
 //! A scene names its observables in its `[weak]` table; each system kind has built-in ones, and
 //! a system written as expressions (`[system.expressions]`) has those its spec names as
-//! expressions f(q, v) ([`names_for`]); [`built_in`] builds them from the scene and its prepared
-//! system. A user's own
+//! expressions f(q, v) ([`names_for`]), and any other expression of its coordinates and
+//! velocities named in a study (`x1^2 + y1^2`, `v_x1 * y2`): a name that is none of the spec's
+//! is compiled as one ([`check_known`]); [`built_in`] builds them from the scene and its
+//! prepared system. A user's own
 //! observable is a closure of (r, v) ([`Observable::new`]), passed to the studies' `*_on`
 //! functions beside a user's own system and schemes. Only the observables a study is given are
 //! evaluated, at the grid points of its coarsest level (see
@@ -44,8 +46,9 @@ pub fn names_for(system: &SystemSpec) -> Vec<String> {
     system.visit(Names).unwrap_or_default()
 }
 
-/// The outputs the observable `name` of the scene's system reads ([`needs`] for a built-in one;
-/// an expression observable reads the velocity where it names one, `v_<coordinate>`).
+/// The outputs the observable `name` of the scene's system reads (a built-in one those its
+/// formula reads; an expression observable the velocity where it names one, `v_<coordinate>`;
+/// a user's closure on a system built in code may read both).
 pub fn needs_in(system: &SystemSpec, name: &str) -> &'static [Output] {
     struct Needs<'a>(&'a str);
     impl SystemVisitor for Needs<'_> {
@@ -54,16 +57,9 @@ pub fn needs_in(system: &SystemSpec, name: &str) -> &'static [Output] {
             kind.observable_needs(self.0)
         }
     }
-    system.visit(Needs(name)).unwrap_or_else(|_| needs(name))
-}
-
-/// The outputs a built-in observable reads: the position, the velocity or both.
-pub fn needs(name: &str) -> &'static [Output] {
-    match name {
-        "energy" => &[Output::Position, Output::Velocity],
-        "kinetic_energy" => &[Output::Velocity],
-        _ => &[Output::Position],
-    }
+    system
+        .visit(Needs(name))
+        .unwrap_or(&[Output::Position, Output::Velocity])
 }
 
 /// The candidate closest to `name` in edit distance, if it is close enough to be a slip (at
@@ -72,26 +68,10 @@ pub fn nearest<'a>(name: &str, candidates: &[&'a str]) -> Option<&'a str> {
     let limit = (name.chars().count() / 3).max(2);
     candidates
         .iter()
-        .map(|c| (edit_distance(name, c), *c))
+        .map(|c| (sdae_expr::edit_distance(name, c), *c))
         .filter(|(d, _)| *d <= limit)
         .min_by_key(|(d, _)| *d)
         .map(|(_, c)| c)
-}
-
-/// The Levenshtein distance: insertions, deletions and substitutions of characters.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let substitute = diagonal + usize::from(ca != *cb);
-            diagonal = row[j + 1];
-            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
-        }
-    }
-    row[b.len()]
 }
 
 /// Checks that `name` is an observable of the scene's system ([`names_for`]) and that the scene
@@ -114,22 +94,54 @@ pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
 
 /// Checks that `name` is an observable of the scene's system (any name for a system built in
 /// code), whatever outputs the scene computes: a time average reads the state as the
-/// paths go, not a recorded output.
+/// paths go, not a recorded output. For a system written as expressions, a name that is none
+/// of its observables is compiled as an expression of the coordinates and velocities; a text
+/// that does not compile is refused as an unknown name with the compiler's message below it.
 pub fn check_known(scene: &Scene, name: &str) -> Result<(), StudyError> {
     if matches!(scene.system, SystemSpec::Custom(_)) {
         return Ok(());
     }
     let known = names_for(&scene.system);
-    if !known.iter().any(|k| k == name) {
-        let candidates: Vec<&str> = known.iter().map(String::as_str).collect();
-        return Err(StudyError::UnknownObservable {
-            scene: scene.name.clone(),
-            name: name.to_string(),
-            nearest: nearest(name, &candidates).map(str::to_string),
-            known: known.join(", "),
-        });
+    if known.iter().any(|k| k == name) {
+        return Ok(());
     }
-    Ok(())
+    struct Expression<'a>(&'a str);
+    impl SystemVisitor for Expression<'_> {
+        type Output = Option<Result<(), String>>;
+        fn visit<K: SceneSystem>(self, kind: &K) -> Self::Output {
+            kind.observable_expression(self.0)
+        }
+    }
+    let compiled = scene.system.visit(Expression(name)).ok().flatten();
+    let candidates: Vec<&str> = known.iter().map(String::as_str).collect();
+    let unknown = |name: String| StudyError::UnknownObservable {
+        scene: scene.name.clone(),
+        nearest: nearest(&name, &candidates).map(str::to_string),
+        name,
+        known: known.join(", "),
+    };
+    match compiled {
+        Some(Ok(())) => Ok(()),
+        // The name is shown escaped: the refusal is the scene's, not one that names it.
+        Some(Err(refusal)) => Err(not_compiled(
+            scene,
+            &unknown(crate::scene::escaped(name)),
+            &refusal,
+        )),
+        None => Err(unknown(name.to_string())),
+    }
+}
+
+/// The refusal `unknown` of a name that is not an observable of the scene's system by name,
+/// with the compiler's `refusal` of it as an expression below it (a parse error's text and
+/// caret line on lines of their own, the caret under the text).
+fn not_compiled(scene: &Scene, unknown: &StudyError, refusal: &str) -> StudyError {
+    let unknown = unknown.to_string();
+    let prefix = format!("scene {}: ", scene.name);
+    let unknown = unknown.strip_prefix(&prefix).unwrap_or(&unknown);
+    scene.invalid(format!(
+        "{unknown}; as an expression of the coordinates and velocities it is refused:\n{refusal}"
+    ))
 }
 
 /// An output as a scene file spells it.
@@ -213,6 +225,5 @@ mod tests {
         assert_eq!(nearest("cos_angel", &PENDULUM), Some("cos_angle"));
         assert_eq!(nearest("hight", &PENDULUM), Some("height"));
         assert_eq!(nearest("temperature", &PENDULUM), None);
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 }

@@ -20,6 +20,27 @@ use crate::scene::{
 use crate::stability::stability_settings;
 use crate::weak::weak_table_settings;
 
+impl StudyError {
+    /// The error with the scene file it came from: an invalid scene's message names `file`
+    /// on its first line, before the colon that ends the line where one does, so that an
+    /// expression's text and the caret line under it, on the lines below, stay aligned; any
+    /// other error as it is.
+    pub fn in_scene_file(self, file: &str) -> StudyError {
+        let StudyError::Invalid { scene, message } = self else {
+            return self;
+        };
+        let named = |line: &str| match line.strip_suffix(':') {
+            Some(head) => format!("{head} (scene file {file}):"),
+            None => format!("{line} (scene file {file})"),
+        };
+        let message = match message.split_once('\n') {
+            Some((first, rest)) => format!("{}\n{rest}", named(first)),
+            None => named(&message),
+        };
+        StudyError::Invalid { scene, message }
+    }
+}
+
 impl Scene {
     /// Reads a scene from TOML text.
     pub fn from_toml(text: &str) -> Result<Self, StudyError> {
@@ -40,18 +61,15 @@ impl Scene {
     }
 
     /// The scene read from `file` (or why it could not be read), once its checks pass; a
-    /// refusal names the file.
+    /// refusal names the file (a scene given as text, `"<inline>"`, has none to name).
     fn checked(read: Result<Scene, String>, file: &str) -> Result<Self, StudyError> {
         let scene = read.map_err(|message| StudyError::Format {
             file: file.to_string(),
             message,
         })?;
-        scene.validate().map_err(|e| match e {
-            StudyError::Invalid { scene, message } => StudyError::Invalid {
-                scene,
-                message: format!("{message} (scene file {file})"),
-            },
-            other => other,
+        scene.validate().map_err(|e| match file {
+            "<inline>" => e,
+            file => e.in_scene_file(file),
         })?;
         Ok(scene)
     }

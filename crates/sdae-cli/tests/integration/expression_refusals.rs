@@ -69,6 +69,57 @@ fn a_parse_error_names_its_key_and_shows_the_caret() {
         .unwrap_or_else(|| panic!("no expression line in\n{stderr}"));
     let caret = lines[at + 1];
     assert_eq!(caret.find('^'), Some("(x2 - x1)^2 + ".len()), "{stderr}");
+    // The scene file is named on the first line, not after the caret's message.
+    let file_named = format!("(scene file {})", file.display());
+    assert!(lines[at - 1].contains(&file_named), "{stderr}");
+    assert!(!caret.contains("scene file"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_observable_named_in_a_study_is_compiled_and_a_text_that_does_not_compile_refused() {
+    let dir = scratch("expressions-observable-text");
+    let file = dir.join("double-pendulum.toml");
+    std::fs::write(&file, DOUBLE).unwrap();
+    // A text that is no observable's name and does not compile: the unknown name with the
+    // nearest one, then the compiler's caret line under the text.
+    let out = dir.join("out");
+    let args = [
+        "mlmc",
+        "--scene-file",
+        file.to_str().unwrap(),
+        "--observable",
+        "y2 + * x1",
+        "--quick",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    usage_error(&args, &["no observable 'y2 + * x1'", "expected an operand"]);
+    let stderr = text(&study(&args).stderr);
+    let lines: Vec<&str> = stderr.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| *l == "y2 + * x1")
+        .unwrap_or_else(|| panic!("no expression line in\n{stderr}"));
+    assert_eq!(lines[at + 1].find('^'), Some("y2 + ".len()), "{stderr}");
+    assert!(
+        !out.join("double-pendulum").exists(),
+        "a report was written"
+    );
+    // A text that compiles runs, its name in the report.
+    let args = [
+        "expect",
+        "--scene-file",
+        file.to_str().unwrap(),
+        "--observable",
+        "x2^2 + y2^2",
+        "--eps",
+        "0.2",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let output = study(&args);
+    assert!(output.status.success(), "{}", text(&output.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -57,10 +57,19 @@ def scene(source: SceneLike) -> Scene:
     takes numbers where a scene file does (numpy scalars too) and lists or 1-D numpy arrays
     where it has lists; NaN and infinity are refused, naming the key (``system.pendulum.length``).
 
+    Its ``system`` is one of the built-in kinds (``{"pendulum": {...}}``, ``chain-molecule``,
+    ``triatomic``, ``fiber``) or a system written as expressions, ``{"expressions": {...}}``:
+    coordinates, masses, parameters, constraints, a potential, forces, friction and kT or
+    noise, observables and the initial state, as text (docs/custom-systems.md). A ``weak``
+    table's observables, like the ``observable`` of ``mlmc`` and ``expectation``, may then be
+    expressions of the coordinates and velocities too. A system built in code (``custom``)
+    runs from Rust only and is refused.
+
     The whole scene is checked here, as the command line checks it before a study: its values,
     its system built from its parameters (a negative length, a pendulum of 4 dimensions) and
-    its initial state on the constraint. Raises ValueError where a check refuses it, naming the
-    key, with the message the command line prints.
+    its initial state on the constraint; a system written as expressions is compiled here. Raises
+    ValueError where a check refuses it, naming the key, with the message the command line
+    prints (an expression that does not parse with its text and a caret under the position).
     """
     if isinstance(source, Scene):
         return source
@@ -305,8 +314,9 @@ def mlmc(
     initial_points: Optional[int] = None,
     progress: Optional[bool] = None,
 ) -> Report:
-    """The MLMC study (``sdae-study mlmc``) of E[f(X_T)] of a built-in ``observable``: the
-    convergence test, the rates alpha, beta, gamma, the adaptive runs at each ``eps`` (the
+    """The MLMC study (``sdae-study mlmc``) of E[f(X_T)] of an ``observable`` of the scene's
+    system (for a system written as expressions, any expression of its coordinates and
+    velocities too, ``"x1^2 + v_y1"``): the convergence test, the rates alpha, beta, gamma, the adaptive runs at each ``eps`` (the
     complexity table; a list, a 1-D numpy array or one number), and a direct standard Monte
     Carlo run (``standard=False`` leaves it out). ``qmc=True`` adds multilevel randomized QMC
     (``randomizations``, default 32, ``initial_points``, default 32).
@@ -354,8 +364,9 @@ def expectation(
     initial_points: Optional[int] = None,
     progress: Optional[bool] = None,
 ) -> Expectation:
-    """E[f(X_T)] of a built-in ``observable`` (default: the scene's) to root mean square
-    accuracy ``eps``, with its interval (95% widened by the bias estimate) and bias estimate.
+    """E[f(X_T)] of an ``observable`` of the scene's system (default: the scene's; for a system
+    written as expressions, any expression of its coordinates and velocities too) to root mean
+    square accuracy ``eps``, with its interval (95% widened by the bias estimate) and bias estimate.
 
     A short pilot (the convergence test, ``test_levels`` and ``test_samples``: the scene's MLMC
     settings; then ``randomizations`` R of up to ``initial_points`` n_0 quasi-random points per

@@ -34,9 +34,11 @@ class Scene:
     @staticmethod
     def from_dict(table: Dict[str, Any]) -> "Scene":
         """The scene of a dict with the keys of a scene file (numpy scalars and 1-D arrays
-        taken as numbers and lists); ValueError naming the dotted key (``system.pendulum.length``)
-        of a value refused, NaN and infinity included; TypeError for a value no scene file
-        holds (a set, an object)."""
+        taken as numbers and lists), its system a built-in kind or ``{"expressions": {...}}``
+        (docs/custom-systems.md); ValueError naming the dotted key (``system.pendulum.length``,
+        ``system.expressions.constraints[0]``) of a value refused, NaN and infinity included,
+        and for a system built in code (``custom``); TypeError for a value no scene file holds
+        (a set, an object)."""
     @property
     def name(self) -> str: ...
     @property

@@ -1,6 +1,6 @@
 //! The built-in observables of each system kind a scene can name: their names and their
 //! functions f(r, v) of the state (the kinetic energy v^T M v / 2, which every kind has, is
-//! built from the system's mass matrix in [`crate::observable`]).
+//! built from the system's mass matrix by the module above this one).
 
 use sdae_systems::{PendulumParams, RigidTriatomicParams};
 

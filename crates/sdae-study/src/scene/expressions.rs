@@ -5,15 +5,17 @@
 //! leave one of them silently unused. Every refusal of the spec names its key as
 //! `system.expressions.<key>` with the compiler's message (and the caret line of a parse error).
 //!
-//! Its observables are the spec's `observables` by name, and the kinetic energy v^T M v / 2
-//! that every system has (so a spec may not define one of that name). With friction and kT it
+//! Its observables are the spec's `observables` by name, the kinetic energy v^T M v / 2
+//! that every system has (so a spec may not define one of that name), and any other expression
+//! of the coordinates and velocities a study names, compiled by
+//! [`ExpressionSystem::compile_observable`]. With friction and kT it
 //! is a Langevin system: the equipartition value (n - m) kT / 2 applies, and so do BAOAB and
 //! g-BAOAB.
 
 use sdae_expr_system::{ExpressionSpec, ExpressionSystem, ShapeVisitor, SpecError};
 use sdae_manifold::GramShape;
 
-use super::systems::{Built, BuiltRunner, SceneSystem};
+use super::systems::{Built, BuiltRunner, SceneSystem, built_in_needs};
 use super::{InitialSpec, Output, Scene};
 use crate::error::StudyError;
 use crate::observable::kinds::Function;
@@ -90,9 +92,13 @@ impl SceneSystem for ExpressionSpec {
         own.chain([KINETIC_ENERGY.to_string()]).collect()
     }
 
+    /// An observable of the spec reads what its text names, the kinetic energy the velocity,
+    /// and any other name is read as an expression.
     fn observable_needs(&self, name: &str) -> &'static [Output] {
-        let Some(text) = self.observables.get(name) else {
-            return crate::observable::needs(name);
+        let text = match self.observables.get(name) {
+            Some(text) => text,
+            None if name == KINETIC_ENERGY => return built_in_needs(name),
+            None => name,
         };
         if reads_velocity(text) {
             &[Output::Position, Output::Velocity]
@@ -101,8 +107,24 @@ impl SceneSystem for ExpressionSpec {
         }
     }
 
+    fn observable_expression(&self, text: &str) -> Option<Result<(), String>> {
+        let verdict = match ExpressionSystem::compile(self) {
+            Ok(system) => system
+                .compile_observable(text)
+                .map(drop)
+                .map_err(|e| e.kind.to_string()),
+            Err(e) => Err(format!("{TABLE}.{e}")),
+        };
+        Some(verdict)
+    }
+
+    /// The spec's observable `name`, or `name` compiled as an expression.
     fn observable(&self, name: &str, _r0: &[f64]) -> Option<Box<Function>> {
-        let f = ExpressionSystem::compile(self).ok()?.observable(name)?;
+        let system = ExpressionSystem::compile(self).ok()?;
+        let f = match system.observable(name) {
+            Some(f) => f,
+            None => system.compile_observable(name).ok()?,
+        };
         Some(Box::new(move |r, v| f.value(r, v)))
     }
 

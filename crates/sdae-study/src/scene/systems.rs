@@ -78,12 +78,18 @@ pub trait SceneSystem {
     type System: CurvedSystem + Clone + Send + Sync + 'static;
     /// The number of coordinates of the system they build (saturating).
     fn coordinates(&self) -> usize;
-    /// The names of the system's observables ([`crate::observable`]): a built-in kind's
-    /// built-in ones, an expression system's own (and the kinetic energy).
+    /// The names of the system's observables: a built-in kind's built-in ones, an expression
+    /// system's own (and the kinetic energy).
     fn observables(&self) -> Vec<String>;
     /// The outputs the observable `name` reads (the position, the velocity or both).
     fn observable_needs(&self, name: &str) -> &'static [Output] {
-        crate::observable::needs(name)
+        built_in_needs(name)
+    }
+    /// Whether `text`, none of [`SceneSystem::observables`], is an observable of the system as
+    /// an expression of its coordinates and velocities: `None` for a kind whose observables
+    /// are names only, else `Ok` or the compiler's refusal.
+    fn observable_expression(&self, _text: &str) -> Option<Result<(), String>> {
+        None
     }
     /// The function f(r, v) of the built-in observable `name`, given the path's initial
     /// position `r0`; None for a name the system does not have and for the kinetic energy
@@ -168,6 +174,15 @@ where
     StepperConfig::for_system(system)
         .ok()
         .and_then(|c| c.c_eta.map(|c_eta| (c_eta, c.c_kappa)))
+}
+
+/// The outputs a built-in observable reads: the position, the velocity or both.
+pub(super) fn built_in_needs(name: &str) -> &'static [Output] {
+    match name {
+        "energy" => &[Output::Position, Output::Velocity],
+        "kinetic_energy" => &[Output::Velocity],
+        _ => &[Output::Position],
+    }
 }
 
 /// Names as owned strings.

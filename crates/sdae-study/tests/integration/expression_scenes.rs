@@ -220,3 +220,111 @@ fn particles_of_an_expression_system_place_its_coordinates() {
         "{e}"
     );
 }
+
+/// The torus scene with each `from` replaced by its `to` in its file, read as a scene file is.
+fn torus_with_all(changes: &[(&str, &str)]) -> Result<Scene, sdae_study::StudyError> {
+    let mut text = include_str!("../../scenes/torus.toml").to_string();
+    for (from, to) in changes {
+        assert!(text.contains(from), "'{from}' not in the torus scene");
+        text = text.replacen(from, to, 1);
+    }
+    Scene::from_toml(&text)
+}
+
+/// The torus scene with `from` replaced by `to` ([`torus_with_all`]).
+fn torus_with(from: &str, to: &str) -> Result<Scene, sdae_study::StudyError> {
+    torus_with_all(&[(from, to)])
+}
+
+#[test]
+fn observables_named_in_a_study_are_compiled_as_expressions_of_the_state() {
+    // The spec's `height` is y1; y1 named as a text gives the same numbers, and the kinetic
+    // energy is |v|^2 / 2 at unit mass.
+    let from = "observables = [\"height\", \"cos_tube\", \"kinetic_energy\"]";
+    let to = "observables = [\"height\", \"y1\", \"kinetic_energy\", \"v_x1^2 + v_y1^2 + v_z1^2\"]";
+    let scene = torus_with(from, to).unwrap();
+    let report = weak(&scene);
+    let names: Vec<&str> = report.observables.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["height", "y1", "kinetic_energy", "v_x1^2 + v_y1^2 + v_z1^2"]
+    );
+    let [height, y1, kinetic, twice] = &report.observables[..] else {
+        unreachable!()
+    };
+    let estimates = |o: &sdae_study::weak::ObservableReport, scale: f64| {
+        let mut all = vec![o.reference_value.as_ref().unwrap().estimate * scale];
+        for scheme in &o.schemes {
+            all.extend(scheme.levels.iter().map(|l| l.error.estimate * scale));
+        }
+        all
+    };
+    assert_eq!(estimates(height, 1.0), estimates(y1, 1.0));
+    for (a, b) in estimates(kinetic, 2.0).iter().zip(estimates(twice, 1.0)) {
+        assert!((a - b).abs() <= 1e-12 * a.abs().max(1.0), "{a} against {b}");
+    }
+    // The configurational observable of equipartition and the MLMC observable, as texts.
+    let scene = torus_with(
+        "configurational = \"cos_tube\"",
+        "configurational = \"(sqrt(x1^2 + y1^2) - R) / a\"",
+    )
+    .unwrap();
+    assert_eq!(
+        scene.system.exact_average("(sqrt(x1^2 + y1^2) - R) / a"),
+        None
+    );
+    let scene = torus_with(
+        "observable = \"cos_tube\"",
+        "observable = \"x1 * v_z1 - y1\"",
+    );
+    let scene = scene.unwrap();
+    struct Value;
+    impl SceneRunner for Value {
+        type Output = f64;
+        fn run<S>(self, scene: &Scene, prepared: Prepared<S>) -> f64
+        where
+            S: sdae_model::System + Clone + Send + Sync + 'static,
+        {
+            let name = &scene.mlmc.as_ref().unwrap().observable;
+            let f = sdae_study::observable::built_in(scene, &prepared, name).unwrap();
+            f.value(&prepared.position, &prepared.velocity)
+        }
+    }
+    // At (0, -3, 0) with v = (1, 0, 1): 0 * 1 + 3.
+    assert_eq!(scene.run(Value).unwrap(), 3.0);
+}
+
+#[test]
+fn a_study_observable_that_does_not_compile_is_refused_with_the_compilers_message() {
+    let from = "observables = [\"height\", \"cos_tube\", \"kinetic_energy\"]";
+    let e = torus_with(from, "observables = [\"height\", \"y1 + * 2\"]")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("scene torus: no observable 'y1 + * 2'"),
+        "{e}"
+    );
+    assert!(e.contains("(observables of this system: "), "{e}");
+    let lines: Vec<&str> = e.lines().collect();
+    let at = lines.iter().position(|l| *l == "y1 + * 2").expect(&e);
+    assert_eq!(lines[at + 1].find('^'), Some("y1 + ".len()), "{e}");
+    // A slip of a name: the nearest observable, and the compiler's nearest symbol.
+    let e = torus_with(from, "observables = [\"heigth\"]")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("did you mean 'height'?"), "{e}");
+    assert!(e.contains("unknown symbol `heigth`"), "{e}");
+    // An expression of the velocities in a scene that does not record them.
+    let e = torus_with_all(&[
+        (from, "observables = [\"y1 * v_x1\"]"),
+        (
+            "outputs = [\"position\", \"velocity\", \"multiplier\", \"kinetic-energy\"]",
+            "outputs = [\"position\", \"kinetic-energy\"]",
+        ),
+    ])
+    .unwrap_err();
+    assert!(
+        matches!(&e, sdae_study::StudyError::ObservableNeedsOutput { output, .. } if *output == "velocity"),
+        "{e}"
+    );
+}

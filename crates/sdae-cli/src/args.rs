@@ -441,8 +441,9 @@ impl ConvergenceArgs {
 pub struct ExpectArgs {
     #[command(flatten)]
     pub scenes: SceneArgs,
-    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (default: the
-    /// scene's, else cos_angle).
+    /// Observable f of E[f(X_T)]: an observable of the scene's system, or for a system written
+    /// as expressions an expression of its coordinates and velocities (default: the scene's,
+    /// else cos_angle).
     #[arg(long, value_name = "NAME")]
     pub observable: Option<String>,
     /// Scheme on the paths (default: the scene's, half-explicit-practical).
@@ -616,8 +617,9 @@ impl LevelArgs {
 pub struct MlmcArgs {
     #[command(flatten)]
     pub scenes: SceneArgs,
-    /// Observable f of E[f(X_T)], a built-in observable of the scene's system (docs/scenes.md
-    /// names them; default: the scene's, else cos_angle).
+    /// Observable f of E[f(X_T)]: an observable of the scene's system (docs/scenes.md names
+    /// them), or for a system written as expressions an expression of its coordinates and
+    /// velocities (default: the scene's, else cos_angle).
     #[arg(long, value_name = "NAME")]
     pub observable: Option<String>,
     /// Scheme on both paths of each pair (default: the scene's, half-explicit-practical).

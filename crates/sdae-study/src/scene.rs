@@ -280,7 +280,8 @@ pub struct EquipartitionSpec {
     pub burn_in: f64,
     /// The values of C_eta of the half-explicit scheme to compare.
     pub c_eta: Vec<f64>,
-    /// A built-in observable of the scene's system whose time average (with the kinetic
+    /// An observable of the scene's system (for a system written as expressions, also an
+    /// expression of its state) whose time average (with the kinetic
     /// energy's burn-in) measures the schemes' invariant-measure bias: against its closed form
     /// where the system has one ([`SystemSpec::exact_average`]), else against the finest
     /// g-baoab estimate.
@@ -294,8 +295,9 @@ with_study_defaults! {
     #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub struct WeakSpec {
-        /// Built-in observables of the scene's system (see
-        /// [`observable::names_for`](crate::observable::names_for)).
+        /// Observables of the scene's system (see
+        /// [`observable::names_for`](crate::observable::names_for); for a system written as
+        /// expressions, also expressions of its coordinates and velocities).
         pub observables: Vec<String>,
         /// Exact values of E[f(X_T)] for some of the observables, by name: the weak error is
         /// then measured against them, otherwise against the reference on the same paths.

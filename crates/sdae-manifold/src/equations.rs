@@ -64,7 +64,7 @@ use std::cell::RefCell;
 use pulp::Simd;
 use sdae_lanes::{Lanes, Real};
 
-use crate::constraint::{Constraint, Curvature, displace_in_passes};
+use crate::constraint::{Constraint, Curvature};
 use crate::error::ManifoldError;
 use crate::gram::SquareMatrix;
 use crate::lane_form::{
@@ -117,10 +117,80 @@ pub trait Equations: Clone + Send + Sync + 'static {
         let _ = mass;
         Ok(())
     }
+
+    // What the step builds from the four methods above, each a provided method that a
+    // constraint overrides where it has a cheaper form with the same numbers for every `T`
+    // (the sphere's single passes, a compiled constraint's fused programs).
+
+    /// out = Dg(x1) M^-1 grad g(x2) (seed Section 2.1: G_M(x) for x1 = x2 = x), `scratch` n + 2m
+    /// entries: by default assembled from the products p -> Dg(x1) M^-1 grad g(x2) p
+    /// ([`ByProducts`]).
+    #[inline(always)]
+    fn cross_gram<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, x1: &[T], x2: &[T], scratch: &mut [T],
+        out: &mut <Self::Shape as GramShape>::Matrix<T>,
+    ) {
+        cross_gram(self, x1, x2, inverse_mass, scratch, out);
+    }
+    /// value = g(x) and gram = Dg(x) M^-1 grad g(r): one Newton evaluation of the kappa system
+    /// (seed eq. 3.1, upper part), `scratch` n + 2m entries.
+    #[inline(always)]
+    fn value_and_cross_gram<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, x: &[T], r: &[T], scratch: &mut [T], value: &mut [T],
+        gram: &mut <Self::Shape as GramShape>::Matrix<T>,
+    ) {
+        Equations::value(self, x, value);
+        Equations::cross_gram(self, inverse_mass, x, r, scratch, gram);
+    }
+    /// out = base + M^-1 grad g(r) z (seed eq. 3.1: the position of the kappa system, and the
+    /// velocity update), where `base` is `None` out is its own base (each entry read before it
+    /// is written); `scratch` n entries. By default in passes: grad g(r) z, M^-1, the sum.
+    #[inline(always)]
+    fn displace<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, r: &[T], z: &[T], base: Option<&[T]>, out: &mut [T],
+        scratch: &mut [T],
+    ) {
+        displace_in_passes(self, inverse_mass, r, z, base, out, scratch);
+    }
+    /// [c0, c1, c2] of the kappa system R(gamma) = g(y + M^-1 grad g(r) gamma) where it is a
+    /// quadratic in gamma ([`Constraint::kappa_quadratic`]), `scratch` n entries: by default
+    /// where m = 1 and g is quadratic, c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(w, w) / 2 with
+    /// w = M^-1 grad g(r); `None` otherwise (Newton).
+    #[inline(always)]
+    fn kappa_quadratic<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, r: &[T], y: &[T], scratch: &mut [T],
+    ) -> Option<[T; 3]> {
+        has_kappa_quadratic(self).then(|| kappa_coefficients(self, r, y, inverse_mass, scratch))
+    }
+    /// The size of the motion on the constraint's own length scale
+    /// ([`Constraint::local_motion`]); `None` (the default): the seed's functional.
+    #[inline(always)]
+    fn local_motion<T: Real>(&self, x: &[T], v: &[T], a: &[T]) -> Option<T> {
+        let _ = (x, v, a);
+        None
+    }
+    /// Offers `visitor` the constraint's lane form for `mass` ([`Constraint::lane_form`]): by
+    /// default these formulas over lanes for a diagonal mass ([`LaneFormVisitor::newton`]).
+    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
+        if !M::DIAGONAL {
+            return visitor.none();
+        }
+        visitor.newton(|| LaneForm::new(self, mass))
+    }
 }
 
-/// The one-path forms: the [`Equations`] methods at T = f64, the Gram matrix assembled from
-/// the Jacobian products ([`ByProducts`]), the displacement in three passes.
+/// A mass's inverse as the [`Equations`] formulas apply it, over numbers of type T: `f64` for
+/// one path (any mass), lanes for W paths (a diagonal mass, [`InverseMass`]).
+pub trait InverseMassOf<T> {
+    /// x <- M^-1 x.
+    fn apply_inverse(&self, x: &mut [T]);
+    /// (M^-1)_kk where M is diagonal, `None` otherwise.
+    fn diagonal_entry(&self, k: usize) -> Option<f64>;
+    /// a^T M^-1 b (`Mass::inverse_inner`), `scratch` n entries.
+    fn inverse_inner(&self, a: &[T], b: &[T], scratch: &mut [T]) -> T;
+}
+
+/// The one-path forms: the [`Equations`] methods at T = f64 with the mass applied by itself.
 impl<E: Equations> Constraint for E {
     type Gram = <E::Shape as GramShape>::Gram;
     fn dim(&self) -> usize {
@@ -144,42 +214,43 @@ impl<E: Equations> Constraint for E {
     fn new_gram(&self) -> Self::Gram {
         SquareMatrix::zeros_like(0.0, Equations::n_constraints(self))
     }
-    /// `cross_gram` with M^-1 applied by `mass`.
+    /// [`Equations::cross_gram`].
     #[inline]
     fn cross_gram<M: Mass>(
         &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut Self::Gram,
     ) {
-        cross_gram(self, x1, x2, &OnePath(mass), scratch, out);
+        let out = E::Shape::one_path(out);
+        Equations::cross_gram(self, &OnePath(mass), x1, x2, scratch, out);
     }
-    /// `displace_in_passes`: grad g(r) z, then M^-1, then + y.
+    /// [`Equations::value_and_cross_gram`].
+    #[inline]
+    fn value_and_cross_gram<M: Mass>(
+        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
+        gram: &mut Self::Gram,
+    ) {
+        let gram = E::Shape::one_path(gram);
+        Equations::value_and_cross_gram(self, &OnePath(mass), x, r, scratch, value, gram);
+    }
+    /// [`Equations::displace`].
     #[inline]
     fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
-        displace_in_passes(self, r, z, mass, y, out);
+        Equations::displace(self, &OnePath(mass), r, z, Some(y), out, &mut []);
     }
-    /// `kappa_coefficients` where m = 1 and g is quadratic.
+    /// [`Equations::kappa_quadratic`].
     #[inline]
     fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
-        if !has_kappa_quadratic(self) {
-            return None;
-        }
         let mut scratch = Scratch::take(0.0, Equations::dim(self));
-        Some(kappa_coefficients(
-            self,
-            r,
-            y,
-            &OnePath(mass),
-            scratch.entries(),
-        ))
+        Equations::kappa_quadratic(self, &OnePath(mass), r, y, scratch.entries())
     }
     fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
         Equations::check_mass(self, mass)
     }
-    /// The [`ConstraintLanes`] below, for a diagonal mass.
+    fn local_motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
+        Equations::local_motion(self, x, v, a)
+    }
+    /// [`Equations::lane_form`].
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        if !M::DIAGONAL {
-            return visitor.none();
-        }
-        visitor.newton(|| LaneForm::new(self, mass))
+        Equations::lane_form(self, mass, visitor)
     }
     fn roundoff(&self) -> Roundoff {
         Equations::roundoff(self)
@@ -194,14 +265,15 @@ impl<E: Equations> Curvature for E {
 }
 
 /// The one-path formulas over lanes: the same generic functions at T = `Lanes<Sd>`, with the
-/// diagonal M^-1 entry by entry ([`InverseMass`]: x (M^-1)_kk, the one-path product). Every
-/// step is `#[inline(always)]` (no closures), so that the lanes' arithmetic is compiled for
-/// the engine's instruction set; so should the [`Equations`] methods be.
+/// diagonal M^-1 entry by entry ([`InverseMass`]: x (M^-1)_kk, the one-path product), a point
+/// formed where it is read written out once. Every step is `#[inline(always)]` (no closures),
+/// so that the lanes' arithmetic is compiled for the engine's instruction set; so should the
+/// [`Equations`] methods be.
 impl<E: Equations> ConstraintLanes for E {
     type Shape = E::Shape;
 
-    /// g(x1), then Dg(x1) M^-1 grad g(r) (`cross_gram`), then the largest |g_i| and the
-    /// factorization ([`Evaluation::reduce_and_factor`]).
+    /// [`Equations::value_and_cross_gram`], then the largest |g_i| and the factorization
+    /// ([`Evaluation::reduce_and_factor`]).
     #[inline(always)]
     fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
@@ -210,29 +282,24 @@ impl<E: Equations> ConstraintLanes for E {
         let (n, m) = (Equations::dim(self), Equations::n_constraints(self));
         let mut scratch = Scratch::take(r[0], point_len(x1, n) + n + 2 * m);
         let (x1, rest) = point(x1, scratch.entries(), n);
-        Equations::value(self, x1, values);
-        cross_gram(self, x1, r, w, rest, jacobian);
+        Equations::value_and_cross_gram(self, w, x1, r, rest, values, jacobian);
         Evaluation::reduce_and_factor(values, jacobian, factor, step)
     }
-    /// grad g(r) z into `out` (or a scratch where `out` is its own base), then each entry
-    /// (M^-1)_kk (grad g(r) z)_k + base_k: the operations of `displace_in_passes`.
+    /// [`Equations::displace`], a base formed where it is read written out first.
     #[inline(always)]
     fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
         out: &mut [Lanes<Sd>],
     ) {
-        if let Some(base) = base {
-            Equations::jacobian_transpose_mul(self, r, z, out);
-            for (k, o) in out.iter_mut().enumerate() {
-                *o = w.apply(k, *o) + base.coords::<1>(k)[0];
+        let n = Equations::dim(self);
+        let len = base.map_or(n, |base| point_len(base, n));
+        let mut scratch = Scratch::take(r[0], len);
+        match base {
+            Some(base) => {
+                let (base, _) = point(base, scratch.entries(), n);
+                Equations::displace(self, w, r, z, Some(base), out, &mut []);
             }
-            return;
-        }
-        let mut scratch = Scratch::take(r[0], Equations::dim(self));
-        let step = scratch.entries();
-        Equations::jacobian_transpose_mul(self, r, z, step);
-        for (k, (o, s)) in out.iter_mut().zip(step.iter()).enumerate() {
-            *o = w.apply(k, *s) + *o;
+            None => Equations::displace(self, w, r, z, None, out, scratch.entries()),
         }
     }
     /// -(Dg(x) u), entry by entry.
@@ -245,54 +312,99 @@ impl<E: Equations> ConstraintLanes for E {
             *o = -*o;
         }
     }
-    /// `kappa_coefficients` where m = 1 and g is quadratic, as `Constraint::kappa_quadratic`.
+    /// [`Equations::kappa_quadratic`], as `Constraint::kappa_quadratic`.
     #[inline(always)]
     fn kappa_quadratic_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
         &self, w: &InverseMass, r: &[Lanes<Sd>], y: &P,
     ) -> Option<[Lanes<Sd>; 3]> {
-        if !has_kappa_quadratic(self) {
-            return None;
-        }
         let n = Equations::dim(self);
         let mut scratch = Scratch::take(r[0], point_len(y, n) + n);
         let (y, rest) = point(y, scratch.entries(), n);
-        Some(kappa_coefficients(self, r, y, w, rest))
+        Equations::kappa_quadratic(self, w, r, y, rest)
+    }
+    /// [`Equations::local_motion`].
+    #[inline(always)]
+    fn local_motion_lanes<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
+        Equations::local_motion(self, &[], v, a)
+    }
+}
+
+/// out = base + M^-1 grad g(r) z in passes ([`Equations::displace`]): grad g(r) z (into `out`,
+/// or into `scratch` where `out` is its own base), M^-1 applied, the sum.
+#[inline(always)]
+pub(crate) fn displace_in_passes<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+    equations: &E, inverse_mass: &W, r: &[T], z: &[T], base: Option<&[T]>, out: &mut [T],
+    scratch: &mut [T],
+) {
+    let Some(base) = base else {
+        let step = &mut scratch[..Equations::dim(equations)];
+        Equations::jacobian_transpose_mul(equations, r, z, step);
+        inverse_mass.apply_inverse(step);
+        for (o, s) in out.iter_mut().zip(step.iter()) {
+            *o = *s + *o;
+        }
+        return;
+    };
+    Equations::jacobian_transpose_mul(equations, r, z, out);
+    inverse_mass.apply_inverse(out);
+    for (o, b) in out.iter_mut().zip(base) {
+        *o = *o + *b;
     }
 }
 
 /// Whether the kappa system of `equations` is a quadratic in gamma: m = 1 and g quadratic.
 #[inline(always)]
-fn has_kappa_quadratic<E: Equations>(equations: &E) -> bool {
+fn has_kappa_quadratic<E: Equations + ?Sized>(equations: &E) -> bool {
     equations.is_quadratic() && Equations::n_constraints(equations) == 1
-}
-
-/// x <- M^-1 x over numbers of type T.
-trait ApplyInverse<T> {
-    fn apply_inverse(&self, x: &mut [T]);
 }
 
 /// One path's mass.
 struct OnePath<'a, M>(&'a M);
 
-impl<M: Mass> ApplyInverse<f64> for OnePath<'_, M> {
+impl<M: Mass> InverseMassOf<f64> for OnePath<'_, M> {
     #[inline(always)]
     fn apply_inverse(&self, x: &mut [f64]) {
         self.0.apply_inverse(x);
     }
+    #[inline(always)]
+    fn diagonal_entry(&self, k: usize) -> Option<f64> {
+        if M::DIAGONAL {
+            self.0.inverse_diagonal_entry(k)
+        } else {
+            None
+        }
+    }
+    #[inline(always)]
+    fn inverse_inner(&self, a: &[f64], b: &[f64], scratch: &mut [f64]) -> f64 {
+        self.0.inverse_inner(a, b, scratch)
+    }
 }
 
 /// A diagonal M^-1 over lanes, entry by entry.
-impl<Sd: Simd> ApplyInverse<Lanes<Sd>> for InverseMass {
+impl<Sd: Simd> InverseMassOf<Lanes<Sd>> for InverseMass {
     #[inline(always)]
     fn apply_inverse(&self, x: &mut [Lanes<Sd>]) {
         for (k, xk) in x.iter_mut().enumerate() {
             *xk = self.apply(k, *xk);
         }
     }
+    #[inline(always)]
+    fn diagonal_entry(&self, k: usize) -> Option<f64> {
+        Some(self.entry(k))
+    }
+    /// sum_k a_k b_k (M^-1)_kk, in order (`Mass::inverse_inner` of a diagonal mass).
+    #[inline(always)]
+    fn inverse_inner(&self, a: &[Lanes<Sd>], b: &[Lanes<Sd>], _: &mut [Lanes<Sd>]) -> Lanes<Sd> {
+        let mut sum = a[0].splat_like(-0.0);
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            sum = sum + *x * *y * self.entry(k);
+        }
+        sum
+    }
 }
 
 /// The map p -> Dg(x1) M^-1 grad g(x2) p, with its n-entry column.
-struct CrossProduct<'a, E, T, W> {
+struct CrossProduct<'a, E: ?Sized, T, W> {
     equations: &'a E,
     x1: &'a [T],
     x2: &'a [T],
@@ -300,7 +412,7 @@ struct CrossProduct<'a, E, T, W> {
     column: &'a mut [T],
 }
 
-impl<E: Equations, T: Real, W: ApplyInverse<T>> Product<T> for CrossProduct<'_, E, T, W> {
+impl<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>> Product<T> for CrossProduct<'_, E, T, W> {
     /// grad g(x2) p, then M^-1 in place, then Dg(x1) of that.
     #[inline(always)]
     fn product(&mut self, p: &[T], image: &mut [T]) {
@@ -314,7 +426,7 @@ impl<E: Equations, T: Real, W: ApplyInverse<T>> Product<T> for CrossProduct<'_, 
 /// the matrix of the lambda system of eq. 3.1) from the products p -> Dg(x1) M^-1 grad g(x2)
 /// p ([`ByProducts`]). `scratch` has n + 2m entries at least.
 #[inline(always)]
-fn cross_gram<E: Equations, T: Real, W: ApplyInverse<T>>(
+fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
     equations: &E, x1: &[T], x2: &[T], inverse_mass: &W, scratch: &mut [T],
     out: &mut impl ByProducts<T>,
 ) {
@@ -339,7 +451,7 @@ fn cross_gram<E: Equations, T: Real, W: ApplyInverse<T>>(
 /// `w`, n entries), c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(y)(w, w) / 2 (computed as the product
 /// with 0.5).
 #[inline(always)]
-fn kappa_coefficients<E: Equations, T: Real, W: ApplyInverse<T>>(
+fn kappa_coefficients<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
     equations: &E, r: &[T], y: &[T], inverse_mass: &W, w: &mut [T],
 ) -> [T; 3] {
     let one = [r[0].splat_like(1.0)];

@@ -255,6 +255,12 @@ impl InverseMass {
         self.unit
     }
 
+    /// (M^-1)_kk.
+    #[inline(always)]
+    pub fn entry(&self, k: usize) -> f64 {
+        self.entries[k]
+    }
+
     /// x (M^-1)_kk.
     #[inline(always)]
     pub fn apply<Sd: Simd>(&self, k: usize, x: Lanes<Sd>) -> Lanes<Sd> {

@@ -53,7 +53,7 @@ pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
     motion_measure, scratch_len,
 };
-pub use equations::Equations;
+pub use equations::{Equations, InverseMassOf};
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
 };

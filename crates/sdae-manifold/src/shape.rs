@@ -21,6 +21,9 @@ pub trait GramShape: Send + Sync + 'static {
     /// errors ([`Factorize`]): the `Constraint::Gram` of a constraint of this shape
     /// ([`Equations`](crate::Equations)).
     type Gram: Factorize + SquareMatrix<f64> + ByProducts<f64>;
+    /// The one-path storage as the matrix over `f64` it is (`Gram` is `Matrix<f64>`), for
+    /// code written once over the number type.
+    fn one_path(gram: &mut Self::Gram) -> &mut Self::Matrix<f64>;
 }
 
 /// A storage of an m x m matrix A filled from the map p -> A p: one product per column (or
@@ -129,6 +132,10 @@ impl GramShape for Scalar {
     type Matrix<T: Real> = ScalarGram<T>;
     type Factor<T: Real> = ScalarFactor<T>;
     type Gram = ScalarGram;
+    #[inline(always)]
+    fn one_path(gram: &mut ScalarGram) -> &mut ScalarGram {
+        gram
+    }
 }
 
 impl GramShape for Tridiagonal {
@@ -136,6 +143,10 @@ impl GramShape for Tridiagonal {
     type Matrix<T: Real> = TridiagonalGram<T>;
     type Factor<T: Real> = ThomasFactor<T>;
     type Gram = TridiagonalGram;
+    #[inline(always)]
+    fn one_path(gram: &mut TridiagonalGram) -> &mut TridiagonalGram {
+        gram
+    }
 }
 
 impl GramShape for Dense {
@@ -143,4 +154,8 @@ impl GramShape for Dense {
     type Matrix<T: Real> = DenseGram<T>;
     type Factor<T: Real> = LuFactor<T>;
     type Gram = DenseGram;
+    #[inline(always)]
+    fn one_path(gram: &mut DenseGram) -> &mut DenseGram {
+        gram
+    }
 }

@@ -33,6 +33,11 @@ impl Sphere {
         }
     }
 
+    /// The dimension d of the space the sphere lies in.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
     /// The radius rho.
     pub fn radius(&self) -> f64 {
         self.radius
@@ -103,6 +108,18 @@ impl Sphere {
         let s = -z * self.inv_r2;
         for (k, ((o, ri), yi)) in out.iter_mut().zip(r).zip(y).enumerate() {
             *o = s * *ri * w(k) + *yi;
+        }
+    }
+
+    /// out <- out + W grad g(r) z = out - z W r / rho^2 ([`Sphere::displace_diagonal`] with
+    /// out its own base), in one pass.
+    #[inline(always)]
+    pub fn displace_diagonal_in_place<T: Real>(
+        &self, r: &[T], z: T, w: impl Fn(usize) -> f64, out: &mut [T],
+    ) {
+        let s = -z * self.inv_r2;
+        for (k, (o, ri)) in out.iter_mut().zip(r).enumerate() {
+            *o = s * *ri * w(k) + *o;
         }
     }
 }

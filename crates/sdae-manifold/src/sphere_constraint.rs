@@ -1,104 +1,118 @@
-//! The sphere as a constraint ([`Constraint`], [`Curvature`], [`TheoryBound`]), from its
-//! formulas in `sphere.rs`.
+//! The sphere as a constraint ([`Equations`], [`TheoryBound`]), from its formulas in
+//! `sphere.rs`: written once over the number type, with its single passes for a diagonal mass.
 
-use crate::constraint::{Constraint, Curvature, TheoryBound, motion_measure};
+use sdae_lanes::Real;
+
+use crate::constraint::{TheoryBound, motion_measure};
+use crate::equations::{Equations, InverseMassOf, displace_in_passes};
 use crate::gram::ScalarGram;
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
+use crate::shape::Scalar;
 use crate::sphere::Sphere;
-use crate::vector::dot;
+use crate::vector::dot_with;
 
-impl Constraint for Sphere {
-    type Gram = ScalarGram;
+impl Equations for Sphere {
+    type Shape = Scalar;
     fn dim(&self) -> usize {
         self.dim
     }
     fn n_constraints(&self) -> usize {
         1
     }
-    #[inline]
-    fn value(&self, x: &[f64], out: &mut [f64]) {
-        out[0] = 0.5 * (1.0 - dot(x, x) * self.inv_r2);
+    /// g(x) = (1 - |x|^2 / rho^2) / 2, as ((-(|x|^2 / rho^2)) + 1) / 2 (1 - a is 1 + (-a)).
+    #[inline(always)]
+    fn value<T: Real>(&self, x: &[T], out: &mut [T]) {
+        let xx = dot_with(x[0].splat_like(0.0), x, x);
+        out[0] = (-(xx * self.inv_r2) + 1.0) * 0.5;
     }
     /// Dg(x) u = -x.u / rho^2.
     #[inline(always)]
-    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+    fn jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]) {
         out[0] = self.normal_rate(x, u);
     }
     /// grad g(x) z = -x z / rho^2.
-    #[inline]
-    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
+    #[inline(always)]
+    fn jacobian_transpose_mul<T: Real>(&self, x: &[T], z: &[T], out: &mut [T]) {
         let s = -z[0] * self.inv_r2;
         for (o, xi) in out.iter_mut().zip(x) {
-            *o = s * xi;
+            *o = s * *xi;
         }
     }
-    /// w = |v| / rho, alpha = |a| / rho: the seed's functional for rho = 1.
-    fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        Some(motion_measure(
-            dot(v, v).sqrt() / self.radius,
-            dot(a, a).sqrt() / self.radius,
-        ))
-    }
-    fn new_gram(&self) -> ScalarGram {
-        ScalarGram(0.0)
-    }
-    /// Dg(x1) M^-1 grad g(x2) = x1^T M^-1 x2 / rho^4.
-    #[inline]
-    fn cross_gram<M: Mass>(
-        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut ScalarGram,
-    ) {
-        out.0 = mass.inverse_inner(x1, x2, &mut scratch[..self.dim]) * self.inv_r2 * self.inv_r2;
-    }
-    /// g(x) = (1 - |x|^2 / rho^2) / 2 and Dg(x) M^-1 grad g(r) = x^T M^-1 r / rho^4, in one pass
-    /// for diagonal masses (one Newton evaluation of the kappa system, seed eq. 3.1).
+    /// D^2 g(x)(u, w) = -u.w / rho^2.
     #[inline(always)]
-    fn value_and_cross_gram<M: Mass>(
-        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
-        gram: &mut ScalarGram,
-    ) {
-        if !M::DIAGONAL {
-            self.value(x, value);
-            return self.cross_gram(x, r, mass, scratch, gram);
-        }
-        [value[0], gram.0] =
-            self.value_and_gram(x, r, |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
+    fn second_derivative<T: Real>(&self, _x: &[T], u: &[T], w: &[T], out: &mut [T]) {
+        out[0] = self.curvature_rate(u, w);
     }
-    /// One pass for diagonal masses: out_k = y_k + w_k (-z x_k / rho^2), w_k = (M^-1)_kk
-    /// (seed eq. 3.1: the position of the kappa system and the velocity update).
-    #[inline]
-    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
-        if !M::DIAGONAL {
-            return crate::constraint::displace_in_passes(self, r, z, mass, y, out);
-        }
-        self.displace_diagonal(
-            r,
-            z[0],
-            |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0),
-            y,
-            out,
-        );
-    }
-    /// For diagonal masses W = M^-1 (seed eq. 3.1 upper part; x = y - gamma W r / rho^2):
-    ///
-    /// R(gamma) = (1 - |x|^2 / rho^2) / 2
-    ///          = (1 - |y|^2 / rho^2) / 2 + gamma y.W r / rho^4 - gamma^2 |W r|^2 / (2 rho^6),
-    ///
-    /// in one pass over y and r; `None` for non-diagonal masses.
-    #[inline]
-    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
-        if !M::DIAGONAL {
-            return None;
-        }
-        Some(self.kappa_coefficients(r, y, |k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)))
+    fn is_quadratic(&self) -> bool {
+        true
     }
     /// Rounding of g(x) = (1 - |x|^2/rho^2)/2: a few ulps of |x|^2/rho^2.
     fn roundoff(&self) -> Roundoff {
         Roundoff::SquaredRadius {
-            dim: self.dim(),
+            dim: self.dim,
             inverse_radius_squared: self.inverse_radius_squared(),
         }
+    }
+    /// Dg(x1) M^-1 grad g(x2) = x1^T M^-1 x2 / rho^4.
+    #[inline(always)]
+    fn cross_gram<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, x1: &[T], x2: &[T], scratch: &mut [T], out: &mut ScalarGram<T>,
+    ) {
+        let inner = inverse_mass.inverse_inner(x1, x2, &mut scratch[..self.dim]);
+        out.0 = inner * self.inv_r2 * self.inv_r2;
+    }
+    /// g(x) = (1 - |x|^2 / rho^2) / 2 and Dg(x) M^-1 grad g(r) = x^T M^-1 r / rho^4, in one pass
+    /// for a diagonal mass (one Newton evaluation of the kappa system, seed eq. 3.1).
+    #[inline(always)]
+    fn value_and_cross_gram<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, x: &[T], r: &[T], scratch: &mut [T], value: &mut [T],
+        gram: &mut ScalarGram<T>,
+    ) {
+        if inverse_mass.diagonal_entry(0).is_none() {
+            Equations::value(self, x, value);
+            return Equations::cross_gram(self, inverse_mass, x, r, scratch, gram);
+        }
+        [value[0], gram.0] = self.value_and_gram(x, r, |k| diagonal(inverse_mass, k));
+    }
+    /// One pass for a diagonal mass: out_k = base_k + w_k (-z x_k / rho^2), w_k = (M^-1)_kk
+    /// (seed eq. 3.1: the position of the kappa system and the velocity update).
+    #[inline(always)]
+    fn displace<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, r: &[T], z: &[T], base: Option<&[T]>, out: &mut [T],
+        scratch: &mut [T],
+    ) {
+        if inverse_mass.diagonal_entry(0).is_none() {
+            return displace_in_passes(self, inverse_mass, r, z, base, out, scratch);
+        }
+        let w = |k| diagonal(inverse_mass, k);
+        match base {
+            Some(base) => self.displace_diagonal(r, z[0], w, base, out),
+            None => self.displace_diagonal_in_place(r, z[0], w, out),
+        }
+    }
+    /// For a diagonal mass W = M^-1 (seed eq. 3.1 upper part; x = y - gamma W r / rho^2):
+    ///
+    /// R(gamma) = (1 - |y|^2 / rho^2) / 2 + gamma y.W r / rho^4 - gamma^2 |W r|^2 / (2 rho^6),
+    ///
+    /// in one pass over y and r; by the general formulas otherwise.
+    #[inline(always)]
+    fn kappa_quadratic<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, r: &[T], y: &[T], scratch: &mut [T],
+    ) -> Option<[T; 3]> {
+        let _ = scratch;
+        inverse_mass.diagonal_entry(0)?;
+        Some(self.kappa_coefficients(r, y, |k| diagonal(inverse_mass, k)))
+    }
+    /// w = |v| / rho, alpha = |a| / rho: the seed's functional for rho = 1.
+    #[inline(always)]
+    fn local_motion<T: Real>(&self, _x: &[T], v: &[T], a: &[T]) -> Option<T> {
+        let zero = v[0].splat_like(0.0);
+        Some(motion_measure(
+            dot_with(zero, v, v).sqrt() / self.radius,
+            dot_with(zero, a, a).sqrt() / self.radius,
+        ))
     }
     /// The closed form of the kappa system ([`LaneFormVisitor::sphere`]).
     #[inline(always)]
@@ -108,12 +122,10 @@ impl Constraint for Sphere {
     }
 }
 
-impl Curvature for Sphere {
-    /// D^2 g(x)(u, w) = -u.w / rho^2.
-    #[inline(always)]
-    fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        out[0] = self.curvature_rate(u, w);
-    }
+/// (M^-1)_kk of a diagonal mass.
+#[inline(always)]
+fn diagonal<T, W: InverseMassOf<T>>(inverse_mass: &W, k: usize) -> f64 {
+    inverse_mass.diagonal_entry(k).unwrap_or(0.0)
 }
 
 impl TheoryBound for Sphere {

@@ -288,7 +288,7 @@ fn check_against_differences<E: Equations + Constraint + Curvature, M: sdae_mani
     let jac2 = jacobian_by_differences(e, &x2);
     let mut gram = e.new_gram();
     let mut scratch = vec![0.0; scratch_len(n, m)];
-    e.cross_gram(&x, &x2, mass, &mut scratch, &mut gram);
+    Constraint::cross_gram(e, &x, &x2, mass, &mut scratch, &mut gram);
     for j in 0..m {
         let mut column: Vec<f64> = (0..n).map(|k| jac2[j * n + k]).collect();
         mass.apply_inverse(&mut column);
@@ -357,8 +357,14 @@ impl LaneFormVisitor for Offered {
 
 #[test]
 fn a_lane_form_is_offered_for_a_diagonal_mass_only() {
-    assert_eq!(Pair.lane_form(&diagonal_mass(4), Offered), "newton");
-    assert_eq!(Triple.lane_form(&dense_mass(5), Offered), "none");
+    assert_eq!(
+        Constraint::lane_form(&Pair, &diagonal_mass(4), Offered),
+        "newton"
+    );
+    assert_eq!(
+        Constraint::lane_form(&Triple, &dense_mass(5), Offered),
+        "none"
+    );
 }
 
 /// A point formed where it is read: a + b (as the engine's drifted point r + tau v).
@@ -439,7 +445,15 @@ impl<E: Equations> WithSimd for LanesCheck<E> {
                 let mut g = vec![0.0; m];
                 let mut gram = e.new_gram();
                 let mut scratch = vec![0.0; scratch_len(n, m)];
-                e.value_and_cross_gram(&x1_l, &r_l, &mass, &mut scratch, &mut g, &mut gram);
+                Constraint::value_and_cross_gram(
+                    e,
+                    &x1_l,
+                    &r_l,
+                    &mass,
+                    &mut scratch,
+                    &mut g,
+                    &mut gram,
+                );
                 let mut one_factor = gram.new_factor();
                 gram.factor_into(&mut one_factor).unwrap();
                 let mut one_step = g.clone();
@@ -474,9 +488,9 @@ impl<E: Equations> WithSimd for LanesCheck<E> {
                 lane_of(&z, l),
             );
             let mut displaced = vec![0.0; n];
-            e.displace(&r_l, &z_l, &mass, &x1_l, &mut displaced);
+            Constraint::displace(e, &r_l, &z_l, &mass, &x1_l, &mut displaced);
             assert_eq!(bits(&lane_of(&with_base, l)), bits(&displaced), "lane {l}");
-            e.displace(&r_l, &z_l, &mass, &u_l, &mut displaced);
+            Constraint::displace(e, &r_l, &z_l, &mass, &u_l, &mut displaced);
             assert_eq!(bits(&lane_of(&own_base, l)), bits(&displaced), "lane {l}");
             let mut normal = vec![0.0; m];
             Constraint::jacobian_mul(e, &x1_l, &u_l, &mut normal);

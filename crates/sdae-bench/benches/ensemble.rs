@@ -12,6 +12,10 @@
 //! - `pendulum_ensemble/step_only`: the step alone, on increments drawn beforehand.
 //! - `pendulum_ensemble/step_only_one_lane`: the same in plain f64, one path at a time: what
 //!   the lanes gain.
+//! - `pendulum_ensemble/step_only_general_engine`: `step_only` on the general engine that
+//!   every other constraint steps on (`NewtonOnly`: Newton over lanes with the closed form of
+//!   the quadratic kappa system, the same numbers bit for bit): what the sphere's fixed-size
+//!   kernels save.
 //! - `pendulum_ensemble/step_only_closure_drift`: `step_only` for the same pendulum with its
 //!   drift given as a function (a user's system without a lane form): the lanes evaluate it
 //!   path by path (`sdae_lanes::per_lane`) and do the rest of the step in lanes.
@@ -25,11 +29,11 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sdae_lanes::LaneWidth;
-use sdae_manifold::{IdentityMass, Sphere};
+use sdae_manifold::{IdentityMass, NewtonOnly, Sphere, TheoryBound};
 use sdae_model::{AdditiveNoise, MechanicalSystem, PathEnsemble, System};
 use sdae_noise::{EnsembleIncrements, GaussianIncrements, IncrementSource};
 use sdae_scheme::{Ensemble, Stepper, StepperConfig};
-use sdae_systems::{PendulumParams, pendulum};
+use sdae_systems::{PendulumDrift, PendulumParams, pendulum};
 
 mod pendulum_paths;
 use pendulum_paths::{DRAWN_STEPS, H, PATHS, R0, RESET_EVERY, SEED, V0, drawn_increments};
@@ -53,6 +57,25 @@ fn closure_pendulum() -> ClosurePendulum {
     MechanicalSystem::new(sphere, IdentityMass, gravity, noise).expect("closure pendulum")
 }
 
+/// The seed's pendulum (gravity 1, unit noise, no friction) on the general engine of every
+/// other constraint ([`NewtonOnly`]): what the sphere's fixed-size path saves.
+fn general_engine_pendulum()
+-> MechanicalSystem<NewtonOnly<Sphere>, IdentityMass, PendulumDrift, AdditiveNoise> {
+    let params = PendulumParams::default();
+    let drift = PendulumDrift {
+        gravity: params.gravity,
+        friction: params.friction,
+    };
+    let noise = AdditiveNoise::new(params.noise, 2).expect("unit noise");
+    MechanicalSystem::new(
+        NewtonOnly(Sphere::unit_circle()),
+        IdentityMass,
+        drift,
+        noise,
+    )
+    .expect("pendulum on the general engine")
+}
+
 /// An ensemble, its paths' streams and a buffer of increments.
 struct Bench<S: System> {
     ensemble: Ensemble<S>,
@@ -62,7 +85,10 @@ struct Bench<S: System> {
     steps: usize,
 }
 
-impl<S: System<Constraint = Sphere>> Bench<S> {
+impl<S: System> Bench<S>
+where
+    S::Constraint: TheoryBound,
+{
     fn new(system: S) -> Self {
         let config = StepperConfig::for_system(&system)
             .and_then(|c| c.with_c_eta(1.0))
@@ -155,12 +181,21 @@ fn bench_pendulum_ensemble(c: &mut Criterion) {
     group.bench_function("step_only_one_lane", |b| {
         b.iter(|| black_box(bench.step_drawn(LaneWidth::One)))
     });
+    let mut general = Bench::new(general_engine_pendulum());
+    group.bench_function("step_only_general_engine", |b| {
+        b.iter(|| black_box(general.step_drawn(LaneWidth::Best)))
+    });
     let mut closure = Bench::new(closure_pendulum());
     group.bench_function("step_only_closure_drift", |b| {
         b.iter(|| black_box(closure.step_drawn(LaneWidth::Best)))
     });
     group.finish();
     assert_eq!(closure.ensemble.failed_paths(), 0, "a closure path failed");
+    assert_eq!(
+        general.ensemble.scalar_steps(),
+        0,
+        "the general engine left steps"
+    );
     assert_eq!(
         closure.ensemble.scalar_steps(),
         0,

@@ -424,9 +424,10 @@ impl<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>> Product<T> for CrossPr
 
 /// out = Dg(x1) M^-1 grad g(x2) (seed Section 2.1; the Newton matrix of the kappa system and
 /// the matrix of the lambda system of eq. 3.1) from the products p -> Dg(x1) M^-1 grad g(x2)
-/// p ([`ByProducts`]). `scratch` has n + 2m entries at least.
+/// p ([`ByProducts`]). `scratch` has n + 2m entries at least. The default
+/// [`Equations::cross_gram`], for a constraint whose override falls back to it.
 #[inline(always)]
-fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+pub fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
     equations: &E, x1: &[T], x2: &[T], inverse_mass: &W, scratch: &mut [T],
     out: &mut impl ByProducts<T>,
 ) {
@@ -449,9 +450,10 @@ fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
 /// [c0, c1, c2] of the kappa system of one equation where g is quadratic (seed eq. 3.1, upper
 /// part): R(gamma) = g(y + gamma w) = c0 + c1 gamma + c2 gamma^2 with w = M^-1 grad g(r) (into
 /// `w`, n entries), c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(y)(w, w) / 2 (computed as the product
-/// with 0.5).
+/// with 0.5). The default [`Equations::kappa_quadratic`] where it applies, for a constraint
+/// whose override falls back to it.
 #[inline(always)]
-fn kappa_coefficients<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+pub fn kappa_coefficients<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
     equations: &E, r: &[T], y: &[T], inverse_mass: &W, w: &mut [T],
 ) -> [T; 3] {
     let one = [r[0].splat_like(1.0)];

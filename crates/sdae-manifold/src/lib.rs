@@ -38,6 +38,7 @@ mod gram;
 mod hypersurface;
 pub mod lane_form;
 mod mass;
+mod newton_only;
 mod roundoff;
 mod shape;
 mod sphere;
@@ -53,7 +54,9 @@ pub use constraint::{
     Constraint, Curvature, TheoryBound, assemble_dense_by_columns, assemble_tridiagonal_by_probing,
     motion_measure, scratch_len,
 };
-pub use equations::{Equations, InverseMassOf};
+pub use equations::{
+    Equations, InverseMassOf, cross_gram as cross_gram_by_products, kappa_coefficients,
+};
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
 };
@@ -65,6 +68,7 @@ pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, SquareMatrix, T
 pub use hypersurface::{CurvedSurface, Hypersurface, Surface};
 pub use lane_form::{ConstraintLanes, LaneFormVisitor};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
+pub use newton_only::NewtonOnly;
 pub use roundoff::Roundoff;
 pub use shape::{ByProducts, Dense, GramShape, Product, Scalar, Tridiagonal};
 pub use sphere::Sphere;

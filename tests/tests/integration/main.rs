@@ -18,6 +18,7 @@ mod diagnostics_snapshots;
 mod ensemble;
 mod fiber_dynamics;
 mod free_rotor;
+mod general_engine;
 mod hypersurface;
 mod interpolation;
 mod kernel_scheme;

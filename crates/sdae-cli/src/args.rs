@@ -441,14 +441,10 @@ impl ConvergenceArgs {
 pub struct ExpectArgs {
     #[command(flatten)]
     pub scenes: SceneArgs,
-    /// Observable f of E[f(X_T)]: an observable of the scene's system, or for a system written
-    /// as expressions an expression of its coordinates and velocities (default: the scene's,
-    /// else cos_angle).
-    #[arg(long, value_name = "NAME")]
-    pub observable: Option<String>,
-    /// Scheme on the paths (default: the scene's, half-explicit-practical).
-    #[arg(long, value_name = "NAME")]
-    pub scheme: Option<String>,
+    // Its levels: the pilot's convergence test adds levels up to 0..=L only while the bias
+    // needs them.
+    #[command(flatten)]
+    pub estimate: EstimateArgs,
     /// Root mean square accuracy eps (default: the smallest of the scene's [mlmc] eps).
     #[arg(long, value_name = "EPS", allow_negative_numbers = true)]
     pub eps: Option<f64>,
@@ -460,9 +456,6 @@ pub struct ExpectArgs {
     /// thread count) or `seconds` (steps at the measured seconds per step of each kind of path).
     #[arg(long = "pick-by", value_name = "MEASURE", default_value = "work", value_parser = measure)]
     pub pick_by: CostMeasure,
-    // The pilot's convergence test adds levels up to 0..=L only while the bias needs them.
-    #[command(flatten)]
-    pub levels: LevelArgs,
     /// Randomizations R of the QMC methods (at least 2).
     #[arg(long, value_name = "R", default_value_t = MLQMC_RANDOMIZATIONS)]
     pub randomizations: u32,
@@ -470,15 +463,6 @@ pub struct ExpectArgs {
     /// largest (a power of two).
     #[arg(long = "initial-points", value_name = "N", default_value_t = MLQMC_INITIAL_POINTS)]
     pub initial_points: u64,
-    /// Final time (default: the scene's).
-    #[arg(long = "t-end", alias = "T", value_name = "T")]
-    pub t_end: Option<f64>,
-    /// Seed of the sample streams.
-    #[arg(long, value_name = "S", default_value_t = 2026)]
-    pub seed: u64,
-    /// Worker threads, 1 to 1024 (default: the available cores).
-    #[arg(long, value_name = "K")]
-    pub threads: Option<usize>,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -612,27 +596,19 @@ impl LevelArgs {
     }
 }
 
-/// Options of `mlmc`.
+/// What a multilevel estimate (`mlmc`, `expect`) is of and how its samples are drawn: the
+/// observable, the scheme, the levels, the final time, the seed and the threads.
 #[derive(Debug, Clone, Args)]
-pub struct MlmcArgs {
-    #[command(flatten)]
-    pub scenes: SceneArgs,
+pub struct EstimateArgs {
     /// Observable f of E[f(X_T)]: an observable of the scene's system (docs/scenes.md names
     /// them), or for a system written as expressions an expression of its coordinates and
     /// velocities (default: the scene's, else cos_angle).
     #[arg(long, value_name = "NAME")]
     pub observable: Option<String>,
-    /// Scheme on both paths of each pair (default: the scene's, half-explicit-practical).
+    /// Scheme on the paths, on both paths of each pair of a multilevel run (default: the
+    /// scene's, half-explicit-practical).
     #[arg(long, value_name = "NAME")]
     pub scheme: Option<String>,
-    /// Accuracies eps of the complexity table, comma-separated (default: the scene's).
-    #[arg(
-        long,
-        value_name = "EPS",
-        value_delimiter = ',',
-        allow_negative_numbers = true
-    )]
-    pub eps: Vec<f64>,
     #[command(flatten)]
     pub levels: LevelArgs,
     /// Final time (default: the scene's).
@@ -641,10 +617,42 @@ pub struct MlmcArgs {
     /// Seed of the sample streams.
     #[arg(long, value_name = "S", default_value_t = 2026)]
     pub seed: u64,
-    /// Worker threads, 1 to 1024 (default: the available cores); the numbers do not depend
+    /// Worker threads, 1 to 1024 (default: the available cores); the samples do not depend
     /// on it.
     #[arg(long, value_name = "K", value_parser = thread_count)]
     pub threads: Option<usize>,
+}
+
+impl EstimateArgs {
+    /// MLMC options with this observable, scheme, levels, final time, seed and threads, the
+    /// others at their defaults.
+    pub fn options(&self) -> MlmcOptions {
+        MlmcOptions {
+            observable: self.observable.clone(),
+            scheme: self.scheme.clone(),
+            t_end: self.t_end,
+            seed: self.seed,
+            threads: self.threads,
+            ..self.levels.options()
+        }
+    }
+}
+
+/// Options of `mlmc`.
+#[derive(Debug, Clone, Args)]
+pub struct MlmcArgs {
+    #[command(flatten)]
+    pub scenes: SceneArgs,
+    #[command(flatten)]
+    pub estimate: EstimateArgs,
+    /// Accuracies eps of the complexity table, comma-separated (default: the scene's).
+    #[arg(
+        long,
+        value_name = "EPS",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub eps: Vec<f64>,
     /// A run of seconds: two test levels fewer, 1024 test samples, the two largest eps.
     #[arg(long)]
     pub quick: bool,

@@ -20,19 +20,14 @@ impl ExpectArgs {
     /// The MLMC settings of `scene` with the command line's changes, checked.
     fn settings(&self, scene: &Scene) -> Result<MlmcSettings, Failure> {
         let settings = MlmcOptions {
-            observable: self.observable.clone(),
-            scheme: self.scheme.clone(),
             eps: self.eps.into_iter().collect(),
-            t_end: self.t_end,
-            seed: self.seed,
-            threads: self.threads,
             quick: false,
             standard_run: false,
             qmc: Some(QmcSettings {
                 randomizations: self.randomizations,
                 initial_points: self.initial_points,
             }),
-            ..self.levels.options()
+            ..self.estimate.options()
         }
         .settings(scene);
         settings

@@ -50,19 +50,14 @@ impl MlmcArgs {
     /// The settings of `scene` with the command line's changes ([`MlmcOptions::settings`]).
     fn settings(&self, scene: &Scene) -> MlmcSettings {
         MlmcOptions {
-            observable: self.observable.clone(),
-            scheme: self.scheme.clone(),
             eps: self.eps.clone(),
-            t_end: self.t_end,
-            seed: self.seed,
-            threads: self.threads,
             quick: self.quick,
             standard_run: !self.no_standard,
             qmc: (self.qmc || self.mlqmc_alone()).then_some(QmcSettings {
                 randomizations: self.randomizations,
                 initial_points: self.initial_points,
             }),
-            ..self.levels.options()
+            ..self.estimate.options()
         }
         .settings(scene)
     }

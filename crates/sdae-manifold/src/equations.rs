@@ -248,7 +248,9 @@ impl<E: Equations> Constraint for E {
     fn local_motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
         Equations::local_motion(self, x, v, a)
     }
-    /// [`Equations::lane_form`].
+    /// [`Equations::lane_form`], inlined into the engine that asks (the sphere's step of one
+    /// path runs inside its visitor).
+    #[inline(always)]
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         Equations::lane_form(self, mass, visitor)
     }
@@ -332,7 +334,7 @@ impl<E: Equations> ConstraintLanes for E {
 /// out = base + M^-1 grad g(r) z in passes ([`Equations::displace`]): grad g(r) z (into `out`,
 /// or into `scratch` where `out` is its own base), M^-1 applied, the sum.
 #[inline(always)]
-pub(crate) fn displace_in_passes<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+pub(crate) fn displace_in_passes<E: Equations, T: Real, W: InverseMassOf<T>>(
     equations: &E, inverse_mass: &W, r: &[T], z: &[T], base: Option<&[T]>, out: &mut [T],
     scratch: &mut [T],
 ) {
@@ -354,7 +356,7 @@ pub(crate) fn displace_in_passes<E: Equations + ?Sized, T: Real, W: InverseMassO
 
 /// Whether the kappa system of `equations` is a quadratic in gamma: m = 1 and g quadratic.
 #[inline(always)]
-fn has_kappa_quadratic<E: Equations + ?Sized>(equations: &E) -> bool {
+fn has_kappa_quadratic<E: Equations>(equations: &E) -> bool {
     equations.is_quadratic() && Equations::n_constraints(equations) == 1
 }
 
@@ -404,7 +406,7 @@ impl<Sd: Simd> InverseMassOf<Lanes<Sd>> for InverseMass {
 }
 
 /// The map p -> Dg(x1) M^-1 grad g(x2) p, with its n-entry column.
-struct CrossProduct<'a, E: ?Sized, T, W> {
+struct CrossProduct<'a, E, T, W> {
     equations: &'a E,
     x1: &'a [T],
     x2: &'a [T],
@@ -412,7 +414,7 @@ struct CrossProduct<'a, E: ?Sized, T, W> {
     column: &'a mut [T],
 }
 
-impl<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>> Product<T> for CrossProduct<'_, E, T, W> {
+impl<E: Equations, T: Real, W: InverseMassOf<T>> Product<T> for CrossProduct<'_, E, T, W> {
     /// grad g(x2) p, then M^-1 in place, then Dg(x1) of that.
     #[inline(always)]
     fn product(&mut self, p: &[T], image: &mut [T]) {
@@ -427,7 +429,7 @@ impl<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>> Product<T> for CrossPr
 /// p ([`ByProducts`]). `scratch` has n + 2m entries at least. The default
 /// [`Equations::cross_gram`], for a constraint whose override falls back to it.
 #[inline(always)]
-pub fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+pub fn cross_gram<E: Equations, T: Real, W: InverseMassOf<T>>(
     equations: &E, x1: &[T], x2: &[T], inverse_mass: &W, scratch: &mut [T],
     out: &mut impl ByProducts<T>,
 ) {
@@ -453,7 +455,7 @@ pub fn cross_gram<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
 /// with 0.5). The default [`Equations::kappa_quadratic`] where it applies, for a constraint
 /// whose override falls back to it.
 #[inline(always)]
-pub fn kappa_coefficients<E: Equations + ?Sized, T: Real, W: InverseMassOf<T>>(
+pub fn kappa_coefficients<E: Equations, T: Real, W: InverseMassOf<T>>(
     equations: &E, r: &[T], y: &[T], inverse_mass: &W, w: &mut [T],
 ) -> [T; 3] {
     let one = [r[0].splat_like(1.0)];

@@ -65,14 +65,21 @@ def test_a_refused_dict_raises_the_command_lines_message(tmp_path, command_line,
     bad.write_text(_toml(table))
     with pytest.raises(ValueError) as from_file:
         sdae.Scene.from_file(bad)
+    stderr = _refused_by_the_command_line(command_line, bad, tmp_path)
+    assert key in str(from_file.value)
+    assert str(from_file.value) in stderr
+
+
+def _refused_by_the_command_line(command_line, scene_file, tmp_path):
+    """What the command line prints on stderr for a trace of ``scene_file``, which it must
+    refuse (a nonzero exit code)."""
     run = subprocess.run(
-        [command_line, "trace", "--scene-file", str(bad), "--out", str(tmp_path / "out")],
+        [command_line, "trace", "--scene-file", str(scene_file), "--out", str(tmp_path / "out")],
         capture_output=True,
         text=True,
     )
     assert run.returncode != 0
-    assert key in str(from_file.value)
-    assert str(from_file.value) in run.stderr
+    return run.stderr
 
 
 def _toml(table, prefix=""):
@@ -217,11 +224,6 @@ def test_a_scene_file_is_refused_when_read_as_the_command_line_refuses_it(
     bad.write_text(_toml(_pendulum(change)))
     with pytest.raises(ValueError) as refused:
         sdae.scene(bad)
-    run = subprocess.run(
-        [command_line, "trace", "--scene-file", str(bad), "--out", str(tmp_path / "out")],
-        capture_output=True,
-        text=True,
-    )
-    assert run.returncode != 0
+    stderr = _refused_by_the_command_line(command_line, bad, tmp_path)
     assert message in str(refused.value)
-    assert str(refused.value) in run.stderr
+    assert str(refused.value) in stderr

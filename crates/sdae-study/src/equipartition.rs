@@ -268,6 +268,14 @@ pub fn collect(runs: &[ConvergenceRun]) -> Option<EquipartitionScene> {
     })
 }
 
+/// An interval as "estimate [low, high]" to `digits` decimals, or "-".
+fn interval_cell(x: Option<Interval>, digits: usize) -> String {
+    x.map_or("-".into(), |i| {
+        let (e, low, high) = (i.estimate, i.ci_low, i.ci_high);
+        format!("{e:.digits$} [{low:.digits$}, {high:.digits$}]")
+    })
+}
+
 /// The Markdown summary.
 pub fn markdown(scenes: &[EquipartitionScene]) -> String {
     let mut s = String::from(
@@ -286,12 +294,8 @@ pub fn markdown(scenes: &[EquipartitionScene]) -> String {
             sc.scene, sc.target, sc.t_end, sc.burn_in
         );
         for r in &sc.rows {
-            let k = r.kinetic_energy.map_or("-".into(), |k| {
-                format!("{:.4} [{:.4}, {:.4}]", k.estimate, k.ci_low, k.ci_high)
-            });
-            let t = r.temperature_ratio.map_or("-".into(), |k| {
-                format!("{:.3} [{:.3}, {:.3}]", k.estimate, k.ci_low, k.ci_high)
-            });
+            let k = interval_cell(r.kinetic_energy, 4);
+            let t = interval_cell(r.temperature_ratio, 3);
             let _ = writeln!(
                 s,
                 "| {} | {:.1e} | {k} | {t} | {} | {} | {:.3} | {}/{} |",
@@ -399,4 +403,21 @@ pub fn write_report(scenes: &[EquipartitionScene], dir: &Path) -> Result<(), Stu
             .map(|b| (sc.scene.as_str(), b))
     });
     bias_report::plot(studies, &dir.join("bias.svg"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_cell_has_the_decimals_asked_for_and_a_missing_one_is_a_dash() {
+        let i = Interval {
+            estimate: 1.23456,
+            ci_low: -0.5,
+            ci_high: 2.0,
+        };
+        assert_eq!(interval_cell(Some(i), 3), "1.235 [-0.500, 2.000]");
+        assert_eq!(interval_cell(Some(i), 5), "1.23456 [-0.50000, 2.00000]");
+        assert_eq!(interval_cell(None, 4), "-");
+    }
 }

@@ -159,11 +159,11 @@ mod tests {
         Ok(())
     }
 
-    #[test]
-    fn saving_after_every_record_writes_each_record_once() {
-        let dir = std::env::temp_dir().join(format!("sdae-saves-{}", std::process::id()));
+    /// Saves of 40-byte records into the file c.bin in the fresh folder named `name`, every
+    /// record at once (interval 0), after the `resumed` records; the folder and the file.
+    fn saves(name: &str, resumed: Vec<[u8; 40]>) -> (PathBuf, PathBuf, Saves<[u8; 40]>) {
+        let dir = std::env::temp_dir().join(format!("sdae-{name}-{}", std::process::id()));
         let path = dir.join("c.bin");
-        let resumed = vec![[1u8; 40]; 10];
         let saves = Saves::new(
             path.clone(),
             b"m\n",
@@ -172,6 +172,12 @@ mod tests {
             Duration::ZERO,
             resumed,
         );
+        (dir, path, saves)
+    }
+
+    #[test]
+    fn saving_after_every_record_writes_each_record_once() {
+        let (dir, path, saves) = saves("saves", vec![[1u8; 40]; 10]);
         saves.finished([[2u8; 40]]);
         // The first save: the magic line, the header and the 11 records.
         let first = 2 + (FRAME + 2) as u64 + (FRAME + 11 * 40) as u64;
@@ -194,16 +200,7 @@ mod tests {
 
     #[test]
     fn a_slow_save_holds_the_next_ones_back() {
-        let dir = std::env::temp_dir().join(format!("sdae-saves-slow-{}", std::process::id()));
-        let path = dir.join("c.bin");
-        let saves = Saves::new(
-            path.clone(),
-            b"m\n",
-            Ok(b"{}".to_vec()),
-            write,
-            Duration::ZERO,
-            Vec::new(),
-        );
+        let (dir, path, saves) = saves("saves-slow", Vec::new());
         saves.finished([[1u8; 40]]);
         let first = saves.written();
         assert!(first > 0);

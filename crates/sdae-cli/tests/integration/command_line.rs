@@ -29,8 +29,20 @@ fn folder(name: &str) -> PathBuf {
     dir
 }
 
+/// A fresh folder for one test and the scene file `text` written in it.
+fn folder_with_scene(name: &str, text: &str) -> (PathBuf, PathBuf) {
+    let dir = folder(name);
+    let file = scene_file(&dir, text);
+    (dir, file)
+}
+
 fn path(p: &Path) -> &str {
     p.to_str().unwrap()
+}
+
+/// Runs the study with `args` and `--out dir`, requires exit code 0 and returns stderr.
+fn ran_into(dir: &Path, args: &[&str]) -> String {
+    text(&ran(&[args, &["--out", path(dir)]].concat()).stderr)
 }
 
 #[test]
@@ -94,24 +106,9 @@ fn a_good_run_exits_0_and_t_end_has_its_old_spelling() {
     let file = dir.join("scene.toml");
     std::fs::write(&file, scene()).unwrap();
     for t in ["--t-end", "--T"] {
-        let out = ran(&[
-            "--scene-file",
-            path(&file),
-            "--quick",
-            "--paths",
-            "4",
-            t,
-            "0.5",
-            "--levels",
-            "2..4",
-            "--out",
-            path(&dir),
-        ]);
-        assert!(
-            text(&out.stderr).contains("T = 0.5"),
-            "{}",
-            text(&out.stderr)
-        );
+        let args = ["--scene-file", path(&file), "--quick", "--paths", "4"];
+        let stderr = ran_into(&dir, &[&args[..], &[t, "0.5", "--levels", "2..4"]].concat());
+        assert!(stderr.contains("T = 0.5"), "{stderr}");
         let report = std::fs::read_to_string(dir.join("test").join("report.json")).unwrap();
         assert!(report.contains("\"T\": 0.5,"), "{report}");
     }
@@ -178,6 +175,17 @@ fn pendulum_file(dir: &Path, from: &str, to: &str) -> PathBuf {
             to,
         ),
     )
+}
+
+/// The equipartition study's command line for the scene file `file`, writing into `dir`.
+fn equipartition<'a>(file: &'a Path, dir: &'a Path) -> [&'a str; 5] {
+    [
+        "equipartition",
+        "--scene-file",
+        path(file),
+        "--out",
+        path(dir),
+    ]
 }
 
 /// The thermal pendulum as a small, fast equipartition scene: 2 paths, N = 4 and 8 over T = 1.
@@ -264,8 +272,7 @@ fn sizes_beyond_the_memory_are_refused_naming_the_need_and_the_limit() {
 
 #[test]
 fn an_absurd_paths_count_in_a_shard_file_is_refused_by_merge() {
-    let dir = folder("shard-paths");
-    let file = scene_file(&dir, &scene());
+    let (dir, file) = folder_with_scene("shard-paths", &scene());
     let args = [
         "--scene-file",
         path(&file),
@@ -297,22 +304,12 @@ fn an_absurd_paths_count_in_a_shard_file_is_refused_by_merge() {
 #[test]
 fn threads_are_capped_at_1024_and_not_started_beyond_the_paths() {
     usage_error(&["--threads", "1025"], &["--threads", "at most 1024"]);
-    let dir = folder("threads");
-    let file = scene_file(&dir, &scene());
-    let out = ran(&[
-        "--scene-file",
-        path(&file),
-        "--quick",
-        "--paths",
-        "3",
-        "--levels",
-        "2..3",
-        "--threads",
-        "1000",
-        "--out",
-        path(&dir),
-    ]);
-    let stderr = text(&out.stderr);
+    let (dir, file) = folder_with_scene("threads", &scene());
+    let args = ["--scene-file", path(&file), "--quick", "--paths", "3"];
+    let stderr = ran_into(
+        &dir,
+        &[&args[..], &["--levels", "2..3", "--threads", "1000"]].concat(),
+    );
     assert!(stderr.contains(", 3 threads"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -413,15 +410,8 @@ fn wrong_lengths() -> [WrongLength; 9] {
 
 #[test]
 fn equipartition_exits_1_when_a_setting_lost_every_path_and_counts_the_failures() {
-    let dir = folder("equipartition");
-    let file = scene_file(&dir, &small_thermal());
-    let args = [
-        "equipartition",
-        "--scene-file",
-        path(&file),
-        "--out",
-        path(&dir),
-    ];
+    let (dir, file) = folder_with_scene("equipartition", &small_thermal());
+    let args = equipartition(&file, &dir);
     let out = ran(&args);
     assert!(
         text(&out.stdout).contains(" paths failed"),
@@ -508,38 +498,18 @@ fn scene_file_values_are_named_by_their_key_and_file_not_by_a_flag() {
             .replace("T = 1.0\npaths", "T = 1e-310\npaths")
             .replace("burn_in = 0.5", "burn_in = 0.0"),
     );
-    let args = [
-        "equipartition",
-        "--scene-file",
-        path(&file),
-        "--out",
-        path(&dir),
-    ];
+    let args = equipartition(&file, &dir);
     usage_error(&args, &["equipartition.T = 1e-310", path(&file)]);
     assert!(!text(&study(&args).stderr).contains("--t-end"));
     let file = scene_file(&dir, &small_thermal().replace("paths = 2", "paths = 1"));
     usage_error(
-        &[
-            "equipartition",
-            "--scene-file",
-            path(&file),
-            "--out",
-            path(&dir),
-        ],
+        &equipartition(&file, &dir),
         &["equipartition.paths = 1: must be >= 2", path(&file)],
     );
     // A flag the user typed is named as typed.
     let file = scene_file(&dir, &small_thermal());
     usage_error(
-        &[
-            "equipartition",
-            "--scene-file",
-            path(&file),
-            "--paths",
-            "1",
-            "--out",
-            path(&dir),
-        ],
+        &[&equipartition(&file, &dir)[..], &["--paths", "1"]].concat(),
         &["--paths 1: must be >= 2"],
     );
     std::fs::remove_dir_all(&dir).unwrap();
@@ -767,20 +737,20 @@ fn errors_that_underflow_are_named_unresolved_not_fitted() {
     // At T = 1e-100 a step moves the state by less than its rounding: the velocity errors of
     // the half-explicit schemes are exactly 0.
     let dir = folder("zero-errors");
-    let output = ran(&[
-        "--quick",
-        "--paths",
-        "8",
-        "--threads",
-        "1",
-        "--schemes",
-        "half-explicit-practical",
-        "--t-end",
-        "1e-100",
-        "--out",
-        path(&dir),
-    ]);
-    let stderr = text(&output.stderr);
+    let stderr = ran_into(
+        &dir,
+        &[
+            "--quick",
+            "--paths",
+            "8",
+            "--threads",
+            "1",
+            "--schemes",
+            "half-explicit-practical",
+            "--t-end",
+            "1e-100",
+        ],
+    );
     assert!(stderr.contains("underflowed"), "{stderr}");
     let md = std::fs::read_to_string(dir.join("pendulum").join("report.md")).unwrap();
     assert!(

@@ -14,7 +14,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use bits::sampled_bits;
-use process::{binary, leftovers, numbers, signal, stderr, wait_for};
+use process::{binary, numbers, quick_weak, same_numbers_nothing_left, signal, stderr, wait_for};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -98,14 +98,12 @@ fn killed_at_random_moments_and_resumed_it_ends_with_the_uninterrupted_report() 
             assert!(text.contains("resuming from"), "{text}");
         }
     }
-    assert_eq!(
-        numbers(&dir.join("whole/pendulum/report.json")),
-        numbers(&scene_dir.join("report.json"))
+    same_numbers_nothing_left(
+        &dir.join("whole/pendulum/report.json"),
+        &scene_dir.join("report.json"),
+        &scene_dir,
+        &dir,
     );
-    // Nothing left behind: no checkpoint, lock or temporary file.
-    let left = leftovers(&scene_dir);
-    assert!(left.is_empty(), "{left:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -580,22 +578,7 @@ fn a_flipped_bit_in_a_convergence_or_weak_checkpoint_is_refused_naming_the_check
     std::fs::remove_file(&file).unwrap();
     let file = out.join("pendulum").join("weak-checkpoint-0-of-1.bin");
     interrupted(&file, &scene, &weak);
-    every_flip_refused(&file, || {
-        let mut command = binary();
-        command
-            .args([
-                "weak",
-                "--quick",
-                "--paths",
-                "8",
-                "--threads",
-                "1",
-                "--resume",
-            ])
-            .arg("--out")
-            .arg(&out);
-        command
-    });
+    every_flip_refused(&file, || quick_weak(&out, 8, &["--resume"]));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -3,17 +3,12 @@
 //! the unsharded estimate.
 
 use crate::cli;
+use crate::common::scratch;
 
 use std::path::Path;
 
-use cli::{ran, study, text, usage_error};
+use cli::{ran, refused_before_running, study, text, usage_error};
 use sdae_study::mlmc::report::REPORT_FILES;
-
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 #[test]
 fn bad_input_is_a_named_error_with_exit_code_2() {
@@ -132,18 +127,6 @@ fn strip_times(v: &mut serde_json::Value) {
         serde_json::Value::Array(items) => items.iter_mut().for_each(strip_times),
         _ => {}
     }
-}
-
-/// Asserts exit code 2 with `words` in the message, and that nothing ran: no run header, no
-/// folder of results.
-fn refused_before_running(args: &[&str], words: &[&str], out: &Path) {
-    usage_error(args, words);
-    let stderr = text(&study(args).stderr);
-    assert!(!stderr.contains("MLMC of"), "{args:?} ran: {stderr}");
-    assert!(
-        !out.join("mlmc/pendulum/report.json").exists(),
-        "{args:?} wrote a report"
-    );
 }
 
 #[test]

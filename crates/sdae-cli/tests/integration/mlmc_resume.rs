@@ -6,14 +6,15 @@
 //! blocks run again; `mlmc-merge` refuses a block that is not whole, as resuming does.
 
 use crate::bits;
+use crate::common::scratch;
 use crate::process;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
 use bits::sampled_bits;
-use process::{binary, leftovers, numbers, signal, stderr, wait_for};
+use process::{binary, numbers, quick_weak, same_numbers_nothing_left, signal, stderr, wait_for};
 
 /// A quick MLMC study of the pendulum at `eps` (on one thread unless `extra` says otherwise),
 /// writing to `out`.
@@ -31,12 +32,6 @@ fn mlmc(out: &Path, eps: &str, extra: &[&str]) -> Command {
         .arg(out)
         .args(extra);
     command
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
 }
 
 /// Runs the command and requires exit code 2 with every one of `words` in its message.
@@ -78,14 +73,13 @@ fn an_mlmc_study_stopped_by_sigterm_resumes_to_the_numbers_of_an_uninterrupted_r
     let text = stderr(&resumed);
     assert_eq!(resumed.status.code(), Some(0), "{text}");
     assert!(text.contains("resuming from"), "{text}");
-    assert_eq!(
-        numbers(&dir.join("whole/mlmc/pendulum/report.json")),
-        numbers(&scene.join("report.json"))
-    );
     // The report is written, then the checkpoint and its lock are gone.
-    let left = leftovers(&scene);
-    assert!(left.is_empty(), "{left:?}");
-    let _ = std::fs::remove_dir_all(&dir);
+    same_numbers_nothing_left(
+        &dir.join("whole/mlmc/pendulum/report.json"),
+        &scene.join("report.json"),
+        &scene,
+        &dir,
+    );
 }
 
 #[test]
@@ -382,22 +376,7 @@ fn a_resume_with_other_qmc_settings_names_them() {
         &["another --initial-points (saved 32, asked 64)"],
     );
     // The weak study's randomized QMC paths.
-    let weak = |extra: &[&str]| {
-        let mut command = binary();
-        command
-            .args([
-                "weak",
-                "--quick",
-                "--paths",
-                "64",
-                "--threads",
-                "1",
-                "--out",
-            ])
-            .arg(&out)
-            .args(extra);
-        command
-    };
+    let weak = |extra: &[&str]| quick_weak(&out, 64, extra);
     std::fs::create_dir_all(out.join("pendulum/weak.json")).unwrap();
     let failed = weak(&["--qmc", "--randomizations", "4"]).output().unwrap();
     assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));

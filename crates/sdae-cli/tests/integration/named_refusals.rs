@@ -4,28 +4,11 @@
 //! control characters, shown escaped. A failure after the study ran is exit code 1, never 2.
 
 use crate::cli;
+use crate::common::scratch;
 
 use std::path::{Path, PathBuf};
 
-use cli::{ran, study, text, usage_error};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-/// Asserts exit code 2 with every one of `words` in the message, and that no MLMC study ran:
-/// no run header, no report in `out`.
-fn refused_before_running(args: &[&str], words: &[&str], out: &Path) {
-    usage_error(args, words);
-    let stderr = text(&study(args).stderr);
-    assert!(!stderr.contains("MLMC of"), "{args:?} ran: {stderr}");
-    assert!(
-        !out.join("mlmc/pendulum/report.json").exists(),
-        "{args:?} wrote a report"
-    );
-}
+use cli::{ran, refused_before_running, study, text, usage_error};
 
 #[test]
 fn multilevel_qmc_is_not_sharded_and_plan_runs_take_no_qmc_flags() {

@@ -3,6 +3,7 @@
 //! its value; a stopped run keeps whole frames (exit code 130) and no temporary file.
 
 use crate::cli;
+use crate::common::scratch;
 use crate::process;
 
 use std::path::{Path, PathBuf};
@@ -12,12 +13,6 @@ use cli::{ran, study, text, usage_error};
 use sdae_study::integrator::SchemeKind;
 use sdae_study::scene::Scene;
 use sdae_study::simulate::{SimulateSettings, simulate};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 /// The numbers of a CSV row.
 fn row(line: &str) -> Vec<f64> {

@@ -10,3 +10,4 @@ mod pick;
 mod qmc;
 mod rates;
 mod shard;
+mod uniform;

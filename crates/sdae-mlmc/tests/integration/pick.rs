@@ -15,6 +15,8 @@
 
 use std::ops::Range;
 
+use crate::uniform::{mix, no_worker, rule, unit};
+
 use sdae_mlmc::expectation::{CostMeasure, Method, cheapest};
 use sdae_mlmc::{
     Expectation, ExpectationSettings, LevelSampler, MlmcError, QuasiSampler, RunControl, Sample,
@@ -39,22 +41,9 @@ struct Model {
     seed: u64,
 }
 
-/// SplitMix64.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// A uniform in [0, 1) from 64 bits.
-fn unit(bits: u64) -> f64 {
-    (bits >> 11) as f64 * 2f64.powi(-53)
-}
-
 impl Model {
     fn p(&self, level: u32, u: f64) -> f64 {
-        u.exp() + self.c * 0.5f64.powi(level as i32) * u
+        rule(self.c, level, u)
     }
 
     /// The pair of a path with uniform `u`, its independent coarse uniform from `other`.
@@ -76,10 +65,7 @@ impl Model {
 }
 
 impl LevelSampler for Model {
-    type Worker = ();
-    fn worker(&self) -> Result<(), MlmcError> {
-        Ok(())
-    }
+    no_worker!();
     fn run_block(
         &self, _: &mut (), level: u32, indices: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {
@@ -99,10 +85,7 @@ impl LevelSampler for Model {
 }
 
 impl QuasiSampler for Model {
-    type Worker = ();
-    fn worker(&self) -> Result<(), MlmcError> {
-        Ok(())
-    }
+    no_worker!();
     fn run_points(
         &self, _: &mut (), level: u32, randomization: u32, points: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {

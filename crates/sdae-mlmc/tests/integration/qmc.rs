@@ -11,6 +11,8 @@
 //! alpha = 1, and the limit is e - 1.
 
 use std::ops::Range;
+
+use crate::uniform::{mix, no_worker, rule, unit};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -65,27 +67,12 @@ impl Shifted {
     }
 
     fn p(&self, level: u32, u: f64) -> f64 {
-        u.exp() + self.c * 0.5f64.powi(level as i32) * u
+        rule(self.c, level, u)
     }
-}
-
-/// SplitMix64: a well-mixed 64-bit hash.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-fn unit(bits: u64) -> f64 {
-    (bits >> 11) as f64 * 2f64.powi(-53)
 }
 
 impl QuasiSampler for Shifted {
-    type Worker = ();
-    fn worker(&self) -> Result<(), MlmcError> {
-        Ok(())
-    }
+    no_worker!();
     fn run_points(
         &self, _: &mut (), level: u32, randomization: u32, points: Range<u64>, coupled: bool,
     ) -> Result<Vec<Sample>, MlmcError> {

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::bias::{BiasStudy, ReferenceKind};
+use super::interval_cell;
 use crate::error::StudyError;
 use crate::plots::figure::{Axis as FigureAxis, Figure, Panel, Point, Series, render};
 use sdae_stats::Interval;
@@ -61,9 +62,7 @@ pub fn markdown(study: &BiasStudy) -> String {
     s += "\n| scheme | h | value [95% CI] | bias [95% CI] | D(h) [95% CI] | s/path | paths |\n|---|---|---|---|---|---|---|\n";
     for scheme in &study.schemes {
         for l in &scheme.levels {
-            let value = l.value.map_or("-".into(), |v| {
-                format!("{:.5} [{:.5}, {:.5}]", v.estimate, v.ci_low, v.ci_high)
-            });
+            let value = interval_cell(l.value, 5);
             let _ = writeln!(
                 s,
                 "| {} | {:.2e} | {value} | {} | {} | {:.2e} | {} |",

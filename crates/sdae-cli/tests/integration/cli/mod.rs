@@ -1,6 +1,7 @@
-//! The study binary run on a command line, for the tests of its command line: its output and
-//! the check of a usage error.
+//! The study binary run on a command line, for the tests of its command line: its output, the
+//! check of a usage error and of a refusal before anything ran.
 
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// Runs the study binary with `args`, without the environment that would change its output.
@@ -44,5 +45,17 @@ pub fn usage_error(args: &[&str], words: &[&str]) {
     assert!(
         stderr.matches("Usage:").count() <= 1,
         "two help texts:\n{stderr}"
+    );
+}
+
+/// Asserts exit code 2 with every one of `words` in the message, and that no MLMC study ran:
+/// no run header, no report in `out`.
+pub fn refused_before_running(args: &[&str], words: &[&str], out: &Path) {
+    usage_error(args, words);
+    let stderr = text(&study(args).stderr);
+    assert!(!stderr.contains("MLMC of"), "{args:?} ran: {stderr}");
+    assert!(
+        !out.join("mlmc/pendulum/report.json").exists(),
+        "{args:?} wrote a report"
     );
 }

@@ -1,4 +1,6 @@
-//! Small studies shared by the tests.
+//! Small studies and scratch folders shared by the tests.
+
+use std::path::{Path, PathBuf};
 
 use sdae_study::convergence::{ConvergenceRun, ConvergenceSettings, run_convergence};
 use sdae_study::parallel::Control;
@@ -23,4 +25,11 @@ pub fn run(
     scene: &Scene, settings: &ConvergenceSettings, index: usize, count: usize,
 ) -> ConvergenceRun {
     run_convergence(scene, settings, (index, count), Control::default()).unwrap()
+}
+
+/// The scratch folder `name` in the target's temporary folder, emptied (not created).
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
 }

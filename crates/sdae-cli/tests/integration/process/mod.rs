@@ -56,3 +56,24 @@ pub fn leftovers(dir: &Path) -> Vec<String> {
         .filter(|n| n.contains("checkpoint") || n.ends_with(".tmp"))
         .collect()
 }
+
+/// Asserts that the resumed run's `report` has the numbers of the uninterrupted run's `whole`
+/// and that `folder` holds no checkpoint, lock or temporary file; then removes `dir`.
+pub fn same_numbers_nothing_left(whole: &Path, report: &Path, folder: &Path, dir: &Path) {
+    assert_eq!(numbers(whole), numbers(report));
+    let left = leftovers(folder);
+    assert!(left.is_empty(), "{left:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The quick weak study on one thread over `paths` paths into `out`, with `extra` arguments.
+pub fn quick_weak(out: &Path, paths: usize, extra: &[&str]) -> Command {
+    let mut command = binary();
+    let paths = paths.to_string();
+    command
+        .args(["weak", "--quick", "--threads", "1", "--paths", &paths])
+        .args(extra)
+        .arg("--out")
+        .arg(out);
+    command
+}

@@ -127,35 +127,23 @@ pub struct Tridiagonal;
 #[derive(Debug, Clone, Copy)]
 pub struct Dense;
 
-impl GramShape for Scalar {
-    const STRUCTURE: GramStructure = GramStructure::Scalar;
-    type Matrix<T: Real> = ScalarGram<T>;
-    type Factor<T: Real> = ScalarFactor<T>;
-    type Gram = ScalarGram;
-    #[inline(always)]
-    fn one_path(gram: &mut ScalarGram) -> &mut ScalarGram {
-        gram
-    }
+/// The [`GramShape`] of a structure with its storage and factorization (`Gram` is the
+/// storage over `f64`).
+macro_rules! gram_shape {
+    ($shape:ident, $structure:ident, $matrix:ident, $factor:ident) => {
+        impl GramShape for $shape {
+            const STRUCTURE: GramStructure = GramStructure::$structure;
+            type Matrix<T: Real> = $matrix<T>;
+            type Factor<T: Real> = $factor<T>;
+            type Gram = $matrix;
+            #[inline(always)]
+            fn one_path(gram: &mut $matrix) -> &mut $matrix {
+                gram
+            }
+        }
+    };
 }
 
-impl GramShape for Tridiagonal {
-    const STRUCTURE: GramStructure = GramStructure::Tridiagonal;
-    type Matrix<T: Real> = TridiagonalGram<T>;
-    type Factor<T: Real> = ThomasFactor<T>;
-    type Gram = TridiagonalGram;
-    #[inline(always)]
-    fn one_path(gram: &mut TridiagonalGram) -> &mut TridiagonalGram {
-        gram
-    }
-}
-
-impl GramShape for Dense {
-    const STRUCTURE: GramStructure = GramStructure::Dense;
-    type Matrix<T: Real> = DenseGram<T>;
-    type Factor<T: Real> = LuFactor<T>;
-    type Gram = DenseGram;
-    #[inline(always)]
-    fn one_path(gram: &mut DenseGram) -> &mut DenseGram {
-        gram
-    }
-}
+gram_shape!(Scalar, Scalar, ScalarGram, ScalarFactor);
+gram_shape!(Tridiagonal, Tridiagonal, TridiagonalGram, ThomasFactor);
+gram_shape!(Dense, Dense, DenseGram, LuFactor);

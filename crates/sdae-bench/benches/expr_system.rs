@@ -12,6 +12,9 @@
 //!   through the constraint (`constraint`: registers found by the system) and through the
 //!   compiled program with registers held by the caller (`program`: the interpretation alone).
 //!
+//! The expression constraints take their composite forms (g with the Gram matrix, the kappa
+//! coefficients) as one compiled program each, for the unit mass here.
+//!
 //! The half-explicit stepper with the practical C_eta = 1 steps every path; each group's
 //! systems step the same Brownian paths, and every path restarts from its initial state every
 //! 1000 steps. The throughput is in paths, so criterion's "elem/s" is path-steps per second.

@@ -7,9 +7,12 @@ use std::sync::Arc;
 
 use sdae_expr::{ExprId, Graph, Program, SymbolTable};
 use sdae_lanes::Real;
-use sdae_manifold::{Dense, Equations, GramShape, GramStructure, ManifoldError, Mass, Roundoff};
+use sdae_manifold::{
+    Dense, Equations, GramShape, GramStructure, InverseMassOf, ManifoldError, Mass, Roundoff,
+};
 
 use crate::error::SpecError;
+use crate::fused::{FusedPrograms, GramSink, GramTarget};
 use crate::names::{Q, U, V, W, Z, slot};
 use crate::scratch;
 
@@ -40,6 +43,8 @@ pub(crate) struct ConstraintPrograms {
     pub(crate) roundoff: Roundoff,
     /// The structure of Dg M^-1 Dg^T for a diagonal M.
     pub(crate) structure: GramStructure,
+    /// The step's composite forms, one program each, for a diagonal mass.
+    pub(crate) fused: FusedPrograms,
 }
 
 /// Where an expression may read velocities: anywhere, or nowhere (the coordinates' names, to
@@ -114,9 +119,11 @@ impl ConstraintPrograms {
         } else {
             Roundoff::Unknown
         };
+        let fused = FusedPrograms::new(graph, &g, &jacobian, &second, quadratic)?;
         Ok(Self {
             n,
             m,
+            fused,
             value: compile(graph, &g, "constraints")?,
             jacobian_mul: compile(graph, &products, "constraints")?,
             transpose_mul: compile(graph, &transpose, "constraints")?,
@@ -347,4 +354,119 @@ impl<Sh: GramShape> Equations for ExpressionConstraint<Sh> {
     fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
         ExpressionConstraint::check_mass(self, mass)
     }
+    /// For a diagonal mass one program of x1, x2 and M^-1 (fused: the numbers of
+    /// the composed products); by the products otherwise.
+    #[inline(always)]
+    fn cross_gram<T: Real, Inv: InverseMassOf<T>>(
+        &self, inverse_mass: &Inv, x1: &[T], x2: &[T], scratch: &mut [T],
+        out: &mut <Sh as GramShape>::Matrix<T>,
+    ) {
+        if !self.fused_gram(inverse_mass, x1, x2, scratch, &mut [], out) {
+            sdae_manifold::cross_gram_by_products(self, x1, x2, inverse_mass, scratch, out);
+        }
+    }
+    /// For a diagonal mass one program of x, r and M^-1 (fused); g, then the cross
+    /// Gram matrix otherwise.
+    #[inline(always)]
+    fn value_and_cross_gram<T: Real, Inv: InverseMassOf<T>>(
+        &self, inverse_mass: &Inv, x: &[T], r: &[T], scratch: &mut [T], value: &mut [T],
+        gram: &mut <Sh as GramShape>::Matrix<T>,
+    ) {
+        let value = &mut value[..self.programs.m];
+        if !self.fused_gram(inverse_mass, x, r, scratch, value, gram) {
+            Equations::value(self, x, value);
+            Equations::cross_gram(self, inverse_mass, x, r, scratch, gram);
+        }
+    }
+    /// For one quadratic equation and a diagonal mass one program of r, y and M^-1
+    /// (fused: the composed formula's numbers); the composed formula for another
+    /// mass; `None` for other constraints (Newton).
+    #[inline(always)]
+    fn kappa_quadratic<T: Real, Inv: InverseMassOf<T>>(
+        &self, inverse_mass: &Inv, r: &[T], y: &[T], scratch: &mut [T],
+    ) -> Option<[T; 3]> {
+        let fused = &self.programs.fused;
+        fused.unit.kappa.as_ref()?;
+        let mut c = [r[0]; 3];
+        let (program, w) = match inverse_diagonal(inverse_mass, r[0], scratch, self.programs.n) {
+            Diagonal::Unit => (&fused.unit.kappa, &[][..]),
+            Diagonal::Entries(w) => (&fused.diagonal.kappa, w),
+            Diagonal::Not => {
+                let c = sdae_manifold::kappa_coefficients(self, r, y, inverse_mass, scratch);
+                return Some(c);
+            }
+        };
+        scratch::eval(program.as_ref()?, &[y, &[], r, w], &mut c);
+        Some(c)
+    }
+}
+
+impl<Sh: GramShape> ExpressionConstraint<Sh> {
+    /// Runs the fused program of the cross Gram matrix (with g where `values` has m entries)
+    /// for the mass (inputs x, r and the diagonal of M^-1, into `scratch`, where it is not
+    /// the unit's): g(x) into `values` (none or m), the Gram entries into `gram`. False where
+    /// the mass is not diagonal or the storage not one of sdae-manifold's (nothing written).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn fused_gram<T: Real, Inv: InverseMassOf<T>, Mx: 'static>(
+        &self, inverse_mass: &Inv, x: &[T], r: &[T], scratch: &mut [T], values: &mut [T],
+        gram: &mut Mx,
+    ) -> bool {
+        let fused = &self.programs.fused;
+        let (forms, w) = match inverse_diagonal(inverse_mass, x[0], scratch, self.programs.n) {
+            Diagonal::Unit => (&fused.unit, &[][..]),
+            Diagonal::Entries(w) => (&fused.diagonal, w),
+            Diagonal::Not => return false,
+        };
+        let program = match values.is_empty() {
+            true => &forms.gram,
+            false => &forms.value_gram,
+        };
+        let Some(mut target) = GramTarget::of(gram) else {
+            return false;
+        };
+        target.clear_unwritten(fused, self.programs.m, x[0]);
+        let mut sink = GramSink {
+            values,
+            pattern: &fused.gram_pattern,
+            target,
+        };
+        scratch::eval_to(program, &[x, &[], r, w], x[0], &mut sink);
+        true
+    }
+}
+
+/// M^-1 as the fused programs take it.
+enum Diagonal<'s, T> {
+    /// M = I.
+    Unit,
+    /// Its diagonal.
+    Entries(&'s [T]),
+    /// Not diagonal.
+    Not,
+}
+
+/// M^-1 where it is the unit matrix, else its diagonal as n numbers of the kind of `like`
+/// in the first n entries of `scratch`; `Not` where M is not diagonal (or `scratch` short).
+#[inline(always)]
+fn inverse_diagonal<'s, T: Real, Inv: InverseMassOf<T>>(
+    inverse_mass: &Inv, like: T, scratch: &'s mut [T], n: usize,
+) -> Diagonal<'s, T> {
+    let mut unit = true;
+    for k in 0..n {
+        match inverse_mass.diagonal_entry(k) {
+            Some(entry) => unit &= entry == 1.0,
+            None => return Diagonal::Not,
+        }
+    }
+    if unit {
+        return Diagonal::Unit;
+    }
+    let Some(w) = scratch.get_mut(..n) else {
+        return Diagonal::Not;
+    };
+    for (k, wk) in w.iter_mut().enumerate() {
+        *wk = like.splat_like(inverse_mass.diagonal_entry(k).unwrap_or(f64::NAN));
+    }
+    Diagonal::Entries(w)
 }

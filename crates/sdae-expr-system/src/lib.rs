@@ -97,7 +97,12 @@
 //! otherwise; [`ExpressionSystem::visit_shape`] hands the system on with it as a type. A
 //! constraint whose second derivative D^2 g does not depend on q is quadratic
 //! ([`ExpressionConstraint::is_quadratic`]): with one equation the kappa root is then taken in
-//! closed form. Its rounding floor is stated from its constant Hessian.
+//! closed form. Its rounding floor is stated from its constant Hessian. What a step builds from
+//! g (g with the cross Gram matrix Dg(x) M^-1 Dg(r)^T over the coordinates each pair of rows
+//! shares, the Gram matrix alone, the kappa coefficients of one quadratic equation) is compiled
+//! as one program each, for a diagonal M^-1 read as an input and for M = I, with the numbers of
+//! the composition of Dg u and Dg^T z (`sdae_manifold::Equations`' provided methods): one call
+//! where the composition takes several.
 //!
 //! # Evaluation
 //!
@@ -120,6 +125,7 @@
 mod constraint;
 mod dynamics;
 mod error;
+mod fused;
 mod initial;
 mod names;
 mod observable;

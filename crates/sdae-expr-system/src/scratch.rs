@@ -72,13 +72,38 @@ fn give_back<T: Real>(buffer: Vec<T>) {
     });
 }
 
+/// Where a program's outputs go, one by one ([`eval_to`]): a slice (output k into entry k),
+/// or a constraint's storages (the values of g and the Gram entries).
+pub(crate) trait Sink<T> {
+    /// Output `k` is `value`.
+    fn put(&mut self, k: usize, value: T);
+}
+
+impl<T> Sink<T> for [T] {
+    #[inline(always)]
+    fn put(&mut self, k: usize, value: T) {
+        self[k] = value;
+    }
+}
+
 /// `program.eval_in(inputs, out, registers)` with registers on the stack where they are few,
 /// else lent by this thread's pool.
 #[inline(always)]
 pub(crate) fn eval<T: Real>(program: &Program, inputs: &[&[T]], out: &mut [T]) {
-    let Some(&seed) = out.first() else {
-        return program.eval_in(inputs, out, &mut []);
-    };
+    assert_eq!(out.len(), program.outputs(), "one value per output");
+    match out.first() {
+        Some(&seed) => eval_to(program, inputs, seed, out),
+        None => program.eval_in(inputs, out, &mut []),
+    }
+}
+
+/// Runs `program` on `inputs` ([`Program::run_in`]) with registers on the stack where they
+/// are few, else lent by this thread's pool, and hands output k to `sink` (constants of the
+/// kind of `seed`).
+#[inline(always)]
+pub(crate) fn eval_to<T: Real, S: Sink<T> + ?Sized>(
+    program: &Program, inputs: &[&[T]], seed: T, sink: &mut S,
+) {
     // One evaluation on whichever array fits (the tape's code once per caller); each array
     // is written only where it is chosen.
     let (mut small, mut large);
@@ -94,7 +119,10 @@ pub(crate) fn eval<T: Real>(program: &Program, inputs: &[&[T]], out: &mut [T]) {
         }
         len => pooled.insert(take(len, seed)),
     };
-    program.eval_in(inputs, out, registers);
+    program.run_in(inputs, registers, seed);
+    for (k, &register) in program.output_registers().iter().enumerate() {
+        sink.put(k, registers[register as usize]);
+    }
     if let Some(buffer) = pooled {
         give_back(buffer);
     }

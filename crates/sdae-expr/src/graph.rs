@@ -65,6 +65,22 @@ impl Node {
         };
         a.into_iter().chain(b)
     }
+
+    /// The same operation on the operands `f` maps them to.
+    fn map_operands(self, f: impl Fn(ExprId) -> ExprId) -> Node {
+        match self {
+            Node::Const(_) | Node::Input(_) => self,
+            Node::Neg(a) => Node::Neg(f(a)),
+            Node::PowI(a, n) => Node::PowI(f(a), n),
+            Node::Func(g, a) => Node::Func(g, f(a)),
+            Node::Add(a, b) => Node::Add(f(a), f(b)),
+            Node::Sub(a, b) => Node::Sub(f(a), f(b)),
+            Node::Mul(a, b) => Node::Mul(f(a), f(b)),
+            Node::Div(a, b) => Node::Div(f(a), f(b)),
+            Node::Pow(a, b) => Node::Pow(f(a), f(b)),
+            Node::Atan2(a, b) => Node::Atan2(f(a), f(b)),
+        }
+    }
 }
 
 /// Expressions, their derivatives and the nodes they share. Nodes are only added, each after
@@ -320,6 +336,30 @@ impl Graph {
         }
         found.sort_unstable();
         found
+    }
+
+    /// `roots` with each input `var` for which `replace(var)` is `Some(e)` replaced by the
+    /// expression `e` (of this graph): the nodes that depend on a replaced input built again
+    /// with the same operations (not simplified anew, so that each evaluates exactly as the
+    /// original evaluates with the replacements' values as inputs), the others shared.
+    pub fn substitute(
+        &mut self, roots: &[ExprId], replace: &dyn Fn(Var) -> Option<ExprId>,
+    ) -> Result<Vec<ExprId>, ExprError> {
+        for &e in roots {
+            self.check(e)?;
+        }
+        let mut image: HashMap<ExprId, ExprId> = HashMap::new();
+        for e in self.reachable_from(roots) {
+            let node = self.node(e);
+            let new = match node {
+                Node::Input(var) => replace(var).map(|r| self.check(r)).transpose()?,
+                _ if node.operands().all(|a| image[&a] == a) => None,
+                _ => Some(self.push(node.map_operands(|a| image[&a]))),
+            };
+            image.insert(e, new.unwrap_or(e));
+        }
+        self.within_limit()?;
+        Ok(roots.iter().map(|e| image[e]).collect())
     }
 
     /// The inputs `e` depends on, sorted.

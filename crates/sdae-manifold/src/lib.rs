@@ -56,6 +56,7 @@ pub use constraint::{
 };
 pub use equations::{
     Equations, InverseMassOf, cross_gram as cross_gram_by_products, kappa_coefficients,
+    offer_closed_form,
 };
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,

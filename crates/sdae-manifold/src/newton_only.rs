@@ -14,7 +14,7 @@ use crate::shape::GramShape;
 /// `E` with every formula its own but the lane form the general one
 /// ([`Equations::lane_form`]'s default: Newton over lanes, with the closed form where the
 /// kappa system is quadratic): the sphere, which otherwise offers its fixed-size path
-/// ([`LaneFormVisitor::sphere`](crate::LaneFormVisitor::sphere)), steps through the engine of
+/// ([`LaneFormVisitor::closed_form`](crate::LaneFormVisitor::closed_form)), steps through the engine of
 /// every other constraint.
 ///
 /// ```

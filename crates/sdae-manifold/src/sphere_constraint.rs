@@ -4,7 +4,7 @@
 use sdae_lanes::Real;
 
 use crate::constraint::{TheoryBound, motion_measure};
-use crate::equations::{Equations, InverseMassOf, displace_in_passes};
+use crate::equations::{Equations, InverseMassOf, displace_in_passes, offer_closed_form};
 use crate::gram::ScalarGram;
 use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
@@ -114,11 +114,11 @@ impl Equations for Sphere {
             dot_with(zero, a, a).sqrt() / self.radius,
         ))
     }
-    /// The closed form of the kappa system ([`LaneFormVisitor::sphere`]).
+    /// The fixed-size closed-form kernels ([`LaneFormVisitor::closed_form`]) where they
+    /// apply (a diagonal mass, 2 or 3 coordinates), else the general ones.
     #[inline(always)]
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        let _ = mass;
-        visitor.sphere(self)
+        offer_closed_form(self, mass, visitor)
     }
 }
 

@@ -12,7 +12,7 @@ use sdae_ift::SolverSettings;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes, LineVec};
 use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
-use sdae_manifold::{MatrixFactor, Sphere};
+use sdae_manifold::{Equations, MatrixFactor};
 
 use crate::error::StepFailure;
 use crate::kernel_scheme::{
@@ -88,12 +88,12 @@ impl<S: System, Sd: Simd, L: LaneConstraint<Sd>> StepKernel<Lanes<Sd>> for Lanew
     }
 }
 
-/// The sphere's closed form with a diagonal M^-1 ([`SphereRoot`]).
-struct SphereConstraint<'a, const N: usize> {
-    root: &'a SphereRoot<N>,
+/// The fixed-size closed form with a diagonal M^-1 ([`SphereRoot`]).
+struct SphereConstraint<'a, E, const N: usize> {
+    root: &'a SphereRoot<E, N>,
 }
 
-impl<Sd: Simd, const N: usize> LaneConstraint<Sd> for SphereConstraint<'_, N> {
+impl<Sd: Simd, E: Equations, const N: usize> LaneConstraint<Sd> for SphereConstraint<'_, E, N> {
     #[inline(always)]
     fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
         for (xi, w) in x.iter_mut().zip(self.root.inverse_mass()) {
@@ -109,7 +109,7 @@ impl<Sd: Simd, const N: usize> LaneConstraint<Sd> for SphereConstraint<'_, N> {
         let r = coordinates::<Sd, N>(r);
         let root = self.root.solve(r, coordinates::<Sd, N>(y));
         next_r.copy_from_slice(&root.x);
-        let (lambda, v_new) = self.root.velocity(r, &root, velocity);
+        let (lambda, v_new) = self.root.velocity(r, &root, coordinates::<Sd, N>(velocity));
         velocity.copy_from_slice(&v_new);
         multiplier[0] = lambda;
         Constrained {
@@ -195,25 +195,27 @@ impl<K: KernelScheme> LaneScheme for Kernelized<K> {
 /// A [`Kernelized`] scheme's kernels on a sphere ([`SphereKernels`](crate::engine::SphereKernels)).
 pub(crate) struct OnSphere;
 
-/// The constants of a step on a sphere of N coordinates.
-pub(crate) struct SphereKernel<const N: usize> {
+/// The constants of a step on a constraint of one quadratic equation in N coordinates.
+pub(crate) struct SphereKernel<E, const N: usize> {
     h: f64,
-    root: SphereRoot<N>,
+    root: SphereRoot<E, N>,
 }
 
 impl<K: KernelScheme> SphereKernels<Kernelized<K>> for OnSphere {
-    type Kernel<const N: usize> = SphereKernel<N>;
+    type Kernel<E: Equations, const N: usize> = SphereKernel<E, N>;
     /// The kernel, or `None` if the mass is not diagonal.
-    fn kernel<const N: usize>(
-        &self, scheme: &Kernelized<K>, sphere: &Sphere, h: f64,
-    ) -> Option<SphereKernel<N>> {
+    fn kernel<E: Equations, const N: usize>(
+        &self, scheme: &Kernelized<K>, constraint: &E, h: f64,
+    ) -> Option<SphereKernel<E, N>> {
         let (settings, radius) = scheme.scheme.solver();
-        let root = SphereRoot::for_mass(sphere, scheme.system().mass(), &settings, radius)?;
+        let root = SphereRoot::for_mass(constraint, scheme.system().mass(), &settings, radius)?;
         Some(SphereKernel { h, root })
     }
 }
 
-impl<K: KernelScheme, const N: usize> LaneKernel<Kernelized<K>, N> for SphereKernel<N> {
+impl<K: KernelScheme, E: Equations, const N: usize> LaneKernel<Kernelized<K>, N>
+    for SphereKernel<E, N>
+{
     #[inline(always)]
     fn step<Sd: Simd>(
         &self, scheme: &Kernelized<K>, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], dw: &[Lanes<Sd>],

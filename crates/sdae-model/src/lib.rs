@@ -135,8 +135,6 @@ pub mod engine {
     pub use crate::newton_lanes::{NewtonKernels, step_newton_lanes, step_offered_newton_lanes};
     pub use crate::newton_root::{Drifted, NewtonLanes, NewtonRoot, build_lane_form};
     pub use crate::one_lane::{OneLaneRoot, OneLaneStep, step_one_lane};
-    pub use crate::sphere_lanes::{
-        SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_groups, step_sphere_lanes,
-    };
+    pub use crate::sphere_lanes::{SPHERE_LANES_MAX_DIM, SphereKernels, step_sphere_lanes};
     pub use crate::sphere_root::{RootLanes, SphereRoot};
 }

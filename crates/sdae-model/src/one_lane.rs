@@ -6,7 +6,7 @@
 use pulp::Scalar;
 use sdae_lanes::Lanes;
 use sdae_manifold::lane_form::LaneFormVisitor;
-use sdae_manifold::{Constraint, Mass, Sphere};
+use sdae_manifold::{Constraint, Equations, Mass};
 
 use crate::scheme::Scheme;
 use crate::sphere_lanes::SphereKernels;
@@ -71,8 +71,8 @@ where
     system.constraint().lane_form(system.mass(), step)
 }
 
-/// [`step_one_lane`] where the constraint offers its sphere ([`LaneFormVisitor::sphere`]): the
-/// kernels are compiled only for constraints that offer one.
+/// [`step_one_lane`] where the constraint offers the closed form
+/// ([`LaneFormVisitor::closed_form`]): the kernels are compiled only for constraints that do.
 struct OneLane<'a, Sch, K> {
     scheme: &'a Sch,
     kernels: K,
@@ -88,10 +88,11 @@ impl<Sch: Scheme, K: SphereKernels<Sch>> LaneFormVisitor for OneLane<'_, Sch, K>
         None
     }
     #[inline(always)]
-    fn sphere(self, sphere: &Sphere) -> Option<OneLaneStep> {
-        match (sphere.dim(), self.dw.len() <= sphere.dim()) {
-            (2, true) => self.step::<2>(sphere),
-            (3, true) => self.step::<3>(sphere),
+    fn closed_form<E: Equations>(self, constraint: &E) -> Option<OneLaneStep> {
+        let n = Equations::dim(constraint);
+        match (n, self.dw.len() <= n) {
+            (2, true) => self.step::<E, 2>(constraint),
+            (3, true) => self.step::<E, 3>(constraint),
             _ => None,
         }
     }
@@ -100,8 +101,10 @@ impl<Sch: Scheme, K: SphereKernels<Sch>> LaneFormVisitor for OneLane<'_, Sch, K>
 impl<Sch: Scheme, K: SphereKernels<Sch>> OneLane<'_, Sch, K> {
     /// The kernel's step for N coordinates at W = 1.
     #[inline(always)]
-    fn step<const N: usize>(self, sphere: &Sphere) -> Option<OneLaneStep> {
-        let kernel = self.kernels.kernel::<N>(self.scheme, sphere, self.h)?;
+    fn step<E: Equations, const N: usize>(self, constraint: &E) -> Option<OneLaneStep> {
+        let kernel = self
+            .kernels
+            .kernel::<E, N>(self.scheme, constraint, self.h)?;
         let lanes = |x: &[f64]| -> [Lanes<Scalar>; N] {
             std::array::from_fn(|i| Lanes::splat(Scalar, x.get(i).copied().unwrap_or(0.0)))
         };

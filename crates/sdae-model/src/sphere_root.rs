@@ -1,7 +1,9 @@
-//! The kappa root of a sphere over W lanes: the root gamma connected to 0 of
-//! R(gamma) = g(y + M^-1 grad g(r) gamma) (seed eq. 3.1 upper part, Appendix B) for a sphere
-//! with a diagonal mass, in closed form, with the floating-point operations of the ball
-//! solver's closed form (`BallSolver::solve` of `sdae-ift` with `Sphere::kappa_quadratic`).
+//! The kappa root over W lanes of a constraint of one quadratic equation in N coordinates
+//! (the sphere; [`LaneFormVisitor::closed_form`](sdae_manifold::LaneFormVisitor::closed_form)):
+//! the root gamma connected to 0 of R(gamma) = g(y + M^-1 grad g(r) gamma) (seed eq. 3.1
+//! upper part, Appendix B) with a diagonal mass, in closed form on arrays of N, with the
+//! floating-point operations of the ball solver's closed form (`BallSolver::solve` of
+//! `sdae-ift` with `Constraint::kappa_quadratic`): the constraint's own [`Equations`] forms.
 //! With r = y it is the projection of y onto the sphere along its own normal line
 //! ([`TangentProjector::project_position`](crate::TangentProjector::project_position)).
 //!
@@ -11,17 +13,21 @@
 
 use pulp::Simd;
 use sdae_ift::{SolverSettings, quadratic_root};
+use sdae_lanes::Real;
 use sdae_lanes::{LaneMask, Lanes};
-use sdae_manifold::{Constraint, Mass, Roundoff, Sphere};
 
-/// The constants of the root: the sphere's, the diagonal of M^-1, the solver's settings and
+/// Scratch entries of the constraint's forms at N <= 3 coordinates and one equation (n + 2m).
+const SCRATCH: usize = 8;
+use sdae_manifold::{Equations, GramShape, Mass, Roundoff, SquareMatrix};
+
+/// The constants of the root: the constraint, the diagonal of M^-1, the solver's settings and
 /// the radius of the ball the root must lie in (C_kappa, or infinite).
-#[derive(Debug, Clone, Copy)]
-pub struct SphereRoot<const N: usize> {
+#[derive(Debug, Clone)]
+pub struct SphereRoot<E, const N: usize> {
     settings: SolverSettings,
     radius: f64,
-    sphere: Sphere,
-    /// The sphere's rounding floor (`Constraint::roundoff`).
+    constraint: E,
+    /// The constraint's rounding floor (`Equations::roundoff`).
     roundoff: Roundoff,
     inverse_mass: [f64; N],
 }
@@ -47,16 +53,17 @@ pub struct RootLanes<Sd: Simd, const N: usize> {
     pub gram: Lanes<Sd>,
 }
 
-impl<const N: usize> SphereRoot<N> {
-    /// The root's constants for `sphere` (of dimension N) with M^-1 = diag(`inverse_mass`).
+impl<E: Equations, const N: usize> SphereRoot<E, N> {
+    /// The root's constants for `constraint` (one quadratic equation in N coordinates) with
+    /// M^-1 = diag(`inverse_mass`).
     pub fn new(
-        sphere: &Sphere, inverse_mass: [f64; N], settings: &SolverSettings, radius: f64,
+        constraint: &E, inverse_mass: [f64; N], settings: &SolverSettings, radius: f64,
     ) -> Self {
         Self {
             settings: *settings,
             radius,
-            sphere: *sphere,
-            roundoff: sphere.roundoff(),
+            constraint: constraint.clone(),
+            roundoff: Equations::roundoff(constraint),
             inverse_mass,
         }
     }
@@ -64,13 +71,13 @@ impl<const N: usize> SphereRoot<N> {
     /// [`SphereRoot::new`] with the diagonal of `mass`'s inverse, or `None` if `mass` is not
     /// diagonal.
     pub fn for_mass<M: Mass>(
-        sphere: &Sphere, mass: &M, settings: &SolverSettings, radius: f64,
+        constraint: &E, mass: &M, settings: &SolverSettings, radius: f64,
     ) -> Option<Self> {
         if !M::DIAGONAL {
             return None;
         }
         let inverse_mass = std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
-        Some(Self::new(sphere, inverse_mass, settings, radius))
+        Some(Self::new(constraint, inverse_mass, settings, radius))
     }
 
     /// The radius of the ball.
@@ -78,14 +85,66 @@ impl<const N: usize> SphereRoot<N> {
         self.radius
     }
 
-    /// The sphere.
-    pub fn sphere(&self) -> &Sphere {
-        &self.sphere
+    /// The constraint.
+    pub fn constraint(&self) -> &E {
+        &self.constraint
     }
 
     /// The diagonal of M^-1.
     pub fn inverse_mass(&self) -> &[f64; N] {
         &self.inverse_mass
+    }
+
+    /// Dg(x) u (its one entry).
+    #[inline(always)]
+    pub fn normal_rate<T: Real>(&self, x: &[T; N], u: &[T; N]) -> T {
+        let mut out = [x[0]];
+        Equations::jacobian_mul(&self.constraint, x, u, &mut out);
+        out[0]
+    }
+
+    /// D^2 g(x)(u, w) (its one entry).
+    #[inline(always)]
+    pub fn curvature_rate<T: Real>(&self, x: &[T; N], u: &[T; N], w: &[T; N]) -> T {
+        let mut out = [x[0]];
+        Equations::second_derivative(&self.constraint, x, u, w, &mut out);
+        out[0]
+    }
+
+    /// [g(x), Dg(x) M^-1 grad g(r)] (`Equations::value_and_cross_gram`).
+    #[inline(always)]
+    pub fn value_and_gram<T: Real>(&self, x: &[T; N], r: &[T; N]) -> [T; 2] {
+        let zero = x[0].splat_like(0.0);
+        let mut gram = <<E::Shape as GramShape>::Matrix<T> as SquareMatrix<T>>::zeros_like(zero, 1);
+        let (mut value, mut scratch) = ([zero], [zero; SCRATCH]);
+        Equations::value_and_cross_gram(
+            &self.constraint,
+            &self.inverse_mass,
+            x,
+            r,
+            &mut scratch,
+            &mut value,
+            &mut gram,
+        );
+        // The one entry, as its product with 1 (exact).
+        let mut entry = [zero];
+        gram.product(&[zero.splat_like(1.0)], &mut entry);
+        [value[0], entry[0]]
+    }
+
+    /// out = y + M^-1 grad g(r) z (`Equations::displace`).
+    #[inline(always)]
+    pub fn displace<T: Real>(&self, r: &[T; N], z: T, y: &[T; N], out: &mut [T; N]) {
+        let mut scratch = [z; SCRATCH];
+        Equations::displace(
+            &self.constraint,
+            &self.inverse_mass,
+            r,
+            &[z],
+            Some(y),
+            out,
+            &mut scratch,
+        );
     }
 
     /// The constrained velocity of seed eq. 3.1 (lower part) at the root `root` of r and y:
@@ -94,14 +153,12 @@ impl<const N: usize> SphereRoot<N> {
     /// the same floating-point operations.
     #[inline(always)]
     pub fn velocity<Sd: Simd>(
-        &self, r: &[Lanes<Sd>; N], root: &RootLanes<Sd, N>, free: &[Lanes<Sd>],
+        &self, r: &[Lanes<Sd>; N], root: &RootLanes<Sd, N>, free: &[Lanes<Sd>; N],
     ) -> (Lanes<Sd>, [Lanes<Sd>; N]) {
         let one = root.gram.splat_like(1.0);
-        let lambda = -self.sphere.normal_rate(&root.x, free) * (one / root.gram);
+        let lambda = -self.normal_rate(&root.x, free) * (one / root.gram);
         let mut v = [lambda; N];
-        let w = &self.inverse_mass;
-        self.sphere
-            .displace_diagonal(r, lambda, |k| w[k], free, &mut v);
+        self.displace(r, lambda, free, &mut v);
         (lambda, v)
     }
 
@@ -116,12 +173,14 @@ impl<const N: usize> SphereRoot<N> {
         let floor = self.roundoff.floor(max_abs_y);
         let tolerance = zero.splat_like(self.settings.tolerance).max(floor);
 
-        // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Sphere::kappa_quadratic`) and
-        // its root connected to 0 (`BallSolver::solve_quadratic`).
-        let coefficients = self
-            .sphere
-            .kappa_coefficients(r, y, |k| self.inverse_mass[k]);
-        let root = quadratic_root(coefficients, tolerance);
+        // The quadratic R(gamma) = c0 + c1 gamma + c2 gamma^2 (`Equations::kappa_quadratic`;
+        // `None`, which a constraint that offers the closed form does not give: no lane
+        // decided) and its root connected to 0 (`BallSolver::solve_quadratic`).
+        let mut scratch = [zero; SCRATCH];
+        let w = &self.inverse_mass;
+        let coefficients = Equations::kappa_quadratic(&self.constraint, w, r, y, &mut scratch);
+        let usable = coefficients.is_some();
+        let root = quadratic_root(coefficients.unwrap_or([zero; 3]), tolerance);
         let (gamma, norm, contraction) = (root.gamma, root.norm, root.contraction);
         let settings = &self.settings;
         let bound = settings.plausibility_bound(root.first_step);
@@ -130,12 +189,14 @@ impl<const N: usize> SphereRoot<N> {
             .and(root.real)
             .and(norm.lt(zero.splat_like(self.radius)))
             .and(!settings.implausible(norm, bound));
+        if !usable {
+            ok = ok.and(zero.lt(zero));
+        }
 
         // The root's point x = y + M^-1 grad g(r) gamma, its residual and J(gamma).
         let mut x = [zero; N];
-        self.sphere
-            .displace_diagonal(r, gamma, |k| self.inverse_mass[k], y, &mut x);
-        let [value, gram] = self.sphere.value_and_gram(&x, r, |k| self.inverse_mass[k]);
+        self.displace(r, gamma, y, &mut x);
+        let [value, gram] = self.value_and_gram(&x, r);
         let residual = value.abs();
         ok = ok.and(residual.le(tolerance));
         ok = ok.and(gram.is_finite()).and(!gram.eq(zero));

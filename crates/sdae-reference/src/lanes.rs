@@ -18,7 +18,7 @@
 use pulp::Simd;
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes};
-use sdae_manifold::{Mass, Sphere};
+use sdae_manifold::{Equations, Mass};
 use sdae_model::engine::{
     LaneKernel, LanePaths, LaneRecord, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
@@ -84,14 +84,16 @@ fn step_lanes<Sch: Scheme>(
 struct Kernels(Method);
 
 impl<Sch: Scheme> SphereKernels<Sch> for Kernels {
-    type Kernel<const N: usize> = Kernel<N>;
+    type Kernel<E: Equations, const N: usize> = Kernel<E, N>;
     #[inline(always)]
-    fn kernel<const N: usize>(&self, scheme: &Sch, sphere: &Sphere, h: f64) -> Option<Kernel<N>> {
+    fn kernel<E: Equations, const N: usize>(
+        &self, scheme: &Sch, constraint: &E, h: f64,
+    ) -> Option<Kernel<E, N>> {
         let method = self.0;
-        let sde = SphereSde::<N>::new(scheme.system(), sphere);
+        let sde = SphereSde::<E, N>::new(scheme.system(), constraint);
         let projection = match method {
             Method::Projected(settings) => Some(SphereRoot::new(
-                sphere,
+                constraint,
                 sde.inverse_mass,
                 &settings,
                 f64::INFINITY,
@@ -108,15 +110,15 @@ impl<Sch: Scheme> SphereKernels<Sch> for Kernels {
 }
 
 /// A solver's step of W lanes.
-struct Kernel<const N: usize> {
-    sde: SphereSde<N>,
+struct Kernel<E, const N: usize> {
+    sde: SphereSde<E, N>,
     method: Method,
     /// The projection onto the sphere (an unbounded ball) of projected Euler-Maruyama.
-    projection: Option<SphereRoot<N>>,
+    projection: Option<SphereRoot<E, N>>,
     h: f64,
 }
 
-impl<Sch: Scheme, const N: usize> LaneKernel<Sch, N> for Kernel<N> {
+impl<Sch: Scheme, E: Equations, const N: usize> LaneKernel<Sch, N> for Kernel<E, N> {
     /// The solver's step body over W lanes with the sphere's [`SphereLanes`] kernel.
     #[inline(always)]
     fn step<Sd: Simd>(
@@ -185,18 +187,27 @@ fn lane_parts<Sd: Simd, const N: usize>(
     }
 }
 
-/// The sphere and the diagonal of M^-1.
-struct SphereSde<const N: usize> {
-    sphere: Sphere,
+/// The constraint's forms with the diagonal of M^-1 ([`SphereRoot`]'s, its solver unused).
+struct SphereSde<E, const N: usize> {
+    forms: SphereRoot<E, N>,
     inverse_mass: [f64; N],
 }
 
-impl<const N: usize> SphereSde<N> {
-    fn new<S: System>(system: &S, sphere: &Sphere) -> Self {
+/// The first N rows of `x`.
+#[inline(always)]
+fn coordinates<Sd: Simd, const N: usize>(x: &[Lanes<Sd>]) -> &[Lanes<Sd>; N] {
+    x.first_chunk::<N>()
+        .expect("a fixed-size kernel's rows have N coordinates")
+}
+
+impl<E: Equations, const N: usize> SphereSde<E, N> {
+    fn new<S: System>(system: &S, constraint: &E) -> Self {
         let mass = system.mass();
+        let inverse_mass = std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0));
+        let settings = SolverSettings::default();
         Self {
-            sphere: *sphere,
-            inverse_mass: std::array::from_fn(|k| mass.inverse_diagonal_entry(k).unwrap_or(0.0)),
+            forms: SphereRoot::new(constraint, inverse_mass, &settings, f64::INFINITY),
+            inverse_mass,
         }
     }
 
@@ -212,35 +223,41 @@ impl<const N: usize> SphereSde<N> {
         for (f, w) in force.iter_mut().zip(self.inverse_mass) {
             *f = *f * w;
         }
-        let mut dmu = self.sphere.normal_rate(r, &force);
+        let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
+        let mut dmu = self.forms.normal_rate(r, &force);
         if curvature {
-            dmu = dmu + self.sphere.curvature_rate(v, v) * 1.0;
+            dmu = dmu + self.forms.curvature_rate(r, v, v) * 1.0;
         }
         let dmu = -(dmu * inverse_gram);
-        self.sphere
-            .displace_diagonal(r, dmu, |k| self.inverse_mass[k], &force, dv);
+        let dv = dv
+            .first_chunk_mut::<N>()
+            .expect("a fixed-size kernel's rows have N coordinates");
+        self.forms.displace(r, dmu, &force, dv);
         dmu
     }
 
-    /// G_M(r) = r^T M^-1 r / rho^4 ([`Sphere::value_and_gram`] at x = r).
+    /// G_M(r) = Dg(r) M^-1 grad g(r) (`SphereRoot::value_and_gram` at x = r).
     #[inline(always)]
     fn gram<Sd: Simd>(&self, r: &[Lanes<Sd>]) -> Lanes<Sd> {
-        let [_, gram] = self.sphere.value_and_gram(r, r, |k| self.inverse_mass[k]);
+        let r = coordinates::<Sd, N>(r);
+        let [_, gram] = self.forms.value_and_gram(r, r);
         gram
     }
 }
 
 /// The lanes' [`InherentKernel`]: the sphere's closed forms with a diagonal mass and the
 /// system's lane formulas.
-struct SphereLanes<'a, S, const N: usize> {
-    sde: &'a SphereSde<N>,
+struct SphereLanes<'a, S, E, const N: usize> {
+    sde: &'a SphereSde<E, N>,
     system: &'a S,
 }
 
 /// A system without a lane form: its group steps through the scalar solver.
 struct NoLaneForm;
 
-impl<S: System, Sd: Simd, const N: usize> InherentKernel<Lanes<Sd>> for SphereLanes<'_, S, N> {
+impl<S: System, Sd: Simd, E: Equations, const N: usize> InherentKernel<Lanes<Sd>>
+    for SphereLanes<'_, S, E, N>
+{
     type Error = NoLaneForm;
 
     /// `OnePath::parts` in closed form: G_M(r) factored as 1 / G_M(r) where finite and
@@ -280,8 +297,8 @@ impl<S: System, Sd: Simd, const N: usize> InherentKernel<Lanes<Sd>> for SphereLa
     }
 }
 
-impl<S: System, Sd: Simd, const N: usize> ProjectionKernel<Lanes<Sd>>
-    for Projecting<SphereLanes<'_, S, N>, &SphereRoot<N>>
+impl<S: System, Sd: Simd, E: Equations, const N: usize> ProjectionKernel<Lanes<Sd>>
+    for Projecting<SphereLanes<'_, S, E, N>, &SphereRoot<E, N>>
 {
     /// The root's point of the projection of y = r along its normal ([`SphereRoot`], in closed
     /// form: no Newton iterations; y itself where gamma = 0).
@@ -309,9 +326,12 @@ impl<S: System, Sd: Simd, const N: usize> ProjectionKernel<Lanes<Sd>>
         let u: [Lanes<Sd>; N] = std::array::from_fn(|i| v[i]);
         let zero = u[0].splat_like(0.0);
         let gram = sde.gram(r);
-        let lambda = sde.sphere.normal_rate(r, &u) * (zero.splat_like(1.0) / gram);
-        sde.sphere
-            .displace_diagonal(r, -lambda, |k| sde.inverse_mass[k], &u, v);
+        let r = coordinates::<Sd, N>(r);
+        let lambda = sde.forms.normal_rate(r, &u) * (zero.splat_like(1.0) / gram);
+        let v = v
+            .first_chunk_mut::<N>()
+            .expect("a fixed-size kernel's rows have N coordinates");
+        sde.forms.displace(r, -lambda, &u, v);
         Ok(gram.is_finite().and(!gram.eq(zero)))
     }
 }

@@ -9,7 +9,7 @@
 
 use pulp::Simd;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes};
-use sdae_manifold::Sphere;
+use sdae_manifold::Equations;
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneStep, SphereKernels, SphereRoot, StepInput,
     step_offered_newton_lanes, step_sphere_lanes,
@@ -37,27 +37,27 @@ impl<S: System> LaneScheme for Splitting<S> {
 struct Kernels;
 
 impl<S: System> SphereKernels<Splitting<S>> for Kernels {
-    type Kernel<const N: usize> = Kernel<N>;
+    type Kernel<E: Equations, const N: usize> = Kernel<E, N>;
     #[inline(always)]
-    fn kernel<const N: usize>(
-        &self, scheme: &Splitting<S>, sphere: &Sphere, h: f64,
-    ) -> Option<Kernel<N>> {
-        Some(Kernel::new(scheme, sphere, h))
+    fn kernel<E: Equations, const N: usize>(
+        &self, scheme: &Splitting<S>, constraint: &E, h: f64,
+    ) -> Option<Kernel<E, N>> {
+        Some(Kernel::new(scheme, constraint, h))
     }
 }
 
-/// The constants of one step: the scheme's and the sphere's.
-struct Kernel<const N: usize> {
+/// The constants of one step: the scheme's and the constraint's.
+struct Kernel<E, const N: usize> {
     numbers: StepNumbers,
     /// The SHAKE root (an unbounded ball: no certificate is claimed), with the sphere and
     /// M^-1.
-    root: SphereRoot<N>,
+    root: SphereRoot<E, N>,
 }
 
-impl<const N: usize> Kernel<N> {
+impl<E: Equations, const N: usize> Kernel<E, N> {
     /// The constants for h; the scheme's O factors must be those of h
     /// ([`Splitting::refresh_numbers`]).
-    fn new<S: System>(scheme: &Splitting<S>, sphere: &Sphere, h: f64) -> Self {
+    fn new<S: System>(scheme: &Splitting<S>, constraint: &E, h: f64) -> Self {
         let inverse_mass: [f64; N] = std::array::from_fn(|k| scheme.inverse_mass[k]);
         let config = scheme.config();
         Self {
@@ -65,12 +65,12 @@ impl<const N: usize> Kernel<N> {
                 debug_assert_eq!(scheme.numbers.sizes.h.to_bits(), h.to_bits());
                 scheme.numbers.clone()
             },
-            root: SphereRoot::new(sphere, inverse_mass, &config.solver, f64::INFINITY),
+            root: SphereRoot::new(constraint, inverse_mass, &config.solver, f64::INFINITY),
         }
     }
 }
 
-impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
+impl<S: System, E: Equations, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<E, N> {
     /// The step of W lanes ([`Splitting`]'s B A O A B, [`kernel::step`]); `None` if the
     /// system's force has no lane form.
     #[inline(always)]
@@ -99,14 +99,16 @@ impl<S: System, const N: usize> LaneKernel<Splitting<S>, N> for Kernel<N> {
 
 /// The step body's kernel on a sphere of N coordinates over W lanes: the closed forms, F(r)
 /// and the last SHAKE's point.
-struct SphereLanes<'a, Sd: Simd, const N: usize> {
-    kernel: &'a Kernel<N>,
+struct SphereLanes<'a, Sd: Simd, E, const N: usize> {
+    kernel: &'a Kernel<E, N>,
     force: [Lanes<Sd>; N],
     /// The point of the last SHAKE projection.
     root: [Lanes<Sd>; N],
 }
 
-impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd, N> {
+impl<Sd: Simd, E: Equations, const N: usize> SplittingKernel<Lanes<Sd>>
+    for SphereLanes<'_, Sd, E, N>
+{
     type Rows = [Lanes<Sd>; N];
     type Failure = NoLaneForm;
     #[inline(always)]
@@ -138,16 +140,15 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
         &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _refactor: bool,
         lambda: &mut [Lanes<Sd>],
     ) -> Result<LaneMask<Sd>, NoLaneForm> {
-        let (sphere, w) = (self.kernel.root.sphere(), self.kernel.root.inverse_mass());
-        let [_, gram] = sphere.value_and_gram(r, r, |k| w[k]);
-        lambda[0] = -sphere.normal_rate(r, v) / gram;
+        let root = &self.kernel.root;
+        let [_, gram] = root.value_and_gram(r, r);
+        lambda[0] = -root.normal_rate(r, v) / gram;
         Ok(gram.is_finite().and(!gram.eq(gram.splat_like(0.0))))
     }
     #[inline(always)]
     fn displace(&mut self, r: &[Lanes<Sd>; N], z: &[Lanes<Sd>], v: &mut [Lanes<Sd>; N]) {
-        let (sphere, w) = (self.kernel.root.sphere(), self.kernel.root.inverse_mass());
         let mut displaced = *v;
-        sphere.displace_diagonal(r, z[0], |k| w[k], v, &mut displaced);
+        self.kernel.root.displace(r, z[0], v, &mut displaced);
         *v = displaced;
     }
     /// The closed-form root at y = r + tau v ([`SphereRoot`]).
@@ -177,7 +178,7 @@ impl<Sd: Simd, const N: usize> SplittingKernel<Lanes<Sd>> for SphereLanes<'_, Sd
     fn velocity_residual(
         &mut self, r: &[Lanes<Sd>; N], v: &[Lanes<Sd>; N], _scratch: &mut [Lanes<Sd>],
     ) -> Lanes<Sd> {
-        self.kernel.root.sphere().normal_rate(r, v).abs()
+        self.kernel.root.normal_rate(r, v).abs()
     }
 }
 

@@ -3,6 +3,7 @@
 //! lanes against one path bit for bit, the specification's forms.
 
 mod derivatives;
+mod fused;
 mod lanes;
 mod pendulum;
 mod refusals;

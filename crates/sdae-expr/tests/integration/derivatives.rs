@@ -238,3 +238,45 @@ fn quadratic_constraints_are_found() {
     assert!(quadratic("x^3 - y").is_none());
     assert!(quadratic("sin(x) + y^2").is_none());
 }
+
+#[test]
+fn substituted_expressions_evaluate_as_the_original_at_the_replacements() {
+    let mut table = SymbolTable::new();
+    let q = table.add_inputs(&["x", "y"]).unwrap();
+    let r = Var::slot(table.add_unnamed_inputs(2).unwrap(), 2);
+    let mut graph = Graph::new();
+    let texts = [
+        "x^2 * sin(y) - x / 3",
+        "atan2(y, x) + exp(-x * y)",
+        "y^3 - 2",
+    ];
+    let exprs: Vec<ExprId> = texts
+        .iter()
+        .map(|t| graph.parse(t, &table).unwrap())
+        .collect();
+    let (x, y) = (table.slot_vars(q)[0], table.slot_vars(q)[1]);
+    // x -> r0 + r1 (an expression), y -> r1 (an input of another slot).
+    let (r0, r1) = (graph.input(r[0]), graph.input(r[1]));
+    let sum = graph.add(r0, r1);
+    let replace = |var: Var| match var {
+        v if v == x => Some(sum),
+        v if v == y => Some(r1),
+        _ => None,
+    };
+    let substituted = graph.substitute(&exprs, &replace).unwrap();
+    let original = Program::compile(&graph, &exprs).unwrap();
+    let image = Program::compile(&graph, &substituted).unwrap();
+    for (a, b) in [(0.3, -1.7), (2.5, 0.25), (-1e3, 7.0)] {
+        let (mut expected, mut found) = ([0.0; 3], [0.0; 3]);
+        original.eval(&[&[a + b, b][..], &[]], &mut expected, &mut Vec::new());
+        image.eval(&[&[][..], &[a, b]], &mut found, &mut Vec::new());
+        let same = expected
+            .iter()
+            .zip(&found)
+            .all(|(e, f)| e.to_bits() == f.to_bits());
+        assert!(same, "at ({a}, {b}): {expected:?} against {found:?}");
+    }
+    // Nothing replaced: the same nodes.
+    let none = graph.substitute(&exprs, &|_| None).unwrap();
+    assert_eq!(none, exprs);
+}

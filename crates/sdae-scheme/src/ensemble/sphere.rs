@@ -12,7 +12,7 @@
 use pulp::{Scalar, Simd};
 use sdae_ift::{Certificate, Method};
 use sdae_lanes::{LaneWidth, Lanes, dot};
-use sdae_manifold::{Sphere, motion_measure};
+use sdae_manifold::Equations;
 use sdae_model::engine::{
     self, LaneKernel, LanePaths, LaneStep, RootLanes, SphereKernels, SphereRoot, StepInput,
     step_sphere_lanes,
@@ -37,18 +37,18 @@ pub(super) fn step_all<S: System>(
 struct Kernels;
 
 impl<S: System> SphereKernels<Stepper<S>> for Kernels {
-    type Kernel<const N: usize> = Kernel<N>;
+    type Kernel<E: Equations, const N: usize> = Kernel<E, N>;
     /// The kernel, or `None` if the mass is not diagonal.
     #[inline(always)]
-    fn kernel<const N: usize>(
-        &self, stepper: &Stepper<S>, sphere: &Sphere, h: f64,
-    ) -> Option<Kernel<N>> {
-        Kernel::new(stepper, sphere, h)
+    fn kernel<E: Equations, const N: usize>(
+        &self, stepper: &Stepper<S>, constraint: &E, h: f64,
+    ) -> Option<Kernel<E, N>> {
+        Kernel::new(stepper, constraint, h)
     }
     /// The step with its kappa root, which the certificate of one path's step reads.
     #[inline(always)]
-    fn step_with_root<const N: usize>(
-        &self, kernel: &Kernel<N>, stepper: &Stepper<S>, r: &[Lanes<Scalar>; N],
+    fn step_with_root<E: Equations, const N: usize>(
+        &self, kernel: &Kernel<E, N>, stepper: &Stepper<S>, r: &[Lanes<Scalar>; N],
         v: &[Lanes<Scalar>; N], dw: &[Lanes<Scalar>],
     ) -> Option<(LaneStep<Scalar, N>, Option<RootLanes<Scalar, N>>)> {
         let (step, root) = kernel.step_with_root(stepper, r, v, dw)?;
@@ -56,24 +56,24 @@ impl<S: System> SphereKernels<Stepper<S>> for Kernels {
     }
 }
 
-/// The constants of one step on the sphere.
-struct Kernel<const N: usize> {
+/// The constants of one step on a constraint of one quadratic equation in N coordinates.
+struct Kernel<E, const N: usize> {
     h: f64,
     /// The stepper's configuration, copied: the kernel is a local of the ensemble's loop, so
     /// the compiler keeps what the step derives from it (the untruncated shortcut's bound)
     /// out of the loop, which it does not through the stepper's reference (the W = 1
     /// ensemble measured 4% more instructions per path-step).
     config: StepperConfig,
-    /// The kappa root in the ball of radius C_kappa, with the sphere and M^-1.
-    root: SphereRoot<N>,
+    /// The kappa root in the ball of radius C_kappa, with the constraint and M^-1.
+    root: SphereRoot<E, N>,
 }
 
-impl<const N: usize> Kernel<N> {
+impl<E: Equations, const N: usize> Kernel<E, N> {
     /// The constants, or `None` if the mass is not diagonal.
-    fn new<S: System>(stepper: &Stepper<S>, sphere: &Sphere, h: f64) -> Option<Self> {
+    fn new<S: System>(stepper: &Stepper<S>, constraint: &E, h: f64) -> Option<Self> {
         let config = stepper.config();
         let mass = stepper.system().mass();
-        let root = SphereRoot::for_mass(sphere, mass, &config.solver, config.c_kappa)?;
+        let root = SphereRoot::for_mass(constraint, mass, &config.solver, config.c_kappa)?;
         Some(Self {
             h,
             config: *config,
@@ -82,7 +82,7 @@ impl<const N: usize> Kernel<N> {
     }
 }
 
-impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
+impl<S: System, E: Equations, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<E, N> {
     /// The step of W lanes from (r, v) with increments dw; `None` if the system has no lane
     /// form.
     #[inline(always)]
@@ -93,7 +93,7 @@ impl<S: System, const N: usize> LaneKernel<Stepper<S>, N> for Kernel<N> {
     }
 }
 
-impl<const N: usize> Kernel<N> {
+impl<E: Equations, const N: usize> Kernel<E, N> {
     /// [`LaneKernel::step`], with the kappa root: the step written once
     /// ([`half_explicit_step`]) on [`OnSphere`].
     #[inline(always)]
@@ -133,8 +133,8 @@ impl<const N: usize> Kernel<N> {
 /// The step's [`HalfExplicitKernel`] on a sphere with a diagonal mass, over W lanes: the
 /// system's lane forms of its drift and noise, the sphere's local measure w = |v| / rho,
 /// alpha = |a| / rho, and the closed-form kappa root.
-struct OnSphere<'a, S: System, Sd: Simd, const N: usize> {
-    kernel: &'a Kernel<N>,
+struct OnSphere<'a, S: System, Sd: Simd, E, const N: usize> {
+    kernel: &'a Kernel<E, N>,
     system: &'a S,
     /// Whether eq. 3.2 takes the local measure ([`StepperConfig::local_size`](crate::StepperConfig)).
     local_size: bool,
@@ -154,7 +154,9 @@ fn coordinates<Sd: Simd, const N: usize>(x: &[Lanes<Sd>]) -> &[Lanes<Sd>; N] {
 /// A system without the lane form of its drift or noise: its paths take the one-path step.
 struct NoLaneForm;
 
-impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSphere<'_, S, Sd, N> {
+impl<S: System, Sd: Simd, E: Equations, const N: usize> HalfExplicitKernel<Lanes<Sd>>
+    for OnSphere<'_, S, Sd, E, N>
+{
     type Stop = NoLaneForm;
     #[inline(always)]
     fn norm2(&self, _: &'static str, x: &[Lanes<Sd>]) -> Result<Lanes<Sd>, NoLaneForm> {
@@ -181,30 +183,30 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
             Err(NoLaneForm)
         }
     }
-    /// w = |v| / rho and alpha = |a| / rho in eq. 3.2's measure.
+    /// The constraint's local measure of the motion (`Equations::local_motion`: for the
+    /// sphere w = |v| / rho, alpha = |a| / rho), or the seed's where it has none.
     #[inline(always)]
     fn local_motion(
-        &self, _: &[Lanes<Sd>], _: &[Lanes<Sd>], _: &[Lanes<Sd>], speed: Lanes<Sd>,
-        acceleration: Lanes<Sd>,
+        &self, r: &[Lanes<Sd>], v: &[Lanes<Sd>], a: &[Lanes<Sd>], _: Lanes<Sd>, _: Lanes<Sd>,
     ) -> Option<Lanes<Sd>> {
-        let rho = self.kernel.root.sphere().radius();
-        Some(motion_measure(speed / rho, acceleration / rho))
+        let [r, v, a] = [r, v, a].map(coordinates::<Sd, N>);
+        Equations::local_motion(self.kernel.root.constraint(), r, v, a)
     }
     /// Whether eq. 3.2 leaves every lane's step untruncated (eta = 1), decided without the
-    /// square roots and divisions of the motion's measure: with B = |v|^2 + |a|^2 (divided
-    /// by rho^2 for the local measure), the measure max(w, w^2, alpha) is at most max(sqrt(B),
-    /// B) to a few ulps, so B <= min(C_eta / (2h), C_eta^2 / (4h^2)) keeps h times it below
-    /// C_eta / 2 whatever the rounding, where the full formula gives eta = 1 exactly. Not
-    /// finite B, or any lane beyond the bound, leaves it to the full formula.
+    /// square roots and divisions of the motion's measure: with B = |v|^2 + |a|^2, the
+    /// measure max(w, w^2, alpha) is at most max(sqrt(B), B) to a few ulps, so B <=
+    /// min(C_eta / (2h), C_eta^2 / (4h^2)) keeps h times it below C_eta / 2 whatever the
+    /// rounding, where the full formula gives eta = 1 exactly. Not finite B, any lane beyond
+    /// the bound, or the constraint's local measure (whose scale is its own) leaves it to the
+    /// full formula.
     #[inline(always)]
     fn surely_untruncated(&self, norms2: Lanes<Sd>, c_eta: f64, h: f64) -> bool {
-        let b = if self.local_size {
-            norms2 * self.kernel.root.sphere().inverse_radius_squared()
-        } else {
-            norms2
-        };
+        if self.local_size {
+            return false;
+        }
         let half_step = 0.5 * c_eta / h;
-        b.le(b.splat_like(half_step.min(half_step * half_step)))
+        norms2
+            .le(norms2.splat_like(half_step.min(half_step * half_step)))
             .all()
     }
     /// The drift's part of the force, and the closed-form kappa root at y = r + eta_h v: solved
@@ -236,16 +238,16 @@ impl<S: System, Sd: Simd, const N: usize> HalfExplicitKernel<Lanes<Sd>> for OnSp
         let root = self.root.as_ref().ok_or(NoLaneForm)?;
         let (r, v) = (coordinates::<Sd, N>(r), coordinates::<Sd, N>(v));
         let solver = &self.kernel.root;
-        let (sphere, inverse_mass) = (solver.sphere(), solver.inverse_mass());
+        let inverse_mass = solver.inverse_mass();
         let zero = eta_h.splat_like(0.0);
         for i in 0..N {
             force[i] = force[i] * inverse_mass[i] + v[i];
         }
-        let (lambda, v_new) = solver.velocity(r, root, force);
+        let (lambda, v_new) = solver.velocity(r, root, coordinates::<Sd, N>(force));
         let finite = dot(&v_new, &v_new).is_finite();
         // Written out, not `then`: a closure would not inherit the instruction set.
         let velocity_residual = if monitor {
-            Some(sphere.normal_rate(&root.x, &v_new).abs())
+            Some(solver.normal_rate(&root.x, &v_new).abs())
         } else {
             None
         };
@@ -316,8 +318,8 @@ mod tests {
     use sdae_systems::{PendulumParams, pendulum};
 
     /// The kernel's constants for a sphere of radius `rho` and unit masses.
-    fn kernel(rho: f64, h: f64) -> Kernel<2> {
-        let sphere = Sphere::new(2, rho).unwrap();
+    fn kernel(rho: f64, h: f64) -> Kernel<sdae_manifold::Sphere, 2> {
+        let sphere = sdae_manifold::Sphere::new(2, rho).unwrap();
         Kernel {
             h,
             config: StepperConfig::new(1.0, f64::INFINITY).unwrap(),
@@ -327,16 +329,16 @@ mod tests {
 
     /// Wherever the shortcut says eta = 1, eq. 3.2 gives exactly 1; and it says so up to half
     /// the bound of the measure, while eq. 3.2 truncates within four times it (so a looser
-    /// shortcut would fail here).
+    /// shortcut would fail here). With the constraint's local measure it never says so.
     #[test]
     fn the_untruncated_shortcut_agrees_with_eq_3_2() {
         let lane = |x: f64| Lanes::splat(pulp::Scalar, x);
         let (mut passed, mut truncated) = (0, 0);
-        for local_size in [false, true] {
+        for local_size in [false] {
             for (rho, h, c_eta) in [(1.0, 1e-3, 1.0), (0.3, 0.1, 0.05), (2.5, 0.02, 3.0)] {
                 let k = kernel(rho, h);
                 let system = pendulum(PendulumParams::default()).unwrap();
-                let k = OnSphere::<_, Scalar, 2> {
+                let k = OnSphere::<_, Scalar, _, 2> {
                     kernel: &k,
                     system: &system,
                     local_size,
@@ -346,7 +348,14 @@ mod tests {
                 let mut config = StepperConfig::new(c_eta, f64::INFINITY).unwrap();
                 config.local_size = local_size;
                 let half = 0.5 * c_eta / h;
-                let limit = half.min(half * half) * if local_size { rho * rho } else { 1.0 };
+                let limit = half.min(half * half);
+                let local = OnSphere::<_, Scalar, _, 2> {
+                    local_size: true,
+                    root: None,
+                    next: None,
+                    ..k
+                };
+                assert!(!local.surely_untruncated(lane(0.0), c_eta, h));
                 for i in 0..=4000 {
                     let b = limit * (0.25 + i as f64 / 1000.0);
                     for share in [0.0, 0.3, 0.5, 0.9, 1.0] {

@@ -109,7 +109,7 @@ struct Header {
 }
 
 /// A checkpoint file and how often a run saves to it; `R` is the kind of run whose results it
-/// holds ([`Checkpoint`], [`MlmcCheckpoint`](crate::mlmc_checkpoint::MlmcCheckpoint)).
+/// holds ([`Checkpoint`], `MlmcCheckpoint`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckpointFile<R> {
     pub(crate) path: PathBuf,

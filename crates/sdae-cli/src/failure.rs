@@ -86,11 +86,13 @@ fn shown(e: StudyError) -> StudyError {
             name,
             nearest,
             known,
+            refusal,
         } => StudyError::UnknownObservable {
             scene: escaped(&scene),
             name: escaped(&name),
             nearest,
             known,
+            refusal,
         },
         StudyError::Invalid { scene, message } => StudyError::Invalid {
             scene: escaped(&scene),

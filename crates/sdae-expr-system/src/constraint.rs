@@ -12,6 +12,7 @@ use sdae_manifold::{
 };
 
 use crate::error::SpecError;
+use crate::error::compile;
 use crate::fused::{FusedPrograms, GramSink, GramTarget};
 use crate::names::{Q, U, V, W, Z, slot};
 use crate::scratch;
@@ -75,11 +76,6 @@ pub(crate) fn parse(
         return Err(SpecError::conflict(key, message));
     }
     Ok(e)
-}
-
-/// Compiles `outputs`, naming entry `key` if a limit refuses them.
-pub(crate) fn compile(graph: &Graph, outputs: &[ExprId], key: &str) -> Result<Program, SpecError> {
-    Program::compile(graph, outputs).map_err(|error| SpecError::expression(key, "", error))
 }
 
 impl ConstraintPrograms {

@@ -4,7 +4,8 @@
 use sdae_expr::{ExprId, Graph, Program, SymbolTable};
 use sdae_lanes::Real;
 
-use crate::constraint::{Reads, compile, parse};
+use crate::constraint::{Reads, parse};
+use crate::error::compile;
 use crate::error::{SpecError, SpecErrorKind};
 use crate::names::{Q, V, slot};
 use crate::scratch;

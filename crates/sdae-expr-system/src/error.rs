@@ -1,7 +1,7 @@
 //! The refusals of a specification: each names the entry of the spec ([`SpecError::key`]) and
 //! says what, where and by how much ([`SpecErrorKind`]).
 
-use sdae_expr::ExprError;
+use sdae_expr::{ExprError, ExprId, Graph, Program};
 
 /// A specification refused: `key` names its entry (`"constraints[1]"`, `"potential"`,
 /// `"observables.energy"`, `"position"`, `"mass"`, ...), `kind` says why. `Display` gives
@@ -188,4 +188,9 @@ impl SpecError {
             },
         )
     }
+}
+
+/// Compiles `outputs`, naming entry `key` if a limit refuses them.
+pub(crate) fn compile(graph: &Graph, outputs: &[ExprId], key: &str) -> Result<Program, SpecError> {
+    Program::compile(graph, outputs).map_err(|error| SpecError::expression(key, "", error))
 }

@@ -17,8 +17,8 @@ use sdae_expr::{ExprId, Graph, Jacobian, Program, Var};
 use sdae_lanes::Real;
 use sdae_manifold::{DenseGram, ScalarGram, TridiagonalGram};
 
-use crate::constraint::compile;
 use crate::error::SpecError;
+use crate::error::compile;
 use crate::names::{Q, U, W};
 use crate::scratch::Sink;
 

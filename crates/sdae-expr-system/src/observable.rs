@@ -6,7 +6,8 @@ use std::sync::Arc;
 use sdae_expr::{Graph, Program, SymbolTable};
 use sdae_lanes::Real;
 
-use crate::constraint::{Reads, compile, parse};
+use crate::constraint::{Reads, parse};
+use crate::error::compile;
 use crate::error::{SpecError, SpecErrorKind};
 use crate::names::MAX_OBSERVABLES;
 use crate::scratch;

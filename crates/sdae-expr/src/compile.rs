@@ -81,8 +81,25 @@ fn pooled_constants(graph: &Graph, order: &[ExprId]) -> Vec<f64> {
     constants
 }
 
+impl Program {
+    /// Compiles `outputs` of `graph` with the default options (CSE on).
+    pub fn compile(graph: &Graph, outputs: &[ExprId]) -> Result<Program, ExprError> {
+        Self::compile_with(graph, outputs, CompileOptions::default())
+    }
+
+    /// Compiles `outputs` of `graph`: their nodes in order, integer powers expanded into
+    /// multiplications, each constant once, with the exact rewrites of the type's docs.
+    /// Refuses an expression not of `graph` and a program beyond [`MAX_PROGRAM_OPS`]
+    /// operations.
+    pub fn compile_with(
+        graph: &Graph, outputs: &[ExprId], options: CompileOptions,
+    ) -> Result<Program, ExprError> {
+        compile(graph, outputs, options)
+    }
+}
+
 /// Compiles `outputs` of `graph` ([`Program::compile_with`]).
-pub(crate) fn compile(
+fn compile(
     graph: &Graph, outputs: &[ExprId], options: CompileOptions,
 ) -> Result<Program, ExprError> {
     for &e in outputs {

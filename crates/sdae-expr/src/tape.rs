@@ -3,9 +3,7 @@
 
 use sdae_lanes::Real;
 
-use crate::ExprError;
 use crate::func::{Func, atan2, powf};
-use crate::graph::{ExprId, Graph};
 
 /// The most operations of a compiled program.
 pub const MAX_PROGRAM_OPS: usize = 1 << 20;
@@ -73,21 +71,6 @@ pub struct Program {
 }
 
 impl Program {
-    /// Compiles `outputs` of `graph` with the default options (CSE on).
-    pub fn compile(graph: &Graph, outputs: &[ExprId]) -> Result<Program, ExprError> {
-        Self::compile_with(graph, outputs, CompileOptions::default())
-    }
-
-    /// Compiles `outputs` of `graph`: their nodes in order, integer powers expanded into
-    /// multiplications, each constant once, with the exact rewrites of the type's docs.
-    /// Refuses an expression not of `graph` and a program beyond [`MAX_PROGRAM_OPS`]
-    /// operations.
-    pub fn compile_with(
-        graph: &Graph, outputs: &[ExprId], options: CompileOptions,
-    ) -> Result<Program, ExprError> {
-        crate::compile::compile(graph, outputs, options)
-    }
-
     /// The number of operations (loads of inputs included).
     pub fn op_count(&self) -> usize {
         self.ops.len()

@@ -1,15 +1,15 @@
 //! Rigid bonds between atoms in R^3: the holonomic constraints of constrained molecular
 //! dynamics (seed Section 5.2), for any bond network (a rigid triatomic, a tetrahedron, ...).
 
-use crate::constraint::{
-    Constraint, Curvature, TheoryBound, assemble_dense_by_columns, motion_measure,
-};
+use crate::constraint::{TheoryBound, motion_measure};
+use crate::equations::{Equations, InverseMassOf, cross_gram};
 use crate::error::{ManifoldError, check_at_least, check_positive};
-use crate::factor::DENSE_FAER_THRESHOLD;
-use crate::gram::{DenseGram, GramMatrix};
-use crate::lane_form::{LaneForm, LaneFormVisitor};
+use crate::factor::LuFactor;
+use crate::gram::DenseGram;
+use crate::lane_form::{Evaluation, Point, base_coords};
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
+use crate::shape::Dense;
 use crate::vector::{distance_value, dot3, max_norm3_squared};
 use sdae_lanes::Real;
 
@@ -57,11 +57,11 @@ pub struct RigidBonds {
     shortest: f64,
 }
 
-/// d_b = x_j - x_i of bond b = (i, j), for one path or for lanes.
+/// d_b = x_j - x_i of bond b = (i, j), x stored or formed where it is read.
 #[inline(always)]
-fn bond_vector<T: Real>(x: &[T], bond: &Bond) -> [T; 3] {
-    let (a, b) = (3 * bond.i, 3 * bond.j);
-    [x[b] - x[a], x[b + 1] - x[a + 1], x[b + 2] - x[a + 2]]
+fn bond_vector<T: Real, P: Point<T> + ?Sized>(x: &P, bond: &Bond) -> [T; 3] {
+    let (a, b) = (x.coords::<3>(3 * bond.i), x.coords::<3>(3 * bond.j));
+    [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
 }
 
 /// out_b = sign d_b(x).(u_j - u_i) / L_b^2: with sign = 1 the rows of -Dg(x) u, with sign = -1
@@ -246,95 +246,147 @@ impl RigidBonds {
     }
 }
 
-impl Constraint for RigidBonds {
-    type Gram = DenseGram;
+impl RigidBonds {
+    /// g_b(x) = 1/2 - |d_b(x)|^2 / (2 L_b^2), x stored or formed where it is read.
+    #[inline(always)]
+    fn value_at<T: Real, P: Point<T> + ?Sized>(&self, x: &P, out: &mut [T]) {
+        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
+            *o = distance_value(&bond_vector(x, bond), *s);
+        }
+    }
+
+    /// Dg(x1) M^-1 grad g(x2) for a diagonal mass: entry (a, b) sums, over the atoms c that
+    /// bonds a and b share, sign_a sign_b d_a(x1).W_c d_b(x2) / (L_a^2 L_b^2) with W_c the
+    /// inverse masses of atom c.
+    #[inline(always)]
+    fn cross_gram_diagonal<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, w: &W, x1: &P, x2: &[T], out: &mut DenseGram<T>,
+    ) {
+        let m = self.bonds.len();
+        let zero = x2[0].splat_like(0.0);
+        for a in 0..m {
+            for b in 0..m {
+                out.set(a, b, zero);
+            }
+        }
+        for c in 0..self.atoms {
+            let k = 3 * c;
+            for &(a, sa) in self.incident(c) {
+                let da = bond_vector(x1, &self.bonds[a]);
+                let wa = [
+                    w.diagonal_product(k, da[0]),
+                    w.diagonal_product(k + 1, da[1]),
+                    w.diagonal_product(k + 2, da[2]),
+                ];
+                for &(b, sb) in self.incident(c) {
+                    let db = bond_vector(x2, &self.bonds[b]);
+                    let term = dot3(&wa, &db) * (sa * sb) * self.inv_l2[a] * self.inv_l2[b];
+                    out.set(a, b, out.get(a, b) + term);
+                }
+            }
+        }
+    }
+}
+
+/// The network written once over [`Real`]: one path with any mass, lanes with a diagonal mass
+/// and at most [`DENSE_FAER_THRESHOLD`] bonds.
+impl Equations for RigidBonds {
+    type Shape = Dense;
     fn dim(&self) -> usize {
         3 * self.atoms
     }
     fn n_constraints(&self) -> usize {
         self.bonds.len()
     }
-    fn value(&self, x: &[f64], out: &mut [f64]) {
-        for ((o, bond), s) in out.iter_mut().zip(&self.bonds).zip(&self.inv_l2) {
-            let d = bond_vector(x, bond);
-            *o = distance_value(&d, *s);
-        }
+    #[inline(always)]
+    fn value<T: Real>(&self, x: &[T], out: &mut [T]) {
+        self.value_at(x, out);
     }
     /// (Dg(x) u)_b = -d_b.(u_j - u_i) / L_b^2 with d_b = x_j - x_i.
-    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+    #[inline(always)]
+    fn jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]) {
         bond_rates(&self.bonds, &self.inv_l2, x, u, -1.0, out);
     }
-    /// (grad g(x) z)_a = sum over bonds b at atom a of sign z_b d_b / L_b^2.
-    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
-        out.fill(0.0);
+    /// (grad g(x) z)_a = sum over bonds b at atom a of sign z_b d_b / L_b^2, accumulated from
+    /// 0 in the order of the bonds.
+    #[inline(always)]
+    fn jacobian_transpose_mul<T: Real>(&self, x: &[T], z: &[T], out: &mut [T]) {
+        out.fill(x[0].splat_like(0.0));
         for ((bond, s), zb) in self.bonds.iter().zip(&self.inv_l2).zip(z) {
-            let f = bond_vector(x, bond).map(|c| c * zb * s);
+            let d = bond_vector(x, bond);
             for c in 0..3 {
-                out[3 * bond.i + c] += f[c];
-                out[3 * bond.j + c] -= f[c];
+                let f = d[c] * *zb * *s;
+                out[3 * bond.i + c] = out[3 * bond.i + c] + f;
+                out[3 * bond.j + c] = out[3 * bond.j + c] - f;
             }
         }
     }
-    fn new_gram(&self) -> DenseGram {
-        DenseGram::zeros(self.bonds.len())
-    }
-    /// Closed form for diagonal masses: entry (a, b) sums, over the atoms c that bonds a and b
-    /// share, sign_a sign_b d_a(x1).W_c d_b(x2) / (L_a^2 L_b^2) with W_c the inverse masses of
-    /// atom c. Column by column otherwise.
-    fn cross_gram<M: Mass>(
-        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut DenseGram,
-    ) {
-        if !M::DIAGONAL {
-            return assemble_dense_by_columns(self, x1, x2, mass, scratch, out);
-        }
-        let m = self.bonds.len();
-        for a in 0..m {
-            for b in 0..m {
-                out.set(a, b, 0.0);
-            }
-        }
-        for c in 0..self.atoms {
-            let w = [0, 1, 2].map(|k| mass.inverse_diagonal_entry(3 * c + k).unwrap_or(0.0));
-            for &(a, sa) in self.incident(c) {
-                let da = bond_vector(x1, &self.bonds[a]);
-                let wa = [da[0] * w[0], da[1] * w[1], da[2] * w[2]];
-                for &(b, sb) in self.incident(c) {
-                    let db = bond_vector(x2, &self.bonds[b]);
-                    let term = sa * sb * dot3(&wa, &db) * self.inv_l2[a] * self.inv_l2[b];
-                    out.set(a, b, out.entry(a, b) + term);
-                }
-            }
-        }
+    /// D^2 g_b(x)(u, w) = -(u_j - u_i).(w_j - w_i) / L_b^2.
+    #[inline(always)]
+    fn second_derivative<T: Real>(&self, _x: &[T], u: &[T], w: &[T], out: &mut [T]) {
+        bond_rates(&self.bonds, &self.inv_l2, u, w, -1.0, out);
     }
     /// Rounding of g_b = 1/2 - |x_j - x_i|^2 / (2 L_b^2): the differences carry an error of a
     /// few ulps of |x|, relative to the shortest bond (as for [`BeadChain`](crate::BeadChain)).
-    /// w = max_b |v_j - v_i| / L_b over the bonds, alpha = max_i |a_i| / (shortest bond).
-    fn local_motion(&self, _x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        Some(bonds_motion(&self.bonds, &self.inv_l2, self.shortest, v, a))
-    }
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(self.shortest)
     }
-    /// Newton in lanes (the network's [`ConstraintLanes`](crate::ConstraintLanes)) for a
-    /// diagonal mass and at most [`DENSE_FAER_THRESHOLD`] bonds (larger networks are
-    /// factored by faer, path by path).
-    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        if !M::DIAGONAL {
-            return visitor.none();
+    /// Closed form for diagonal masses ([`RigidBonds::cross_gram_diagonal`]), column by column
+    /// otherwise.
+    #[inline(always)]
+    fn cross_gram<T: Real, W: InverseMassOf<T>>(
+        &self, w: &W, x1: &[T], x2: &[T], scratch: &mut [T], out: &mut DenseGram<T>,
+    ) {
+        if w.diagonal_entry(0).is_none() {
+            return cross_gram(self, x1, x2, w, scratch, out);
         }
-        visitor.newton(|| {
-            if self.n_constraints() > DENSE_FAER_THRESHOLD {
-                return None;
-            }
-            LaneForm::new(self, mass)
-        })
+        self.cross_gram_diagonal(w, x1, x2, out);
     }
-}
+    /// w = max_b |v_j - v_i| / L_b over the bonds, alpha = max_i |a_i| / (shortest bond).
+    #[inline(always)]
+    fn local_motion<T: Real>(&self, _x: &[T], v: &[T], a: &[T]) -> Option<T> {
+        Some(bonds_motion(&self.bonds, &self.inv_l2, self.shortest, v, a))
+    }
+    /// g(x1) and the dense Newton matrix at a point formed where it is read, then the largest
+    /// |g_b| and the LU factorization with partial pivoting, each in a pass of its own.
+    #[inline(always)]
+    fn evaluate_and_factor<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, w: &W, x1: &P, r: &[T], values: &mut [T], jacobian: &mut DenseGram<T>,
+        factor: &mut LuFactor<T>, step: &mut [T],
+    ) -> Evaluation<T> {
+        self.value_at(x1, values);
+        self.cross_gram_diagonal(w, x1, r, jacobian);
+        Evaluation::reduce_and_factor(values, jacobian, factor, step)
+    }
 
-impl Curvature for RigidBonds {
-    /// D^2 g_b(x)(u, w) = -(u_j - u_i).(w_j - w_i) / L_b^2.
-    fn second_derivative(&self, _x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        bond_rates(&self.bonds, &self.inv_l2, u, w, -1.0, out);
+    /// out = base + M^-1 grad g(r) z atom by atom, (grad g(r) z)_a accumulated as in
+    /// [`Equations::jacobian_transpose_mul`] (adding sign f is adding or subtracting f), then
+    /// the mass and the sum of [`Equations::displace`], so that out can be its own base.
+    #[inline(always)]
+    fn displace_at<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, w: &W, r: &[T], z: &[T], base: Option<&P>, out: &mut [T],
+    ) {
+        let zero = r[0].splat_like(0.0);
+        for atom in 0..self.atoms {
+            let mut sum = [zero; 3];
+            for &(b, sign) in self.incident(atom) {
+                let d = bond_vector(r, &self.bonds[b]);
+                for c in 0..3 {
+                    sum[c] = sum[c] + d[c] * z[b] * self.inv_l2[b] * sign;
+                }
+            }
+            let k = 3 * atom;
+            let y = base_coords::<_, _, 3>(base, out, k);
+            for c in 0..3 {
+                out[k + c] = w.diagonal_product(k + c, sum[c]) + y[c];
+            }
+        }
+    }
+
+    /// -(Dg(x) u)_b = d_b(x).(u_j - u_i) / L_b^2.
+    #[inline(always)]
+    fn negated_jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]) {
+        bond_rates(&self.bonds, &self.inv_l2, x, u, 1.0, out);
     }
 }
 
@@ -390,8 +442,11 @@ impl TheoryBound for RigidBonds {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::RigidBonds;
     use crate::constraint::scratch_len;
+    use crate::constraint::{Constraint, Curvature, TheoryBound};
+    use crate::error::ManifoldError;
+    use crate::gram::GramMatrix;
     use crate::mass::{DenseMass, DiagonalMass, IdentityMass};
 
     /// A tetrahedron-like network of 5 atoms: a braced triangle (0, 1, 2) plus an unbraced

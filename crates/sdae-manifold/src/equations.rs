@@ -1,8 +1,8 @@
 //! A holonomic constraint of any number m of equations written once over the number type
-//! ([`Equations`]): `f64` for one path, [`Lanes`] for W paths. Blanket impls make every
-//! `Equations` type a [`Constraint`], a [`Curvature`] and, for a diagonal mass, a
-//! [`ConstraintLanes`] whose formulas are the same functions run over lanes, so that an
-//! ensemble's lanes take the one-path numbers bit for bit.
+//! ([`Equations`]): `f64` for one path, [`Lanes`](sdae_lanes::Lanes) for W paths. Blanket
+//! impls make every `Equations` type a [`Constraint`](crate::Constraint) and a [`Curvature`](crate::Curvature); for a diagonal mass
+//! an ensemble engine steps the same methods over lanes (`lane_form::LaneForm`), so that its lanes
+//! take the one-path numbers bit for bit.
 //!
 //! What the half-explicit step needs of g (seed eq. 3.1) is built here from g, Dg u, Dg^T z
 //! and D^2 g(u, w):
@@ -15,7 +15,7 @@
 //!   v' = v~ + M^-1 grad g(r) lambda;
 //! - where m = 1 and g is quadratic ([`Equations::is_quadratic`]), R(gamma) = c0 + c1 gamma +
 //!   c2 gamma^2 with c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(w, w) / 2, w = M^-1 grad g(r): the
-//!   root is then taken in closed form ([`Constraint::kappa_quadratic`]).
+//!   root is then taken in closed form ([`Constraint::kappa_quadratic`](crate::Constraint::kappa_quadratic)).
 //!
 //! ```
 //! use sdae_lanes::Real;
@@ -61,30 +61,27 @@
 use std::any::Any;
 use std::cell::RefCell;
 
-use pulp::Simd;
-use sdae_lanes::{Lanes, Real};
+use sdae_lanes::Real;
 
-use crate::constraint::{Constraint, Curvature};
 use crate::error::ManifoldError;
-use crate::gram::{GramStructure, SquareMatrix};
-use crate::lane_form::{
-    ConstraintLanes, Evaluation, Factor, InverseMass, Jacobian, LaneForm, LaneFormVisitor,
-    PointLanes,
-};
+use crate::factor::DENSE_FAER_THRESHOLD;
+use crate::gram::GramStructure;
 use crate::mass::Mass;
+use crate::point::{Evaluation, InverseMass, Point, max_abs};
 use crate::roundoff::Roundoff;
 use crate::shape::{ByProducts, GramShape, Product};
+use crate::vector::sum_squares;
 
 /// A holonomic constraint g: R^n -> R^m written once over the number type: `f64` for one
-/// path, `Lanes<S>` for W paths. Every `Equations` type is a [`Constraint`], a [`Curvature`]
-/// and (for a diagonal mass) has a lane form ([`ConstraintLanes`]), through blanket impls in
-/// sdae-manifold: the one-path and the lane numbers are the same functions' and agree bit for
+/// path, `Lanes<S>` for W paths. Every `Equations` type is a [`Constraint`](crate::Constraint) and a
+/// [`Curvature`](crate::Curvature) through blanket impls in sdae-manifold, and (for a diagonal mass) an ensemble
+/// engine steps its methods over lanes (`lane_form::LaneForm`): the one-path and the lane numbers are the same functions' and agree bit for
 /// bit, provided each method takes the same operations in the same order for every `T` (as
 /// code written once over `T` does).
 ///
 /// Mark the four generic methods `#[inline(always)]`: the lanes run inside functions compiled
 /// for their instruction set, and a method not inlined there takes each lane operation through
-/// a call. With both this trait and [`Constraint`] in scope, name the trait of a method that
+/// a call. With both this trait and [`Constraint`](crate::Constraint) in scope, name the trait of a method that
 /// both have (`Equations::dim(&g)`).
 pub trait Equations: Clone + Send + Sync + 'static {
     /// The structure of Dg(x1) M^-1 grad g(x2) ([`Scalar`](crate::Scalar) for m = 1,
@@ -103,15 +100,15 @@ pub trait Equations: Clone + Send + Sync + 'static {
     /// out = D^2 g(x)(u, w), m entries.
     fn second_derivative<T: Real>(&self, x: &[T], u: &[T], w: &[T], out: &mut [T]);
     /// g is a quadratic polynomial (D^2 g constant): with m = 1 the kappa root is taken in
-    /// closed form ([`Constraint::kappa_quadratic`]). Default false.
+    /// closed form ([`Constraint::kappa_quadratic`](crate::Constraint::kappa_quadratic)). Default false.
     fn is_quadratic(&self) -> bool {
         false
     }
-    /// The kind of g's rounding floor ([`Constraint::roundoff`]); none known by default.
+    /// The kind of g's rounding floor ([`Constraint::roundoff`](crate::Constraint::roundoff)); none known by default.
     fn roundoff(&self) -> Roundoff {
         Roundoff::Unknown
     }
-    /// Checks that `mass` fits the storage [`Equations::Shape`] ([`Constraint::check_mass`]):
+    /// Checks that `mass` fits the storage [`Equations::Shape`] ([`Constraint::check_mass`](crate::Constraint::check_mass)):
     /// every mass by default.
     fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
         let _ = mass;
@@ -153,7 +150,7 @@ pub trait Equations: Clone + Send + Sync + 'static {
         displace_in_passes(self, inverse_mass, r, z, base, out, scratch);
     }
     /// [c0, c1, c2] of the kappa system R(gamma) = g(y + M^-1 grad g(r) gamma) where it is a
-    /// quadratic in gamma ([`Constraint::kappa_quadratic`]), `scratch` n entries: by default
+    /// quadratic in gamma ([`Constraint::kappa_quadratic`](crate::Constraint::kappa_quadratic)), `scratch` n entries: by default
     /// where m = 1 and g is quadratic, c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(w, w) / 2 with
     /// w = M^-1 grad g(r); `None` otherwise (Newton).
     #[inline(always)]
@@ -163,45 +160,179 @@ pub trait Equations: Clone + Send + Sync + 'static {
         has_kappa_quadratic(self).then(|| kappa_coefficients(self, r, y, inverse_mass, scratch))
     }
     /// The size of the motion on the constraint's own length scale
-    /// ([`Constraint::local_motion`]); `None` (the default): the seed's functional.
+    /// ([`Constraint::local_motion`](crate::Constraint::local_motion)); `None` (the default): the seed's functional.
     #[inline(always)]
     fn local_motion<T: Real>(&self, x: &[T], v: &[T], a: &[T]) -> Option<T> {
         let _ = (x, v, a);
         None
     }
-    /// Offers `visitor` the constraint's lane form for `mass` ([`Constraint::lane_form`]): these
-    /// formulas over lanes for Newton ([`LaneFormVisitor::newton`]) for a diagonal mass. A
-    /// constraint of one quadratic equation in 2 or 3 coordinates with the scalar Gram storage
-    /// may offer the fixed-size closed-form kernels instead ([`offer_closed_form`]: the same
-    /// numbers, 3.6x faster on the pendulum), compiled then for its type.
+    // The forms an ensemble engine steps with a diagonal M^-1 on points that may be formed
+    // where they are read ([`Point`]): by default from the methods above, as the one-path step
+    // takes them; a constraint whose rows are factored as they are formed fuses them (the
+    // bead chain).
+
+    /// One evaluation of the kappa system at (x1, r): g(x1) into `values` and J = Dg(x1) M^-1
+    /// grad g(r) into `jacobian` ([`Equations::value_and_cross_gram`]), then max_i |g_i(x1)|
+    /// and J factored into `factor` with the first half of J^-1 g(x1) into `step`
+    /// ([`Evaluation::reduce_and_factor`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn evaluate_and_factor<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, inverse_mass: &W, x1: &P, r: &[T], values: &mut [T], jacobian: &mut GramOf<Self, T>,
+        factor: &mut FactorOf<Self, T>, step: &mut [T],
+    ) -> Evaluation<T> {
+        let (n, m) = (Equations::dim(self), Equations::n_constraints(self));
+        let mut scratch = Scratch::take(r[0], point_len(x1, n) + n + 2 * m);
+        let (x1, rest) = point(x1, scratch.entries(), n);
+        Equations::value_and_cross_gram(self, inverse_mass, x1, r, rest, values, jacobian);
+        Evaluation::reduce_and_factor(values, jacobian, factor, step)
+    }
+    /// force <- M^-1 force + v (v~ of eq. 3.1 from the force eta a h + B dw), then the first
+    /// half ([`MatrixFactor::forward_in_place`](crate::MatrixFactor::forward_in_place)) of
+    /// lambda = J^-1 (-Dg(x) v~) into `out`, for a diagonal M^-1. By default in three passes.
+    #[inline(always)]
+    fn velocity_right_hand_side<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, x: &[T], force: &mut [T], v: &[T], factor: &FactorOf<Self, T>,
+        out: &mut [T],
+    ) {
+        for (k, (f, vi)) in force.iter_mut().zip(v).enumerate() {
+            *f = inverse_mass.diagonal_product(k, *f) + *vi;
+        }
+        self.negated_jacobian_mul(x, force, out);
+        crate::factor::MatrixFactor::forward_in_place(factor, out);
+    }
+    /// [`Equations::displace`] from a base that may be formed where it is read (written out
+    /// first by default).
+    #[inline(always)]
+    fn displace_at<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, inverse_mass: &W, r: &[T], z: &[T], base: Option<&P>, out: &mut [T],
+    ) {
+        let n = Equations::dim(self);
+        let len = base.map_or(n, |base| point_len(base, n));
+        let mut scratch = Scratch::take(r[0], len);
+        match base {
+            Some(base) => {
+                let (base, _) = point(base, scratch.entries(), n);
+                Equations::displace(self, inverse_mass, r, z, Some(base), out, &mut []);
+            }
+            None => Equations::displace(self, inverse_mass, r, z, None, out, scratch.entries()),
+        }
+    }
+    /// v_{k+1} = v~ + M^-1 grad g(r) lambda in place of v~ (`v`, [`Equations::displace_at`]
+    /// without a base), then the paths whose v_{k+1} the one-path step finds finite
+    /// (|v_{k+1}|^2 finite; a constraint may report fewer, which then step one at a time) and,
+    /// if `monitor`, max_i |(Dg(x) v_{k+1})_i| (in `scratch`, m rows). By default in three
+    /// passes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn finish_velocity<T: Real, W: InverseMassOf<T>>(
+        &self, inverse_mass: &W, r: &[T], lambda: &[T], x: &[T], monitor: bool, v: &mut [T],
+        scratch: &mut [T],
+    ) -> (T::Mask, T) {
+        self.displace_at(inverse_mass, r, lambda, None::<&[T]>, v);
+        let finite = sum_squares(v).finite();
+        if !monitor {
+            return (finite, v[0].splat_like(0.0));
+        }
+        // max_i |-(Dg(x) v)_i| = max_i |(Dg(x) v)_i|.
+        self.negated_jacobian_mul(x, v, scratch);
+        (finite, max_abs(scratch))
+    }
+    /// out = -Dg(x) u, the negation of [`Equations::jacobian_mul`] (bit for bit: negation is
+    /// exact and commutes with rounding), so that lambda's right-hand side needs no pass of
+    /// its own.
+    #[inline(always)]
+    fn negated_jacobian_mul<T: Real>(&self, x: &[T], u: &[T], out: &mut [T]) {
+        Equations::jacobian_mul(self, x, u, out);
+        for o in out.iter_mut() {
+            *o = -*o;
+        }
+    }
+    /// [`Equations::kappa_quadratic`] at a point that may be formed where it is read.
+    #[inline(always)]
+    fn kappa_quadratic_at<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
+        &self, inverse_mass: &W, r: &[T], y: &P,
+    ) -> Option<[T; 3]> {
+        let n = Equations::dim(self);
+        let mut scratch = Scratch::take(r[0], point_len(y, n) + n);
+        let (y, rest) = point(y, scratch.entries(), n);
+        Equations::kappa_quadratic(self, inverse_mass, r, y, rest)
+    }
+
+    /// Offers `visitor` the constraint's forms over lanes for `mass`
+    /// ([`Constraint::lane_form`](crate::Constraint::lane_form)): for a diagonal mass, these
+    /// methods for Newton ([`offer_newton`]). A constraint of one quadratic equation in 2 or 3
+    /// coordinates with the scalar Gram storage may offer the fixed-size closed-form kernels
+    /// instead ([`offer_closed_form`]: the same numbers, 3.6x faster on the pendulum), which
+    /// are then compiled for its type (so they are not offered by default).
     #[inline(always)]
     fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        if !M::DIAGONAL {
-            return visitor.none();
-        }
-        visitor.newton(|| LaneForm::new(self, mass))
+        offer_newton(self, mass, visitor)
     }
 }
 
-/// The lane form of a constraint that offers the fixed-size closed-form kernels
-/// ([`LaneFormVisitor::closed_form`]) where they apply (a diagonal mass, one quadratic equation
-/// in 2 or 3 coordinates, the scalar Gram storage), else the default
-/// ([`Equations::lane_form`]): for an override of [`Equations::lane_form`], as the sphere's.
+/// What a constraint offers an engine over lanes ([`Equations::lane_form`]):
+/// the engine implements the methods for the forms it can step, and a constraint calls the one
+/// that fits it. A form the engine does not step falls back to [`LaneFormVisitor::none`].
+pub trait LaneFormVisitor: Sized {
+    /// What the engine makes of the offer.
+    type Output;
+    /// No lane form: the paths step one at a time.
+    fn none(self) -> Self::Output;
+    /// A constraint of one quadratic equation in 2 or 3 coordinates with the scalar Gram
+    /// storage (the sphere; [`offer_closed_form`]), whose kappa
+    /// system the engine solves in closed form on arrays of that size.
+    fn closed_form<E: Equations>(self, constraint: &E) -> Self::Output {
+        let _ = constraint;
+        self.none()
+    }
+    /// The constraint's [`Equations`] forms over lanes for the Newton iteration with its
+    /// diagonal `mass` (an engine keeps them as a `LaneForm`, built when it has none kept from
+    /// an earlier step).
+    fn newton<L: Equations, M: Mass>(self, constraint: &L, mass: &M) -> Self::Output {
+        let _ = (constraint, mass);
+        self.none()
+    }
+}
+
+/// The default [`Equations::lane_form`]: the constraint's methods for Newton with a diagonal
+/// mass ([`LaneFormVisitor::newton`]), none for another mass or for a dense Newton matrix
+/// beyond [`DENSE_FAER_THRESHOLD`] (factored by faer, path by path, whose numbers lanes of LU
+/// would not reproduce).
+#[inline(always)]
+pub fn offer_newton<E: Equations, M: Mass, V: LaneFormVisitor>(
+    equations: &E, mass: &M, visitor: V,
+) -> V::Output {
+    let dense_beyond = <E::Shape as GramShape>::STRUCTURE == GramStructure::Dense
+        && Equations::n_constraints(equations) > DENSE_FAER_THRESHOLD;
+    if !M::DIAGONAL || dense_beyond {
+        return visitor.none();
+    }
+    visitor.newton(equations, mass)
+}
+
+/// The fixed-size closed-form kernels ([`LaneFormVisitor::closed_form`]) where they apply (a
+/// diagonal mass, one quadratic equation in 2 or 3 coordinates, the scalar Gram storage), else
+/// [`offer_newton`]: for an override of [`Equations::lane_form`], as the sphere's.
 #[inline(always)]
 pub fn offer_closed_form<E: Equations, M: Mass, V: LaneFormVisitor>(
     equations: &E, mass: &M, visitor: V,
 ) -> V::Output {
-    if !M::DIAGONAL {
-        return visitor.none();
-    }
-    let fixed_size = matches!(Equations::dim(equations), 2 | 3)
+    let fixed_size = M::DIAGONAL
+        && matches!(Equations::dim(equations), 2 | 3)
         && has_kappa_quadratic(equations)
         && <E::Shape as GramShape>::STRUCTURE == GramStructure::Scalar;
     if fixed_size {
         return visitor.closed_form(equations);
     }
-    visitor.newton(|| LaneForm::new(equations, mass))
+    offer_newton(equations, mass, visitor)
 }
+
+/// The Newton matrix of constraint C over numbers of type T.
+pub type GramOf<C, T> = <<C as Equations>::Shape as GramShape>::Matrix<T>;
+
+/// The factorization of the Newton matrix of constraint C over numbers of type T.
+pub type FactorOf<C, T> = <<C as Equations>::Shape as GramShape>::Factor<T>;
 
 /// A mass's inverse as the [`Equations`] formulas apply it, over numbers of type T: `f64` for
 /// one path (any mass), lanes for W paths (a diagonal mass, [`InverseMass`]).
@@ -212,146 +343,20 @@ pub trait InverseMassOf<T> {
     fn diagonal_entry(&self, k: usize) -> Option<f64>;
     /// a^T M^-1 b (`Mass::inverse_inner`), `scratch` n entries.
     fn inverse_inner(&self, a: &[T], b: &[T], scratch: &mut [T]) -> T;
-}
-
-/// The one-path forms: the [`Equations`] methods at T = f64 with the mass applied by itself.
-impl<E: Equations> Constraint for E {
-    type Gram = <E::Shape as GramShape>::Gram;
-    fn dim(&self) -> usize {
-        Equations::dim(self)
-    }
-    fn n_constraints(&self) -> usize {
-        Equations::n_constraints(self)
-    }
-    #[inline]
-    fn value(&self, x: &[f64], out: &mut [f64]) {
-        Equations::value(self, x, out);
-    }
-    #[inline]
-    fn jacobian_mul(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
-        Equations::jacobian_mul(self, x, u, out);
-    }
-    #[inline]
-    fn jacobian_transpose_mul(&self, x: &[f64], z: &[f64], out: &mut [f64]) {
-        Equations::jacobian_transpose_mul(self, x, z, out);
-    }
-    fn new_gram(&self) -> Self::Gram {
-        SquareMatrix::zeros_like(0.0, Equations::n_constraints(self))
-    }
-    /// [`Equations::cross_gram`].
-    #[inline]
-    fn cross_gram<M: Mass>(
-        &self, x1: &[f64], x2: &[f64], mass: &M, scratch: &mut [f64], out: &mut Self::Gram,
-    ) {
-        let out = E::Shape::one_path(out);
-        Equations::cross_gram(self, &OnePath(mass), x1, x2, scratch, out);
-    }
-    /// [`Equations::value_and_cross_gram`].
-    #[inline]
-    fn value_and_cross_gram<M: Mass>(
-        &self, x: &[f64], r: &[f64], mass: &M, scratch: &mut [f64], value: &mut [f64],
-        gram: &mut Self::Gram,
-    ) {
-        let gram = E::Shape::one_path(gram);
-        Equations::value_and_cross_gram(self, &OnePath(mass), x, r, scratch, value, gram);
-    }
-    /// [`Equations::displace`].
-    #[inline]
-    fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
-        Equations::displace(self, &OnePath(mass), r, z, Some(y), out, &mut []);
-    }
-    /// [`Equations::kappa_quadratic`].
-    #[inline]
-    fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
-        let mut scratch = Scratch::take(0.0, Equations::dim(self));
-        Equations::kappa_quadratic(self, &OnePath(mass), r, y, scratch.entries())
-    }
-    fn check_mass<M: Mass>(&self, mass: &M) -> Result<(), ManifoldError> {
-        Equations::check_mass(self, mass)
-    }
-    fn local_motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> Option<f64> {
-        Equations::local_motion(self, x, v, a)
-    }
-    /// [`Equations::lane_form`], inlined into the engine that asks (the sphere's step of one
-    /// path runs inside its visitor).
+    /// x (M^-1)_kk where M is diagonal (NaN otherwise): the product of one entry, left out
+    /// where M^-1 = I (x * 1 = x exactly).
     #[inline(always)]
-    fn lane_form<M: Mass, V: LaneFormVisitor>(&self, mass: &M, visitor: V) -> V::Output {
-        Equations::lane_form(self, mass, visitor)
+    fn diagonal_product(&self, k: usize, x: T) -> T
+    where
+        T: Real,
+    {
+        x * self.diagonal_entry(k).unwrap_or(f64::NAN)
     }
-    fn roundoff(&self) -> Roundoff {
-        Equations::roundoff(self)
-    }
-}
-
-impl<E: Equations> Curvature for E {
-    #[inline]
-    fn second_derivative(&self, x: &[f64], u: &[f64], w: &[f64], out: &mut [f64]) {
-        Equations::second_derivative(self, x, u, w, out);
-    }
-}
-
-/// The one-path formulas over lanes: the same generic functions at T = `Lanes<Sd>`, with the
-/// diagonal M^-1 entry by entry ([`InverseMass`]: x (M^-1)_kk, the one-path product), a point
-/// formed where it is read written out once. Every step is `#[inline(always)]` (no closures),
-/// so that the lanes' arithmetic is compiled for the engine's instruction set; so should the
-/// [`Equations`] methods be.
-impl<E: Equations> ConstraintLanes for E {
-    type Shape = E::Shape;
-
-    /// [`Equations::value_and_cross_gram`], then the largest |g_i| and the factorization
-    /// ([`Evaluation::reduce_and_factor`]).
+    /// Whether M^-1 = I is known (false by default): a form may then take a sum of equal
+    /// terms once.
     #[inline(always)]
-    fn evaluate_and_factor<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, w: &InverseMass, x1: &P, r: &[Lanes<Sd>], values: &mut [Lanes<Sd>],
-        jacobian: &mut Jacobian<Sd, Self>, factor: &mut Factor<Sd, Self>, step: &mut [Lanes<Sd>],
-    ) -> Evaluation<Sd> {
-        let (n, m) = (Equations::dim(self), Equations::n_constraints(self));
-        let mut scratch = Scratch::take(r[0], point_len(x1, n) + n + 2 * m);
-        let (x1, rest) = point(x1, scratch.entries(), n);
-        Equations::value_and_cross_gram(self, w, x1, r, rest, values, jacobian);
-        Evaluation::reduce_and_factor(values, jacobian, factor, step)
-    }
-    /// [`Equations::displace`], a base formed where it is read written out first.
-    #[inline(always)]
-    fn displace_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, w: &InverseMass, r: &[Lanes<Sd>], z: &[Lanes<Sd>], base: Option<&P>,
-        out: &mut [Lanes<Sd>],
-    ) {
-        let n = Equations::dim(self);
-        let len = base.map_or(n, |base| point_len(base, n));
-        let mut scratch = Scratch::take(r[0], len);
-        match base {
-            Some(base) => {
-                let (base, _) = point(base, scratch.entries(), n);
-                Equations::displace(self, w, r, z, Some(base), out, &mut []);
-            }
-            None => Equations::displace(self, w, r, z, None, out, scratch.entries()),
-        }
-    }
-    /// -(Dg(x) u), entry by entry.
-    #[inline(always)]
-    fn negated_jacobian_mul<Sd: Simd>(
-        &self, x: &[Lanes<Sd>], u: &[Lanes<Sd>], out: &mut [Lanes<Sd>],
-    ) {
-        Equations::jacobian_mul(self, x, u, out);
-        for o in out.iter_mut() {
-            *o = -*o;
-        }
-    }
-    /// [`Equations::kappa_quadratic`], as `Constraint::kappa_quadratic`.
-    #[inline(always)]
-    fn kappa_quadratic_lanes<Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-        &self, w: &InverseMass, r: &[Lanes<Sd>], y: &P,
-    ) -> Option<[Lanes<Sd>; 3]> {
-        let n = Equations::dim(self);
-        let mut scratch = Scratch::take(r[0], point_len(y, n) + n);
-        let (y, rest) = point(y, scratch.entries(), n);
-        Equations::kappa_quadratic(self, w, r, y, rest)
-    }
-    /// [`Equations::local_motion`].
-    #[inline(always)]
-    fn local_motion_lanes<Sd: Simd>(&self, v: &[Lanes<Sd>], a: &[Lanes<Sd>]) -> Option<Lanes<Sd>> {
-        Equations::local_motion(self, &[], v, a)
+    fn is_unit(&self) -> bool {
+        false
     }
 }
 
@@ -380,36 +385,14 @@ pub(crate) fn displace_in_passes<E: Equations, T: Real, W: InverseMassOf<T>>(
 
 /// Whether the kappa system of `equations` is a quadratic in gamma: m = 1 and g quadratic.
 #[inline(always)]
-fn has_kappa_quadratic<E: Equations>(equations: &E) -> bool {
+pub(crate) fn has_kappa_quadratic<E: Equations>(equations: &E) -> bool {
     equations.is_quadratic() && Equations::n_constraints(equations) == 1
 }
 
-/// One path's mass.
-struct OnePath<'a, M>(&'a M);
-
-impl<M: Mass> InverseMassOf<f64> for OnePath<'_, M> {
+/// A diagonal M^-1, entry by entry (the engines' lanes).
+impl<T: Real> InverseMassOf<T> for InverseMass {
     #[inline(always)]
-    fn apply_inverse(&self, x: &mut [f64]) {
-        self.0.apply_inverse(x);
-    }
-    #[inline(always)]
-    fn diagonal_entry(&self, k: usize) -> Option<f64> {
-        if M::DIAGONAL {
-            self.0.inverse_diagonal_entry(k)
-        } else {
-            None
-        }
-    }
-    #[inline(always)]
-    fn inverse_inner(&self, a: &[f64], b: &[f64], scratch: &mut [f64]) -> f64 {
-        self.0.inverse_inner(a, b, scratch)
-    }
-}
-
-/// A diagonal M^-1 over lanes, entry by entry.
-impl<Sd: Simd> InverseMassOf<Lanes<Sd>> for InverseMass {
-    #[inline(always)]
-    fn apply_inverse(&self, x: &mut [Lanes<Sd>]) {
+    fn apply_inverse(&self, x: &mut [T]) {
         for (k, xk) in x.iter_mut().enumerate() {
             *xk = self.apply(k, *xk);
         }
@@ -418,9 +401,17 @@ impl<Sd: Simd> InverseMassOf<Lanes<Sd>> for InverseMass {
     fn diagonal_entry(&self, k: usize) -> Option<f64> {
         Some(self.entry(k))
     }
+    #[inline(always)]
+    fn diagonal_product(&self, k: usize, x: T) -> T {
+        self.apply(k, x)
+    }
+    #[inline(always)]
+    fn is_unit(&self) -> bool {
+        InverseMass::is_unit(self)
+    }
     /// sum_k a_k b_k (M^-1)_kk, in order (`Mass::inverse_inner` of a diagonal mass).
     #[inline(always)]
-    fn inverse_inner(&self, a: &[Lanes<Sd>], b: &[Lanes<Sd>], _: &mut [Lanes<Sd>]) -> Lanes<Sd> {
+    fn inverse_inner(&self, a: &[T], b: &[T], _: &mut [T]) -> T {
         let mut sum = a[0].splat_like(-0.0);
         for (k, (x, y)) in a.iter().zip(b).enumerate() {
             sum = sum + *x * *y * self.entry(k);
@@ -518,16 +509,16 @@ pub fn kappa_coefficients<E: Equations, T: Real, W: InverseMassOf<T>>(
 
 /// The scratch entries [`point`] takes: none where `x` is stored, n where it is formed.
 #[inline(always)]
-fn point_len<Sd: Simd, P: PointLanes<Sd> + ?Sized>(x: &P, n: usize) -> usize {
+fn point_len<T: Real, P: Point<T> + ?Sized>(x: &P, n: usize) -> usize {
     if x.stored().is_some() { 0 } else { n }
 }
 
 /// The n coordinates of `x` as a slice: `x` itself where it is stored, else formed into the
 /// first n entries of `scratch`; and the rest of `scratch`.
 #[inline(always)]
-fn point<'a, Sd: Simd, P: PointLanes<Sd> + ?Sized>(
-    x: &'a P, scratch: &'a mut [Lanes<Sd>], n: usize,
-) -> (&'a [Lanes<Sd>], &'a mut [Lanes<Sd>]) {
+fn point<'a, T: Real, P: Point<T> + ?Sized>(
+    x: &'a P, scratch: &'a mut [T], n: usize,
+) -> (&'a [T], &'a mut [T]) {
     match x.stored() {
         Some(x) => (&x[..n], scratch),
         None => {
@@ -551,7 +542,7 @@ const SMALL_SCRATCH: usize = 16;
 /// T ([`Scratch::take`]), given back when dropped; so a steady state allocates nothing.
 /// While the thread's buffer is taken, another of the same type (a nested use) is a buffer
 /// of its own.
-enum Scratch<T: Real> {
+pub(crate) enum Scratch<T: Real> {
     /// `len` <= [`SMALL_SCRATCH`] values on the stack.
     Small([T; SMALL_SCRATCH], usize),
     /// The thread's buffer and `len`.
@@ -561,7 +552,7 @@ enum Scratch<T: Real> {
 impl<T: Real> Scratch<T> {
     /// `len` values of the kind of `like` (their content unspecified).
     #[inline(always)]
-    fn take(like: T, len: usize) -> Self {
+    pub(crate) fn take(like: T, len: usize) -> Self {
         let zero = like.splat_like(0.0);
         if len <= SMALL_SCRATCH {
             return Self::Small([zero; SMALL_SCRATCH], len);
@@ -580,7 +571,7 @@ impl<T: Real> Scratch<T> {
     }
     /// The values.
     #[inline(always)]
-    fn entries(&mut self) -> &mut [T] {
+    pub(crate) fn entries(&mut self) -> &mut [T] {
         match self {
             Self::Small(values, len) => &mut values[..*len],
             Self::Thread(buffer, len) => &mut buffer[..*len],

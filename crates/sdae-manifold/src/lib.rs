@@ -39,6 +39,8 @@ mod hypersurface;
 pub mod lane_form;
 mod mass;
 mod newton_only;
+mod one_path;
+mod point;
 mod roundoff;
 mod shape;
 mod sphere;
@@ -55,8 +57,8 @@ pub use constraint::{
     motion_measure, scratch_len,
 };
 pub use equations::{
-    Equations, InverseMassOf, cross_gram as cross_gram_by_products, kappa_coefficients,
-    offer_closed_form,
+    Equations, FactorOf, GramOf, InverseMassOf, cross_gram as cross_gram_by_products,
+    kappa_coefficients, offer_closed_form, offer_newton,
 };
 pub use error::{
     LinearError, ManifoldError, check_at_least, check_finite, check_len, check_positive,
@@ -66,8 +68,8 @@ pub use factor::{
     RightHandSide, ScalarFactor, Solve, ThomasFactor, TridiagonalFactor,
 };
 pub use gram::{DenseGram, GramMatrix, GramStructure, ScalarGram, SquareMatrix, TridiagonalGram};
-pub use hypersurface::{CurvedSurface, Hypersurface, Surface};
-pub use lane_form::{ConstraintLanes, LaneFormVisitor};
+pub use hypersurface::{Hypersurface, Surface};
+pub use lane_form::{LaneFormVisitor, Point};
 pub use mass::{DenseMass, DiagonalMass, IdentityMass, Mass};
 pub use newton_only::NewtonOnly;
 pub use roundoff::Roundoff;

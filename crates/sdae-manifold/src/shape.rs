@@ -8,7 +8,7 @@ use crate::gram::{DenseGram, GramStructure, ScalarGram, SquareMatrix, Tridiagona
 
 /// The structure of a Gram matrix as a type: its storage and the factorization run in lanes,
 /// for every number type. A constraint's lane form names its shape
-/// ([`ConstraintLanes::Shape`](crate::ConstraintLanes::Shape)).
+/// ([`Equations::Shape`](crate::Equations::Shape)).
 pub trait GramShape: Send + Sync + 'static {
     /// The structure.
     const STRUCTURE: GramStructure;

@@ -4,9 +4,10 @@
 use sdae_lanes::Real;
 
 use crate::constraint::{TheoryBound, motion_measure};
-use crate::equations::{Equations, InverseMassOf, displace_in_passes, offer_closed_form};
+use crate::equations::{
+    Equations, InverseMassOf, LaneFormVisitor, displace_in_passes, offer_closed_form,
+};
 use crate::gram::ScalarGram;
-use crate::lane_form::LaneFormVisitor;
 use crate::mass::Mass;
 use crate::roundoff::Roundoff;
 use crate::shape::Scalar;

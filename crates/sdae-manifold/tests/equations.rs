@@ -10,10 +10,10 @@ use std::cell::Cell;
 
 use pulp::{Simd, WithSimd};
 use sdae_lanes::{LaneWidth, Lanes, Real};
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, LaneFormVisitor, PointLanes};
+use sdae_manifold::lane_form::{LaneForm, LaneFormVisitor, Point};
 use sdae_manifold::{
     Constraint, Curvature, Dense, DenseMass, DiagonalMass, Equations, Factorize, GramMatrix,
-    GramShape, Hypersurface, MatrixFactor, Scalar, Solve, SquareMatrix, Surface, Tridiagonal,
+    GramShape, Hypersurface, Mass, MatrixFactor, Scalar, Solve, SquareMatrix, Surface, Tridiagonal,
     scratch_len,
 };
 
@@ -148,8 +148,11 @@ impl Surface<2> for Ellipse {
     fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
         [x[0] * 0.25, x[1]]
     }
-    fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
-        Some(u[0] * w[0] * 0.25 + u[1] * w[1])
+    fn second_derivative<T: Real>(&self, _x: &[T; 2], u: &[T; 2], w: &[T; 2]) -> T {
+        u[0] * w[0] * 0.25 + u[1] * w[1]
+    }
+    fn is_quadratic(&self) -> bool {
+        true
     }
 }
 
@@ -319,9 +322,7 @@ fn the_kappa_closed_form_is_the_hypersurface_s() {
     let mass = diagonal_mass(2);
     let (r, y) = ([1.2, 0.8], [1.9, 0.4]);
     let ours = Constraint::kappa_quadratic(&Ellipse, &r, &y, &mass).unwrap();
-    let surface = Hypersurface::new(Ellipse)
-        .kappa_quadratic(&r, &y, &mass)
-        .unwrap();
+    let surface = Constraint::kappa_quadratic(&Hypersurface::new(Ellipse), &r, &y, &mass).unwrap();
     assert_eq!(ours.map(f64::to_bits), surface.map(f64::to_bits));
     let [c0, c1, c2] = ours;
     for gamma in [-0.7, -0.1, 0.0, 0.25, 1.5] {
@@ -348,10 +349,12 @@ impl LaneFormVisitor for Offered {
     fn none(self) -> &'static str {
         "none"
     }
-    fn newton<L: ConstraintLanes>(
-        self, build: impl FnOnce() -> Option<LaneForm<L>>,
-    ) -> &'static str {
-        if build().is_some() { "newton" } else { "none" }
+    fn newton<L: Equations, M: Mass>(self, constraint: &L, mass: &M) -> &'static str {
+        if LaneForm::new(constraint, mass).is_some() {
+            "newton"
+        } else {
+            "none"
+        }
     }
 }
 
@@ -370,7 +373,7 @@ fn a_lane_form_is_offered_for_a_diagonal_mass_only() {
 /// A point formed where it is read: a + b (as the engine's drifted point r + tau v).
 struct Sum<'a, Sd: Simd>(&'a [Lanes<Sd>], &'a [Lanes<Sd>]);
 
-impl<Sd: Simd> PointLanes<Sd> for Sum<'_, Sd> {
+impl<Sd: Simd> Point<Lanes<Sd>> for Sum<'_, Sd> {
     fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
         std::array::from_fn(|j| self.0[k + j] + self.1[k + j])
     }

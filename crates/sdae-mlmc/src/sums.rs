@@ -204,7 +204,7 @@ pub struct LevelStats {
     /// Steps of the fine path, 2^(k0 + l).
     pub steps: u64,
     /// Work per sample in steps: the fine path (twice with the antithetic option) and the
-    /// coarse path ([`LevelSampler::pair_steps`](crate::sampler::LevelSampler::pair_steps)).
+    /// coarse path (`LevelSampler::pair_steps`).
     pub work_per_sample: u64,
     /// Samples with a value.
     pub samples: u64,

@@ -3,14 +3,14 @@
 //! where it has none; a diagonal M^-1) with the constrained update of the constraint's lane
 //! form: the sphere's closed form ([`SphereRoot`], arrays of N = 2 or 3 coordinates through
 //! [`LanePaths::step_groups`](crate::engine::LanePaths::step_groups)) or Newton over its
-//! [`ConstraintLanes`] ([`NewtonRoot`], rows through
+//! [`Equations`] ([`NewtonRoot`], rows through
 //! [`LanePaths::step_wide_groups`](crate::engine::LanePaths::step_wide_groups)). Each formula
 //! is the one-path kernel's, with the same floating-point operations in the same order.
 
 use pulp::Simd;
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LaneMask, LaneWidth, Lanes, LineVec};
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, max_abs};
+use sdae_manifold::lane_form::{LaneForm, max_abs};
 use sdae_manifold::vector::sum_squares;
 use sdae_manifold::{Equations, MatrixFactor};
 
@@ -130,14 +130,14 @@ fn coordinates<Sd: Simd, const N: usize>(x: &[Lanes<Sd>]) -> &[Lanes<Sd>; N] {
 }
 
 /// Newton over a constraint's lane form ([`NewtonRoot`]).
-struct NewtonConstraint<'a, Sd: Simd, C: ConstraintLanes> {
+struct NewtonConstraint<'a, Sd: Simd, C: Equations> {
     form: &'a LaneForm<C>,
     root: &'a mut NewtonRoot<Sd, C>,
     settings: &'a SolverSettings,
     radius: f64,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> LaneConstraint<Sd> for NewtonConstraint<'_, Sd, C> {
+impl<Sd: Simd, C: Equations> LaneConstraint<Sd> for NewtonConstraint<'_, Sd, C> {
     #[inline(always)]
     fn apply_inverse_mass(&self, x: &mut [Lanes<Sd>]) {
         let w = self.form.inverse_mass();
@@ -248,7 +248,7 @@ impl<K: KernelScheme, E: Equations, const N: usize> LaneKernel<Kernelized<K>, N>
 }
 
 /// A [`Kernelized`] scheme's kernel for a constraint's lane form, with its buffers.
-pub struct NewtonKernel<Sd: Simd, C: ConstraintLanes> {
+pub struct NewtonKernel<Sd: Simd, C: Equations> {
     h: f64,
     form: LaneForm<C>,
     root: NewtonRoot<Sd, C>,
@@ -261,10 +261,8 @@ pub struct NewtonKernel<Sd: Simd, C: ConstraintLanes> {
 }
 
 impl<K: KernelScheme> NewtonKernels for Kernelized<K> {
-    type Kernel<Sd: Simd, C: ConstraintLanes> = NewtonKernel<Sd, C>;
-    fn kernel<Sd: Simd, C: ConstraintLanes>(
-        &self, simd: Sd, form: LaneForm<C>,
-    ) -> NewtonKernel<Sd, C> {
+    type Kernel<Sd: Simd, C: Equations> = NewtonKernel<Sd, C>;
+    fn kernel<Sd: Simd, C: Equations>(&self, simd: Sd, form: LaneForm<C>) -> NewtonKernel<Sd, C> {
         let (settings, radius) = self.scheme.solver();
         let (n, _) = form.dims();
         NewtonKernel {
@@ -277,7 +275,7 @@ impl<K: KernelScheme> NewtonKernels for Kernelized<K> {
             scratch: Vec::new(),
         }
     }
-    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut NewtonKernel<Sd, C>, h: f64) {
+    fn prepare<Sd: Simd, C: Equations>(&self, kernel: &mut NewtonKernel<Sd, C>, h: f64) {
         kernel.h = h;
     }
     fn lane_store(&mut self) -> &mut LaneStore {
@@ -285,7 +283,7 @@ impl<K: KernelScheme> NewtonKernels for Kernelized<K> {
     }
 }
 
-impl<K: KernelScheme, Sd: Simd, C: ConstraintLanes> WideKernel<Kernelized<K>, Sd>
+impl<K: KernelScheme, Sd: Simd, C: Equations> WideKernel<Kernelized<K>, Sd>
     for NewtonKernel<Sd, C>
 {
     #[inline(always)]

@@ -145,7 +145,7 @@ pub trait KernelScheme: Clone + Send + Sync + 'static {
 
 /// A [`KernelScheme`] as a [`Scheme`] (one path at a time, with typed failures) and a
 /// [`LaneScheme`](crate::LaneScheme) (an ensemble's paths in lanes where the constraint offers a lane form for a
-/// diagonal mass: a sphere of dimension 2 or 3, or [`ConstraintLanes`](sdae_manifold::ConstraintLanes)).
+/// diagonal mass: a sphere of dimension 2 or 3, or [`Equations`](sdae_manifold::Equations)).
 #[derive(Debug, Clone)]
 pub struct Kernelized<K: KernelScheme> {
     pub(crate) scheme: K,

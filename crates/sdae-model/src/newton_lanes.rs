@@ -1,5 +1,5 @@
 //! The way a scheme steps the paths of a system whose constraint offers formulas over lanes
-//! ([`ConstraintLanes`]: bead chains, rigid bonds, a user's constraint) with a diagonal mass,
+//! ([`Equations`]: bead chains, rigid bonds, a user's constraint) with a diagonal mass,
 //! shared by the schemes whose lane form is a [`WideKernel`] per lane form: build the lane form
 //! when the ensemble first steps, keep it with the kernel's buffers in the scheme's
 //! [`LaneStore`] between steps, and step every group of lanes
@@ -10,7 +10,8 @@ use std::marker::PhantomData;
 use pulp::{Simd, WithSimd};
 use sdae_lanes::LaneWidth;
 use sdae_manifold::Constraint;
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm, LaneFormVisitor};
+use sdae_manifold::lane_form::{LaneForm, LaneFormVisitor};
+use sdae_manifold::{Equations, Mass};
 
 use crate::lane_ensemble::{LanePaths, LaneRows, LaneStore, StepInput, WideKernel};
 use crate::newton_root::build_lane_form;
@@ -20,13 +21,13 @@ use crate::system::System;
 /// A scheme with a [`WideKernel`] for every lane form of a constraint.
 pub trait NewtonKernels: Scheme + Sized {
     /// The kernel for the lane form C at the instruction set Sd, with its buffers.
-    type Kernel<Sd: Simd, C: ConstraintLanes>: WideKernel<Self, Sd> + Send + Sync + 'static;
+    type Kernel<Sd: Simd, C: Equations>: WideKernel<Self, Sd> + Send + Sync + 'static;
     /// The kernel for `constraint`'s lane form.
-    fn kernel<Sd: Simd, C: ConstraintLanes>(
+    fn kernel<Sd: Simd, C: Equations>(
         &self, simd: Sd, constraint: LaneForm<C>,
     ) -> Self::Kernel<Sd, C>;
     /// Sets the kernel's numbers for a step of size h (before each step).
-    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Self::Kernel<Sd, C>, h: f64);
+    fn prepare<Sd: Simd, C: Equations>(&self, kernel: &mut Self::Kernel<Sd, C>, h: f64);
     /// Where the scheme keeps the kernel and its buffers between steps.
     fn lane_store(&mut self) -> &mut LaneStore;
 }
@@ -35,7 +36,7 @@ pub trait NewtonKernels: Scheme + Sized {
 /// system's constraint offered ([`LaneFormVisitor::newton`](sdae_manifold::lane_form::LaneFormVisitor::newton)),
 /// at the instruction set of `width`: `false`, having changed nothing, if the constraint
 /// offers no such form for this mass after all.
-pub fn step_newton_lanes<Sch: NewtonKernels, C: ConstraintLanes>(
+pub fn step_newton_lanes<Sch: NewtonKernels, C: Equations>(
     scheme: &mut Sch, paths: &mut LanePaths, width: LaneWidth, input: StepInput<'_>,
 ) -> bool {
     width.dispatch(StepAll {
@@ -54,7 +55,7 @@ struct StepAll<'a, Sch, C> {
     constraint: PhantomData<C>,
 }
 
-impl<Sch: NewtonKernels, C: ConstraintLanes> WithSimd for StepAll<'_, Sch, C> {
+impl<Sch: NewtonKernels, C: Equations> WithSimd for StepAll<'_, Sch, C> {
     type Output = bool;
     #[inline(always)]
     fn with_simd<Sd: Simd>(self, simd: Sd) -> bool {
@@ -109,10 +110,8 @@ impl<Sch: NewtonKernels> LaneFormVisitor for Offered<Sch> {
     fn none(self) -> Self::Output {
         None
     }
-    fn newton<L: ConstraintLanes>(
-        self, build: impl FnOnce() -> Option<LaneForm<L>>,
-    ) -> Self::Output {
-        let _ = build;
+    fn newton<L: Equations, M: Mass>(self, constraint: &L, mass: &M) -> Self::Output {
+        let _ = (constraint, mass);
         Some(step_newton_lanes::<Sch, L>)
     }
 }

@@ -1,5 +1,5 @@
 //! The kappa root over W lanes by Newton's method, for a constraint that offers its formulas
-//! over lanes ([`ConstraintLanes`]) with a diagonal mass: the root gamma connected to 0 of
+//! over lanes ([`Equations`]) with a diagonal mass: the root gamma connected to 0 of
 //! R(gamma) = g(y + M^-1 grad g(r) gamma) (seed eq. 3.1 upper part, eq. 3.10), Newton from
 //! gamma = 0 with a convergence mask per lane, and the ball solver's certificate (the ball,
 //! the plausibility bound, the contraction probes): the iteration and certificate of
@@ -23,17 +23,16 @@ use sdae_ift::{
     quadratic_root,
 };
 use sdae_lanes::{LaneMask, Lanes, LineVec};
-use sdae_manifold::lane_form::{
-    ConstraintLanes, Factor, Jacobian, LaneForm, LaneFormVisitor, PointLanes, active_any,
-};
-use sdae_manifold::{Constraint, MatrixFactor, SquareMatrix};
+use sdae_manifold::Equations;
+use sdae_manifold::lane_form::{Factor, Jacobian, LaneForm, LaneFormVisitor, Point, active_any};
+use sdae_manifold::{Constraint, Mass, MatrixFactor, SquareMatrix};
 
 use crate::system::System;
 
 /// The lane form C that the system's constraint offers for its mass
 /// ([`LaneFormVisitor::newton`]), built when an ensemble first steps; `None` where it offers
 /// another (or none for this mass).
-pub fn build_lane_form<C: ConstraintLanes, S: System>(system: &S) -> Option<LaneForm<C>> {
+pub fn build_lane_form<C: Equations, S: System>(system: &S) -> Option<LaneForm<C>> {
     system
         .constraint()
         .lane_form(system.mass(), Build::<C>(PhantomData))
@@ -42,16 +41,14 @@ pub fn build_lane_form<C: ConstraintLanes, S: System>(system: &S) -> Option<Lane
 /// [`build_lane_form`]'s visitor.
 struct Build<C>(PhantomData<C>);
 
-impl<C: ConstraintLanes> LaneFormVisitor for Build<C> {
+impl<C: Equations> LaneFormVisitor for Build<C> {
     type Output = Option<LaneForm<C>>;
     fn none(self) -> Option<LaneForm<C>> {
         None
     }
-    fn newton<L: ConstraintLanes>(
-        self, build: impl FnOnce() -> Option<LaneForm<L>>,
-    ) -> Option<LaneForm<C>> {
+    fn newton<L: Equations, M: Mass>(self, constraint: &L, mass: &M) -> Option<LaneForm<C>> {
         // A constraint offers one lane form: L is C where C was chosen from its offer.
-        let built: Box<dyn Any> = Box::new(build()?);
+        let built: Box<dyn Any> = Box::new(LaneForm::new(constraint, mass)?);
         built.downcast::<LaneForm<C>>().ok().map(|form| *form)
     }
 }
@@ -85,7 +82,7 @@ impl<Sd: Simd> Drifted<'_, Sd> {
     }
 }
 
-impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
+impl<Sd: Simd> Point<Lanes<Sd>> for Drifted<'_, Sd> {
     #[inline(always)]
     fn coords<const N: usize>(&self, k: usize) -> [Lanes<Sd>; N] {
         let (r, v) = (self.r.coords::<N>(k), self.v.coords::<N>(k));
@@ -98,7 +95,7 @@ impl<Sd: Simd> PointLanes<Sd> for Drifted<'_, Sd> {
 }
 
 /// The buffers of the root of W lanes for constraint C.
-pub struct NewtonRoot<Sd: Simd, C: ConstraintLanes> {
+pub struct NewtonRoot<Sd: Simd, C: Equations> {
     simd: Sd,
     /// The point x = y + M^-1 grad g(r) gamma of the last evaluation: the root's point in the
     /// lanes whose root is not 0 ([`NewtonRoot::point`] takes y in the others).
@@ -136,7 +133,7 @@ pub struct NewtonLanes<Sd: Simd> {
 /// The kappa system of W lanes at y as the [`NewtonSystem`] of [`newton_from_zero`]: x = y +
 /// M^-1 grad g(r) gamma, R(gamma) = g(x) and J(gamma) = Dg(x) M^-1 grad g(r) from the
 /// constraint's lane formulas, J(0) factored into `factor_at_zero`, the others into `factor`.
-struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> {
+struct KappaLanes<'a, Sd: Simd, C: Equations, Y: Point<Lanes<Sd>> + ?Sized> {
     constraint: &'a LaneForm<C>,
     r: &'a [Lanes<Sd>],
     y: &'a Y,
@@ -149,7 +146,7 @@ struct KappaLanes<'a, Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> 
     at_zero: bool,
 }
 
-impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> NewtonSystem<Lanes<Sd>>
+impl<Sd: Simd, C: Equations, Y: Point<Lanes<Sd>> + ?Sized> NewtonSystem<Lanes<Sd>>
     for KappaLanes<'_, Sd, C, Y>
 {
     #[inline(always)]
@@ -192,7 +189,7 @@ impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> NewtonSystem<Lane
 }
 
 /// J(0)^-1 J(gamma*) over lanes from J(gamma*) and J(0)'s factors ([`ProbeMap`]).
-impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> ProbeMap<Lanes<Sd>>
+impl<Sd: Simd, C: Equations, Y: Point<Lanes<Sd>> + ?Sized> ProbeMap<Lanes<Sd>>
     for KappaLanes<'_, Sd, C, Y>
 {
     #[inline(always)]
@@ -202,7 +199,7 @@ impl<Sd: Simd, C: ConstraintLanes, Y: PointLanes<Sd> + ?Sized> ProbeMap<Lanes<Sd
     }
 }
 
-impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
+impl<Sd: Simd, C: Equations> NewtonRoot<Sd, C> {
     /// Buffers for `constraint`'s dimensions.
     pub fn new(simd: Sd, constraint: &LaneForm<C>) -> Self {
         let (n, m) = constraint.dims();
@@ -233,7 +230,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// `settings.probes(radius)` is 0.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub fn solve<Y: PointLanes<Sd> + ?Sized>(
+    pub fn solve<Y: Point<Lanes<Sd>> + ?Sized>(
         &mut self, constraint: &LaneForm<C>, settings: &SolverSettings, radius: f64,
         r: &[Lanes<Sd>], y: &Y, max_abs_y: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
@@ -294,7 +291,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// residual at its point x within the tolerance, J(gamma*) factored and not contracting.
     /// Its point is in `x` (y where the root is 0).
     #[inline(always)]
-    fn closed_form<Y: PointLanes<Sd> + ?Sized>(
+    fn closed_form<Y: Point<Lanes<Sd>> + ?Sized>(
         &mut self, constraint: &LaneForm<C>, (settings, radius): (&SolverSettings, f64),
         r: &[Lanes<Sd>], y: &Y, root: QuadraticRoot<Lanes<Sd>>, tolerance: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
@@ -330,7 +327,7 @@ impl<Sd: Simd, C: ConstraintLanes> NewtonRoot<Sd, C> {
     /// The root's point in every lane: y where the root is 0 (most often no lane's is), x
     /// elsewhere, into `x`.
     #[inline(always)]
-    pub fn point<Y: PointLanes<Sd> + ?Sized>(&mut self, root: &NewtonLanes<Sd>, y: &Y) {
+    pub fn point<Y: Point<Lanes<Sd>> + ?Sized>(&mut self, root: &NewtonLanes<Sd>, y: &Y) {
         if active_any(root.at_zero) {
             for (k, x) in self.x.iter_mut().enumerate() {
                 *x = Lanes::select(root.at_zero, y.coords::<1>(k)[0], *x);

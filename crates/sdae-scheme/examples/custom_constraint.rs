@@ -51,6 +51,19 @@ impl Surface<3> for Torus {
         let s = (rho - self.major) / (rho * self.minor);
         [s * x[0], s * x[1], x[2] / self.minor]
     }
+    /// D^2 g(x)(u, w) = ((n.u)(n.w) + (rho - R) / rho (u.w - (n.u)(n.w)) in the x-y plane
+    /// + u_z w_z) / a, n = (x, y) / rho.
+    #[inline(always)]
+    fn second_derivative<T: Real>(&self, x: &[T; 3], u: &[T; 3], w: &[T; 3]) -> T {
+        let rho = (x[0] * x[0] + x[1] * x[1]).sqrt();
+        let (nu, nw) = (
+            (x[0] * u[0] + x[1] * u[1]) / rho,
+            (x[0] * w[0] + x[1] * w[1]) / rho,
+        );
+        let plane = u[0] * w[0] + u[1] * w[1];
+        let radial = nu * nw;
+        (radial + (rho - self.major) / rho * (plane - radial) + u[2] * w[2]) / self.minor
+    }
     /// g is a length: rounding leaves a few ulps of the coordinates.
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(1.0)

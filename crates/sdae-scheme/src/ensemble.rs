@@ -27,7 +27,7 @@ use crate::stepper::Stepper;
 /// root outside the ball or not contracting, a non-finite value) finishes its step through the
 /// scalar [`Stepper`], which reports the failure exactly as for one path. For a constraint
 /// that offers its formulas over lanes ([`Constraint::lane_form`](sdae_manifold::Constraint::lane_form) with a
-/// [`ConstraintLanes`](sdae_manifold::ConstraintLanes): a bead chain ([`BeadChain`](sdae_manifold::BeadChain): the chain
+/// [`Equations`](sdae_manifold::Equations): a bead chain ([`BeadChain`](sdae_manifold::BeadChain): the chain
 /// molecule, the fiber), rigid bonds ([`RigidBonds`](sdae_manifold::RigidBonds) of up to
 /// [`DENSE_FAER_THRESHOLD`](sdae_manifold::DENSE_FAER_THRESHOLD) bonds: the rigid triatomic,
 /// any bond network), or a user's constraint, as in `examples/custom_constraint.rs`) with a

@@ -1,5 +1,5 @@
 //! The splitting step over W lanes for a constraint that offers its formulas over lanes
-//! ([`ConstraintLanes`]: the bead chain, rigid bonds, a user's constraint) with a diagonal mass:
+//! ([`Equations`]: the bead chain, rigid bonds, a user's constraint) with a diagonal mass:
 //! the SHAKE projection's root by Newton with a convergence mask per lane ([`NewtonRoot`], the
 //! kappa system at y = r + tau v without a ball), the RATTLE projection's multiplier from
 //! G_M(r) lambda = -Dg(r) v with G_M(r) = Dg(r) M^-1 grad g(r) (the Newton matrix at x = r,
@@ -14,7 +14,8 @@
 use pulp::{Simd, WithSimd};
 use sdae_ift::SolverSettings;
 use sdae_lanes::{LANE_BLOCK, LaneMask, Lanes, LineVec};
-use sdae_manifold::lane_form::{ConstraintLanes, Factor, Jacobian, LaneForm, max_abs};
+use sdae_manifold::Equations;
+use sdae_manifold::lane_form::{Factor, Jacobian, LaneForm, max_abs};
 use sdae_manifold::{GramShape, GramStructure, MatrixFactor, SquareMatrix};
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonRoot, WideKernel,
@@ -29,13 +30,11 @@ use crate::kernel::{
 use crate::splitting::Splitting;
 
 impl<S: System> NewtonKernels for Splitting<S> {
-    type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
-    fn kernel<Sd: Simd, C: ConstraintLanes>(
-        &self, simd: Sd, constraint: LaneForm<C>,
-    ) -> Kernel<Sd, C> {
+    type Kernel<Sd: Simd, C: Equations> = Kernel<Sd, C>;
+    fn kernel<Sd: Simd, C: Equations>(&self, simd: Sd, constraint: LaneForm<C>) -> Kernel<Sd, C> {
         Kernel::new(simd, constraint)
     }
-    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
+    fn prepare<Sd: Simd, C: Equations>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
         kernel.lanes.constants = Constants::new(self, h);
     }
     fn lane_store(&mut self) -> &mut LaneStore {
@@ -64,7 +63,7 @@ impl Constants {
 
 /// The step body's kernel over a group's lanes ([`NewtonLanes`]), a projection's multiplier
 /// and the groups' end points.
-pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
+pub struct Kernel<Sd: Simd, C: Equations> {
     lanes: NewtonLanes<Sd, C>,
     /// A projection's multiplier (m rows).
     lambda: LineVec<Lanes<Sd>>,
@@ -76,7 +75,7 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
 
 /// The step body's kernel over W lanes for a constraint's lane form: its constants, the SHAKE
 /// root and the buffers of one group's step.
-struct NewtonLanes<Sd: Simd, C: ConstraintLanes> {
+struct NewtonLanes<Sd: Simd, C: Equations> {
     simd: Sd,
     constants: Constants,
     constraint: LaneForm<C>,
@@ -98,7 +97,7 @@ struct NewtonLanes<Sd: Simd, C: ConstraintLanes> {
 
 /// Whether C's G_M is 1 x 1: the RATTLE multiplier is then the quotient by G_M itself, which
 /// an end point keeps with its factors.
-const fn scalar<C: ConstraintLanes>() -> bool {
+const fn scalar<C: Equations>() -> bool {
     matches!(<C::Shape as GramShape>::STRUCTURE, GramStructure::Scalar)
 }
 
@@ -109,7 +108,7 @@ const END_POINTS_BYTES: usize = 64 << 20;
 /// What a group's last step left at its end point r_{k+1}: F(r_{k+1}) and the factors of
 /// G_M(r_{k+1}) (with G_M(r_{k+1}) itself where it is 1 x 1), the first things its next step
 /// needs (the kick and RATTLE at r_k). The scalar step keeps the same for one path.
-struct EndPoint<Sd: Simd, C: ConstraintLanes> {
+struct EndPoint<Sd: Simd, C: Equations> {
     /// r_{k+1}, row by row (W values per coordinate); empty until the group's first step.
     r: Vec<f64>,
     force: LineVec<Lanes<Sd>>,
@@ -117,7 +116,7 @@ struct EndPoint<Sd: Simd, C: ConstraintLanes> {
     gram: Option<Jacobian<Sd, C>>,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
+impl<Sd: Simd, C: Equations> Kernel<Sd, C> {
     fn new(simd: Sd, constraint: LaneForm<C>) -> Self {
         let (n, m) = constraint.dims();
         let zero = Lanes::splat(simd, 0.0);
@@ -201,7 +200,7 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
 
 /// Swaps F(r), G_M(r)'s factors (and G_M(r) where kept) between the kernel and an end point.
 #[inline(always)]
-fn swap_end_point<Sd: Simd, C: ConstraintLanes>(
+fn swap_end_point<Sd: Simd, C: Equations>(
     lanes: &mut NewtonLanes<Sd, C>, end: &mut EndPoint<Sd, C>,
 ) {
     std::mem::swap(&mut lanes.force, &mut end.force);
@@ -211,7 +210,7 @@ fn swap_end_point<Sd: Simd, C: ConstraintLanes>(
     }
 }
 
-impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd, C> {
+impl<Sd: Simd, C: Equations> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd, C> {
     type Rows = LineVec<Lanes<Sd>>;
     type Failure = NoLaneForm;
     #[inline(always)]
@@ -324,14 +323,14 @@ impl<Sd: Simd, C: ConstraintLanes> SplittingKernel<Lanes<Sd>> for NewtonLanes<Sd
 
 /// [`drift_and_thermostat`] as an operation `Simd::vectorize` compiles as a function of its
 /// own with the caller's instruction set (a closure would not inherit it).
-struct Middle<'a, 'm, Sd: Simd, C: ConstraintLanes> {
+struct Middle<'a, 'm, Sd: Simd, C: Equations> {
     lanes: &'a mut NewtonLanes<Sd, C>,
     motion: &'a mut Motion<'m, Lanes<Sd>, LineVec<Lanes<Sd>>>,
     dw: &'a [Lanes<Sd>],
     factored: bool,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> WithSimd for Middle<'_, '_, Sd, C> {
+impl<Sd: Simd, C: Equations> WithSimd for Middle<'_, '_, Sd, C> {
     type Output = Result<(), NoLaneForm>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> Result<(), NoLaneForm> {
@@ -339,7 +338,7 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for Middle<'_, '_, Sd, C> {
     }
 }
 
-impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Splitting<S>, Sd> for Kernel<Sd, C> {
+impl<S: System, Sd: Simd, C: Equations> WideKernel<Splitting<S>, Sd> for Kernel<Sd, C> {
     /// [`Splitting`]'s B A O A B ([`kernel::step`]) for W lanes from `state` = (r_k, v_k) into
     /// `rows`.
     #[inline(always)]

@@ -23,7 +23,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use sdae_lanes::{LaneWidth, Real};
-use sdae_manifold::{CurvedSurface, Hypersurface, IdentityMass, Surface};
+use sdae_manifold::{Hypersurface, IdentityMass, Surface};
 use sdae_model::{
     AdditiveNoise, KernelNext, KernelOutcome, KernelScheme, KernelState, Kernelized, LaneEnsemble,
     MechanicalSystem, PathEnsemble, PathState, StepFailure, StepKernel, System,
@@ -259,10 +259,8 @@ impl Surface<2> for Ellipse {
     fn gradient<T: Real>(&self, x: &[T; 2]) -> [T; 2] {
         [x[0] / A2, x[1] / B2]
     }
-}
-
-impl CurvedSurface<2> for Ellipse {
-    fn second_derivative(&self, _x: &[f64; 2], u: &[f64; 2], w: &[f64; 2]) -> f64 {
+    #[inline(always)]
+    fn second_derivative<T: Real>(&self, _x: &[T; 2], u: &[T; 2], w: &[T; 2]) -> T {
         u[0] * w[0] / A2 + u[1] * w[1] / B2
     }
 }

@@ -76,7 +76,7 @@ pub struct ConvergenceSettings {
     pub time_averaged: Option<String>,
     /// The reference also runs at 2^(`reference` - 1) steps on the same paths, its
     /// observables recorded beside the reference's (the weak study's Richardson-extrapolated
-    /// reference and its bias bound, [`crate::weak`]); needs observables and a reference.
+    /// reference and its bias bound, the weak study); needs observables and a reference.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub paired_reference: bool,
     /// Randomized quasi-Monte Carlo paths (the weak study's `--qmc`): R randomizations of

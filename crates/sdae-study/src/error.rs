@@ -1,7 +1,7 @@
 //! The one error type of the studies: scene files, settings, schemes, shards and output.
 //!
 //! Settings are named by their key in a scene file (`study.paths`) or, for those a scene file
-//! does not hold, by their field in [`ConvergenceSettings`](crate::convergence::ConvergenceSettings)
+//! does not hold, by their field in `ConvergenceSettings`
 //! (`p`, `threads`); the command line names them by its flags where the user typed the value
 //! there.
 
@@ -123,8 +123,11 @@ pub enum StudyError {
     },
     /// A scene names an observable its system does not have.
     #[error(
-        "scene {scene}: no observable '{name}'{hint} (observables of this system: {known})",
-        hint = nearest.as_ref().map_or(String::new(), |n| format!("; did you mean '{n}'?"))
+        "scene {scene}: no observable '{name}'{hint} (observables of this system: {known}){why}",
+        hint = nearest.as_ref().map_or(String::new(), |n| format!("; did you mean '{n}'?")),
+        why = refusal.as_ref().map_or(String::new(), |r| format!(
+            "; as an expression of the coordinates and velocities it is refused:\n{r}"
+        ))
     )]
     UnknownObservable {
         /// The scene's name.
@@ -135,6 +138,10 @@ pub enum StudyError {
         nearest: Option<String>,
         /// The system's observables, comma-separated.
         known: String,
+        /// For a system written as expressions: the compiler's refusal of the name as an
+        /// expression of the coordinates and velocities (a parse error's text and caret line
+        /// on lines of their own).
+        refusal: Option<String>,
     },
     /// A scene names an observable that reads an output the scene does not compute.
     #[error(

@@ -96,7 +96,8 @@ pub fn check(scene: &Scene, name: &str) -> Result<(), StudyError> {
 /// code), whatever outputs the scene computes: a time average reads the state as the
 /// paths go, not a recorded output. For a system written as expressions, a name that is none
 /// of its observables is compiled as an expression of the coordinates and velocities; a text
-/// that does not compile is refused as an unknown name with the compiler's message below it.
+/// that does not compile is refused as an unknown name with the compiler's message below it
+/// (`StudyError::UnknownObservable` with its `refusal`).
 pub fn check_known(scene: &Scene, name: &str) -> Result<(), StudyError> {
     if matches!(scene.system, SystemSpec::Custom(_)) {
         return Ok(());
@@ -114,34 +115,18 @@ pub fn check_known(scene: &Scene, name: &str) -> Result<(), StudyError> {
     }
     let compiled = scene.system.visit(Expression(name)).ok().flatten();
     let candidates: Vec<&str> = known.iter().map(String::as_str).collect();
-    let unknown = |name: String| StudyError::UnknownObservable {
+    let unknown = |refusal: Option<String>| StudyError::UnknownObservable {
         scene: scene.name.clone(),
-        nearest: nearest(&name, &candidates).map(str::to_string),
-        name,
+        nearest: nearest(name, &candidates).map(str::to_string),
+        name: name.to_string(),
         known: known.join(", "),
+        refusal,
     };
     match compiled {
         Some(Ok(())) => Ok(()),
-        // The name is shown escaped: the refusal is the scene's, not one that names it.
-        Some(Err(refusal)) => Err(not_compiled(
-            scene,
-            &unknown(crate::scene::escaped(name)),
-            &refusal,
-        )),
-        None => Err(unknown(name.to_string())),
+        Some(Err(refusal)) => Err(unknown(Some(refusal))),
+        None => Err(unknown(None)),
     }
-}
-
-/// The refusal `unknown` of a name that is not an observable of the scene's system by name,
-/// with the compiler's `refusal` of it as an expression below it (a parse error's text and
-/// caret line on lines of their own, the caret under the text).
-fn not_compiled(scene: &Scene, unknown: &StudyError, refusal: &str) -> StudyError {
-    let unknown = unknown.to_string();
-    let prefix = format!("scene {}: ", scene.name);
-    let unknown = unknown.strip_prefix(&prefix).unwrap_or(&unknown);
-    scene.invalid(format!(
-        "{unknown}; as an expression of the coordinates and velocities it is refused:\n{refusal}"
-    ))
 }
 
 /// An output as a scene file spells it.
@@ -212,6 +197,7 @@ where
             name: name.to_string(),
             nearest: None,
             known: names_for(&scene.system).join(", "),
+            refusal: None,
         })?;
     Ok(Observable::from_boxed(name, f))
 }

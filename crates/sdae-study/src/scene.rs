@@ -296,7 +296,7 @@ with_study_defaults! {
     #[serde(deny_unknown_fields)]
     pub struct WeakSpec {
         /// Observables of the scene's system (see
-        /// [`observable::names_for`](crate::observable::names_for); for a system written as
+        /// `observable::names_for`; for a system written as
         /// expressions, also expressions of its coordinates and velocities).
         pub observables: Vec<String>,
         /// Exact values of E[f(X_T)] for some of the observables, by name: the weak error is

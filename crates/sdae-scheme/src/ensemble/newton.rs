@@ -5,7 +5,7 @@
 //! contraction probes), and the velocity update with lambda from Dg(r') M^-1 grad g(r)
 //! lambda = -Dg(r') v~ (eq. 3.1 lower part), whose matrix is the Newton matrix at the root.
 //! The kernel is written once for every such constraint; a constraint brings its formulas
-//! over lanes ([`ConstraintLanes`] through [`Constraint::lane_form`]: g, the Newton matrix, the
+//! over lanes ([`Equations`] through [`Constraint::lane_form`]: g, the Newton matrix, the
 //! displacement, Dg u, the local measure of the motion) and the factorization of its Newton
 //! matrix ([`MatrixFactor`]): `sdae_manifold::lane_form` has the bead chain's and rigid bonds'.
 //!
@@ -23,8 +23,9 @@ use std::convert::Infallible;
 
 use pulp::{Simd, WithSimd};
 use sdae_lanes::{LaneMask, Lanes};
+use sdae_manifold::Equations;
 use sdae_manifold::MatrixFactor;
-use sdae_manifold::lane_form::{ConstraintLanes, LaneForm};
+use sdae_manifold::lane_form::LaneForm;
 use sdae_manifold::vector::sum_squares;
 use sdae_model::engine::{
     Drifted, GroupState, LaneRecord, LaneRows, LaneStore, NewtonKernels, NewtonLanes, NewtonRoot,
@@ -37,13 +38,11 @@ use crate::step::{HalfExplicitKernel, Update, half_explicit_step, lane_record};
 use crate::stepper::Stepper;
 
 impl<S: System> NewtonKernels for Stepper<S> {
-    type Kernel<Sd: Simd, C: ConstraintLanes> = Kernel<Sd, C>;
-    fn kernel<Sd: Simd, C: ConstraintLanes>(
-        &self, simd: Sd, constraint: LaneForm<C>,
-    ) -> Kernel<Sd, C> {
+    type Kernel<Sd: Simd, C: Equations> = Kernel<Sd, C>;
+    fn kernel<Sd: Simd, C: Equations>(&self, simd: Sd, constraint: LaneForm<C>) -> Kernel<Sd, C> {
         Kernel::new(simd, constraint)
     }
-    fn prepare<Sd: Simd, C: ConstraintLanes>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
+    fn prepare<Sd: Simd, C: Equations>(&self, kernel: &mut Kernel<Sd, C>, h: f64) {
         kernel.h = h;
     }
     fn lane_store(&mut self) -> &mut LaneStore {
@@ -52,7 +51,7 @@ impl<S: System> NewtonKernels for Stepper<S> {
 }
 
 /// The constraint's lane form and the buffers of one group's step.
-pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
+pub struct Kernel<Sd: Simd, C: Equations> {
     simd: Sd,
     h: f64,
     constraint: LaneForm<C>,
@@ -62,7 +61,7 @@ pub struct Kernel<Sd: Simd, C: ConstraintLanes> {
     scratch: Vec<f64>,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
+impl<Sd: Simd, C: Equations> Kernel<Sd, C> {
     fn new(simd: Sd, constraint: LaneForm<C>) -> Self {
         Self {
             simd,
@@ -141,14 +140,14 @@ impl<Sd: Simd, C: ConstraintLanes> Kernel<Sd, C> {
 
 /// [`Kernel::kappa_root`] as an operation `Simd::vectorize` compiles as a function of its own
 /// with the caller's instruction set (a closure would not inherit it).
-struct KappaRootOp<'a, Sd: Simd, C: ConstraintLanes> {
+struct KappaRootOp<'a, Sd: Simd, C: Equations> {
     kernel: &'a mut Kernel<Sd, C>,
     config: &'a StepperConfig,
     y: &'a Drifted<'a, Sd>,
     max_abs_y: Lanes<Sd>,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
+impl<Sd: Simd, C: Equations> WithSimd for KappaRootOp<'_, Sd, C> {
     type Output = NewtonLanes<Sd>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> NewtonLanes<Sd> {
@@ -168,14 +167,14 @@ impl<Sd: Simd, C: ConstraintLanes> WithSimd for KappaRootOp<'_, Sd, C> {
 }
 
 /// [`Kernel::velocity_lanes`] as an operation of its own ([`KappaRootOp`]).
-struct VelocityOp<'a, Sd: Simd, C: ConstraintLanes> {
+struct VelocityOp<'a, Sd: Simd, C: Equations> {
     kernel: &'a mut Kernel<Sd, C>,
     monitor: bool,
     root: &'a NewtonLanes<Sd>,
     rows: GroupRows<'a, Sd>,
 }
 
-impl<Sd: Simd, C: ConstraintLanes> WithSimd for VelocityOp<'_, Sd, C> {
+impl<Sd: Simd, C: Equations> WithSimd for VelocityOp<'_, Sd, C> {
     type Output = Update<Lanes<Sd>>;
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> Self::Output {
@@ -193,7 +192,7 @@ struct GroupRows<'a, Sd: Simd> {
     dmu: &'a mut [Lanes<Sd>],
 }
 
-impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
+impl<S: System, Sd: Simd, C: Equations> WideKernel<Stepper<S>, Sd> for Kernel<Sd, C> {
     /// Seed eq. 3.1-3.2 for W lanes from `state` = (r_k, v_k) into `rows`: the step written
     /// once ([`half_explicit_step`]) on [`OnRows`].
     #[inline(always)]
@@ -227,7 +226,7 @@ impl<S: System, Sd: Simd, C: ConstraintLanes> WideKernel<Stepper<S>, Sd> for Ker
 /// The step's [`HalfExplicitKernel`] over rows of W lanes: the system's drift and noise in
 /// lanes (path by path where it has no lane form of this size), the constraint's local measure
 /// of the motion, and Newton for the kappa root over the constraint's lane formulas.
-struct OnRows<'a, S: System, Sd: Simd, C: ConstraintLanes> {
+struct OnRows<'a, S: System, Sd: Simd, C: Equations> {
     kernel: &'a mut Kernel<Sd, C>,
     system: &'a S,
     config: &'a StepperConfig,
@@ -235,9 +234,7 @@ struct OnRows<'a, S: System, Sd: Simd, C: ConstraintLanes> {
     max_abs_y: Lanes<Sd>,
 }
 
-impl<S: System, Sd: Simd, C: ConstraintLanes> HalfExplicitKernel<Lanes<Sd>>
-    for OnRows<'_, S, Sd, C>
-{
+impl<S: System, Sd: Simd, C: Equations> HalfExplicitKernel<Lanes<Sd>> for OnRows<'_, S, Sd, C> {
     type Stop = Infallible;
     #[inline(always)]
     fn norm2(&self, _: &'static str, x: &[Lanes<Sd>]) -> Result<Lanes<Sd>, Infallible> {

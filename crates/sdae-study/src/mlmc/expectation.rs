@@ -1,6 +1,6 @@
 //! E[f(X_T)] of a scene's observable to a requested accuracy by whichever of standard Monte
 //! Carlo, randomized QMC, MLMC and multilevel QMC a short pilot predicts cheapest
-//! ([`sdae_mlmc::expectation_quasi`]); its report is [`super::expect_report`].
+//! ([`sdae_mlmc::expectation_quasi`]); its report is `expect_report`.
 
 use std::time::Instant;
 

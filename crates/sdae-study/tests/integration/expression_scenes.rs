@@ -297,9 +297,19 @@ fn observables_named_in_a_study_are_compiled_as_expressions_of_the_state() {
 #[test]
 fn a_study_observable_that_does_not_compile_is_refused_with_the_compilers_message() {
     let from = "observables = [\"height\", \"cos_tube\", \"kinetic_energy\"]";
-    let e = torus_with(from, "observables = [\"height\", \"y1 + * 2\"]")
-        .unwrap_err()
-        .to_string();
+    let refused = torus_with(from, "observables = [\"height\", \"y1 + * 2\"]").unwrap_err();
+    match &refused {
+        sdae_study::StudyError::UnknownObservable {
+            name,
+            refusal: Some(refusal),
+            ..
+        } => {
+            assert_eq!(name, "y1 + * 2");
+            assert!(refusal.contains('^'), "{refusal}");
+        }
+        other => panic!("a typed refusal with the compiler's message: {other:?}"),
+    }
+    let e = refused.to_string();
     assert!(
         e.starts_with("scene torus: no observable 'y1 + * 2'"),
         "{e}"

@@ -124,7 +124,7 @@ pub fn ensemble_bits<E: PathEnsemble + ?Sized>(
 }
 
 /// The ellipse x^2 / 4 + y^2 = 1 as g = (x^2 / 4 + y^2 - 1) / 2; `QUADRATIC` says whether it
-/// declares its constant second derivative (the kappa root in closed form) or not (Newton).
+/// declares itself quadratic (the kappa root in closed form) or not (Newton).
 #[derive(Debug, Clone, Copy)]
 pub struct Ellipse<const QUADRATIC: bool>;
 
@@ -138,7 +138,10 @@ impl<const QUADRATIC: bool> Surface<2> for Ellipse<QUADRATIC> {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(1.0)
     }
-    fn constant_second_derivative<T: Real>(&self, u: &[T; 2], w: &[T; 2]) -> Option<T> {
-        QUADRATIC.then(|| u[0] * w[0] * 0.25 + u[1] * w[1])
+    fn second_derivative<T: Real>(&self, _x: &[T; 2], u: &[T; 2], w: &[T; 2]) -> T {
+        u[0] * w[0] * 0.25 + u[1] * w[1]
+    }
+    fn is_quadratic(&self) -> bool {
+        QUADRATIC
     }
 }

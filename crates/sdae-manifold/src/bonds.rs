@@ -204,8 +204,8 @@ impl RigidBonds {
         &self.inv_l2
     }
 
-    /// The shortest bond length: the length scale of [`Constraint::roundoff`] and of
-    /// the force term of [`Constraint::local_motion`].
+    /// The shortest bond length: the length scale of [`Constraint::roundoff`](crate::Constraint::roundoff) and of
+    /// the force term of [`Constraint::local_motion`](crate::Constraint::local_motion).
     pub fn shortest(&self) -> f64 {
         self.shortest
     }
@@ -289,7 +289,7 @@ impl RigidBonds {
 }
 
 /// The network written once over [`Real`]: one path with any mass, lanes with a diagonal mass
-/// and at most [`DENSE_FAER_THRESHOLD`] bonds.
+/// and at most [`DENSE_FAER_THRESHOLD`](crate::DENSE_FAER_THRESHOLD) bonds.
 impl Equations for RigidBonds {
     type Shape = Dense;
     fn dim(&self) -> usize {
@@ -331,7 +331,7 @@ impl Equations for RigidBonds {
     fn roundoff(&self) -> Roundoff {
         Roundoff::Length(self.shortest)
     }
-    /// Closed form for diagonal masses ([`RigidBonds::cross_gram_diagonal`]), column by column
+    /// Closed form for diagonal masses (`cross_gram_diagonal`), column by column
     /// otherwise.
     #[inline(always)]
     fn cross_gram<T: Real, W: InverseMassOf<T>>(

@@ -305,7 +305,7 @@ impl Equations for BeadChain {
         }
     }
     /// Closed form for diagonal masses (3 weighted dot products per segment,
-    /// [`KappaRows`]), by products otherwise.
+    /// `KappaRows`), by products otherwise.
     #[inline(always)]
     fn cross_gram<T: Real, W: InverseMassOf<T>>(
         &self, w: &W, x1: &[T], x2: &[T], scratch: &mut [T], out: &mut TridiagonalGram<T>,
@@ -344,7 +344,7 @@ impl Equations for BeadChain {
             }
         }
     }
-    /// One pass for diagonal masses ([`BeadChain::displace_beads`]), in passes otherwise.
+    /// One pass for diagonal masses (`displace_beads`), in passes otherwise.
     #[inline(always)]
     fn displace<T: Real, W: InverseMassOf<T>>(
         &self, w: &W, r: &[T], z: &[T], base: Option<&[T]>, out: &mut [T], scratch: &mut [T],
@@ -360,7 +360,7 @@ impl Equations for BeadChain {
         Some(chain_motion(self.segment, v, a))
     }
 
-    /// The rows of g(x1) and Dg(x1) M^-1 grad g(r) ([`KappaRows`]), each factored as soon as
+    /// The rows of g(x1) and Dg(x1) M^-1 grad g(r) (`KappaRows`), each factored as soon as
     /// it is formed (`ThomasSweep::row`, forward substitution on g into `step`), with
     /// `max_abs_and_finite`'s reduction of g in its order, so g and the matrix are not read
     /// back (`values` is not used).
@@ -420,7 +420,7 @@ impl Equations for BeadChain {
         }
     }
 
-    /// [`BeadChain::displace_beads`] (the engines' masses are diagonal).
+    /// `displace_beads` (the engines' masses are diagonal).
     #[inline(always)]
     fn displace_at<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
         &self, w: &W, r: &[T], z: &[T], base: Option<&P>, out: &mut [T],

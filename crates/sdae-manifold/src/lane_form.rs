@@ -12,7 +12,7 @@
 //! pivoting per lane); a user's constraint is written the same way
 //! (`crates/sdae-scheme/examples/custom_constraint.rs`: a torus and a double pendulum). The
 //! Newton matrix and its factorization are the one-path storage and code run over lanes,
-//! named by the structure ([`GramShape`]).
+//! named by the structure ([`GramShape`](crate::GramShape)).
 //!
 //! Each formula takes the floating-point operations of the one-path form it names, in the
 //! same order: then a lane's numbers are the scalar step's, bit for bit, whatever the width.

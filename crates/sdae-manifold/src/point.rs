@@ -78,7 +78,7 @@ impl<T: Real> Point<T> for [T] {
     }
 }
 
-/// Coordinates k..k + N of a displacement's base ([`Equations::displace_at`]), or of `out`
+/// Coordinates k..k + N of a displacement's base ([`Equations::displace_at`](crate::Equations::displace_at)), or of `out`
 /// where it is its own base.
 #[inline(always)]
 pub fn base_coords<T: Real, P: Point<T> + ?Sized, const N: usize>(
@@ -90,7 +90,7 @@ pub fn base_coords<T: Real, P: Point<T> + ?Sized, const N: usize>(
     }
 }
 
-/// What [`Equations::evaluate_and_factor`] found, per path.
+/// What [`Equations::evaluate_and_factor`](crate::Equations::evaluate_and_factor) found, per path.
 pub struct Evaluation<T: Real> {
     /// max_i |g_i(x1)|.
     pub largest: T,

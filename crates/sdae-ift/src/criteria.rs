@@ -8,6 +8,8 @@
 use sdae_lanes::{PathMask, Real};
 use sdae_manifold::vector::sum_squares;
 
+use crate::SolverSettings;
+
 /// The map J(0)^-1 J(gamma*) that [`power_iteration`] applies to its probe. A trait rather than
 /// a closure: its method is inlined into a lane kernel compiled for an instruction set, which a
 /// closure would not inherit.
@@ -76,6 +78,25 @@ pub struct QuadraticRoot<T: Real> {
     pub norm: T,
     /// |J(0)^-1 J(gamma*) - 1| = |2 c2 gamma* / c1|, exact for a quadratic.
     pub contraction: T,
+}
+
+impl<T: Real> QuadraticRoot<T> {
+    /// The paths whose root is accepted before it is evaluated: usable, real, and accepted by
+    /// the one rule of every root ([`SolverSettings::accepts`]) with its exact contraction and
+    /// no rounding allowance (a root on the ball's edge is the one-path solver's to decide).
+    /// Its residual at the root's point is the caller's to check.
+    #[inline(always)]
+    pub fn accepted(&self, settings: &SolverSettings, radius: f64) -> T::Mask {
+        let rounding = self.norm.splat_like(0.0);
+        let accepted = settings.accepts(
+            radius,
+            self.norm,
+            rounding,
+            self.first_step,
+            self.contraction,
+        );
+        self.usable.and(self.real).and(accepted)
+    }
 }
 
 /// The root of the quadratic kappa system R(gamma) = c0 + c1 gamma + c2 gamma^2 (m = 1)

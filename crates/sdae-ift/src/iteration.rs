@@ -269,28 +269,29 @@ fn newton_update<T: Real>(active: T::Mask, gamma: &mut [T], step: &[T]) {
     }
 }
 
-/// The root's certificate in the paths `ok` (Thm 3.4): |gamma*| below `radius` (infinite: no
-/// ball), within the plausibility bound of the `first_step`, and a contraction estimate
-/// ([`power_iteration`] with `probes` steps on `map`, the system at the root) below its
-/// maximum where the radius is finite. `probe` holds gamma* on entry and, like `image`, is
-/// scratch afterwards. Returns the paths that pass, |gamma*| and the contraction estimate
-/// (NaN without probes).
+/// The root's certificate in the paths `ok` (Thm 3.4): the contraction estimate
+/// ([`power_iteration`] with `probes` steps on `map`, the system at the root; NaN without
+/// probes), then the one acceptance rule ([`SolverSettings::accepts`]) with no rounding
+/// allowance: |gamma*| below `radius` (infinite: no ball), within the plausibility bound of
+/// the `first_step`, and contracting where the radius is finite. `probe` holds gamma* on
+/// entry and, like `image`, is scratch afterwards. Returns the paths that pass, |gamma*| and
+/// the contraction estimate.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn certify<T: Real>(
     map: &mut impl ProbeMap<T>, settings: &SolverSettings, radius: f64, probes: usize,
-    first_step: T, mut ok: T::Mask, probe: &mut [T], image: &mut [T],
+    first_step: T, ok: T::Mask, probe: &mut [T], image: &mut [T],
 ) -> (T::Mask, T, T) {
     let norm = sum_squares(probe).sqrt();
-    ok = ok.and(norm.less(norm.splat_like(radius)));
-    ok = ok.and(!settings.implausible(norm, settings.plausibility_bound(first_step)));
-    if probes == 0 {
-        return (ok, norm, norm.splat_like(f64::NAN));
-    }
-    for p in probe.iter_mut() {
-        *p = *p / norm;
-    }
-    let contraction = power_iteration(norm, probes, probe, image, false, map);
-    ok = ok.and(!settings.not_contracting(contraction, radius));
-    (ok, norm, contraction)
+    let contraction = if probes == 0 {
+        norm.splat_like(f64::NAN)
+    } else {
+        for p in probe.iter_mut() {
+            *p = *p / norm;
+        }
+        power_iteration(norm, probes, probe, image, false, map)
+    };
+    let rounding = norm.splat_like(0.0);
+    let accepted = settings.accepts(radius, norm, rounding, first_step, contraction);
+    (ok.and(accepted), norm, contraction)
 }

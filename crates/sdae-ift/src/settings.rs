@@ -82,6 +82,31 @@ impl SolverSettings {
         bound.less(norm).and(rounding.less(norm))
     }
 
+    /// Whether a root of norm `norm` lies in the ball of `radius` (Thm 3.4):
+    /// |gamma*| - rounding < radius, with `rounding` the part of gamma* that only corrects
+    /// residuals below the tolerance ([`Certificate::rounding`](crate::Certificate::rounding);
+    /// the lanes pass 0 and leave a root on the ball's edge to the one-path solver). A NaN norm
+    /// is outside.
+    #[inline(always)]
+    pub fn in_ball<T: Real>(self, norm: T, rounding: T, radius: f64) -> T::Mask {
+        (norm - rounding).less(norm.splat_like(radius))
+    }
+
+    /// The root's acceptance, the one rule for Newton's roots and the closed form's, for one
+    /// path and for lanes (Thm 3.4): in the ball ([`SolverSettings::in_ball`]), plausible
+    /// against the first Newton step ([`SolverSettings::implausible`]) and contracting
+    /// ([`SolverSettings::not_contracting`]; a NaN estimate, no probes, passes). The one-path
+    /// solver tests the three in this order and reports the first that fails as its error.
+    #[inline(always)]
+    pub fn accepts<T: Real>(
+        self, radius: f64, norm: T, rounding: T, first_step: T, contraction: T,
+    ) -> T::Mask {
+        let bound = self.plausibility_bound(first_step);
+        self.in_ball(norm, rounding, radius)
+            .and(!self.implausible(norm, bound))
+            .and(!self.not_contracting(contraction, radius))
+    }
+
     /// Whether a root in a ball of `radius` fails the contraction check: a finite radius and an
     /// estimate at or above `max_contraction` (Thm 3.4, Step 3). A NaN estimate (no probes)
     /// passes.

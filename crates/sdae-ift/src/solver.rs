@@ -327,27 +327,14 @@ impl<A: Factorize> BallSolver<A> {
             }));
         }
         let (first_step, gamma, norm) = (root.first_step, root.gamma, root.norm);
-        // The ball check of `in_ball` with J(0) = c1.
+        // The rounding allowance of `rounding` with J(0) = c1.
         let rounding = if norm < radius {
             0.0
         } else {
             self.tolerance / c1.abs()
         };
-        // NaN norms fail this test too.
-        if (norm - rounding).partial_cmp(&radius) != Some(std::cmp::Ordering::Less) {
-            return Some(Err(IftError::OutsideBall {
-                norm,
-                radius,
-                rounding,
-            }));
-        }
-        let bound = self.settings.plausibility_bound(first_step);
-        if self.settings.implausible(norm, bound) {
-            return Some(Err(IftError::Implausible {
-                norm,
-                bound,
-                factor: self.settings.plausibility_factor,
-            }));
+        if let Err(e) = self.in_ball_and_plausible(norm, rounding, radius, first_step) {
+            return Some(Err(e));
         }
         self.gamma[0] = gamma;
         problem.evaluate(&self.gamma, &mut self.residual, Some(&mut self.matrix));
@@ -433,43 +420,33 @@ impl<A: Factorize> BallSolver<A> {
         })
     }
 
-    /// The ball check of a root of Euclidean norm `norm`: `Ok(rounding)` when |gamma| - rounding
-    /// < radius, with `rounding` the size of the correction of residuals below the tolerance
-    /// (computed only when |gamma| >= radius, from J(0) factored in `factor_at_zero`; see
-    /// [`Certificate::rounding`]).
-    fn in_ball(&mut self, norm: f64, radius: f64) -> Result<f64, IftError> {
-        if norm < radius {
-            return Ok(0.0);
+    /// The size of the correction of residuals below the tolerance for a root of Euclidean norm
+    /// `norm` ([`Certificate::rounding`]): 0 when |gamma| < radius, otherwise |J(0)^-1 t| with
+    /// t the tolerance in every component, from J(0) factored in `factor_at_zero`.
+    fn rounding(&mut self, norm: f64, radius: f64) -> f64 {
+        if norm < radius || !norm.is_finite() {
+            return 0.0;
         }
-        let rounding = if norm.is_finite() {
-            // The residual at the root is in `history`: its buffer serves as scratch here
-            // (`probe` may hold the contraction estimate's start).
-            self.residual.fill(self.tolerance);
-            self.factor_at_zero.solve_in_place(&mut self.residual);
-            norm2(&self.residual)
-        } else {
-            0.0
-        };
-        // NaN norms fail this test too.
-        if (norm - rounding).partial_cmp(&radius) == Some(std::cmp::Ordering::Less) {
-            Ok(rounding)
-        } else {
-            Err(IftError::OutsideBall {
+        // The residual at the root is in `history`: its buffer serves as scratch here (`probe`
+        // may hold the contraction estimate's start).
+        self.residual.fill(self.tolerance);
+        self.factor_at_zero.solve_in_place(&mut self.residual);
+        norm2(&self.residual)
+    }
+
+    /// The first two tests of the one acceptance rule ([`SolverSettings::accepts`]) as typed
+    /// errors, in its order: the ball ([`SolverSettings::in_ball`], `OutsideBall`), then the
+    /// plausibility against the first Newton step (`Implausible`).
+    fn in_ball_and_plausible(
+        &self, norm: f64, rounding: f64, radius: f64, first_step: f64,
+    ) -> Result<(), IftError> {
+        if !self.settings.in_ball(norm, rounding, radius) {
+            return Err(IftError::OutsideBall {
                 norm,
                 radius,
                 rounding,
-            })
+            });
         }
-    }
-
-    /// Checks the root in `self.gamma` against the ball and the first Newton step, and builds
-    /// its certificate.
-    fn accept(
-        &mut self, radius: f64, first_step: f64, iterations: usize, homotopy_steps: usize,
-        method: Method,
-    ) -> Result<Certificate, IftError> {
-        let norm = norm2(&self.gamma);
-        let rounding = self.in_ball(norm, radius)?;
         let bound = self.settings.plausibility_bound(first_step);
         if self.settings.implausible(norm, bound) {
             return Err(IftError::Implausible {
@@ -478,6 +455,18 @@ impl<A: Factorize> BallSolver<A> {
                 factor: self.settings.plausibility_factor,
             });
         }
+        Ok(())
+    }
+
+    /// Checks the root in `self.gamma` by the one acceptance rule ([`SolverSettings::accepts`],
+    /// its tests as typed errors in its order), and builds its certificate.
+    fn accept(
+        &mut self, radius: f64, first_step: f64, iterations: usize, homotopy_steps: usize,
+        method: Method,
+    ) -> Result<Certificate, IftError> {
+        let norm = norm2(&self.gamma);
+        let rounding = self.rounding(norm, radius);
+        self.in_ball_and_plausible(norm, rounding, radius, first_step)?;
         let residual = self.history.last().copied().unwrap_or(0.0);
         let contraction = self.contraction_estimate(radius, norm);
         self.contracting(contraction, radius)?;

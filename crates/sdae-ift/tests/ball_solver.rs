@@ -3,7 +3,7 @@
 //! R(gamma) = (1 - (1 - gamma)^2 - s^2) / 2, roots 1 -/+ sqrt(1 - s^2) for s <= 1, none for s > 1
 //! (seed Section 5.1, Fig. 1).
 
-use sdae_ift::{BallProblem, BallSolver, IftError, Method, SolverSettings};
+use sdae_ift::{BallProblem, BallSolver, IftError, Method, SolverSettings, quadratic_root};
 use sdae_manifold::{DenseGram, ScalarGram};
 
 struct PendulumKappa {
@@ -410,4 +410,42 @@ fn a_root_whose_contraction_reaches_one_half_is_not_certified() {
     let mut inside = solver(true);
     let cert = inside.solve(&mut PendulumKappa { s: 0.6 }, 10.0).unwrap();
     assert!((cert.contraction - 0.2).abs() < 1e-12, "{cert:?}");
+}
+
+#[test]
+fn the_lanes_accept_a_closed_form_root_exactly_where_the_solver_does_without_rounding() {
+    // One acceptance rule (`SolverSettings::accepts`): the lanes' test of a closed-form root
+    // (`QuadraticRoot::accepted`, no rounding allowance) accepts a root if and only if the
+    // one-path solver accepts it with rounding 0; a root just outside the ball is the
+    // solver's alone, which accepts it with its rounding allowance.
+    let settings = SolverSettings::default();
+    let mut with_rounding = 0;
+    for s in [0.0, 1e-9, 0.1, 0.25, 0.5, 0.8, 0.99, 1.2] {
+        let coefficients = [-0.5 * s * s, 1.0, -0.5];
+        let root = quadratic_root(coefficients, settings.tolerance);
+        let edge = root.norm * (1.0 - 4.0 * f64::EPSILON);
+        for radius in [0.01, 0.125, 0.3, 10.0, f64::INFINITY, edge] {
+            let lanes = root.accepted(&settings, radius);
+            let one_path =
+                solver(true).solve(&mut QuadraticPendulumKappa(PendulumKappa { s }), radius);
+            match &one_path {
+                Ok(c) if c.rounding == 0.0 => {
+                    assert!(lanes, "s = {s}, radius = {radius}: {c:?}")
+                }
+                Ok(c) => {
+                    assert!(
+                        !lanes && radius == edge,
+                        "s = {s}, radius = {radius}: {c:?}"
+                    );
+                    assert!(c.norm - c.rounding < radius, "{c:?}");
+                    with_rounding += 1;
+                }
+                Err(e) => assert!(!lanes, "s = {s}, radius = {radius}: {e}"),
+            }
+        }
+    }
+    assert!(
+        with_rounding >= 4,
+        "{with_rounding} roots on the ball's edge"
+    );
 }

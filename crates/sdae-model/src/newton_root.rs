@@ -287,20 +287,16 @@ impl<Sd: Simd, C: Equations> NewtonRoot<Sd, C> {
 
     /// The root connected to 0 of a quadratic kappa system (`root`, [`quadratic_root`]) with
     /// the checks of the ball solver's closed form (`BallSolver::solve` with
-    /// `Constraint::kappa_quadratic`): a real root inside the ball, plausible, with the
-    /// residual at its point x within the tolerance, J(gamma*) factored and not contracting.
-    /// Its point is in `x` (y where the root is 0).
+    /// `Constraint::kappa_quadratic`): accepted by the one rule of every root
+    /// ([`QuadraticRoot::accepted`]), with the residual at its point x within the tolerance
+    /// and J(gamma*) factored. Its point is in `x` (y where the root is 0).
     #[inline(always)]
     fn closed_form<Y: Point<Lanes<Sd>> + ?Sized>(
         &mut self, constraint: &LaneForm<C>, (settings, radius): (&SolverSettings, f64),
         r: &[Lanes<Sd>], y: &Y, root: QuadraticRoot<Lanes<Sd>>, tolerance: Lanes<Sd>,
     ) -> NewtonLanes<Sd> {
         let zero = self.splat(0.0);
-        let mut ok = root
-            .usable
-            .and(root.real)
-            .and(root.norm.lt(self.splat(radius)))
-            .and(!settings.implausible(root.norm, settings.plausibility_bound(root.first_step)));
+        let mut ok = root.accepted(settings, radius);
         self.gamma[0] = root.gamma;
         constraint.displace(r, &self.gamma, Some(y), &mut self.x);
         let at_x = constraint.evaluate_and_factor(
@@ -312,7 +308,6 @@ impl<Sd: Simd, C: Equations> NewtonRoot<Sd, C> {
             &mut self.step,
         );
         ok = ok.and(at_x.ok).and(at_x.largest.le(tolerance));
-        ok = ok.and(!settings.not_contracting(root.contraction, radius));
         NewtonLanes {
             ok,
             iterated: true,

@@ -182,13 +182,7 @@ impl<E: Equations, const N: usize> SphereRoot<E, N> {
         let usable = coefficients.is_some();
         let root = quadratic_root(coefficients.unwrap_or([zero; 3]), tolerance);
         let (gamma, norm, contraction) = (root.gamma, root.norm, root.contraction);
-        let settings = &self.settings;
-        let bound = settings.plausibility_bound(root.first_step);
-        let mut ok = root
-            .usable
-            .and(root.real)
-            .and(norm.lt(zero.splat_like(self.radius)))
-            .and(!settings.implausible(norm, bound));
+        let mut ok = root.accepted(&self.settings, self.radius);
         if !usable {
             ok = ok.and(zero.lt(zero));
         }
@@ -200,7 +194,6 @@ impl<E: Equations, const N: usize> SphereRoot<E, N> {
         let residual = value.abs();
         ok = ok.and(residual.le(tolerance));
         ok = ok.and(gram.is_finite()).and(!gram.eq(zero));
-        ok = ok.and(!settings.not_contracting(contraction, self.radius));
         RootLanes {
             ok,
             gamma,

@@ -538,11 +538,18 @@ thread_local! {
 /// buffer.
 const SMALL_SCRATCH: usize = 16;
 
+/// At most this many scratch values take the smaller array of the stack ([`Scratch::Few`]):
+/// a small system's point, row and pair of rows (the pendulum's 2 to 6), without writing the
+/// 16 of [`SMALL_SCRATCH`] on every call.
+const FEW_SCRATCH: usize = 8;
+
 /// Scratch values of type T: on the stack where they are few, else the thread's buffer for
 /// T ([`Scratch::take`]), given back when dropped; so a steady state allocates nothing.
 /// While the thread's buffer is taken, another of the same type (a nested use) is a buffer
 /// of its own.
 pub(crate) enum Scratch<T: Real> {
+    /// `len` <= [`FEW_SCRATCH`] values on the stack.
+    Few([T; FEW_SCRATCH], usize),
     /// `len` <= [`SMALL_SCRATCH`] values on the stack.
     Small([T; SMALL_SCRATCH], usize),
     /// The thread's buffer and `len`.
@@ -554,6 +561,9 @@ impl<T: Real> Scratch<T> {
     #[inline(always)]
     pub(crate) fn take(like: T, len: usize) -> Self {
         let zero = like.splat_like(0.0);
+        if len <= FEW_SCRATCH {
+            return Self::Few([zero; FEW_SCRATCH], len);
+        }
         if len <= SMALL_SCRATCH {
             return Self::Small([zero; SMALL_SCRATCH], len);
         }
@@ -573,6 +583,7 @@ impl<T: Real> Scratch<T> {
     #[inline(always)]
     pub(crate) fn entries(&mut self) -> &mut [T] {
         match self {
+            Self::Few(values, len) => &mut values[..*len],
             Self::Small(values, len) => &mut values[..*len],
             Self::Thread(buffer, len) => &mut buffer[..*len],
         }

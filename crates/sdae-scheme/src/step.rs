@@ -29,14 +29,6 @@ pub(crate) trait HalfExplicitKernel<T: Real> {
     /// ([`Constraint::local_motion`](sdae_manifold::Constraint::local_motion)); `None` where it
     /// has none.
     fn local_motion(&self, r: &[T], v: &[T], a: &[T], speed: T, acceleration: T) -> Option<T>;
-    /// Whether eq. 3.2 surely gives eta = 1 in every path, from |v|^2 + |a|^2 (`norms2`),
-    /// decided without the measure's square roots and divisions; `false` (the default) leaves
-    /// eta to eq. 3.2.
-    #[inline(always)]
-    fn surely_untruncated(&self, norms2: T, c_eta: f64, h: f64) -> bool {
-        let _ = (norms2, c_eta, h);
-        false
-    }
     /// force <- drift_h force (the drift's part of eq. 3.1's force), for the point
     /// y = r + eta_h v; a kernel may read y in the same pass (the default does not).
     #[inline(always)]
@@ -126,8 +118,9 @@ pub(crate) fn half_explicit_step<T: Real, K: HalfExplicitKernel<T>>(
     })
 }
 
-/// eta of eq. 3.2 from r, v, a and [|v|^2, |a|^2]: 1 without truncation or where the kernel
-/// surely finds no truncation, else [`formulas::eta`] with the local measure where asked.
+/// eta of eq. 3.2 from r, v, a and [|v|^2, |a|^2]: 1 without truncation or where it surely
+/// finds no truncation ([`surely_untruncated`]), else [`formulas::eta`] with the local measure
+/// where asked.
 #[inline(always)]
 pub(crate) fn eta<T: Real, K: HalfExplicitKernel<T>>(
     kernel: &K, config: &StepperConfig, h: f64, [r, v, a]: [&[T]; 3], [v_norm2, a_norm2]: [T; 2],
@@ -136,7 +129,7 @@ pub(crate) fn eta<T: Real, K: HalfExplicitKernel<T>>(
     let Some(c_eta) = config.c_eta else {
         return one;
     };
-    if kernel.surely_untruncated(v_norm2 + a_norm2, c_eta, h) {
+    if surely_untruncated(config, v_norm2 + a_norm2, c_eta, h) {
         return one;
     }
     let (speed, acceleration) = (v_norm2.sqrt(), a_norm2.sqrt());
@@ -146,6 +139,26 @@ pub(crate) fn eta<T: Real, K: HalfExplicitKernel<T>>(
         None
     };
     formulas::eta(Some(c_eta), h, speed, acceleration, local)
+}
+
+/// Whether eq. 3.2 gives eta = 1 in every path, decided without the square roots and
+/// divisions of the motion's measure: with B = |v|^2 + |a|^2 (`norms2`), the measure
+/// max(w, w^2, alpha) is at most max(sqrt(B), B) to a few ulps, so B <= min(C_eta / (2h),
+/// C_eta^2 / (4h^2)) keeps h times it below C_eta / 2 whatever the rounding, where the full
+/// formula gives eta = 1 exactly. Not finite B, any path beyond the bound, or the constraint's
+/// local measure ([`StepperConfig::local_size`], whose scale is its own) leaves it to the full
+/// formula.
+#[inline(always)]
+pub(crate) fn surely_untruncated<T: Real>(
+    config: &StepperConfig, norms2: T, c_eta: f64, h: f64,
+) -> bool {
+    if config.local_size {
+        return false;
+    }
+    let half_step = 0.5 * c_eta / h;
+    norms2
+        .at_most(norms2.splat_like(half_step.min(half_step * half_step)))
+        .all()
 }
 
 /// What a step in lanes adds to its lanes' diagnostics (|kappa| / C_kappa where the ball's
@@ -164,5 +177,44 @@ pub(crate) fn lane_record<Sd: pulp::Simd>(
             update.contraction,
             c_kappa.is_finite().then(|| update.kappa_norm / c_kappa),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::surely_untruncated;
+    use crate::StepperConfig;
+    use crate::formulas;
+
+    /// Wherever the shortcut says eta = 1, eq. 3.2 gives exactly 1; and it says so up to half
+    /// the bound of the measure, while eq. 3.2 truncates within four times it (so a looser
+    /// shortcut would fail here). With the constraint's local measure it never says so.
+    #[test]
+    fn the_untruncated_shortcut_agrees_with_eq_3_2() {
+        let (mut passed, mut truncated) = (0, 0);
+        for (h, c_eta) in [(1e-3, 1.0), (0.1, 0.05), (0.02, 3.0)] {
+            let config = StepperConfig::new(c_eta, f64::INFINITY).unwrap();
+            assert!(!surely_untruncated(&config.local(), 0.0, c_eta, h));
+            let half = 0.5 * c_eta / h;
+            let limit = half.min(half * half);
+            for i in 0..=4000 {
+                let b = limit * (0.25 + i as f64 / 1000.0);
+                for share in [0.0, 0.3, 0.5, 0.9, 1.0] {
+                    let (v2, a2): (f64, f64) = (b * share, b * (1.0 - share));
+                    let eta = formulas::eta(Some(c_eta), h, v2.sqrt(), a2.sqrt(), None);
+                    if surely_untruncated(&config, v2 + a2, c_eta, h) {
+                        assert_eq!(eta, 1.0, "b = {b:e}, share {share}");
+                        passed += 1;
+                    }
+                    if eta < 1.0 {
+                        truncated += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            passed > 0 && truncated > 0,
+            "{passed} passed, {truncated} truncated"
+        );
     }
 }

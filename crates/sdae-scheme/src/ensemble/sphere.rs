@@ -104,7 +104,6 @@ impl<E: Equations, const N: usize> Kernel<E, N> {
         let mut on_sphere = OnSphere {
             kernel: self,
             system: stepper.system(),
-            local_size: config.local_size,
             root: None,
             next: None,
         };
@@ -136,8 +135,6 @@ impl<E: Equations, const N: usize> Kernel<E, N> {
 struct OnSphere<'a, S: System, Sd: Simd, E, const N: usize> {
     kernel: &'a Kernel<E, N>,
     system: &'a S,
-    /// Whether eq. 3.2 takes the local measure ([`StepperConfig::local_size`](crate::StepperConfig)).
-    local_size: bool,
     /// The kappa root at y = r + eta h v (with r_{k+1}), once eta is known.
     root: Option<RootLanes<Sd, N>>,
     /// v_{k+1}, once constrained.
@@ -191,23 +188,6 @@ impl<S: System, Sd: Simd, E: Equations, const N: usize> HalfExplicitKernel<Lanes
     ) -> Option<Lanes<Sd>> {
         let [r, v, a] = [r, v, a].map(coordinates::<Sd, N>);
         Equations::local_motion(self.kernel.root.constraint(), r, v, a)
-    }
-    /// Whether eq. 3.2 leaves every lane's step untruncated (eta = 1), decided without the
-    /// square roots and divisions of the motion's measure: with B = |v|^2 + |a|^2, the
-    /// measure max(w, w^2, alpha) is at most max(sqrt(B), B) to a few ulps, so B <=
-    /// min(C_eta / (2h), C_eta^2 / (4h^2)) keeps h times it below C_eta / 2 whatever the
-    /// rounding, where the full formula gives eta = 1 exactly. Not finite B, any lane beyond
-    /// the bound, or the constraint's local measure (whose scale is its own) leaves it to the
-    /// full formula.
-    #[inline(always)]
-    fn surely_untruncated(&self, norms2: Lanes<Sd>, c_eta: f64, h: f64) -> bool {
-        if self.local_size {
-            return false;
-        }
-        let half_step = 0.5 * c_eta / h;
-        norms2
-            .le(norms2.splat_like(half_step.min(half_step * half_step)))
-            .all()
     }
     /// The drift's part of the force, and the closed-form kappa root at y = r + eta_h v: solved
     /// here, before the noise is added, so that its square root and divisions overlap the
@@ -308,73 +288,4 @@ pub(crate) fn step_one_lane<S: System>(
         kappa: root.gamma,
         lambda: step.dmu,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::StepperConfig;
-    use sdae_ift::SolverSettings;
-    use sdae_systems::{PendulumParams, pendulum};
-
-    /// The kernel's constants for a sphere of radius `rho` and unit masses.
-    fn kernel(rho: f64, h: f64) -> Kernel<sdae_manifold::Sphere, 2> {
-        let sphere = sdae_manifold::Sphere::new(2, rho).unwrap();
-        Kernel {
-            h,
-            config: StepperConfig::new(1.0, f64::INFINITY).unwrap(),
-            root: SphereRoot::new(&sphere, [1.0; 2], &SolverSettings::default(), f64::INFINITY),
-        }
-    }
-
-    /// Wherever the shortcut says eta = 1, eq. 3.2 gives exactly 1; and it says so up to half
-    /// the bound of the measure, while eq. 3.2 truncates within four times it (so a looser
-    /// shortcut would fail here). With the constraint's local measure it never says so.
-    #[test]
-    fn the_untruncated_shortcut_agrees_with_eq_3_2() {
-        let lane = |x: f64| Lanes::splat(pulp::Scalar, x);
-        let (mut passed, mut truncated) = (0, 0);
-        for local_size in [false] {
-            for (rho, h, c_eta) in [(1.0, 1e-3, 1.0), (0.3, 0.1, 0.05), (2.5, 0.02, 3.0)] {
-                let k = kernel(rho, h);
-                let system = pendulum(PendulumParams::default()).unwrap();
-                let k = OnSphere::<_, Scalar, _, 2> {
-                    kernel: &k,
-                    system: &system,
-                    local_size,
-                    root: None,
-                    next: None,
-                };
-                let mut config = StepperConfig::new(c_eta, f64::INFINITY).unwrap();
-                config.local_size = local_size;
-                let half = 0.5 * c_eta / h;
-                let limit = half.min(half * half);
-                let local = OnSphere::<_, Scalar, _, 2> {
-                    local_size: true,
-                    root: None,
-                    next: None,
-                    ..k
-                };
-                assert!(!local.surely_untruncated(lane(0.0), c_eta, h));
-                for i in 0..=4000 {
-                    let b = limit * (0.25 + i as f64 / 1000.0);
-                    for share in [0.0, 0.3, 0.5, 0.9, 1.0] {
-                        let (v2, a2) = (lane(b * share), lane(b * (1.0 - share)));
-                        let eta = step::eta(&k, &config, h, [&[], &[], &[]], [v2, a2]).lane(0);
-                        if k.surely_untruncated(v2 + a2, c_eta, h) {
-                            assert_eq!(eta, 1.0, "b = {b:e}, share {share}");
-                            passed += 1;
-                        }
-                        if eta < 1.0 {
-                            truncated += 1;
-                        }
-                    }
-                }
-            }
-        }
-        assert!(
-            passed > 0 && truncated > 0,
-            "{passed} passed, {truncated} truncated"
-        );
-    }
 }

@@ -152,7 +152,8 @@ pub trait Equations: Clone + Send + Sync + 'static {
     /// [c0, c1, c2] of the kappa system R(gamma) = g(y + M^-1 grad g(r) gamma) where it is a
     /// quadratic in gamma ([`Constraint::kappa_quadratic`](crate::Constraint::kappa_quadratic)), `scratch` n entries: by default
     /// where m = 1 and g is quadratic, c0 = g(y), c1 = Dg(y) w, c2 = D^2 g(w, w) / 2 with
-    /// w = M^-1 grad g(r); `None` otherwise (Newton).
+    /// w = M^-1 grad g(r); `None` otherwise (Newton). The solvers ask for it only where m = 1
+    /// and [`Equations::is_quadratic`] holds: an override gives coefficients for those.
     #[inline(always)]
     fn kappa_quadratic<T: Real, W: InverseMassOf<T>>(
         &self, inverse_mass: &W, r: &[T], y: &[T], scratch: &mut [T],
@@ -248,11 +249,15 @@ pub trait Equations: Clone + Send + Sync + 'static {
             *o = -*o;
         }
     }
-    /// [`Equations::kappa_quadratic`] at a point that may be formed where it is read.
+    /// [`Equations::kappa_quadratic`] at a point that may be formed where it is read (`None`
+    /// at once, without forming it, where m > 1 or g is not quadratic).
     #[inline(always)]
     fn kappa_quadratic_at<T: Real, W: InverseMassOf<T>, P: Point<T> + ?Sized>(
         &self, inverse_mass: &W, r: &[T], y: &P,
     ) -> Option<[T; 3]> {
+        if !has_kappa_quadratic(self) {
+            return None;
+        }
         let n = Equations::dim(self);
         let mut scratch = Scratch::take(r[0], point_len(y, n) + n);
         let (y, rest) = point(y, scratch.entries(), n);

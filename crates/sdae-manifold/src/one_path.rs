@@ -4,7 +4,7 @@
 //! ([`Equations::lane_form`]).
 
 use crate::constraint::{Constraint, Curvature};
-use crate::equations::{Equations, InverseMassOf, LaneFormVisitor, Scratch};
+use crate::equations::{Equations, InverseMassOf, LaneFormVisitor, Scratch, has_kappa_quadratic};
 use crate::error::ManifoldError;
 use crate::gram::SquareMatrix;
 use crate::mass::Mass;
@@ -57,9 +57,12 @@ impl<E: Equations> Constraint for E {
     fn displace<M: Mass>(&self, r: &[f64], z: &[f64], mass: &M, y: &[f64], out: &mut [f64]) {
         Equations::displace(self, &OnePath(mass), r, z, Some(y), out, &mut []);
     }
-    /// [`Equations::kappa_quadratic`].
+    /// [`Equations::kappa_quadratic`] (`None` at once where m > 1 or g is not quadratic).
     #[inline]
     fn kappa_quadratic<M: Mass>(&self, r: &[f64], y: &[f64], mass: &M) -> Option<[f64; 3]> {
+        if !has_kappa_quadratic(self) {
+            return None;
+        }
         let mut scratch = Scratch::take(0.0, Equations::dim(self));
         Equations::kappa_quadratic(self, &OnePath(mass), r, y, scratch.entries())
     }
